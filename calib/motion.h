@@ -1,0 +1,115 @@
+// Table motion as the simulator and the calibrators see it: exact, piecewise-constant
+// acceleration per axis, plus the segment list and the temperature history.
+//
+// This is the contract between plans/ (which expands a plan file into a Motion using the
+// table's rate/acceleration limits) and the simulator / calibrators in calib/.
+//
+// Axis order everywhere (arrays, CSV columns): two-axis [outer, inner];
+// three-axis [outer, middle, inner]. Angles are nominal table angles in rad (what an ideal
+// encoder would read); encoder zero errors are applied by the table error model, not here.
+#pragma once
+
+#include <algorithm>
+#include <cassert>
+#include <string>
+#include <vector>
+
+namespace imubench::calib {
+
+enum class TableKind { kTwoAxis, kThreeAxis };
+
+inline int axisCount(TableKind kind) { return kind == TableKind::kTwoAxis ? 2 : 3; }
+
+struct AxisState {
+  double angle = 0.0;  // rad
+  double rate = 0.0;   // rad/s
+  double accel = 0.0;  // rad/s^2
+};
+
+// From t0 until the next phase starts: angle(t) = angle0 + rate0 (t-t0) + accel (t-t0)^2 / 2.
+struct AxisPhase {
+  double t0 = 0.0;
+  double angle0 = 0.0;
+  double rate0 = 0.0;
+  double accel = 0.0;
+};
+
+// Piecewise-quadratic angle history of one axis. Phases are sorted by t0; before the first
+// phase the axis holds phase 0's starting state, after the last it follows the last phase.
+class AxisTrajectory {
+ public:
+  // Appends a phase; t0 must not decrease (our bug if it does).
+  void append(const AxisPhase& p) {
+    assert(phases_.empty() || p.t0 >= phases_.back().t0);
+    phases_.push_back(p);
+  }
+  const std::vector<AxisPhase>& phases() const { return phases_; }
+  bool empty() const { return phases_.empty(); }
+
+  // State at the end of the last phase, extrapolated to time t.
+  AxisState at(double t) const {
+    if (phases_.empty()) return {};
+    auto it = std::upper_bound(phases_.begin(), phases_.end(), t,
+                               [](double tt, const AxisPhase& p) { return tt < p.t0; });
+    if (it == phases_.begin()) return {phases_.front().angle0, 0.0, 0.0};
+    const AxisPhase& p = *(it - 1);
+    const double dt = t - p.t0;
+    return {p.angle0 + p.rate0 * dt + 0.5 * p.accel * dt * dt, p.rate0 + p.accel * dt, p.accel};
+  }
+
+ private:
+  std::vector<AxisPhase> phases_;
+};
+
+enum class SegmentKind { kStatic, kRotate, kMove, kSoak };
+
+inline const char* segmentKindName(SegmentKind k) {
+  switch (k) {
+    case SegmentKind::kStatic: return "static";
+    case SegmentKind::kRotate: return "rotate";
+    case SegmentKind::kMove: return "move";
+    case SegmentKind::kSoak: return "soak";
+  }
+  return "static";
+}
+
+// A labelled time span of the plan (segments.csv of interchange.md).
+struct Segment {
+  double t0 = 0.0;  // s
+  double t1 = 0.0;  // s
+  SegmentKind kind = SegmentKind::kStatic;
+  std::string label;
+  bool recording = true;  // false where the plan switched recording off
+  // For kRotate: which axis turns (index into the axis order above) and by how much (rad,
+  // signed: the direction is explicit, a 180-degree reversal is +pi or -pi).
+  int axis = -1;
+  double angle = 0.0;
+};
+
+// Temperature history as (t, degC) knots, linear in between, held outside.
+struct TemperatureKnot {
+  double t = 0.0;
+  double temp_c = 0.0;
+};
+
+struct Motion {
+  TableKind kind = TableKind::kTwoAxis;
+  std::vector<AxisTrajectory> axes;  // axisCount(kind) entries
+  std::vector<Segment> segments;     // sorted, non-overlapping
+  std::vector<TemperatureKnot> temperature;  // empty: constant 20 degC
+  double duration = 0.0;  // s
+
+  double temperatureAt(double t) const {
+    if (temperature.empty()) return 20.0;
+    if (t <= temperature.front().t) return temperature.front().temp_c;
+    if (t >= temperature.back().t) return temperature.back().temp_c;
+    auto it = std::upper_bound(temperature.begin(), temperature.end(), t,
+                               [](double tt, const TemperatureKnot& k) { return tt < k.t; });
+    const TemperatureKnot& b = *it;
+    const TemperatureKnot& a = *(it - 1);
+    const double w = (b.t > a.t) ? (t - a.t) / (b.t - a.t) : 1.0;
+    return a.temp_c + w * (b.temp_c - a.temp_c);
+  }
+};
+
+}  // namespace imubench::calib
