@@ -9,7 +9,6 @@
 // encoder would read); encoder zero errors are applied by the table error model, not here.
 #pragma once
 
-#include <algorithm>
 #include <cassert>
 #include <string>
 #include <vector>
@@ -47,15 +46,7 @@ class AxisTrajectory {
   bool empty() const { return phases_.empty(); }
 
   // State at the end of the last phase, extrapolated to time t.
-  AxisState at(double t) const {
-    if (phases_.empty()) return {};
-    auto it = std::upper_bound(phases_.begin(), phases_.end(), t,
-                               [](double tt, const AxisPhase& p) { return tt < p.t0; });
-    if (it == phases_.begin()) return {phases_.front().angle0, 0.0, 0.0};
-    const AxisPhase& p = *(it - 1);
-    const double dt = t - p.t0;
-    return {p.angle0 + p.rate0 * dt + 0.5 * p.accel * dt * dt, p.rate0 + p.accel * dt, p.accel};
-  }
+  AxisState at(double t) const;
 
  private:
   std::vector<AxisPhase> phases_;
@@ -99,17 +90,7 @@ struct Motion {
   std::vector<TemperatureKnot> temperature;  // empty: constant 20 degC
   double duration = 0.0;  // s
 
-  double temperatureAt(double t) const {
-    if (temperature.empty()) return 20.0;
-    if (t <= temperature.front().t) return temperature.front().temp_c;
-    if (t >= temperature.back().t) return temperature.back().temp_c;
-    auto it = std::upper_bound(temperature.begin(), temperature.end(), t,
-                               [](double tt, const TemperatureKnot& k) { return tt < k.t; });
-    const TemperatureKnot& b = *it;
-    const TemperatureKnot& a = *(it - 1);
-    const double w = (b.t > a.t) ? (t - a.t) / (b.t - a.t) : 1.0;
-    return a.temp_c + w * (b.temp_c - a.temp_c);
-  }
+  double temperatureAt(double t) const;
 };
 
 }  // namespace imubench::calib

@@ -1,0 +1,1 @@
+# Forward model and simulator sources: target_sources(imubench_calib PRIVATE ...)

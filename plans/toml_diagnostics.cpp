@@ -1,0 +1,148 @@
+#include "plans/toml_diagnostics.h"
+
+#include <charconv>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+#include "nav/rotation.h"
+
+namespace imubench::plans {
+
+std::string Diagnostic::str() const {
+  std::string s = file;
+  if (line > 0) {
+    s += ":" + std::to_string(line);
+    if (column > 0) s += ":" + std::to_string(column);
+  }
+  return s + ": " + message;
+}
+
+void Diagnostics::error(const toml::source_region& where, std::string message) {
+  items_.push_back({file_, static_cast<int>(where.begin.line), static_cast<int>(where.begin.column),
+                    std::move(message)});
+}
+
+void Diagnostics::error(int line, int column, std::string message) {
+  items_.push_back({file_, line, column, std::move(message)});
+}
+
+std::string Diagnostics::str() const {
+  std::string s;
+  for (const auto& d : items_) s += d.str() + "\n";
+  return s;
+}
+
+std::optional<toml::table> parseToml(std::string_view text, Diagnostics& diag) {
+  // toml++ is built with exceptions here (Debian's default): a syntax error throws.
+  try {
+    return toml::parse(text, diag.file());
+  } catch (const toml::parse_error& err) {
+    diag.error(err.source(), std::string(err.description()));
+    return std::nullopt;
+  }
+}
+
+namespace {
+
+struct UnitDef {
+  std::string_view name;
+  Dimension dim;
+  double to_si;
+};
+
+constexpr UnitDef kUnits[] = {
+    {"deg", Dimension::kAngle, kDegToRad},
+    {"rad", Dimension::kAngle, 1.0},
+    {"arcsec", Dimension::kAngle, kArcsecToRad},
+    {"deg/s", Dimension::kRate, kDegToRad},
+    {"rad/s", Dimension::kRate, 1.0},
+    {"deg/h", Dimension::kRate, kDegToRad / 3600.0},
+    {"deg/s^2", Dimension::kAngularAccel, kDegToRad},
+    {"rad/s^2", Dimension::kAngularAccel, 1.0},
+    {"s", Dimension::kTime, 1.0},
+    {"ms", Dimension::kTime, 1e-3},
+    {"min", Dimension::kTime, 60.0},
+    {"h", Dimension::kTime, 3600.0},
+    {"degC", Dimension::kTemperature, 1.0},
+    {"degC/min", Dimension::kTemperatureRate, 1.0 / 60.0},
+    {"degC/s", Dimension::kTemperatureRate, 1.0},
+    {"m", Dimension::kLength, 1.0},
+    {"mm", Dimension::kLength, 1e-3},
+};
+
+const char* dimensionName(Dimension d) {
+  switch (d) {
+    case Dimension::kAngle: return "an angle (deg, rad, arcsec)";
+    case Dimension::kRate: return "a rate (deg/s, rad/s, deg/h)";
+    case Dimension::kAngularAccel: return "an angular acceleration (deg/s^2, rad/s^2)";
+    case Dimension::kTime: return "a duration (s, ms, min, h)";
+    case Dimension::kTemperature: return "a temperature (degC)";
+    case Dimension::kTemperatureRate: return "a temperature rate (degC/min, degC/s)";
+    case Dimension::kLength: return "a length (m, mm)";
+  }
+  return "a quantity";
+}
+
+}  // namespace
+
+std::optional<double> parseQuantity(std::string_view text, Dimension dim, std::string* why) {
+  auto fail = [&](std::string msg) -> std::optional<double> {
+    if (why) *why = std::move(msg);
+    return std::nullopt;
+  };
+  while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+  while (!text.empty() && text.back() == ' ') text.remove_suffix(1);
+  double value = 0.0;
+  const char* first = text.data();
+  const char* last = text.data() + text.size();
+  if (!text.empty() && *first == '+') ++first;
+  auto [ptr, ec] = std::from_chars(first, last, value);
+  if (ec != std::errc() || !std::isfinite(value)) {
+    return fail("expected " + std::string(dimensionName(dim)) + " like \"10 deg\", got \"" +
+                std::string(text) + "\"");
+  }
+  std::string_view unit(ptr, static_cast<size_t>(last - ptr));
+  while (!unit.empty() && unit.front() == ' ') unit.remove_prefix(1);
+  if (unit.empty()) {
+    return fail("missing unit: \"" + std::string(text) + "\" must be " + dimensionName(dim));
+  }
+  for (const auto& u : kUnits) {
+    if (u.name == unit) {
+      if (u.dim != dim) {
+        return fail("wrong unit \"" + std::string(unit) + "\": expected " + dimensionName(dim));
+      }
+      return value * u.to_si;
+    }
+  }
+  return fail("unknown unit \"" + std::string(unit) + "\": expected " + dimensionName(dim));
+}
+
+std::optional<double> quantityField(const toml::table& t, std::string_view key, Dimension dim,
+                                    Diagnostics& diag, bool required) {
+  const toml::node* node = t.get(key);
+  if (!node) {
+    if (required) {
+      diag.error(t.source(), "missing required key \"" + std::string(key) + "\" (" +
+                                 dimensionName(dim) + ")");
+    }
+    return std::nullopt;
+  }
+  if (node->is_integer() || node->is_floating_point()) {
+    diag.error(node->source(), "missing unit on \"" + std::string(key) + "\": write it as a string "
+                               "with its unit, e.g. \"" + std::to_string(node->value_or(0.0)).substr(0, 6) +
+                               " ...\" (" + dimensionName(dim) + ")");
+    return std::nullopt;
+  }
+  const auto* s = node->as_string();
+  if (!s) {
+    diag.error(node->source(), "\"" + std::string(key) + "\" must be a string like \"10 deg\"");
+    return std::nullopt;
+  }
+  std::string why;
+  auto v = parseQuantity(s->get(), dim, &why);
+  if (!v) diag.error(node->source(), "\"" + std::string(key) + "\": " + why);
+  return v;
+}
+
+}  // namespace imubench::plans
