@@ -1,0 +1,63 @@
+// Expansion of a (validated) plan into calib::Motion: exact acceleration-limited axis
+// profiles, labelled segments, temperature knots. Pure: no files, clocks or printing.
+//
+// Profiles: every move / rotate / rate step is a trapezoid (accelerate at `accel` to `rate`,
+// cruise, decelerate) or a triangle when the turn is too short to reach `rate`. Each phase is
+// one calib::AxisPhase with constant acceleration, so angle(t) is exact; the last phase of a
+// profile starts at exactly the target angle with zero rate (no rounding drift).
+// Position moves take the shortest way (|delta| <= 180 deg) on continuous axes and the direct
+// way on limited axes; all axes of one move start together, the segment ends when the last
+// one arrives. Angles are continuous (never wrapped): two +180 rotations end at 360 deg.
+//
+// Segments (what the calibrators look for):
+//   hold    -> kStatic            rotate -> kRotate, axis index + signed angle (rad)
+//   move    -> kMove (axis/angle set when exactly one axis moves, else axis = -1)
+//   rate    -> kRotate, axis + total signed angle turned including the ramps
+//   chamber -> kSoak (ramp at the ramp rate, then the soak; table static throughout)
+//   record  -> no segment; sets Segment::recording for what follows.
+// Zero-length segments (a move to where the table already is) are left out.
+// Labels: the step's label (default: its type); inside repeats the repeat's label and the
+// iteration are prefixed: "<repeat label>#<k>/<step label>" (k 1-based, "#k" only when
+// count > 1; repeat label defaults to "repeat").
+//
+// Temperature: knots at t = 0 ([chamber] initial, default 20 degC), at the start and end of
+// every chamber ramp, and at the end; linear in between (first-order chamber lag is a later
+// refinement). A plan without [chamber] gets no knots (Motion: constant 20 degC).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "calib/motion.h"
+#include "plans/plan.h"
+
+namespace imubench::plans {
+
+struct ExpandOptions {
+  // Table angles at t = 0, rad, one per axis in axis order; empty: all zero.
+  std::vector<double> initial_angles;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct ExpandResult {
+  bool ok = false;
+  std::string error;  // why not, when !ok (plan not validated, incomplete steps, bad options)
+  calib::Motion motion;
+};
+
+// Expands a plan that passed validatePlan(). A plan with problems gives ok = false and the
+// first problem found (run the validator for the full list).
+ExpandResult expand(const Plan& plan, const ExpandOptions& options = {});
+
+// One acceleration-limited profile (exposed for drivers and tests): turns by `delta` (rad,
+// signed) starting at rest at `angle0` at time `t0`, with |rate| <= max_rate and
+// |accel| = max_accel (both > 0). Appends its phases (the final one at rest on the target)
+// to `axis` and returns the profile's duration (0 and nothing appended when delta == 0).
+double appendProfile(calib::AxisTrajectory& axis, double t0, double angle0, double delta,
+                     double max_rate, double max_accel);
+
+// Duration of that profile without building it.
+double profileDuration(double delta, double max_rate, double max_accel);
+
+}  // namespace imubench::plans
