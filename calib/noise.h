@@ -1,0 +1,56 @@
+// Sensor noise: the noise model of one IMU (white noise + first-order Gauss-Markov bias
+// instability per triad) and the deterministic random source the simulator draws from.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "nav/rotation.h"
+
+namespace imubench::calib {
+
+struct TriadNoise {
+  // White noise density: gyro angle random walk rad/sqrt(s), accel velocity random walk
+  // (m/s)/sqrt(s). An increment over dt gets N(0, white^2 dt) per axis.
+  double white = 0.0;
+  // Bias instability as a first-order Gauss-Markov process: steady-state sigma (rad/s or
+  // m/s^2) and correlation time (s). 0 sigma: off.
+  double bias_sigma = 0.0;
+  double correlation_time_s = 3600.0;  // 1 h: typical for navigation-grade bias instability
+};
+
+struct NoiseModel {
+  TriadNoise accel;
+  TriadNoise gyro;
+
+  // No noise at all (exact readings).
+  static NoiseModel none() { return {}; }
+  // Navigation grade: gyro ARW 0.002 deg/sqrt(h), bias instability 0.003 deg/h;
+  // accel VRW 10 ug/sqrt(Hz) (~1e-4 m/s/sqrt(s)), bias instability 10 ug.
+  static NoiseModel navigationGrade();
+  // Tactical grade: gyro ARW 0.1 deg/sqrt(h), 1 deg/h; accel 100 ug/sqrt(Hz), 100 ug.
+  static NoiseModel tactical();
+  // MEMS consumer grade: gyro 0.5 deg/sqrt(h)... (0.3 deg/sqrt(s) class), 10 deg/h; accel
+  // 200 ug/sqrt(Hz), 1 mg.
+  static NoiseModel consumer();
+
+  bool IsValid(std::string* why) const;
+};
+
+// Deterministic normal random numbers: xoshiro256** seeded by splitmix64, Marsaglia polar
+// method. Same sequence for the same seed on every platform (unlike std::normal_distribution).
+class GaussianSource {
+ public:
+  explicit GaussianSource(std::uint64_t seed);
+  double next();  // N(0, 1)
+  Vec3 next3() { return {next(), next(), next()}; }
+
+ private:
+  std::uint64_t uniform64();
+  double uniform();  // in [0, 1)
+  std::uint64_t s_[4];
+  double spare_ = 0.0;
+  bool has_spare_ = false;
+};
+
+}  // namespace imubench::calib
