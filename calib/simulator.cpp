@@ -1,0 +1,310 @@
+#include "calib/simulator.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace imubench::calib {
+namespace {
+
+// Gauss-Legendre nodes (on [-1, 1]) and weights for 1..5 nodes.
+struct GaussRule {
+  int n;
+  std::array<double, 5> x;
+  std::array<double, 5> w;
+};
+constexpr GaussRule kRules[] = {
+    {1, {0.0}, {2.0}},
+    {2, {-0.5773502691896257645, 0.5773502691896257645}, {1.0, 1.0}},
+    {3,
+     {-0.7745966692414833770, 0.0, 0.7745966692414833770},
+     {0.5555555555555555556, 0.8888888888888888889, 0.5555555555555555556}},
+    {4,
+     {-0.8611363115940525752, -0.3399810435848562648, 0.3399810435848562648, 0.8611363115940525752},
+     {0.3478548451374538574, 0.6521451548625461426, 0.6521451548625461426, 0.3478548451374538574}},
+    {5,
+     {-0.9061798459386639928, -0.5384693101056830910, 0.0, 0.5384693101056830910,
+      0.9061798459386639928},
+     {0.2369268850561890875, 0.4786286704993664680, 0.5688888888888888889, 0.4786286704993664680,
+      0.2369268850561890875}},
+};
+
+constexpr int kMaxAxes = 3;
+
+bool validTruth(const BenchTruth& t, std::string* why) {
+  const auto finite = [](const Vec3& v) { return v.allFinite(); };
+  for (const auto* tr : {&t.sensors.accel, &t.sensors.gyro}) {
+    const char* name = tr == &t.sensors.accel ? "truth.accel" : "truth.gyro";
+    if (!finite(tr->scale) || !finite(tr->bias) || (tr->scale.array() == 0.0).any()) {
+      if (why) *why = std::string(name) + ": scale/bias must be finite, scale non-zero";
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+nav::Site trueSite(const nav::Site& assumed, const EffectSet& effects) {
+  nav::Site s = assumed;
+  if (effects.latitude_error) s.latitude_rad += effects.latitude_error->dlat_rad;
+  if (effects.gravity_error) s.gravity_mps2 = nav::siteGravity(s) + effects.gravity_error->dg_mps2;
+  return s;
+}
+
+PhysicsPoint benchPhysics(const TableModel& table, const nav::Site& true_site,
+                          const TableState& state, double temp_c) {
+  const TableKinematics k = table.kinematics(state);
+  PhysicsPoint p;
+  p.f_B = k.C_LB.transpose() * Vec3(0.0, 0.0, nav::siteGravity(true_site));
+  p.w_IB_B = k.C_LB.transpose() * nav::earthRateL(true_site.latitude_rad) + k.w_LB_B;
+  p.w_LB_B = k.w_LB_B;
+  p.wdot_LB_B = k.wdot_LB_B;
+  p.temp_c = temp_c;
+  return p;
+}
+
+bool SimOptions::IsValid(std::string* why) const {
+  auto bad = [&](const char* msg) {
+    if (why) *why = msg;
+    return false;
+  };
+  if (!(std::isfinite(imu_rate_hz) && imu_rate_hz > 0.0)) return bad("imu_rate_hz must be > 0");
+  if (!(std::isfinite(table_rate_hz) && table_rate_hz > 0.0)) {
+    return bad("table_rate_hz must be > 0");
+  }
+  if (quadrature_nodes < 1 || quadrature_nodes > 5) return bad("quadrature_nodes must be 1..5");
+  if (!(std::isfinite(end_time_s) && end_time_s >= 0.0)) return bad("end_time_s must be >= 0");
+  return true;
+}
+
+// ---- Streaming simulator ----------------------------------------------------------------
+
+struct ImuSimulator::Impl {
+  const Motion* motion = nullptr;
+  TableModel table;
+  SensorModel sensors;
+  EffectSet effects;
+  NoiseModel noise;
+  Vec3 f_L = Vec3::Zero();     // (0, 0, g) of the true site
+  Vec3 w_ie_L = Vec3::Zero();  // Earth rate of the true site
+  double tau = 0.0;
+  double dt = 0.0;
+  double rate_hz = 0.0;
+  GaussRule rule{};
+  int n_axes = 0;
+  std::array<std::size_t, kMaxAxes> cursor{};  // phase index with t0 <= current time
+  GaussianSource rng{1};
+  Vec3 gm_accel = Vec3::Zero();
+  Vec3 gm_gyro = Vec3::Zero();
+  double phi_accel = 0.0, q_accel = 0.0, phi_gyro = 0.0, q_gyro = 0.0;
+
+  // Phase of axis a in effect at time t (cursor moves forward only; the time is monotone
+  // except within one sample, so we look from the cursor).
+  const AxisPhase* phaseAt(int a, double t) {
+    const auto& ph = motion->axes[static_cast<std::size_t>(a)].phases();
+    if (ph.empty()) return nullptr;
+    std::size_t& c = cursor[static_cast<std::size_t>(a)];
+    while (c + 1 < ph.size() && ph[c + 1].t0 <= t) ++c;
+    return &ph[c];
+  }
+
+  static AxisState stateOf(const AxisPhase* p, double t) {
+    if (!p) return {};
+    if (t < p->t0) return {p->angle0, 0.0, 0.0};  // before the first phase: hold
+    const double d = t - p->t0;
+    return {p->angle0 + p->rate0 * d + 0.5 * p->accel * d * d, p->rate0 + p->accel * d, p->accel};
+  }
+
+  Readings readingsAt(const std::array<const AxisPhase*, kMaxAxes>& ph, double t) const {
+    TableState s;
+    if (n_axes == 2) {
+      s.outer = stateOf(ph[0], t);
+      s.inner = stateOf(ph[1], t);
+    } else {
+      s.outer = stateOf(ph[0], t);
+      s.middle = stateOf(ph[1], t);
+      s.inner = stateOf(ph[2], t);
+    }
+    const TableKinematics k = table.kinematics(s);
+    PhysicsPoint p;
+    p.f_B = k.C_LB.transpose() * f_L;
+    p.w_IB_B = k.C_LB.transpose() * w_ie_L + k.w_LB_B;
+    p.w_LB_B = k.w_LB_B;
+    p.wdot_LB_B = k.wdot_LB_B;
+    p.temp_c = motion->temperature.empty() ? 20.0 : motion->temperatureAt(t);
+    return forwardReadings(sensors, effects, p);
+  }
+
+  // Integral of the readings over the smooth piece [a, b] (no phase starts inside).
+  void integratePiece(double a, double b, Vec3* dtheta, Vec3* dvel) {
+    if (b <= a) return;
+    const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
+    std::array<const AxisPhase*, kMaxAxes> ph{};
+    bool still = true;
+    for (int i = 0; i < n_axes; ++i) {
+      ph[static_cast<std::size_t>(i)] = phaseAt(i, mid);
+      const AxisPhase* p = ph[static_cast<std::size_t>(i)];
+      if (p && mid >= p->t0 && (p->rate0 != 0.0 || p->accel != 0.0)) still = false;
+    }
+    if (still) {
+      const Readings r = readingsAt(ph, mid);
+      *dtheta += (b - a) * r.gyro;
+      *dvel += (b - a) * r.accel;
+      return;
+    }
+    for (int n = 0; n < rule.n; ++n) {
+      const Readings r = readingsAt(ph, mid + half * rule.x[static_cast<std::size_t>(n)]);
+      const double w = half * rule.w[static_cast<std::size_t>(n)];
+      *dtheta += w * r.gyro;
+      *dvel += w * r.accel;
+    }
+  }
+
+  // Integral over (a, b], split at every phase start inside.
+  void integrate(double a, double b, Vec3* dtheta, Vec3* dvel) {
+    // Bring the cursors to a.
+    for (int i = 0; i < n_axes; ++i) phaseAt(i, a);
+    double t = a;
+    while (t < b) {
+      double next = b;
+      for (int i = 0; i < n_axes; ++i) {
+        const auto& ph = motion->axes[static_cast<std::size_t>(i)].phases();
+        std::size_t c = cursor[static_cast<std::size_t>(i)];
+        while (c < ph.size() && ph[c].t0 <= t) ++c;
+        if (c < ph.size() && ph[c].t0 < next) next = ph[c].t0;
+      }
+      integratePiece(t, next, dtheta, dvel);
+      t = next;
+    }
+  }
+};
+
+std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, const Motion* motion,
+                                                   const SimOptions& options, std::string* why) {
+  if (!motion) {
+    if (why) *why = "no motion given";
+    return nullptr;
+  }
+  if (!options.IsValid(why) || !world.noise.IsValid(why) || !validTruth(world.truth, why)) {
+    return nullptr;
+  }
+  if (static_cast<int>(motion->axes.size()) != axisCount(motion->kind)) {
+    if (why) {
+      *why = "motion has " + std::to_string(motion->axes.size()) + " axes, the " +
+             (motion->kind == TableKind::kTwoAxis ? "two" : "three") + "-axis table needs " +
+             std::to_string(axisCount(motion->kind));
+    }
+    return nullptr;
+  }
+  if (!std::isfinite(world.site.latitude_rad) || !std::isfinite(world.site.height_m) ||
+      !std::isfinite(world.outer_axis_heading_rad)) {
+    if (why) *why = "site latitude/height and outer axis heading must be finite";
+    return nullptr;
+  }
+  std::unique_ptr<ImuSimulator> sim(new ImuSimulator());
+  auto impl = std::make_unique<Impl>();
+  impl->motion = motion;
+  TableGeometry geometry{motion->kind, world.outer_axis_heading_rad};
+  impl->table = TableModel(geometry, world.truth.table);
+  impl->sensors = world.truth.sensors;
+  impl->effects = world.truth.extra;
+  impl->noise = world.noise;
+  const nav::Site site = trueSite(world.site, world.truth.extra);
+  impl->f_L = Vec3(0.0, 0.0, nav::siteGravity(site));
+  impl->w_ie_L = nav::earthRateL(site.latitude_rad);
+  impl->tau = world.truth.extra.time_delay ? world.truth.extra.time_delay->tau_s : 0.0;
+  impl->rate_hz = options.imu_rate_hz;
+  impl->dt = 1.0 / options.imu_rate_hz;
+  impl->rule = kRules[options.quadrature_nodes - 1];
+  impl->n_axes = axisCount(motion->kind);
+  impl->rng = GaussianSource(options.seed);
+  const double dt = impl->dt;
+  impl->phi_accel = std::exp(-dt / world.noise.accel.correlation_time_s);
+  impl->phi_gyro = std::exp(-dt / world.noise.gyro.correlation_time_s);
+  impl->q_accel = world.noise.accel.bias_sigma * std::sqrt(1.0 - impl->phi_accel * impl->phi_accel);
+  impl->q_gyro = world.noise.gyro.bias_sigma * std::sqrt(1.0 - impl->phi_gyro * impl->phi_gyro);
+  // Gauss-Markov biases start in their steady state.
+  if (world.noise.gyro.bias_sigma > 0.0)
+    impl->gm_gyro = world.noise.gyro.bias_sigma * impl->rng.next3();
+  if (world.noise.accel.bias_sigma > 0.0) {
+    impl->gm_accel = world.noise.accel.bias_sigma * impl->rng.next3();
+  }
+  sim->impl_ = std::move(impl);
+  return sim;
+}
+
+ImuSimulator::~ImuSimulator() = default;
+
+double ImuSimulator::nextTime() const {
+  return static_cast<double>(k_ + 1) / impl_->rate_hz;
+}
+
+double ImuSimulator::nextPhysicsEnd() const {
+  return nextTime() - impl_->tau;
+}
+
+nav::ImuSample ImuSimulator::next() {
+  Impl& m = *impl_;
+  ++k_;
+  nav::ImuSample s;
+  s.t = static_cast<double>(k_) / m.rate_hz;
+  const double b = s.t - m.tau;
+  const double a = static_cast<double>(k_ - 1) / m.rate_hz - m.tau;
+  m.integrate(a, b, &s.dtheta, &s.dvel);
+  const double dt = b - a;
+  const NoiseModel& n = m.noise;
+  if (n.gyro.white > 0.0 || n.gyro.bias_sigma > 0.0) {
+    Vec3 e = m.gm_gyro * dt;
+    if (n.gyro.white > 0.0) e += (n.gyro.white * std::sqrt(dt)) * m.rng.next3();
+    s.dtheta += m.sensors.gyro.scale.cwiseProduct(e);
+    if (n.gyro.bias_sigma > 0.0) m.gm_gyro = m.phi_gyro * m.gm_gyro + m.q_gyro * m.rng.next3();
+  }
+  if (n.accel.white > 0.0 || n.accel.bias_sigma > 0.0) {
+    Vec3 e = m.gm_accel * dt;
+    if (n.accel.white > 0.0) e += (n.accel.white * std::sqrt(dt)) * m.rng.next3();
+    s.dvel += m.sensors.accel.scale.cwiseProduct(e);
+    if (n.accel.bias_sigma > 0.0) {
+      m.gm_accel = m.phi_accel * m.gm_accel + m.q_accel * m.rng.next3();
+    }
+  }
+  s.temp_c = m.motion->temperatureAt(0.5 * (a + b));
+  return s;
+}
+
+TableSample ImuSimulator::tableAt(double t) const {
+  const TableState st = tableStateAt(*impl_->motion, t);
+  return {t, st.angles()};
+}
+
+// ---- Batch ------------------------------------------------------------------------------
+
+Simulation simulate(const SimulatorInput& input, const SimOptions& options) {
+  Simulation out;
+  out.kind = input.motion.kind;
+  std::string why;
+  auto sim = ImuSimulator::Create(input.world, &input.motion, options, &why);
+  if (!sim) {
+    out.error = why;
+    return out;
+  }
+  const double end = options.end_time_s > 0.0 ? options.end_time_s : input.motion.duration;
+  if (!(std::isfinite(end) && end >= 0.0)) {
+    out.error = "motion duration must be finite and >= 0";
+    return out;
+  }
+  // Stamps k / rate <= end (with a relative tolerance so an exact end is included).
+  const auto n_imu = static_cast<std::uint64_t>(std::floor(end * options.imu_rate_hz + 1e-9));
+  out.imu.reserve(n_imu);
+  for (std::uint64_t k = 0; k < n_imu; ++k) out.imu.push_back(sim->next());
+  const auto n_table = static_cast<std::uint64_t>(std::floor(end * options.table_rate_hz + 1e-9));
+  out.table.reserve(n_table + 1);
+  for (std::uint64_t j = 0; j <= n_table; ++j) {
+    out.table.push_back(sim->tableAt(static_cast<double>(j) / options.table_rate_hz));
+  }
+  out.segments = input.motion.segments;
+  out.ok = true;
+  return out;
+}
+
+}  // namespace imubench::calib
