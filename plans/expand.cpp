@@ -1,0 +1,297 @@
+#include "plans/expand.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "nav/rotation.h"
+
+namespace imubench::plans {
+
+bool ExpandOptions::IsValid(std::string* why) const {
+  for (double a : initial_angles) {
+    if (!std::isfinite(a)) {
+      if (why) *why = "initial_angles must be finite";
+      return false;
+    }
+  }
+  return true;
+}
+
+double profileDuration(double delta, double max_rate, double max_accel) {
+  const double d = std::abs(delta);
+  if (d == 0.0) return 0.0;
+  if (d >= max_rate * max_rate / max_accel)
+    return 2.0 * max_rate / max_accel + (d - max_rate * max_rate / max_accel) / max_rate;
+  return 2.0 * std::sqrt(d / max_accel);
+}
+
+double appendProfile(calib::AxisTrajectory& axis, double t0, double angle0, double delta,
+                     double max_rate, double max_accel) {
+  if (delta == 0.0) return 0.0;
+  const double s = delta > 0.0 ? 1.0 : -1.0;
+  const double d = std::abs(delta);
+  double t_acc = 0.0;     // time to reach the peak rate
+  double t_cruise = 0.0;  // time at the peak rate
+  double peak = 0.0;
+  if (d >= max_rate * max_rate / max_accel) {  // trapezoid
+    peak = max_rate;
+    t_acc = max_rate / max_accel;
+    t_cruise = (d - max_rate * max_rate / max_accel) / max_rate;
+  } else {  // triangle: the turn is too short to reach max_rate
+    peak = std::sqrt(d * max_accel);
+    t_acc = peak / max_accel;
+  }
+  const double d_acc = 0.5 * max_accel * t_acc * t_acc;
+  axis.append({t0, angle0, 0.0, s * max_accel});
+  if (t_cruise > 0.0) axis.append({t0 + t_acc, angle0 + s * d_acc, s * peak, 0.0});
+  axis.append({t0 + t_acc + t_cruise, angle0 + s * (d - d_acc), s * peak, -s * max_accel});
+  const double total = 2.0 * t_acc + t_cruise;
+  axis.append({t0 + total, angle0 + delta, 0.0, 0.0});
+  return total;
+}
+
+namespace {
+
+// Constant-rate run: ramp to `rate` (signed), hold it for `duration`, ramp down. Returns the
+// total time; *turned receives the signed angle turned.
+double appendRateRun(calib::AxisTrajectory& axis, double t0, double angle0, double rate,
+                     double duration, double max_accel, double* turned) {
+  const double s = rate > 0.0 ? 1.0 : -1.0;
+  const double t_acc = std::abs(rate) / max_accel;
+  const double d_acc = 0.5 * rate * t_acc;  // signed
+  axis.append({t0, angle0, 0.0, s * max_accel});
+  axis.append({t0 + t_acc, angle0 + d_acc, rate, 0.0});
+  axis.append({t0 + t_acc + duration, angle0 + d_acc + rate * duration, rate, -s * max_accel});
+  *turned = rate * (t_acc + duration);
+  axis.append({t0 + 2.0 * t_acc + duration, angle0 + *turned, 0.0, 0.0});
+  return 2.0 * t_acc + duration;
+}
+
+constexpr long kMaxSegments = 10000000;  // beyond this a plan is surely a typo'd repeat count
+
+class Expander {
+ public:
+  Expander(const Plan& plan, const ExpandOptions& options) : plan_(plan) {
+    const int n = calib::axisCount(plan.table.kind);
+    m_.kind = plan.table.kind;
+    m_.axes.resize(static_cast<size_t>(n));
+    angle_.assign(static_cast<size_t>(n), 0.0);
+    for (int i = 0; i < n && i < static_cast<int>(options.initial_angles.size()); ++i) {
+      angle_[static_cast<size_t>(i)] = options.initial_angles[static_cast<size_t>(i)];
+    }
+    for (int i = 0; i < n; ++i) {
+      m_.axes[static_cast<size_t>(i)].append({0.0, angle_[static_cast<size_t>(i)], 0.0, 0.0});
+    }
+    recording_ = plan.recording_at_start;
+    if (plan.chamber) {
+      temp_ = plan.chamber->initial.value;
+      m_.temperature.push_back({0.0, temp_});
+    }
+  }
+
+  bool run(std::string* error) {
+    if (!steps(plan_.steps, "", error)) return false;
+    m_.duration = t_;
+    if (!m_.temperature.empty() && m_.temperature.back().t < t_) {
+      m_.temperature.push_back({t_, temp_});
+    }
+    return true;
+  }
+
+  calib::Motion take() { return std::move(m_); }
+
+ private:
+  const Plan& plan_;
+  calib::Motion m_;
+  std::vector<double> angle_;  // current angle per axis, rad (continuous)
+  double t_ = 0.0;
+  double temp_ = 20.0;
+  bool recording_ = true;
+
+  static std::string where(const Step& s) {
+    return "line " + std::to_string(s.where.line) + " (" + stepTypeName(s.type) + ")";
+  }
+
+  void addSegment(double t0, double t1, calib::SegmentKind kind, const std::string& label,
+                  int axis = -1, double angle = 0.0) {
+    if (t1 <= t0) return;
+    calib::Segment seg;
+    seg.t0 = t0;
+    seg.t1 = t1;
+    seg.kind = kind;
+    seg.label = label;
+    seg.recording = recording_;
+    seg.axis = axis;
+    seg.angle = angle;
+    m_.segments.push_back(std::move(seg));
+  }
+
+  bool limits(const Step& s, int axis, double* rate, double* accel, std::string* error) {
+    const EffectiveLimits lim = limitsFor(plan_.table, axis);
+    const auto r = s.rate ? std::optional<double>(std::abs(s.rate->value)) : lim.max_rate;
+    const auto a = s.accel ? std::optional<double>(s.accel->value) : lim.max_accel;
+    if (!r || !a || !(*r > 0.0) || !(*a > 0.0)) {
+      *error = where(s) + ": no usable rate/accel limit for this axis (validate the plan)";
+      return false;
+    }
+    *rate = *r;
+    *accel = *a;
+    return true;
+  }
+
+  bool axisOf(const Step& s, const std::string& name, int* idx, std::string* error) {
+    auto i = axisIndex(plan_.table.kind, name);
+    if (!i) {
+      *error = where(s) + ": unknown axis \"" + name + "\"";
+      return false;
+    }
+    *idx = *i;
+    return true;
+  }
+
+  bool steps(const std::vector<Step>& list, const std::string& prefix, std::string* error) {
+    for (const Step& s : list) {
+      if (!step(s, prefix, error)) return false;
+    }
+    return true;
+  }
+
+  bool step(const Step& s, const std::string& prefix, std::string* error) {
+    if (!s.complete) {
+      *error = where(s) + ": step has parse errors";
+      return false;
+    }
+    if (static_cast<long>(m_.segments.size()) > kMaxSegments) {
+      *error = "plan expands to more than " + std::to_string(kMaxSegments) + " segments";
+      return false;
+    }
+    const std::string label = prefix + (s.label.empty() ? stepTypeName(s.type) : s.label);
+    switch (s.type) {
+      case StepType::kHold: {
+        if (!(s.duration.value > 0.0)) {
+          *error = where(s) + ": duration must be positive";
+          return false;
+        }
+        addSegment(t_, t_ + s.duration.value, calib::SegmentKind::kStatic, label);
+        t_ += s.duration.value;
+        return true;
+      }
+      case StepType::kMove: {
+        double longest = 0.0;
+        int moved = 0;
+        int moved_axis = -1;
+        double moved_delta = 0.0;
+        for (const AxisTarget& target : s.targets) {
+          int i = 0;
+          double rate = 0.0, accel = 0.0;
+          if (!axisOf(s, target.axis, &i, error) || !limits(s, i, &rate, &accel, error)) {
+            return false;
+          }
+          const auto ui = static_cast<size_t>(i);
+          const bool limited = limitsFor(plan_.table, i).limited;
+          double delta = target.angle.value - angle_[ui];
+          if (!limited) delta = std::remainder(delta, 2.0 * kPi);  // shortest way
+          const double d = appendProfile(m_.axes[ui], t_, angle_[ui], delta, rate, accel);
+          // Keep the angle continuous; on limited axes land exactly on the written target.
+          angle_[ui] = limited ? target.angle.value : angle_[ui] + delta;
+          if (delta != 0.0) {
+            ++moved;
+            moved_axis = i;
+            moved_delta = delta;
+          }
+          longest = std::max(longest, d);
+        }
+        if (moved == 1) {
+          addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label, moved_axis, moved_delta);
+        } else {
+          addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label);
+        }
+        t_ += longest;
+        return true;
+      }
+      case StepType::kRotate: {
+        int i = 0;
+        double rate = 0.0, accel = 0.0;
+        if (!axisOf(s, s.axis, &i, error) || !limits(s, i, &rate, &accel, error)) return false;
+        const auto ui = static_cast<size_t>(i);
+        const double d = appendProfile(m_.axes[ui], t_, angle_[ui], s.angle.value, rate, accel);
+        angle_[ui] += s.angle.value;
+        addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, s.angle.value);
+        t_ += d;
+        return true;
+      }
+      case StepType::kRate: {
+        int i = 0;
+        double rate = 0.0, accel = 0.0;
+        if (!axisOf(s, s.axis, &i, error) || !limits(s, i, &rate, &accel, error)) return false;
+        if (!(s.duration.value > 0.0) || !s.rate || s.rate->value == 0.0) {
+          *error = where(s) + ": rate run needs a nonzero rate and a positive duration";
+          return false;
+        }
+        const auto ui = static_cast<size_t>(i);
+        double turned = 0.0;
+        const double d = appendRateRun(m_.axes[ui], t_, angle_[ui], s.rate->value, s.duration.value,
+                                       accel, &turned);
+        angle_[ui] += turned;
+        addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, turned);
+        t_ += d;
+        return true;
+      }
+      case StepType::kChamber: {
+        if (!plan_.chamber) {
+          *error = where(s) + ": chamber step without a [chamber] section";
+          return false;
+        }
+        const double ramp = s.ramp ? s.ramp->value : plan_.chamber->max_ramp.value;
+        if (!(ramp > 0.0) || s.soak.value < 0.0) {
+          *error = where(s) + ": ramp must be positive and soak non-negative";
+          return false;
+        }
+        const double t_ramp = std::abs(s.setpoint.value - temp_) / ramp;
+        if (m_.temperature.empty() || m_.temperature.back().t < t_) {
+          m_.temperature.push_back({t_, temp_});
+        }
+        if (t_ramp > 0.0) m_.temperature.push_back({t_ + t_ramp, s.setpoint.value});
+        temp_ = s.setpoint.value;
+        addSegment(t_, t_ + t_ramp + s.soak.value, calib::SegmentKind::kSoak, label);
+        t_ += t_ramp + s.soak.value;
+        return true;
+      }
+      case StepType::kRecord:
+        recording_ = s.record_on;
+        return true;
+      case StepType::kRepeat: {
+        if (s.count < 1) {
+          *error = where(s) + ": repeat count must be at least 1";
+          return false;
+        }
+        const std::string base = prefix + (s.label.empty() ? "repeat" : s.label);
+        for (int k = 1; k <= s.count; ++k) {
+          const std::string p = base + (s.count > 1 ? "#" + std::to_string(k) : "") + "/";
+          if (!steps(s.steps, p, error)) return false;
+        }
+        return true;
+      }
+    }
+    return true;
+  }
+};
+
+}  // namespace
+
+ExpandResult expand(const Plan& plan, const ExpandOptions& options) {
+  ExpandResult r;
+  if (!options.IsValid(&r.error)) return r;
+  const int n = calib::axisCount(plan.table.kind);
+  if (!options.initial_angles.empty() && static_cast<int>(options.initial_angles.size()) != n) {
+    r.error = "initial_angles must have one entry per axis (" + std::to_string(n) + ")";
+    return r;
+  }
+  Expander e(plan, options);
+  if (!e.run(&r.error)) return r;
+  r.motion = e.take();
+  r.ok = true;
+  return r;
+}
+
+}  // namespace imubench::plans
