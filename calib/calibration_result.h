@@ -1,0 +1,45 @@
+// What a calibrator returns besides the coefficients: solver status, conditioning of the
+// information matrix in NAMED parameters, residual summary. Shared by the calibration methods
+// (direct, indirect): the coefficients themselves are a calib::CoefficientReport
+// (calib/bench_truth.h: values, sigmas, "observable": false flags -> interchange JSON).
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "calib/bench_truth.h"
+
+namespace imubench::calib {
+
+// One weak (or null) direction of the information matrix: a unit combination of parameters
+// the data barely constrains, e.g. "0.71 accel.misalignment.zy - 0.71 table.base_tilt.x".
+struct WeakDirection {
+  double relative_eigenvalue = 0.0;  // eigenvalue / largest, of the column-scaled matrix
+  std::vector<std::pair<std::string, double>> components;  // |component| >= 0.1, largest first
+  std::string describe() const;
+};
+
+struct Conditioning {
+  double condition_number = 0.0;    // largest / smallest eigenvalue over the estimated params
+  bool bad = false;                 // condition_number above the method's threshold
+  std::vector<WeakDirection> weak;  // the weakest directions (also the null ones fixed)
+  std::vector<std::string> fixed_unobservable;  // parameters fixed because the plan can't see them
+  std::string describe() const;  // one line per weak direction, naming the parameters
+};
+
+struct CalibrationResult {
+  bool ok = false;
+  std::string error;  // why not, when !ok (bad input, solver failure): names the cause
+  CoefficientReport coefficients;
+  Conditioning conditioning;
+  std::string solver_report;  // Ceres BriefReport of the final solve
+  int outer_iterations = 0;
+  double rms_normalised_residual = 0.0;  // ~1 when the noise model fits the data
+  std::vector<std::string> warnings;     // skipped runs/holds and why
+};
+
+nlohmann::json toJson(const Conditioning& c);
+
+}  // namespace imubench::calib

@@ -1,0 +1,95 @@
+// Navigation-based (indirect) calibration, as in the seed paper (Ivshina 2024): a strapdown
+// attitude solution started from the table setting (no aiding) is carried through every
+// rotation about a horizontal axis on data compensated with the current coefficients; the
+// residuals are the horizontal apparent accelerations in L at the holds (start/end of every
+// run) and the change of the horizontal apparent acceleration over each run. A joint
+// least-squares refinement in Ceres estimates both triads' coefficients AND the table base
+// tilt. See docs/calibration.md for the residual model and the frame convention.
+//
+// Frame convention ("gyro-referenced"): all coefficients refer to the platform frame P that
+// the table's orthogonal axes define (C_LP = nominal chain of the encoder angles). The gyro
+// triad's misalignments are measured against the table's rotation axes, and the
+// accelerometers' against the same frame, so the device mounting (beta', gamma'; not
+// observable by this method) is absorbed by both triads' misalignments in one definite way:
+//     M_est = M_true * E^T,  E = Rz(i0) (I + [mu x])  (mu = mounting, i0 = inner encoder zero).
+// The base tilt (beta_oc, gamma_oc) is estimated; the outer encoder zero of a two-axis table
+// is indistinguishable from the tilt about the outer axis and is absorbed there.
+//
+// Usage:
+//   IndirectInput in{site, geometry, imu, table, segments};   // views, caller keeps the data
+//   in.start = direct.coefficients.values.sensors;             // direct calibration (0)
+//   CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
+//   if (!r.ok) ... r.error;   r.coefficients -> interchange JSON with sigma/observable.
+#pragma once
+
+#include <optional>
+#include <span>
+#include <string>
+
+#include "calib/calibration_result.h"
+#include "calib/motion.h"
+#include "calib/sensor_model.h"
+#include "calib/simulator.h"
+#include "calib/table_model.h"
+#include "nav/earth.h"
+#include "nav/imu_sample.h"
+
+namespace imubench::calib {
+
+struct IndirectInput {
+  nav::Site site;
+  TableGeometry geometry;
+  std::span<const nav::ImuSample> imu;  // t strictly increasing
+  std::span<const TableSample> table;   // encoder angles (rad), t increasing
+  std::span<const Segment> segments;    // static holds and rotate runs
+  // Start values (the direct calibration, "0"); empty: nominal (scale 1, no errors).
+  std::optional<SensorModel> start;
+  Vec2 start_base_tilt = Vec2::Zero();
+};
+
+struct IndirectOptions {
+  // Data at the edges of a hold is skipped: the table may still settle after a move.
+  double static_margin_s = 1.0;
+  // Holds shorter than this (after the margins) carry too little averaging to use.
+  double min_static_s = 5.0;
+  // The navigation through a run starts/ends this far inside the adjacent holds (capped at
+  // half the hold), so the whole rotation including its ramps is integrated.
+  double run_pad_s = 0.5;
+  // Segments adjacent within this time count as "the hold before/after" a run.
+  double adjacency_tolerance_s = 0.5;
+  // Outer iterations: re-navigate the runs at the new coefficients and re-solve; the problem
+  // is nearly linear, so 2-3 suffice from a direct-calibration start.
+  int max_outer_iterations = 5;
+  // Stop when no parameter moved by more than this relative to its sigma.
+  double outer_tolerance_sigma = 1e-3;
+  // Floors of the per-sample noise estimated from the holds (noise-free simulations would
+  // otherwise give zero weights' inverse): m/s^2 and rad/s.
+  double min_accel_noise = 1e-6;
+  double min_gyro_noise = 1e-9;
+  // Column-scaled information eigenvalue (relative to the largest) below which a direction is
+  // a null direction: its dominant parameter is fixed and flagged unobservable.
+  double null_eigenvalue_ratio = 1e-12;
+  // Relative eigenvalue below which the solve is reported as badly conditioned.
+  double bad_condition_ratio = 1e-9;
+  // Estimate the base tilt (false: hold it at start_base_tilt).
+  bool estimate_base_tilt = true;
+
+  bool IsValid(std::string* why) const;
+};
+
+// Runs the calibration. Result ok == false with a reason naming the cause when the input has
+// no usable holds or runs, the solver fails (Summary::IsSolutionUsable() false) or the
+// covariance cannot be computed.
+CalibrationResult calibrateIndirect(const IndirectInput& input, const IndirectOptions& options);
+
+// The truth of a simulated bench mapped into the gyro-referenced frame P of this method (what
+// calibrateIndirect estimates): M_P = M_B * E^T with E = Rz(i0) exp([mu x]) (exact
+// rotations), diagonal renormalised into the scale; base tilt += outer encoder zero about
+// the outer axis (two-axis). Used by tests and the validation experiment.
+struct GyroReferencedTruth {
+  SensorModel sensors;
+  Vec2 base_tilt = Vec2::Zero();
+};
+GyroReferencedTruth toGyroReferenced(const BenchTruth& truth, const TableGeometry& geometry);
+
+}  // namespace imubench::calib
