@@ -156,7 +156,8 @@ AlignmentResult coarseAlign(std::span<const ImuSample> samples, const Site& site
   if (w_mean.norm() > opt.max_rate_earth_multiple * kEarthRate) {
     std::ostringstream m;
     m << "mean angular rate " << w_mean.norm() / kDegPerHourToRadPerSec << " deg/h exceeds "
-      << opt.max_rate_earth_multiple << " x Earth rate";
+      << opt.max_rate_earth_multiple
+      << " x Earth rate: the IMU is rotating (or its gyro bias is gross)";
     return fail(AlignmentStatus::kRateTooLarge, m.str());
   }
   AlignmentResult r = alignFromMeans(f_mean, w_mean, site.latitude_rad, opt);

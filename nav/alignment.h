@@ -53,7 +53,7 @@ enum class AlignmentStatus {
   kBadTimestamps,        // non-increasing time stamps
   kNotStatic,            // block means disagree: the IMU moved
   kGravityMismatch,      // |f| far from site gravity
-  kRateTooLarge,         // |w| far above Earth rate
+  kRateTooLarge,         // steady rotation or a gross gyro bias (mean w >> Earth rate)
   kHeadingUnobservable,  // f and w nearly parallel (polar site) or w zero
   kInvalidOptions,
 };

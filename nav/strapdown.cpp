@@ -66,7 +66,19 @@ NavState insMech(const NavState& prev, const ImuSample& imu_prev, const ImuSampl
 
   // Velocity: specific-force increment in B with rotation and sculling compensation,
   // projected with the attitude at the start of the interval and the mid-interval L frame.
-  Vec3 dv_B = dv + 0.5 * dth.cross(dv);
+  const double th2 = dth.squaredNorm();
+  double a1 = 0.0;  // (1 - cos th) / th^2
+  double a2 = 0.0;  // (1 - sin th / th) / th^2
+  if (th2 < 1e-2) {
+    a1 = 0.5 - th2 / 24.0 + th2 * th2 / 720.0;
+    a2 = 1.0 / 6.0 - th2 / 120.0 + th2 * th2 / 5040.0;
+  } else {
+    const double th = std::sqrt(th2);
+    a1 = (1.0 - std::cos(th)) / th2;
+    a2 = (1.0 - std::sin(th) / th) / th2;
+  }
+  const Vec3 th_x_dv = dth.cross(dv);
+  Vec3 dv_B = dv + a1 * th_x_dv + a2 * dth.cross(th_x_dv);
   if (opt.sculling_compensation) {
     dv_B += (imu_prev.dtheta.cross(dv) + imu_prev.dvel.cross(dth)) / 12.0;
   }

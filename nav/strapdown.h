@@ -12,7 +12,10 @@
 //   Attitude:   phi = dth_k + (1/12) dth_{k-1} x dth_k      (two-sample coning correction)
 //               q_BtoL(k) = q(-zeta) * q_BtoL(k-1) * q(phi),  q(.) the exact rotation-vector
 //               quaternion (quatFromRotationVector), so large per-sample angles stay exact.
-//   Velocity:   dv_B = dv_k + 0.5 dth_k x dv_k                (rotation compensation)
+//   Velocity:   dv_B = dv_k + a1 dth_k x dv_k + a2 dth_k x (dth_k x dv_k)   (rotation
+//                      compensation, Savage's exact form for a constant rate over the
+//                      interval: a1 = (1 - cos th)/th^2 ~ 1/2, a2 = (1 - sin th/th)/th^2 ~ 1/6;
+//                      the second-order term matters for large per-sample angles)
 //                      + (1/12)(dth_{k-1} x dv_k + dv_{k-1} x dth_k)   (sculling)
 //               v_L(k) = v_L(k-1) + (I - 0.5 [zeta x]) C_LB(k-1) dv_B
 //                        + (g_L - (2 w_IE_L + w_EL_L) x v_L(k-1)) dt
@@ -52,7 +55,8 @@ struct MechOptions {
   // non-commuting rotations (vibration, coning) cause between samples.
   bool coning_compensation = true;
   // Sculling correction of the velocity increment: same for rotation x acceleration
-  // (the 0.5 dth x dv rotation term is always applied: it is first order, not a refinement).
+  // (the rotation compensation a1 dth x dv + a2 dth x (dth x dv) is always applied: it is
+  // part of the velocity update, not a refinement). Turning it off is for studies only.
   bool sculling_compensation = true;
   // Default: hold height. A bench never moves vertically, and the free-inertial vertical
   // channel is unstable, so its divergence would only add noise to the horizontal solution.
