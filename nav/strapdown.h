@@ -74,6 +74,14 @@ struct MechOptions {
 NavState insMech(const NavState& prev, const ImuSample& imu_prev, const ImuSample& imu_cur,
                  const MechOptions& opt);
 
+// Default options with the site's measured gravity, if it has one (a recording's
+// gravity_mps2): keeps the mechanization's gravity consistent with the site.
+inline MechOptions mechOptionsForSite(const Site& site) {
+  MechOptions opt;
+  opt.gravity_mps2 = site.gravity_mps2;
+  return opt;
+}
+
 // Convenience: state at rest at a site, position (lat, lon = 0, height) from the site.
 NavState stationaryState(double t, const Quat& q_BtoL, const Site& site);
 
