@@ -471,6 +471,21 @@ nlohmann::json toJson(const CoefficientReport& report) {
     if (u->second.sigma) putShaped(g[kSigmaKey], s, *u->second.sigma, nullptr);
     if (!u->second.observable) putShaped(g[kObservableKey], s, false, true);
   }
+  // Arrays in "sigma"/"observable" take the full length of their value arrays.
+  auto pad = [](json& group) {
+    for (const auto& [sib, fill] : {std::pair<const char*, json>{kSigmaKey, nullptr},
+                                    std::pair<const char*, json>{kObservableKey, true}}) {
+      const auto it = group.find(sib);
+      if (it == group.end()) continue;
+      for (auto k = it->begin(); k != it->end(); ++k) {
+        const auto v = group.find(k.key());
+        if (!k->is_array() || v == group.end() || !v->is_array()) continue;
+        while (k->size() < v->size()) k->push_back(fill);
+      }
+    }
+  };
+  for (const char* g : {"accel", "gyro", "table"}) pad(j[g]);
+  for (auto& [id, e] : j["extra"].items()) pad(e);
   return j;
 }
 
