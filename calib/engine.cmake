@@ -1,4 +1,10 @@
 # Calibration engine sources (direct, indirect, scalar, observability): target_sources(imubench_calib PRIVATE ...)
+# Direct calibration, scalar (field) calibration, static detection, observability.
+target_sources(imubench_calib PRIVATE
+  static_detection.cpp
+  scalar_calibration.cpp
+  observability.cpp
+)
 # Navigation-based (indirect) calibration, validation experiment, shared result type.
 target_sources(imubench_calib PRIVATE
   calibration_result.cpp

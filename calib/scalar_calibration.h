@@ -1,0 +1,77 @@
+// Scalar (field) calibration without a table: accelerometer from |f| = g in every static
+// pose, gyro from the gravity-direction change between consecutive static poses
+// (Tedaldi, Pretto, Menegatti 2014 / imu_tk method), mapped onto OUR eq.(1) parameters:
+//     reading = diag(scale) * (M * input - bias),
+//     M = [[1, m_xy, -m_xz], [-m_yx, 1, m_yz], [m_zx, -m_zy, 1]].
+// Accelerometer: |f| = g cannot see a rotation of the whole triad, so the instrument frame is
+// fixed to the accelerometer triad (z along accel z, y in the accel yz plane): m_yx = m_zx =
+// m_zy = 0, reported "observable": false. Gyro: all six misalignments are relative to that
+// frame. Gyro bias comes from the first static interval (Earth rate neglected, see result).
+// With too few distinct poses the misalignments are fixed and flagged rather than fitted.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calib/bench_truth.h"
+#include "calib/static_detection.h"
+#include "nav/rotation.h"
+
+namespace imubench::calib {
+
+// Flat names of the coefficients fitted here (bench_truth.h naming), in parameter-block order.
+inline constexpr std::array<const char*, 3> kAxisNames = {"x", "y", "z"};
+
+struct ScalarCalibrationOptions {
+  // Local gravity magnitude, m/s^2 (9.81, or nav::normalGravity at the site's latitude).
+  double gravity_mps2 = 9.81;
+  // Gyro readings per rad/s, initial guess. Unset: a coarse 1-D search over decades finds
+  // it from the data (raw counts have no known unit).
+  std::optional<double> gyro_scale_guess;
+  // Shortest acceptable first static interval, s: the gyro bias is its mean (imu_tk uses 50 s
+  // for its own recording; hand sessions have a few seconds).
+  double min_initial_static_s = 2.0;
+  // Static poses required to fit the full accelerometer model (9 unknowns; imu_tk
+  // recommends >= 36 poses). Fewer: misalignments fixed at 0 and flagged unobservable.
+  int min_poses_full_accel = 12;
+  int min_poses_diagonal_accel = 6;
+  // Readings of static samples are skipped this long at each span end, s (settling).
+  double span_trim_s = 0.1;
+  StaticDetectionOptions detection;
+  RecordingCheckOptions checks;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct ScalarCalibrationResult {
+  RecordingCheck status;  // refusals (bad data) and solver failures land here
+  std::vector<StaticSpan> spans;
+  // Coefficients in eq.(1) form: report.values.sensors.accel (scale in reading unit per
+  // m/s^2, bias m/s^2) and .gyro (reading unit per rad/s, bias rad/s), with sigmas and
+  // "observable": false flags by flat name; toJson(report) gives the interchange JSON.
+  CoefficientReport report;
+  const TriadModel& accel() const { return report.values.sensors.accel; }
+  const TriadModel& gyro() const { return report.values.sensors.gyro; }
+  // RMS over static spans of |f| - g, m/s^2: "before" uses the initial (per-axis min/max)
+  // estimate for raw units, or the readings themselves when accel_unit_is_si was set.
+  double accel_rms_before = 0.0;
+  double accel_rms_after = 0.0;
+  // RMS of the gravity-direction mismatch between consecutive poses (rad-like, unit vectors).
+  double gyro_rms_before = 0.0;
+  double gyro_rms_after = 0.0;
+  int rotations_used = 0;
+  // Earth rate invariant: static gyro mean-rate scatter (rad/s) compared with 7.29e-5 rad/s.
+  double static_rate_scatter = 0.0;
+  bool earth_rate_usable = false;
+  std::vector<std::string> notes;  // plain-language statements (what is fixed and why)
+};
+
+// accel_unit_is_si: the accelerometer readings are already m/s^2 (then "before" is the raw
+// data). Runs checks, detection, accel fit, gyro fit.
+ScalarCalibrationResult scalarCalibrate(const RawImuData& data,
+                                        const ScalarCalibrationOptions& options = {},
+                                        bool accel_unit_is_si = false);
+
+}  // namespace imubench::calib

@@ -1,0 +1,217 @@
+#include "calib/static_detection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace imubench::calib {
+
+const char* recordingStatusName(RecordingStatusCode code) {
+  switch (code) {
+    case RecordingStatusCode::kOk:
+      return "ok";
+    case RecordingStatusCode::kBadOptions:
+      return "bad options";
+    case RecordingStatusCode::kEmpty:
+      return "empty recording";
+    case RecordingStatusCode::kSizeMismatch:
+      return "size mismatch";
+    case RecordingStatusCode::kNonFinite:
+      return "non-finite sample";
+    case RecordingStatusCode::kTimeNotIncreasing:
+      return "time not increasing";
+    case RecordingStatusCode::kMissingSegment:
+      return "missing segment";
+    case RecordingStatusCode::kSaturated:
+      return "saturated sample";
+    case RecordingStatusCode::kTooShortStatic:
+      return "static interval too short";
+    case RecordingStatusCode::kTooFewStatics:
+      return "too few static intervals";
+  }
+  return "unknown";
+}
+
+bool StaticDetectionOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(window_s > 0.0)) return fail("window_s must be > 0");
+  if (!(quiet_quantile > 0.0 && quiet_quantile < 1.0))
+    return fail("quiet_quantile must be in (0, 1)");
+  if (!(threshold_factor > 1.0)) return fail("threshold_factor must be > 1");
+  if (!(min_duration_s >= 0.0)) return fail("min_duration_s must be >= 0");
+  return true;
+}
+
+bool RecordingCheckOptions::IsValid(std::string* why) const {
+  if (!(max_gap_factor > 1.0)) {
+    if (why) *why = "max_gap_factor must be > 1";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+std::string where(const RawImuData& d, std::size_t i) {
+  std::ostringstream s;
+  s << "sample " << i;
+  if (i < d.t.size() && std::isfinite(d.t[i])) s << " (t = " << d.t[i] << " s)";
+  return s.str();
+}
+
+double medianStep(const std::vector<double>& t) {
+  std::vector<double> dt;
+  dt.reserve(t.size());
+  for (std::size_t i = 1; i < t.size(); ++i) dt.push_back(t[i] - t[i - 1]);
+  if (dt.empty()) return 0.0;
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  return dt[dt.size() / 2];
+}
+
+// Centred moving-window total variance (sum over axes) of a vector series.
+std::vector<double> windowVariance(const std::vector<Vec3>& v, std::size_t half) {
+  const std::size_t n = v.size();
+  std::vector<Vec3> s1(n + 1, Vec3::Zero());
+  std::vector<double> s2(n + 1, 0.0);
+  // Subtract the first value so the sums do not lose precision on offset raw counts.
+  const Vec3 ref = n > 0 ? v[0] : Vec3::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 x = v[i] - ref;
+    s1[i + 1] = s1[i] + x;
+    s2[i + 1] = s2[i] + x.squaredNorm();
+  }
+  std::vector<double> out(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t a = i >= half ? i - half : 0;
+    const std::size_t b = std::min(n, i + half + 1);
+    const double m = static_cast<double>(b - a);
+    const Vec3 mean = (s1[b] - s1[a]) / m;
+    out[i] = std::max(0.0, (s2[b] - s2[a]) / m - mean.squaredNorm());
+  }
+  return out;
+}
+
+double quietLevel(const std::vector<double>& var, double q) {
+  std::vector<double> sorted = var;
+  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(sorted.size() - 1));
+  std::nth_element(sorted.begin(), sorted.begin() + k, sorted.end());
+  double level = sorted[static_cast<std::size_t>(k)];
+  if (level <= 0.0) {
+    // Quantised data can have windows of identical readings: use the smallest non-zero
+    // variance so the threshold is not zero.
+    double smallest = 0.0;
+    for (double x : var)
+      if (x > 0.0 && (smallest == 0.0 || x < smallest)) smallest = x;
+    level = smallest;
+  }
+  return level;
+}
+
+}  // namespace
+
+RecordingCheck checkRecording(const RawImuData& d, const RecordingCheckOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) return RecordingCheck::Error(RecordingStatusCode::kBadOptions, why);
+  if (d.t.empty()) return RecordingCheck::Error(RecordingStatusCode::kEmpty, "no samples");
+  if (d.accel.size() != d.t.size() || d.gyro.size() != d.t.size()) {
+    std::ostringstream s;
+    s << "time has " << d.t.size() << " samples, accel " << d.accel.size() << ", gyro "
+      << d.gyro.size();
+    return RecordingCheck::Error(RecordingStatusCode::kSizeMismatch, s.str());
+  }
+  for (std::size_t i = 0; i < d.t.size(); ++i) {
+    if (!std::isfinite(d.t[i]) || !d.accel[i].allFinite() || !d.gyro[i].allFinite())
+      return RecordingCheck::Error(RecordingStatusCode::kNonFinite,
+                                   where(d, i) + ": NaN or infinite value");
+    if (i > 0 && !(d.t[i] > d.t[i - 1]))
+      return RecordingCheck::Error(RecordingStatusCode::kTimeNotIncreasing,
+                                   where(d, i) + ": time does not increase");
+  }
+  const double step = medianStep(d.t);
+  for (std::size_t i = 1; i < d.t.size(); ++i) {
+    if (d.t[i] - d.t[i - 1] > o.max_gap_factor * step) {
+      std::ostringstream s;
+      s << where(d, i) << ": gap of " << d.t[i] - d.t[i - 1] << " s after t = " << d.t[i - 1]
+        << " s (median step " << step << " s): samples missing";
+      return RecordingCheck::Error(RecordingStatusCode::kMissingSegment, s.str());
+    }
+  }
+  auto clipped = [](const Vec3& v, const std::optional<double>& lo,
+                    const std::optional<double>& hi) {
+    for (int k = 0; k < 3; ++k) {
+      if (lo && v[k] <= *lo) return k;
+      if (hi && v[k] >= *hi) return k;
+    }
+    return -1;
+  };
+  for (std::size_t i = 0; i < d.t.size(); ++i) {
+    const int ka = clipped(d.accel[i], o.accel_min, o.accel_max);
+    const int kg = clipped(d.gyro[i], o.gyro_min, o.gyro_max);
+    if (ka >= 0 || kg >= 0) {
+      std::ostringstream s;
+      s << where(d, i) << ": " << (ka >= 0 ? "accel" : "gyro") << " axis "
+        << "xyz"[ka >= 0 ? ka : kg] << " at its range limit (reading "
+        << (ka >= 0 ? d.accel[i][ka] : d.gyro[i][kg]) << ")";
+      return RecordingCheck::Error(RecordingStatusCode::kSaturated, s.str());
+    }
+  }
+  return RecordingCheck::Ok();
+}
+
+StaticDetectionResult detectStaticSpans(const RawImuData& d, const StaticDetectionOptions& o) {
+  StaticDetectionResult r;
+  std::string why;
+  if (!o.IsValid(&why)) {
+    r.status = RecordingCheck::Error(RecordingStatusCode::kBadOptions, why);
+    return r;
+  }
+  if (d.t.size() < 3 || d.accel.size() != d.t.size() ||
+      (o.use_gyro && d.gyro.size() != d.t.size())) {
+    r.status = RecordingCheck::Error(RecordingStatusCode::kEmpty,
+                                     "fewer than 3 samples or triad sizes differ from time");
+    return r;
+  }
+  const double step = medianStep(d.t);
+  const auto half = static_cast<std::size_t>(std::max(1.0, std::round(0.5 * o.window_s / step)));
+  const std::vector<double> va = windowVariance(d.accel, half);
+  r.accel_quiet_variance = quietLevel(va, o.quiet_quantile);
+  r.accel_threshold = o.threshold_factor * r.accel_quiet_variance;
+  std::vector<double> vg;
+  double gyro_threshold = 0.0;
+  if (o.use_gyro) {
+    vg = windowVariance(d.gyro, half);
+    gyro_threshold = o.threshold_factor * quietLevel(vg, o.quiet_quantile);
+  }
+  auto isStatic = [&](std::size_t i) {
+    return va[i] < r.accel_threshold && (!o.use_gyro || vg[i] < gyro_threshold);
+  };
+  std::size_t i = 0;
+  const std::size_t n = d.t.size();
+  while (i < n) {
+    if (!isStatic(i)) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j < n && isStatic(j)) ++j;
+    StaticSpan s{i, j, d.t[i], d.t[j - 1]};
+    if (s.duration() >= o.min_duration_s) r.spans.push_back(s);
+    i = j;
+  }
+  if (r.spans.empty())
+    r.status = RecordingCheck::Error(
+        RecordingStatusCode::kTooFewStatics,
+        "no static interval of at least " + std::to_string(o.min_duration_s) + " s found");
+  return r;
+}
+
+Vec3 spanMean(const std::vector<Vec3>& v, const StaticSpan& span) {
+  Vec3 m = Vec3::Zero();
+  for (std::size_t i = span.begin; i < span.end; ++i) m += v[i];
+  return span.end > span.begin ? Vec3(m / static_cast<double>(span.end - span.begin)) : m;
+}
+
+}  // namespace imubench::calib

@@ -1,0 +1,49 @@
+// Readers for the two public real recordings used to check the scalar calibration:
+//  - imu_tk (Tedaldi et al.) Xsens pair: two whitespace-separated text files, columns
+//    t x y z, raw 16-bit counts, 100 Hz; accelerometer and gyro files share the timestamps;
+//  - imucal example Ferraris session: CSV "n_samples,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z"
+//    (deg/s, m/s^2) sampled at 204.8 Hz (imucal's example calls compute(...,
+//    sampling_rate_hz=204.8)), plus its section list JSON {"x_p": {"start", "end"}, ...}.
+// Readings stay in the source's units (counts, deg/s, m/s^2); the scalar calibration fits
+// scale factors in reading units per SI unit. Malformed input is refused with file:line and
+// the reason; nothing is guessed.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "calib/static_detection.h"
+
+namespace imubench::daemon {
+
+struct RealImport {
+  bool ok = false;
+  std::string error;  // "file:line: reason" when !ok
+  calib::RawImuData data;
+  std::string accel_unit;  // "count" or "m/s^2"
+  std::string gyro_unit;   // "count" or "deg/s"
+};
+
+// imu_tk text pair (accelerometer file, gyro file). Rows must match one to one in time.
+RealImport readImuTkPair(const std::string& accel_path, const std::string& gyro_path);
+
+// imucal CSV; t = n_samples / rate_hz.
+RealImport readImucalCsv(const std::string& csv_path, double rate_hz = 204.8);
+
+struct LabelledRange {
+  std::string name;       // "x_p", ..., "z_rot"
+  std::size_t start = 0;  // sample index (n_samples), inclusive
+  std::size_t end = 0;    // exclusive
+};
+
+struct SectionListImport {
+  bool ok = false;
+  std::string error;
+  std::vector<LabelledRange> sections;  // in file order
+};
+
+// imucal section list JSON.
+SectionListImport readImucalSectionList(const std::string& json_path);
+
+}  // namespace imubench::daemon

@@ -1,0 +1,167 @@
+// Static detection, recording checks and the scalar calibration on synthetic hand sessions
+// with a known truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "calib/scalar_calibration.h"
+#include "calib/static_detection.h"
+
+namespace imubench::calib {
+namespace {
+
+Mat3 eq1M(const Misalignment& m) {
+  Mat3 M;
+  M << 1.0, m.xy, -m.xz, -m.yx, 1.0, m.yz, m.zx, -m.zy, 1.0;
+  return M;
+}
+
+Vec3 reading(const TriadModel& t, const Vec3& input) {
+  return t.scale.cwiseProduct(eq1M(t.mis) * input - t.bias);
+}
+
+struct Session {
+  RawImuData data;
+  int poses = 0;
+};
+
+// Hand session: `poses` random attitudes held `hold_s` (the first one `first_hold_s`),
+// joined by constant-rate rotations of `turn_s`. Readings at 100 Hz.
+Session makeSession(const SensorModel& s, int poses, double first_hold_s, double hold_s,
+                    double turn_s, double accel_noise, double gyro_noise, unsigned seed) {
+  const double dt = 0.01, g = 9.81;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Session out;
+  out.poses = poses;
+  Quat q = Quat::Identity();  // q_BtoL
+  double t = 0.0;
+  auto emit = [&](const Quat& att, const Vec3& w_B) {
+    t += dt;
+    const Vec3 f_B = att.conjugate() * Vec3(0.0, 0.0, g);
+    const Vec3 na(n01(rng), n01(rng), n01(rng)), ng(n01(rng), n01(rng), n01(rng));
+    out.data.t.push_back(t);
+    out.data.accel.push_back(reading(s.accel, f_B) + accel_noise * na);
+    out.data.gyro.push_back(reading(s.gyro, w_B) + gyro_noise * ng);
+  };
+  for (int k = 0; k < poses; ++k) {
+    const int n_hold = static_cast<int>(std::lround((k == 0 ? first_hold_s : hold_s) / dt));
+    for (int i = 0; i < n_hold; ++i) emit(q, Vec3::Zero());
+    if (k + 1 == poses) break;
+    Vec3 phi(u(rng), u(rng), u(rng));
+    phi = phi.normalized() * (1.0 + 1.5 * std::abs(u(rng)));  // 57..143 deg turns
+    const int n_turn = static_cast<int>(std::lround(turn_s / dt));
+    const Vec3 w = phi / (n_turn * dt);
+    const Quat dq = quatFromRotationVector(w * dt);
+    for (int i = 0; i < n_turn; ++i) {
+      q = (q * dq).normalized();
+      emit(q, w);
+    }
+  }
+  return out;
+}
+
+SensorModel truthModel() {
+  SensorModel s;
+  s.accel.scale = Vec3(1.02, 0.97, 1.01);
+  s.accel.bias = Vec3(0.12, -0.08, 0.2);
+  s.accel.mis = {2e-3, -1.5e-3, 0.0, 3e-3, 0.0, 0.0};  // frame fixed to the accelerometers
+  s.gyro.scale = Vec3(57.0, 58.5, 56.2);               // "deg/s"-like reading units
+  s.gyro.bias = Vec3(0.01, -0.02, 0.005);
+  s.gyro.mis = {1e-3, -2e-3, 1.5e-3, -1e-3, 2.5e-3, 0.5e-3};
+  return s;
+}
+
+TEST(StaticDetection, FindsEveryPoseOfASyntheticSession) {
+  const Session s = makeSession(truthModel(), 15, 10.0, 4.0, 2.0, 0.01, 0.05, 7);
+  const StaticDetectionResult r = detectStaticSpans(s.data);
+  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_EQ(static_cast<int>(r.spans.size()), s.poses);
+  EXPECT_NEAR(r.spans.front().t0, 0.01, 0.6);
+  EXPECT_GT(r.spans.front().duration(), 9.0);
+  for (std::size_t k = 1; k < r.spans.size(); ++k) EXPECT_GT(r.spans[k].duration(), 2.5);
+}
+
+TEST(RecordingCheck, RefusesNaNWithTheSample) {
+  Session s = makeSession(truthModel(), 6, 5.0, 3.0, 1.0, 0.01, 0.05, 1);
+  s.data.gyro[123].y() = std::nan("");
+  const RecordingCheck c = checkRecording(s.data);
+  EXPECT_EQ(c.code, RecordingStatusCode::kNonFinite);
+  EXPECT_NE(c.reason.find("sample 123"), std::string::npos) << c.reason;
+}
+
+TEST(RecordingCheck, RefusesMissingSegment) {
+  Session s = makeSession(truthModel(), 6, 5.0, 3.0, 1.0, 0.01, 0.05, 1);
+  for (std::size_t i = 500; i < s.data.t.size(); ++i) s.data.t[i] += 2.0;
+  const RecordingCheck c = checkRecording(s.data);
+  EXPECT_EQ(c.code, RecordingStatusCode::kMissingSegment);
+  EXPECT_NE(c.reason.find("sample 500"), std::string::npos) << c.reason;
+}
+
+TEST(RecordingCheck, RefusesTimeGoingBack) {
+  Session s = makeSession(truthModel(), 6, 5.0, 3.0, 1.0, 0.01, 0.05, 1);
+  s.data.t[40] = s.data.t[39];
+  EXPECT_EQ(checkRecording(s.data).code, RecordingStatusCode::kTimeNotIncreasing);
+}
+
+TEST(RecordingCheck, RefusesSaturatedSamples) {
+  Session s = makeSession(truthModel(), 6, 5.0, 3.0, 1.0, 0.01, 0.05, 1);
+  RecordingCheckOptions o;
+  o.accel_min = -150.0;
+  o.accel_max = 150.0;
+  EXPECT_TRUE(checkRecording(s.data, o).ok());
+  s.data.accel[777].x() = 150.0;
+  const RecordingCheck c = checkRecording(s.data, o);
+  EXPECT_EQ(c.code, RecordingStatusCode::kSaturated);
+  EXPECT_NE(c.reason.find("accel axis x"), std::string::npos) << c.reason;
+}
+
+TEST(ScalarCalibration, RefusesTooShortInitialStatic) {
+  const Session s = makeSession(truthModel(), 15, 3.0, 4.0, 2.0, 0.01, 0.05, 3);
+  ScalarCalibrationOptions o;
+  o.min_initial_static_s = 8.0;
+  const ScalarCalibrationResult r = scalarCalibrate(s.data, o, true);
+  EXPECT_EQ(r.status.code, RecordingStatusCode::kTooShortStatic) << r.status.reason;
+}
+
+TEST(ScalarCalibration, RefusesTooFewStatics) {
+  const Session s = makeSession(truthModel(), 4, 10.0, 4.0, 2.0, 0.01, 0.05, 3);
+  const ScalarCalibrationResult r = scalarCalibrate(s.data, {}, true);
+  EXPECT_EQ(r.status.code, RecordingStatusCode::kTooFewStatics) << r.status.reason;
+}
+
+TEST(ScalarCalibration, RecoversTruthOfASyntheticSession) {
+  const SensorModel truth = truthModel();
+  const Session s = makeSession(truth, 30, 20.0, 4.0, 2.0, 0.003, 0.02, 11);
+  ScalarCalibrationOptions o;
+  o.gravity_mps2 = 9.81;
+  const ScalarCalibrationResult r = scalarCalibrate(s.data, o, true);
+  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  EXPECT_EQ(static_cast<int>(r.spans.size()), 30);
+  const TriadModel& a = r.accel();
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(a.scale[k], truth.accel.scale[k], 2e-4) << k;
+    EXPECT_NEAR(a.bias[k], truth.accel.bias[k], 2e-3) << k;
+  }
+  EXPECT_NEAR(a.mis.xy, truth.accel.mis.xy, 2e-4);
+  EXPECT_NEAR(a.mis.xz, truth.accel.mis.xz, 2e-4);
+  EXPECT_NEAR(a.mis.yz, truth.accel.mis.yz, 2e-4);
+  EXPECT_LT(r.accel_rms_after, 0.2 * r.accel_rms_before);
+  EXPECT_FALSE(r.report.uncertainty.at("accel.misalignment.zy").observable);
+  const TriadModel& g = r.gyro();
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(g.scale[k] / truth.gyro.scale[k], 1.0, 3e-3) << k;
+    EXPECT_NEAR(g.bias[k], truth.gyro.bias[k], 1e-4) << k;
+  }
+  EXPECT_NEAR(g.mis.xy, truth.gyro.mis.xy, 1e-3);
+  EXPECT_NEAR(g.mis.zx, truth.gyro.mis.zx, 1e-3);
+  EXPECT_NEAR(g.mis.yz, truth.gyro.mis.yz, 1e-3);
+  EXPECT_LT(r.gyro_rms_after, r.gyro_rms_before);
+  // Every sigma is finite and small against its value's tolerance.
+  EXPECT_GT(r.report.uncertainty.at("accel.scale.x").sigma.value_or(-1.0), 0.0);
+}
+
+}  // namespace
+}  // namespace imubench::calib
