@@ -108,14 +108,6 @@ FreeNavigator::FeedResult FreeNavigator::feed(const ImuSample& sample) {
     r.message = m.str();
     return r;
   }
-  if (nominal_dt_ > 0.0 && dt > opt_.max_interval_ratio * nominal_dt_) {
-    std::ostringstream m;
-    m << "gap before t = " << sample.t << " s: interval " << dt << " s is more than "
-      << opt_.max_interval_ratio << " x the sample interval " << nominal_dt_ << " s";
-    r.status = FreeNavStatus::kGap;
-    r.message = m.str();
-    return r;
-  }
   if (!sample.dtheta.allFinite() || !sample.dvel.allFinite()) {
     std::ostringstream m;
     m << "sample at t = " << sample.t << " s has non-finite increments";
@@ -123,7 +115,34 @@ FreeNavigator::FeedResult FreeNavigator::feed(const ImuSample& sample) {
     r.message = m.str();
     return r;
   }
-  if (nominal_dt_ == 0.0) nominal_dt_ = dt;
+  const bool gap = nominal_dt_ > 0.0 && dt > opt_.max_interval_ratio * nominal_dt_;
+  if (gap && opt_.gap_policy == GapPolicy::kStop) {
+    std::ostringstream m;
+    m << "gap before t = " << sample.t << " s: interval " << dt << " s is more than "
+      << opt_.max_interval_ratio << " x the sample interval " << nominal_dt_ << " s";
+    r.status = FreeNavStatus::kGap;
+    r.message = m.str();
+    return r;
+  }
+  if (gap) {
+    // Bridge: the lost samples' motion is unknown; hold this sample's rates over the missing
+    // time. No coning/sculling across the gap (their previous-sample terms assume contiguity).
+    const double missing = dt - nominal_dt_;
+    ImuSample fill;
+    fill.t = state_.t + missing;
+    fill.dtheta = sample.dtheta * (missing / nominal_dt_);
+    fill.dvel = sample.dvel * (missing / nominal_dt_);
+    state_ = insMech(state_, ImuSample{}, fill, opt_.mech);
+    prev_sample_ = ImuSample{};
+    ++gaps_bridged_;
+    r.gap_bridged = true;
+    std::ostringstream m;
+    m << "bridged a gap of " << missing << " s before t = " << sample.t << " s";
+    r.message = m.str();
+  }
+  // Running mean interval (tracks slow clock drift; a gap does not enter it).
+  const double step = gap ? nominal_dt_ : dt;
+  nominal_dt_ = nominal_dt_ == 0.0 ? step : 0.99 * nominal_dt_ + 0.01 * step;
 
   state_ = insMech(state_, prev_sample_, sample, opt_.mech);
   prev_sample_ = sample;
@@ -165,6 +184,7 @@ FreeNavResult navigateFree(const NavState& initial, std::span<const ImuSample> s
     ++result.samples_used;
   }
   result.final_state = nav.state();
+  result.gaps_bridged = nav.gapsBridged();
   return result;
 }
 

@@ -11,8 +11,9 @@
 //   d_E = (lon - lon0) (R_N(lat0) + h0) cos(lat0),   d_N = (lat - lat0) (R_M(lat0) + h0).
 //
 // Input checks (external data never crashes): time stamps must increase; an interval longer
-// than max_interval_ratio x the first interval is a gap (lost samples) and stops navigation;
-// non-finite increments stop navigation. The error names the sample time and the reason.
+// than max_interval_ratio x the running mean interval is a gap (lost samples): it stops
+// navigation (GapPolicy::kStop, default) or is bridged and counted (kBridge, for the online
+// daemon); non-finite increments stop navigation. The error names the sample time and why.
 #pragma once
 
 #include <cstddef>
@@ -26,6 +27,12 @@
 
 namespace imubench::nav {
 
+// What a gap (lost samples) does.
+enum class GapPolicy {
+  kStop,    // stop with FreeNavStatus::kGap: the lost rotation would silently corrupt a run
+  kBridge,  // integrate the missing time holding the next sample's rates, count it, go on
+};
+
 struct FreeNavOptions {
   // Mechanization settings (coning/sculling, vertical channel, site gravity).
   MechOptions mech;
@@ -35,10 +42,12 @@ struct FreeNavOptions {
   // Reference velocity in L (ENU), m/s, subtracted to give velocity errors. A bench is at
   // rest on the Earth: zero.
   Vec3 reference_v_L = Vec3::Zero();
-  // An interval longer than this multiple of the first interval is treated as lost samples
-  // (their rotation would be silently missing) and stops navigation with an error. 1.5 lets
-  // normal time-stamp jitter through and catches one lost sample.
+  // An interval longer than this multiple of the running mean interval is treated as lost
+  // samples. 1.5 lets normal time-stamp jitter through (real recordings show +-10 %) and
+  // catches one lost sample.
   double max_interval_ratio = 1.5;
+  // Offline analysis wants to know (stop); an online navigator must keep going (bridge).
+  GapPolicy gap_policy = GapPolicy::kStop;
 
   bool IsValid(std::string* why) const;
 };
@@ -59,7 +68,7 @@ enum class FreeNavStatus {
   kInvalidOptions,
   kBadInitialState,  // non-finite or |lat| >= 90 deg
   kBadTimestamps,    // time not increasing (or first sample not after the initial state)
-  kGap,              // interval > max_interval_ratio x first interval
+  kGap,              // interval > max_interval_ratio x mean interval (GapPolicy::kStop)
   kNonFinite,        // NaN/Inf increments
 };
 
@@ -71,6 +80,7 @@ struct FreeNavResult {
   std::vector<NavErrorPoint> series;  // decimated; valid up to where navigation stopped
   NavState final_state;               // state after the last accepted sample
   std::size_t samples_used = 0;
+  std::size_t gaps_bridged = 0;  // GapPolicy::kBridge only
 
   bool ok() const { return status == FreeNavStatus::kOk; }
 };
@@ -86,12 +96,14 @@ class FreeNavigator {
     FreeNavStatus status = FreeNavStatus::kOk;
     std::string message;                  // why, when rejected (the state is unchanged then)
     std::optional<NavErrorPoint> output;  // set when an output time was reached
+    bool gap_bridged = false;             // kBridge: a gap before this sample was bridged
   };
   FeedResult feed(const ImuSample& sample);
 
   FreeNavStatus status() const { return init_status_; }
   const std::string& statusMessage() const { return init_message_; }
   const NavState& state() const { return state_; }
+  std::size_t gapsBridged() const { return gaps_bridged_; }
   NavErrorPoint current() const;       // errors at the current state
   NavErrorPoint initialPoint() const;  // the first output point (t0, zero displacement)
 
@@ -99,8 +111,9 @@ class FreeNavigator {
   FreeNavOptions opt_;
   NavState state_;
   NavState initial_;
-  ImuSample prev_sample_;  // zero increments until the first sample
-  double nominal_dt_ = 0.0;
+  ImuSample prev_sample_;    // zero increments until the first sample
+  double nominal_dt_ = 0.0;  // running mean sample interval (0 before the first sample)
+  std::size_t gaps_bridged_ = 0;
   double next_output_t_ = 0.0;
   double rm_h0_ = 0.0;
   double rn_cos_h0_ = 0.0;

@@ -133,6 +133,42 @@ TEST(FreeNav, RejectsGapAndNaN) {
   EXPECT_EQ(r2.samples_used, 42u);
 }
 
+// The online policy: a gap is bridged (rates held), counted, and navigation goes on. For a
+// static IMU holding the rates is exact, so the solution stays at rest.
+TEST(FreeNav, BridgesGapWhenAsked) {
+  const auto truth = tilted();
+  ImuSamples s = stationary(truth, 0.0, 100.0, 20.0);
+  s.erase(s.begin() + 700, s.begin() + 750);  // 0.5 s lost
+  FreeNavOptions opt;
+  opt.gap_policy = GapPolicy::kBridge;
+  const FreeNavResult r = navigateFree(stationaryState(0.0, Quat(truth.C_LB), kSite), s, opt);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.gaps_bridged, 1u);
+  EXPECT_EQ(r.samples_used, s.size());
+  EXPECT_NEAR(r.final_state.t, 20.0, 1e-9);
+  EXPECT_LT(std::hypot(r.series.back().d_E_m, r.series.back().d_N_m), 1e-6);
+  EXPECT_LT(test::attitudeErrorRad(r.final_state.q_BtoL, Quat(truth.C_LB)), 1e-10);
+  // The same data with the default policy stops at the gap.
+  const FreeNavResult stop = navigateFree(stationaryState(0.0, Quat(truth.C_LB), kSite), s, {});
+  EXPECT_EQ(stop.status, FreeNavStatus::kGap);
+  EXPECT_EQ(stop.samples_used, 700u);
+}
+
+// Time-stamp jitter of +-10 % (as in real recordings) is not a gap.
+TEST(FreeNav, ToleratesTimestampJitter) {
+  const auto truth = tilted();
+  ImuSamples s;
+  double t = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    const double dt = 0.01 * (1.0 + 0.1 * std::sin(0.7 * k));
+    t += dt;
+    s.push_back(truth.sample(t, dt));
+  }
+  const FreeNavResult r = navigateFree(stationaryState(0.0, Quat(truth.C_LB), kSite), s, {});
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_LT(std::hypot(r.series.back().d_E_m, r.series.back().d_N_m), 1e-6);
+}
+
 TEST(FreeNav, RejectsBadOptionsAndInitialState) {
   FreeNavOptions opt;
   opt.output_interval_s = 0.0;
