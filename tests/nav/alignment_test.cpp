@@ -58,7 +58,10 @@ TEST_P(AlignExact, RecoversAttitude) {
 INSTANTIATE_TEST_SUITE_P(Attitudes, AlignExact,
                          ::testing::Values(Vec3(0.0, 0.0, 0.0), Vec3(5.0, -3.0, 45.0),
                                            Vec3(-30.0, 20.0, 170.0), Vec3(10.0, 60.0, -100.0),
-                                           Vec3(175.0, 10.0, 30.0)));  // upside down
+                                           Vec3(175.0, 10.0, 30.0)),  // upside down
+                         [](const ::testing::TestParamInfo<Vec3>& param_info) {
+                           return "case" + std::to_string(param_info.index);
+                         });
 
 // Heading is as good as Earth rate allows: a gyro bias b_E along (levelled) East gives a
 // heading error of b_E / (W cos lat); roll/pitch stay exact (they use gravity only).

@@ -142,7 +142,11 @@ INSTANTIATE_TEST_SUITE_P(
                       TurnCase{2000.0, Vec3(1.0, -1.0, 0.0), 1e-3, 1e-8},
                       // 10 Hz: 2 degrees per sample; attitude still sub-arcsecond, the
                       // velocity error is third order in the per-sample angle.
-                      TurnCase{10.0, Vec3(0.3, 1.0, 0.2), 1e-1, 2e-4}));
+                      TurnCase{10.0, Vec3(0.3, 1.0, 0.2), 1e-1, 2e-4}),
+    [](const ::testing::TestParamInfo<TurnCase>& param_info) {
+      return std::to_string(static_cast<int>(param_info.param.rate_hz)) + "Hz_axis" +
+             std::to_string(param_info.index);
+    });
 
 // The same turn at 20 Hz: sculling + second-order rotation compensation cut the velocity
 // error by orders of magnitude against the first-order update (guards both terms).
