@@ -265,3 +265,37 @@ TEST(InsMech, FreeVerticalChannelFallsWithoutLift) {
 
 }  // namespace
 }  // namespace imubench::nav
+
+namespace imubench::nav {
+namespace {
+
+// A measured site gravity (recording's gravity_mps2) reaches the mechanization through
+// mechOptionsForSite: with a free vertical channel, increments made with that gravity keep
+// v_U at zero only when the override is used.
+TEST(InsMech, SiteGravityOverrideIsUsed) {
+  const Site site{kLat58, 100.0, 9.8200};  // differs from normal gravity by ~2 mm/s^2
+  const double g_normal = normalGravity(kLat58, 100.0);
+  ASSERT_GT(std::abs(9.82 - g_normal), 1e-3);
+  auto run = [&](const MechOptions& opt) {
+    NavState s = stationaryState(0.0, Quat::Identity(), site);
+    ImuSample prev;
+    for (int k = 1; k <= 100; ++k) {
+      ImuSample cur;
+      cur.t = k * 0.01;
+      cur.dtheta = earthRateL(kLat58) * 0.01;
+      cur.dvel = Vec3(0.0, 0.0, 9.82) * 0.01;
+      s = insMech(s, prev, cur, opt);
+      prev = cur;
+    }
+    return s.v_L.z();
+  };
+  MechOptions with = mechOptionsForSite(site);
+  with.vertical = VerticalChannel::kFree;
+  MechOptions without;
+  without.vertical = VerticalChannel::kFree;
+  EXPECT_NEAR(run(with), 0.0, 1e-9);
+  EXPECT_NEAR(run(without), 9.82 - g_normal, 1e-6);
+}
+
+}  // namespace
+}  // namespace imubench::nav
