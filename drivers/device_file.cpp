@@ -1,0 +1,708 @@
+#include "drivers/device_file.h"
+
+#include <fstream>
+#include <initializer_list>
+#include <set>
+#include <sstream>
+
+namespace imubench::drivers {
+
+using plans::Diagnostics;
+using plans::Dimension;
+
+const char* transportKindName(TransportKind k) {
+  switch (k) {
+    case TransportKind::kModbusTcp:
+      return "modbus-tcp";
+    case TransportKind::kModbusRtu:
+      return "modbus-rtu";
+    case TransportKind::kSerialScpi:
+      return "serial-scpi";
+  }
+  return "?";
+}
+
+namespace {
+
+// Refuses keys the schema does not know: a typo must not silently fall back to a default.
+void checkKeys(const toml::table& t, std::initializer_list<std::string_view> allowed,
+               std::string_view where, Diagnostics& diag) {
+  for (const auto& [k, v] : t) {
+    bool known = false;
+    for (auto a : allowed) known = known || (a == k.str());
+    if (!known) {
+      diag.error(k.source(),
+                 "unknown key \"" + std::string(k.str()) + "\" in " + std::string(where));
+    }
+  }
+}
+
+const toml::table* subTable(const toml::table& t, std::string_view key, Diagnostics& diag,
+                            bool required) {
+  const toml::node* n = t.get(key);
+  if (!n) {
+    if (required) diag.error(t.source(), "missing required table [" + std::string(key) + "]");
+    return nullptr;
+  }
+  if (!n->is_table()) {
+    diag.error(n->source(), "\"" + std::string(key) + "\" must be a table");
+    return nullptr;
+  }
+  return n->as_table();
+}
+
+std::optional<std::string> strField(const toml::table& t, std::string_view key, Diagnostics& diag,
+                                    bool required) {
+  const toml::node* n = t.get(key);
+  if (!n) {
+    if (required) diag.error(t.source(), "missing required key \"" + std::string(key) + "\"");
+    return std::nullopt;
+  }
+  if (!n->is_string()) {
+    diag.error(n->source(), "\"" + std::string(key) + "\" must be a string");
+    return std::nullopt;
+  }
+  return n->as_string()->get();
+}
+
+std::optional<int64_t> intField(const toml::table& t, std::string_view key, Diagnostics& diag,
+                                bool required, int64_t lo, int64_t hi) {
+  const toml::node* n = t.get(key);
+  if (!n) {
+    if (required) diag.error(t.source(), "missing required key \"" + std::string(key) + "\"");
+    return std::nullopt;
+  }
+  if (!n->is_integer()) {
+    diag.error(n->source(), "\"" + std::string(key) + "\" must be an integer");
+    return std::nullopt;
+  }
+  const int64_t v = n->as_integer()->get();
+  if (v < lo || v > hi) {
+    diag.error(n->source(), "\"" + std::string(key) + "\" = " + std::to_string(v) +
+                                " is out of range [" + std::to_string(lo) + ", " +
+                                std::to_string(hi) + "]");
+    return std::nullopt;
+  }
+  return v;
+}
+
+void readInt(const toml::table& t, std::string_view key, int& out, Diagnostics& diag, int64_t lo,
+             int64_t hi) {
+  if (auto v = intField(t, key, diag, false, lo, hi)) out = static_cast<int>(*v);
+}
+
+std::optional<bool> boolField(const toml::table& t, std::string_view key, Diagnostics& diag) {
+  const toml::node* n = t.get(key);
+  if (!n) return std::nullopt;
+  if (!n->is_boolean()) {
+    diag.error(n->source(), "\"" + std::string(key) + "\" must be true or false");
+    return std::nullopt;
+  }
+  return n->as_boolean()->get();
+}
+
+// Jerk ("deg/s^3") has no plans::Dimension: parse it as an angular acceleration with one more /s.
+std::optional<double> jerkField(const toml::table& t, std::string_view key, Diagnostics& diag) {
+  const toml::node* n = t.get(key);
+  if (!n) return std::nullopt;
+  const auto* s = n->as_string();
+  std::string text = s ? s->get() : std::string();
+  const auto pos = text.rfind("/s^3");
+  if (!s || pos == std::string::npos || pos + 4 != text.size()) {
+    diag.error(n->source(), "\"" + std::string(key) +
+                                "\" must be a jerk like \"100 deg/s^3\" (deg/s^3 or rad/s^3)");
+    return std::nullopt;
+  }
+  text.replace(pos, 4, "/s^2");
+  std::string why;
+  auto v = plans::parseQuantity(text, Dimension::kAngularAccel, &why);
+  if (!v) diag.error(n->source(), "\"" + std::string(key) + "\": " + why);
+  return v;
+}
+
+std::optional<std::string> readFile(const std::string& path, Diagnostics& diag) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    diag.error(0, 0, "cannot open device file");
+    return std::nullopt;
+  }
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void parseRetry(const toml::table& t, RetryPolicy& r, Diagnostics& diag) {
+  if (auto v = plans::quantityField(t, "timeout", Dimension::kTime, diag, true)) {
+    if (*v <= 0.0) {
+      diag.error(t.get("timeout")->source(), "\"timeout\" must be positive");
+    } else {
+      r.timeout_s = *v;
+    }
+  }
+  readInt(t, "retries", r.retries, diag, 0, 20);
+  if (auto b = boolField(t, "reconnect", diag)) r.reconnect = *b;
+}
+
+void parseTransport(const toml::table& root, TransportSpec& tr, bool allow_serial,
+                    Diagnostics& diag) {
+  const toml::table* t = subTable(root, "transport", diag, true);
+  if (!t) return;
+  checkKeys(*t,
+            {"type", "host", "port", "unit_id", "device", "baud", "parity", "data_bits",
+             "stop_bits", "terminator", "timeout", "retries", "reconnect"},
+            "[transport]", diag);
+  auto type = strField(*t, "type", diag, true);
+  if (type) {
+    if (*type == "modbus-tcp") {
+      tr.kind = TransportKind::kModbusTcp;
+    } else if (*type == "modbus-rtu") {
+      tr.kind = TransportKind::kModbusRtu;
+    } else if (*type == "serial-scpi" && allow_serial) {
+      tr.kind = TransportKind::kSerialScpi;
+    } else {
+      diag.error(t->get("type")->source(), "unknown transport type \"" + *type +
+                                               "\": expected modbus-tcp, modbus-rtu" +
+                                               (allow_serial ? " or serial-scpi" : ""));
+    }
+  }
+  if (auto h = strField(*t, "host", diag, false)) tr.host = *h;
+  readInt(*t, "port", tr.port, diag, 0, 65535);
+  readInt(*t, "unit_id", tr.unit_id, diag, 0, 247);
+  if (auto d = strField(*t, "device", diag, false)) tr.device = *d;
+  if (auto b = intField(*t, "baud", diag, false, 1, 4000000)) {
+    static const std::set<int64_t> kBauds = {1200,  2400,  4800,   9600,   19200,
+                                             38400, 57600, 115200, 230400, 460800};
+    if (!kBauds.count(*b)) {
+      diag.error(t->get("baud")->source(),
+                 "unsupported baud rate " + std::to_string(*b) + " (1200 ... 460800)");
+    }
+    tr.baud = static_cast<int>(*b);
+  }
+  if (auto p = strField(*t, "parity", diag, false)) {
+    if (*p == "none") {
+      tr.parity = 'N';
+    } else if (*p == "even") {
+      tr.parity = 'E';
+    } else if (*p == "odd") {
+      tr.parity = 'O';
+    } else {
+      diag.error(t->get("parity")->source(), "parity must be \"none\", \"even\" or \"odd\"");
+    }
+  }
+  readInt(*t, "data_bits", tr.data_bits, diag, 5, 8);
+  readInt(*t, "stop_bits", tr.stop_bits, diag, 1, 2);
+  if (auto term = strField(*t, "terminator", diag, false)) {
+    if (*term == "lf") {
+      tr.terminator = "\n";
+    } else if (*term == "cr") {
+      tr.terminator = "\r";
+    } else if (*term == "crlf") {
+      tr.terminator = "\r\n";
+    } else {
+      diag.error(t->get("terminator")->source(), "terminator must be \"lf\", \"cr\" or \"crlf\"");
+    }
+  }
+  parseRetry(*t, tr.retry, diag);
+}
+
+struct FieldRule {
+  std::string_view key;
+  bool has_unit;  // a dimensioned value (needs unit/lsb)
+  Dimension dim;  // when has_unit
+};
+
+void parseRegister(const toml::table& parent, const FieldRule& rule, RegisterField& f,
+                   bool required, Diagnostics& diag) {
+  const toml::node* n = parent.get(rule.key);
+  if (!n) {
+    if (required) {
+      diag.error(parent.source(), "missing required register \"" + std::string(rule.key) + "\"");
+    }
+    return;
+  }
+  const toml::table* t = n->as_table();
+  if (!t) {
+    diag.error(n->source(), "register \"" + std::string(rule.key) +
+                                "\" must be a table like { address = 10, type = \"f32\", "
+                                "unit = \"deg\" }");
+    return;
+  }
+  checkKeys(*t, {"address", "type", "bank", "unit", "lsb"},
+            "register \"" + std::string(rule.key) + "\"", diag);
+  const size_t before = diag.items().size();
+  if (auto a = intField(*t, "address", diag, true, 0, 65535)) f.address = static_cast<int>(*a);
+  if (auto ty = strField(*t, "type", diag, true)) {
+    if (*ty == "u16") {
+      f.type = RegisterType::kU16;
+    } else if (*ty == "i16") {
+      f.type = RegisterType::kI16;
+    } else if (*ty == "u32") {
+      f.type = RegisterType::kU32;
+    } else if (*ty == "i32") {
+      f.type = RegisterType::kI32;
+    } else if (*ty == "f32") {
+      f.type = RegisterType::kF32;
+    } else {
+      diag.error(t->get("type")->source(),
+                 "unknown register type \"" + *ty + "\": expected u16, i16, u32, i32 or f32");
+    }
+  }
+  if (auto b = strField(*t, "bank", diag, false)) {
+    if (*b == "holding") {
+      f.bank = RegisterBank::kHolding;
+    } else if (*b == "input") {
+      f.bank = RegisterBank::kInput;
+    } else {
+      diag.error(t->get("bank")->source(), "bank must be \"holding\" or \"input\"");
+    }
+  }
+  const toml::node* unit = t->get("unit");
+  const toml::node* lsb = t->get("lsb");
+  if (!rule.has_unit) {
+    if (unit || lsb) {
+      diag.error((unit ? unit : lsb)->source(),
+                 "register \"" + std::string(rule.key) + "\" holds a code or bits: no unit/lsb");
+    }
+    if (f.type == RegisterType::kF32) {
+      diag.error(t->source(), "register \"" + std::string(rule.key) + "\" must be an integer type");
+    }
+  } else if (unit && lsb) {
+    diag.error(lsb->source(), "give either \"unit\" (f32) or \"lsb\" (integers), not both");
+  } else if (unit) {
+    if (f.type != RegisterType::kF32) {
+      diag.error(unit->source(),
+                 "\"unit\" is for f32 registers; integer registers need \"lsb\" "
+                 "(the value of one count, e.g. \"0.001 deg\")");
+    } else if (!unit->is_string()) {
+      diag.error(unit->source(), "\"unit\" must be a string like \"deg\"");
+    } else {
+      std::string why;
+      auto v = plans::parseQuantity("1 " + unit->as_string()->get(), rule.dim, &why);
+      if (v) {
+        f.lsb = *v;
+      } else {
+        diag.error(unit->source(), "\"unit\": " + why);
+      }
+    }
+  } else if (lsb) {
+    if (f.type == RegisterType::kF32) {
+      diag.error(lsb->source(), "f32 registers take \"unit\", not \"lsb\"");
+    } else if (auto v = plans::quantityField(*t, "lsb", rule.dim, diag)) {
+      if (*v == 0.0) {
+        diag.error(lsb->source(), "\"lsb\" must not be zero");
+      } else {
+        f.lsb = *v;
+      }
+    }
+  } else {
+    diag.error(t->source(), "register \"" + std::string(rule.key) + "\" needs its scaling: " +
+                                "\"unit\" for f32 or \"lsb\" for integers");
+  }
+  f.present = diag.items().size() == before;
+}
+
+WordOrder parseWordOrder(const toml::table& t, Diagnostics& diag) {
+  auto w = strField(t, "word_order", diag, true);
+  if (!w) return WordOrder::kHighFirst;
+  if (*w == "high-first") return WordOrder::kHighFirst;
+  if (*w == "low-first") return WordOrder::kLowFirst;
+  diag.error(t.get("word_order")->source(), "word_order must be \"high-first\" or \"low-first\"");
+  return WordOrder::kHighFirst;
+}
+
+// Registers may not overlap: two fields sharing a register is a typo in the map.
+struct Claimed {
+  std::string key;
+  const RegisterField* f;
+};
+void checkOverlaps(const std::vector<Claimed>& fields, const toml::table& where,
+                   Diagnostics& diag) {
+  for (size_t i = 0; i < fields.size(); ++i) {
+    for (size_t j = i + 1; j < fields.size(); ++j) {
+      const auto& a = *fields[i].f;
+      const auto& b = *fields[j].f;
+      if (!a.present || !b.present || a.bank != b.bank) continue;
+      if (a.address < b.address + b.width() && b.address < a.address + a.width()) {
+        diag.error(where.source(), "registers \"" + fields[i].key + "\" and \"" + fields[j].key +
+                                       "\" overlap at address " +
+                                       std::to_string(std::max(a.address, b.address)));
+      }
+    }
+  }
+}
+
+void parseTableRegisters(const toml::table& root, TableDeviceSpec& s, Diagnostics& diag) {
+  const toml::table* r = subTable(root, "registers", diag, true);
+  if (!r) return;
+  checkKeys(*r, {"word_order", "status", "control", "axis"}, "[registers]", diag);
+  s.registers.word_order = parseWordOrder(*r, diag);
+  parseRegister(*r, {"status", false, Dimension::kAngle}, s.registers.status, true, diag);
+  parseRegister(*r, {"control", false, Dimension::kAngle}, s.registers.control, true, diag);
+  const toml::node* axes = r->get("axis");
+  const toml::array* arr = axes ? axes->as_array() : nullptr;
+  if (!arr) {
+    diag.error(axes ? axes->source() : r->source(),
+               "[[registers.axis]] entries required, one per table axis");
+    return;
+  }
+  if (static_cast<int>(arr->size()) != s.axisCount()) {
+    diag.error(axes->source(), "table has " + std::to_string(s.axisCount()) + " axes but " +
+                                   std::to_string(arr->size()) + " [[registers.axis]] entries");
+  }
+  std::vector<Claimed> claimed = {{"status", &s.registers.status},
+                                  {"control", &s.registers.control}};
+  s.registers.axes.resize(arr->size());
+  for (size_t i = 0; i < arr->size(); ++i) {
+    const toml::table* a = (*arr)[i].as_table();
+    if (!a) {
+      diag.error((*arr)[i].source(), "[[registers.axis]] entry must be a table");
+      continue;
+    }
+    checkKeys(*a,
+              {"mode", "position_demand", "rate_demand", "rotate_by", "command", "position", "rate",
+               "status"},
+              "[[registers.axis]]", diag);
+    auto& ax = s.registers.axes[i];
+    parseRegister(*a, {"mode", false, Dimension::kAngle}, ax.mode, true, diag);
+    parseRegister(*a, {"position_demand", true, Dimension::kAngle}, ax.position_demand, true, diag);
+    parseRegister(*a, {"rate_demand", true, Dimension::kRate}, ax.rate_demand, true, diag);
+    parseRegister(*a, {"rotate_by", true, Dimension::kAngle}, ax.rotate_by, true, diag);
+    parseRegister(*a, {"command", false, Dimension::kAngle}, ax.command, true, diag);
+    parseRegister(*a, {"position", true, Dimension::kAngle}, ax.position, true, diag);
+    parseRegister(*a, {"rate", true, Dimension::kRate}, ax.rate, true, diag);
+    parseRegister(*a, {"status", false, Dimension::kAngle}, ax.status, true, diag);
+    const std::string p = "axis[" + std::to_string(i) + "].";
+    for (auto [name, f] : {std::pair{"mode", &ax.mode},
+                           {"position_demand", &ax.position_demand},
+                           {"rate_demand", &ax.rate_demand},
+                           {"rotate_by", &ax.rotate_by},
+                           {"command", &ax.command},
+                           {"position", &ax.position},
+                           {"rate", &ax.rate},
+                           {"status", &ax.status}}) {
+      claimed.push_back({p + name, f});
+    }
+  }
+  checkOverlaps(claimed, *r, diag);
+}
+
+void parseCommand(const toml::table& t, std::string_view key, SerialCommand& c, Diagnostics& diag) {
+  const toml::node* n = t.get(key);
+  if (!n) {
+    diag.error(t.source(), "missing required command \"" + std::string(key) + "\"");
+    return;
+  }
+  if (n->is_string()) {
+    c.text = n->as_string()->get();
+  } else if (const toml::table* ct = n->as_table()) {
+    checkKeys(*ct, {"text", "timeout"}, "command \"" + std::string(key) + "\"", diag);
+    if (auto s = strField(*ct, "text", diag, true)) c.text = *s;
+    if (auto v = plans::quantityField(*ct, "timeout", Dimension::kTime, diag, false)) {
+      c.timeout_s = *v;
+    }
+  } else {
+    diag.error(n->source(), "command \"" + std::string(key) +
+                                "\" must be a string or { text = \"...\", timeout = \"2 s\" }");
+    return;
+  }
+  if (c.text.empty()) diag.error(n->source(), "command \"" + std::string(key) + "\" is empty");
+}
+
+void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics& diag) {
+  const toml::table* c = subTable(root, "commands", diag, true);
+  if (!c) return;
+  auto& cs = s.commands;
+  checkKeys(*c,
+            {"axis_base",
+             "angle_unit",
+             "rate_unit",
+             "ack",
+             "error_prefix",
+             "mode_off",
+             "mode_position",
+             "mode_rate",
+             "demand_position",
+             "demand_rate",
+             "rotate",
+             "stop",
+             "estop",
+             "read_position",
+             "read_rate",
+             "read_status",
+             "read_axis_status",
+             "interlock_close",
+             "interlock_open",
+             "interlock_reset"},
+            "[commands]", diag);
+  readInt(*c, "axis_base", cs.axis_base, diag, 0, 9);
+  std::string why;
+  if (auto u = strField(*c, "angle_unit", diag, true)) {
+    auto v = plans::parseQuantity("1 " + *u, Dimension::kAngle, &why);
+    if (v)
+      cs.angle_unit = *v;
+    else
+      diag.error(c->get("angle_unit")->source(), why);
+  }
+  if (auto u = strField(*c, "rate_unit", diag, true)) {
+    auto v = plans::parseQuantity("1 " + *u, Dimension::kRate, &why);
+    if (v)
+      cs.rate_unit = *v;
+    else
+      diag.error(c->get("rate_unit")->source(), why);
+  }
+  if (auto a = strField(*c, "ack", diag, false)) cs.ack = *a;
+  if (auto e = strField(*c, "error_prefix", diag, false)) cs.error_prefix = *e;
+  struct Entry {
+    std::string_view key;
+    SerialCommand* cmd;
+    bool axis;   // must contain {axis}
+    bool value;  // must contain {value}
+  };
+  const Entry entries[] = {
+      {"mode_off", &cs.mode_off, true, false},
+      {"mode_position", &cs.mode_position, true, false},
+      {"mode_rate", &cs.mode_rate, true, false},
+      {"demand_position", &cs.demand_position, true, true},
+      {"demand_rate", &cs.demand_rate, true, true},
+      {"rotate", &cs.rotate, true, true},
+      {"stop", &cs.stop, true, false},
+      {"estop", &cs.estop, false, false},
+      {"read_position", &cs.read_position, true, false},
+      {"read_rate", &cs.read_rate, true, false},
+      {"read_status", &cs.read_status, false, false},
+      {"read_axis_status", &cs.read_axis_status, true, false},
+      {"interlock_close", &cs.interlock_close, false, false},
+      {"interlock_open", &cs.interlock_open, false, false},
+      {"interlock_reset", &cs.interlock_reset, false, false},
+  };
+  for (const auto& e : entries) {
+    parseCommand(*c, e.key, *e.cmd, diag);
+    if (e.cmd->text.empty()) continue;
+    const bool has_axis = e.cmd->text.find("{axis}") != std::string::npos;
+    const bool has_value = e.cmd->text.find("{value}") != std::string::npos;
+    const toml::node* n = c->get(e.key);
+    if (has_axis != e.axis) {
+      diag.error(n->source(),
+                 "command \"" + std::string(e.key) +
+                     (e.axis ? "\" must contain {axis}" : "\" must not contain {axis}"));
+    }
+    if (has_value != e.value) {
+      diag.error(n->source(),
+                 "command \"" + std::string(e.key) +
+                     (e.value ? "\" must contain {value}" : "\" must not contain {value}"));
+    }
+  }
+}
+
+void parseStatusBits(const toml::table& root, TableStatusBits& b, Diagnostics& diag) {
+  const toml::table* t = subTable(root, "status_bits", diag, false);
+  if (!t) return;
+  checkKeys(*t,
+            {"interlock_closed", "interlock_tripped", "estop", "fault", "axis_moving",
+             "axis_in_position"},
+            "[status_bits]", diag);
+  readInt(*t, "interlock_closed", b.interlock_closed, diag, 0, 15);
+  readInt(*t, "interlock_tripped", b.interlock_tripped, diag, 0, 15);
+  readInt(*t, "estop", b.estop, diag, 0, 15);
+  readInt(*t, "fault", b.fault, diag, 0, 15);
+  readInt(*t, "axis_moving", b.axis_moving, diag, 0, 15);
+  readInt(*t, "axis_in_position", b.axis_in_position, diag, 0, 15);
+  const int g[] = {b.interlock_closed, b.interlock_tripped, b.estop, b.fault};
+  if (std::set<int>(std::begin(g), std::end(g)).size() != 4) {
+    diag.error(t->source(), "global status bits must be distinct");
+  }
+  if (b.axis_moving == b.axis_in_position) {
+    diag.error(t->source(), "axis status bits must be distinct");
+  }
+}
+
+void parseTableCodes(const toml::table& root, TableCodes& c, Diagnostics& diag) {
+  const toml::table* t = subTable(root, "codes", diag, false);
+  if (!t) return;
+  checkKeys(*t,
+            {"mode_off", "mode_position", "mode_rate", "cmd_move", "cmd_rotate", "cmd_stop",
+             "ctl_estop", "ctl_interlock_close", "ctl_interlock_open", "ctl_interlock_reset"},
+            "[codes]", diag);
+  readInt(*t, "mode_off", c.mode_off, diag, 0, 65535);
+  readInt(*t, "mode_position", c.mode_position, diag, 0, 65535);
+  readInt(*t, "mode_rate", c.mode_rate, diag, 0, 65535);
+  readInt(*t, "cmd_move", c.cmd_move, diag, 1, 65535);
+  readInt(*t, "cmd_rotate", c.cmd_rotate, diag, 1, 65535);
+  readInt(*t, "cmd_stop", c.cmd_stop, diag, 1, 65535);
+  readInt(*t, "ctl_estop", c.ctl_estop, diag, 1, 65535);
+  readInt(*t, "ctl_interlock_close", c.ctl_interlock_close, diag, 1, 65535);
+  readInt(*t, "ctl_interlock_open", c.ctl_interlock_open, diag, 1, 65535);
+  readInt(*t, "ctl_interlock_reset", c.ctl_interlock_reset, diag, 1, 65535);
+  const int modes[] = {c.mode_off, c.mode_position, c.mode_rate};
+  const int cmds[] = {c.cmd_move, c.cmd_rotate, c.cmd_stop};
+  const int ctls[] = {c.ctl_estop, c.ctl_interlock_close, c.ctl_interlock_open,
+                      c.ctl_interlock_reset};
+  if (std::set<int>(std::begin(modes), std::end(modes)).size() != 3 ||
+      std::set<int>(std::begin(cmds), std::end(cmds)).size() != 3 ||
+      std::set<int>(std::begin(ctls), std::end(ctls)).size() != 4) {
+    diag.error(t->source(), "codes of one register (mode, cmd, ctl) must be distinct");
+  }
+}
+
+void parseDeviceHeader(const toml::table& root, std::string_view kind, std::string& vendor,
+                       std::string& model, Diagnostics& diag, std::string* based_on = nullptr) {
+  const toml::table* d = subTable(root, "device", diag, true);
+  if (!d) return;
+  if (based_on) {
+    checkKeys(*d, {"kind", "vendor", "model", "axes", "based_on"}, "[device]", diag);
+  } else {
+    checkKeys(*d, {"kind", "vendor", "model", "axes"}, "[device]", diag);
+  }
+  if (auto k = strField(*d, "kind", diag, true); k && *k != kind) {
+    diag.error(
+        d->get("kind")->source(),
+        "this is a \"" + *k + "\" device file; expected kind = \"" + std::string(kind) + "\"");
+  }
+  if (auto v = strField(*d, "vendor", diag, true)) vendor = *v;
+  if (auto m = strField(*d, "model", diag, true)) model = *m;
+  if (based_on) {
+    if (auto b = strField(*d, "based_on", diag, false)) *based_on = *b;
+  }
+}
+
+}  // namespace
+
+std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, Diagnostics& diag) {
+  auto root = plans::parseToml(text, diag);
+  if (!root) return std::nullopt;
+  TableDeviceSpec s;
+  s.file = diag.file();
+  checkKeys(*root,
+            {"device", "transport", "limits", "registers", "commands", "codes", "status_bits"},
+            "the device file", diag);
+  parseDeviceHeader(*root, "table", s.vendor, s.model, diag);
+  if (const toml::table* d = root->get_as<toml::table>("device")) {
+    if (auto a = intField(*d, "axes", diag, true, 2, 3)) {
+      s.kind = *a == 2 ? calib::TableKind::kTwoAxis : calib::TableKind::kThreeAxis;
+    }
+  }
+  parseTransport(*root, s.transport, true, diag);
+  if (const toml::table* l = subTable(*root, "limits", diag, true)) {
+    checkKeys(*l, {"max_rate", "max_accel", "max_jerk", "position_min", "position_max"}, "[limits]",
+              diag);
+    if (auto v = plans::quantityField(*l, "max_rate", Dimension::kRate, diag)) {
+      if (*v <= 0) diag.error(l->get("max_rate")->source(), "max_rate must be positive");
+      s.limits.max_rate = *v;
+    }
+    if (auto v = plans::quantityField(*l, "max_accel", Dimension::kAngularAccel, diag)) {
+      if (*v <= 0) diag.error(l->get("max_accel")->source(), "max_accel must be positive");
+      s.limits.max_accel = *v;
+    }
+    if (auto v = jerkField(*l, "max_jerk", diag)) s.limits.max_jerk = *v;
+    auto lo = plans::quantityField(*l, "position_min", Dimension::kAngle, diag, false);
+    auto hi = plans::quantityField(*l, "position_max", Dimension::kAngle, diag, false);
+    if (lo.has_value() != hi.has_value()) {
+      diag.error(l->source(),
+                 "give both position_min and position_max (limited travel) or "
+                 "neither (continuous rotation)");
+    } else if (lo && hi) {
+      if (*lo >= *hi)
+        diag.error(l->get("position_max")->source(), "position_max must be above position_min");
+      s.limits.limited_travel = true;
+      s.limits.position_min = *lo;
+      s.limits.position_max = *hi;
+    }
+  }
+  parseTableCodes(*root, s.codes, diag);
+  parseStatusBits(*root, s.bits, diag);
+  if (diag.ok()) {
+    if (s.transport.kind == TransportKind::kSerialScpi) {
+      if (root->get("registers")) {
+        diag.error(root->get("registers")->source(),
+                   "a serial-scpi device takes [commands], not [registers]");
+      }
+      parseTableCommands(*root, s, diag);
+    } else {
+      if (root->get("commands")) {
+        diag.error(root->get("commands")->source(),
+                   "a Modbus device takes [registers], not [commands]");
+      }
+      parseTableRegisters(*root, s, diag);
+    }
+  }
+  if (!diag.ok()) return std::nullopt;
+  return s;
+}
+
+std::optional<TableDeviceSpec> loadTableDevice(const std::string& path, Diagnostics& diag) {
+  auto text = readFile(path, diag);
+  if (!text) return std::nullopt;
+  return parseTableDevice(*text, diag);
+}
+
+std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagnostics& diag) {
+  auto root = plans::parseToml(text, diag);
+  if (!root) return std::nullopt;
+  ChamberDeviceSpec s;
+  s.file = diag.file();
+  checkKeys(*root, {"device", "transport", "limits", "registers", "codes", "alarm_bits"},
+            "the device file", diag);
+  parseDeviceHeader(*root, "chamber", s.vendor, s.model, diag, &s.based_on);
+  parseTransport(*root, s.transport, false, diag);
+  if (const toml::table* l = subTable(*root, "limits", diag, true)) {
+    checkKeys(*l, {"temperature_min", "temperature_max", "max_ramp", "time_constant"}, "[limits]",
+              diag);
+    auto lo = plans::quantityField(*l, "temperature_min", Dimension::kTemperature, diag);
+    auto hi = plans::quantityField(*l, "temperature_max", Dimension::kTemperature, diag);
+    if (lo && hi) {
+      if (*lo >= *hi) {
+        diag.error(l->get("temperature_max")->source(),
+                   "temperature_max must be above temperature_min");
+      }
+      s.temp_min_c = *lo;
+      s.temp_max_c = *hi;
+    }
+    if (auto v = plans::quantityField(*l, "max_ramp", Dimension::kTemperatureRate, diag)) {
+      if (*v <= 0) diag.error(l->get("max_ramp")->source(), "max_ramp must be positive");
+      s.max_ramp = *v;
+    }
+    if (auto v = plans::quantityField(*l, "time_constant", Dimension::kTime, diag, false)) {
+      if (*v <= 0) diag.error(l->get("time_constant")->source(), "time_constant must be positive");
+      s.time_constant_s = *v;
+    }
+  }
+  if (const toml::table* c = subTable(*root, "codes", diag, false)) {
+    checkKeys(*c, {"run", "stop"}, "[codes]", diag);
+    readInt(*c, "run", s.codes.run, diag, 0, 65535);
+    readInt(*c, "stop", s.codes.stop, diag, 0, 65535);
+    if (s.codes.run == s.codes.stop) diag.error(c->source(), "run and stop codes must differ");
+  }
+  if (const toml::table* b = subTable(*root, "alarm_bits", diag, false)) {
+    checkKeys(*b, {"high", "low", "sensor"}, "[alarm_bits]", diag);
+    readInt(*b, "high", s.alarm_bits.high, diag, 0, 15);
+    readInt(*b, "low", s.alarm_bits.low, diag, 0, 15);
+    readInt(*b, "sensor", s.alarm_bits.sensor, diag, 0, 15);
+  }
+  if (const toml::table* r = subTable(*root, "registers", diag, true)) {
+    checkKeys(*r, {"word_order", "setpoint", "temperature", "ramp_rate", "run", "alarms"},
+              "[registers]", diag);
+    auto& m = s.registers;
+    m.word_order = parseWordOrder(*r, diag);
+    parseRegister(*r, {"setpoint", true, Dimension::kTemperature}, m.setpoint, true, diag);
+    parseRegister(*r, {"temperature", true, Dimension::kTemperature}, m.temperature, true, diag);
+    parseRegister(*r, {"ramp_rate", true, Dimension::kTemperatureRate}, m.ramp_rate, true, diag);
+    parseRegister(*r, {"run", false, Dimension::kAngle}, m.run, true, diag);
+    parseRegister(*r, {"alarms", false, Dimension::kAngle}, m.alarms, true, diag);
+    checkOverlaps({{"setpoint", &m.setpoint},
+                   {"temperature", &m.temperature},
+                   {"ramp_rate", &m.ramp_rate},
+                   {"run", &m.run},
+                   {"alarms", &m.alarms}},
+                  *r, diag);
+  }
+  if (!diag.ok()) return std::nullopt;
+  return s;
+}
+
+std::optional<ChamberDeviceSpec> loadChamberDevice(const std::string& path, Diagnostics& diag) {
+  auto text = readFile(path, diag);
+  if (!text) return std::nullopt;
+  return parseChamberDevice(*text, diag);
+}
+
+}  // namespace imubench::drivers

@@ -1,0 +1,70 @@
+#include "drivers/table.h"
+
+#include <cmath>
+
+#include "drivers/table_modbus.h"
+#include "drivers/table_serial.h"
+#include "nav/rotation.h"
+
+namespace imubench::drivers {
+
+const char* axisModeName(AxisMode m) {
+  switch (m) {
+    case AxisMode::kOff:
+      return "off";
+    case AxisMode::kPosition:
+      return "position";
+    case AxisMode::kRate:
+      return "rate";
+  }
+  return "?";
+}
+
+std::unique_ptr<TableDriver> makeTableDriver(const TableDeviceSpec& spec, EventSink sink) {
+  if (spec.transport.kind == TransportKind::kSerialScpi) {
+    return std::make_unique<SerialTable>(spec, std::move(sink));
+  }
+  return std::make_unique<ModbusTable>(spec, std::move(sink));
+}
+
+Status checkTableAxis(const TableDeviceSpec& spec, int axis) {
+  if (axis < 0 || axis >= spec.axisCount()) {
+    return Status::Error(spec.name() + ": no axis " + std::to_string(axis) + " (table has " +
+                         std::to_string(spec.axisCount()) + ")");
+  }
+  return Status::Ok();
+}
+
+Status checkTableRate(const TableDeviceSpec& spec, double rate) {
+  if (!std::isfinite(rate) || std::abs(rate) > spec.limits.max_rate * (1.0 + 1e-9)) {
+    return Status::Error(spec.name() + ": rate " + std::to_string(rate * kRadToDeg) +
+                         " deg/s exceeds the device limit " +
+                         std::to_string(spec.limits.max_rate * kRadToDeg) + " deg/s");
+  }
+  return Status::Ok();
+}
+
+Status checkTableTarget(const TableDeviceSpec& spec, double angle) {
+  if (!std::isfinite(angle)) return Status::Error(spec.name() + ": target angle is not finite");
+  if (spec.limits.limited_travel &&
+      (angle < spec.limits.position_min || angle > spec.limits.position_max)) {
+    return Status::Error(spec.name() + ": target " + std::to_string(angle * kRadToDeg) +
+                         " deg is outside the travel range");
+  }
+  return Status::Ok();
+}
+
+std::string decodeTableStatus(const TableStatusBits& bits, uint32_t raw, TableReading* r) {
+  auto bit = [raw](int b) { return ((raw >> b) & 1u) != 0; };
+  r->status_raw = raw;
+  r->interlock_closed = bit(bits.interlock_closed);
+  r->interlock_tripped = bit(bits.interlock_tripped);
+  r->estop = bit(bits.estop);
+  r->fault = bit(bits.fault);
+  if (r->interlock_tripped) return "interlock tripped (table safety chain opened)";
+  if (r->estop) return "emergency stop active";
+  if (r->fault) return "controller reports a fault";
+  return {};
+}
+
+}  // namespace imubench::drivers

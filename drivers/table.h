@@ -1,0 +1,70 @@
+// Turntable drivers behind one small interface (like chrony's refclock driver table): a
+// two- or three-axis table in position, rate or off mode. Implementations: Modbus TCP/RTU
+// (table_modbus) and an SCPI-like serial command set (table_serial); which one, and every
+// address, register and command, comes from the device file.
+//
+// Angles are table angles in rad, rates rad/s, axis index in calib::Motion's order.
+// Every call returns a Status the caller checks; state() says what the driver is in.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "drivers/device_errors.h"
+#include "drivers/device_file.h"
+
+namespace imubench::drivers {
+
+enum class AxisMode { kOff, kPosition, kRate };
+enum class InterlockCommand { kClose, kOpen, kReset };
+const char* axisModeName(AxisMode m);
+
+struct TableAxisReading {
+  double angle = 0.0;  // rad, as the controller reports it (wrapped to (-pi, pi] by most)
+  double rate = 0.0;   // rad/s
+  bool moving = false;
+  bool in_position = false;
+};
+
+struct TableReading {
+  std::vector<TableAxisReading> axes;
+  uint32_t status_raw = 0;
+  bool interlock_closed = false;
+  bool interlock_tripped = false;
+  bool estop = false;
+  bool fault = false;
+};
+
+class TableDriver {
+ public:
+  virtual ~TableDriver() = default;
+  virtual Status connect() = 0;
+  virtual Status setMode(int axis, AxisMode mode) = 0;
+  // Position mode: go to `angle`; the controller takes the shortest way.
+  virtual Status moveTo(int axis, double angle) = 0;
+  // Position mode: turn by `delta` (its sign is the direction; +pi and -pi differ).
+  virtual Status rotateBy(int axis, double delta) = 0;
+  // Rate mode: run at `rate`.
+  virtual Status setRate(int axis, double rate) = 0;
+  virtual Status stop(int axis) = 0;
+  virtual Status emergencyStop() = 0;
+  virtual Status interlock(InterlockCommand c) = 0;
+  // Reads angles, rates and status bits. An open/tripped interlock or a controller fault
+  // puts the driver in kFault and returns an error naming the reason (the reading is filled).
+  virtual Status read(TableReading* out) = 0;
+  virtual DeviceState state() const = 0;
+  virtual const TableDeviceSpec& spec() const = 0;
+};
+
+// Makes the driver the device file's transport asks for (not yet connected).
+std::unique_ptr<TableDriver> makeTableDriver(const TableDeviceSpec& spec, EventSink sink);
+
+// Shared argument checks (axis index, limits) used by every implementation.
+Status checkTableAxis(const TableDeviceSpec& spec, int axis);
+Status checkTableRate(const TableDeviceSpec& spec, double rate);
+Status checkTableTarget(const TableDeviceSpec& spec, double angle);
+// Fills the global flags of r from the status word; returns the reason when it is a fault.
+std::string decodeTableStatus(const TableStatusBits& bits, uint32_t raw, TableReading* r);
+
+}  // namespace imubench::drivers

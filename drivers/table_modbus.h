@@ -1,0 +1,36 @@
+// Turntable over Modbus TCP or RTU: the device file's register map, scaling and word order.
+#pragma once
+
+#include "drivers/modbus_link.h"
+#include "drivers/table.h"
+
+namespace imubench::drivers {
+
+class ModbusTable final : public TableDriver {
+ public:
+  ModbusTable(TableDeviceSpec spec, EventSink sink);
+  Status connect() override;
+  Status setMode(int axis, AxisMode mode) override;
+  Status moveTo(int axis, double angle) override;
+  Status rotateBy(int axis, double delta) override;
+  Status setRate(int axis, double rate) override;
+  Status stop(int axis) override;
+  Status emergencyStop() override;
+  Status interlock(InterlockCommand c) override;
+  Status read(TableReading* out) override;
+  DeviceState state() const override;
+  const TableDeviceSpec& spec() const override { return spec_; }
+
+ private:
+  // Motion needs a closed, untripped interlock: checked on the controller first so a refusal
+  // names the reason instead of a silently ignored command.
+  Status checkMotionAllowed();
+  std::string what(std::string_view request, int axis) const;
+
+  TableDeviceSpec spec_;
+  EventSink sink_;
+  ModbusLink link_;
+  bool status_fault_ = false;
+};
+
+}  // namespace imubench::drivers

@@ -1,0 +1,49 @@
+// The virtual thermal chamber: the setpoint is approached along the commanded ramp and the
+// chamber air follows with a first-order lag (time constant from the device file). Pure model
+// driven by explicit times; its temperature history becomes calib::TemperatureKnot entries.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "calib/motion.h"
+#include "drivers/device_file.h"
+
+namespace imubench::drivers {
+
+class VirtualChamber {
+ public:
+  VirtualChamber(const ChamberDeviceSpec& spec, double ambient_c = 20.0, double t0 = 0.0);
+
+  void setSetpoint(double t, double temp_c);
+  void setRampRate(double t, double degc_per_s);  // 0: step
+  void run(double t, bool on);
+  // Fault injection: sensor break (alarm bit, temperature reads the sensor's rail).
+  void setSensorBreak(double t, bool broken);
+
+  double temperature(double t);
+  double setpoint() const { return setpoint_; }
+  double rampRate() const { return ramp_; }
+  bool running() const { return running_; }
+  uint32_t alarmWord(double t);
+  // (t, degC) knots, at most one per `knot_spacing_s` plus every command.
+  const std::vector<calib::TemperatureKnot>& history(double t);
+  const ChamberDeviceSpec& spec() const { return spec_; }
+
+ private:
+  void advance(double t);
+
+  ChamberDeviceSpec spec_;
+  double ambient_c_;
+  double t_ = 0.0;        // time the state below belongs to
+  double temp_c_;         // chamber air temperature
+  double ramp_target_c_;  // where the ramp generator is now
+  double setpoint_;
+  double ramp_ = 0.0;
+  bool running_ = false;
+  bool sensor_break_ = false;
+  std::vector<calib::TemperatureKnot> history_;
+  static constexpr double kKnotSpacing = 1.0;  // s
+};
+
+}  // namespace imubench::drivers

@@ -1,0 +1,270 @@
+#include "drivers/virtual_table.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "nav/rotation.h"
+
+namespace imubench::drivers {
+
+namespace {
+constexpr double kRestRate = 1e-9;    // rad/s: below this an axis is at rest
+constexpr double kInPosition = 1e-6;  // rad: position-mode target reached
+double wrapPi(double a) {
+  double w = std::remainder(a, 2.0 * kPi);
+  if (w <= -kPi) w += 2.0 * kPi;
+  return w;
+}
+}  // namespace
+
+VirtualTable::VirtualTable(const TableDeviceSpec& spec, double t0) : spec_(spec) {
+  motion_.kind = spec.kind;
+  motion_.axes.resize(static_cast<size_t>(spec.axisCount()));
+  axes_.resize(static_cast<size_t>(spec.axisCount()));
+  for (auto& a : motion_.axes) a.append({t0, 0.0, 0.0, 0.0});
+}
+
+void VirtualTable::commit(double t) {
+  for (size_t i = 0; i < axes_.size(); ++i) {
+    auto& p = axes_[i].pending;
+    size_t n = 0;
+    while (n < p.size() && p[n].t0 <= t) motion_.axes[i].append(p[n++]);
+    p.erase(p.begin(), p.begin() + static_cast<std::ptrdiff_t>(n));
+  }
+  motion_.duration = std::max(motion_.duration, t);
+}
+
+calib::AxisState VirtualTable::stateAt(double t, int i) {
+  commit(t);
+  return motion_.axes[static_cast<size_t>(i)].at(t);
+}
+
+void VirtualTable::replan(double t, int i, std::vector<calib::AxisPhase> phases) {
+  commit(t);
+  auto& ax = axes_[static_cast<size_t>(i)];
+  ax.pending.clear();
+  // The first phase starts now: it goes straight into the executed motion.
+  motion_.axes[static_cast<size_t>(i)].append(phases.front());
+  ax.pending.assign(phases.begin() + 1, phases.end());
+}
+
+void VirtualTable::planRate(double t, int i, double r) {
+  const calib::AxisState s = stateAt(t, i);
+  const double a = spec_.limits.max_accel;
+  const double dv = r - s.rate;
+  std::vector<calib::AxisPhase> ph;
+  if (std::abs(dv) < kRestRate) {
+    ph.push_back({t, s.angle, r, 0.0});
+  } else {
+    const double acc = dv > 0 ? a : -a;
+    const double t1 = std::abs(dv) / a;
+    ph.push_back({t, s.angle, s.rate, acc});
+    ph.push_back({t + t1, s.angle + s.rate * t1 + 0.5 * acc * t1 * t1, r, 0.0});
+  }
+  replan(t, i, std::move(ph));
+}
+
+void VirtualTable::planMove(double t, int i, double x1) {
+  const calib::AxisState s = stateAt(t, i);
+  const double a = spec_.limits.max_accel;
+  const double vmax = spec_.limits.max_rate;
+  const double x0 = s.angle, v0 = s.rate;
+  const double d = x1 - x0;
+  const double stop_dist = v0 * std::abs(v0) / (2.0 * a);
+  std::vector<calib::AxisPhase> ph;
+  if (std::abs(d) < 1e-12 && std::abs(v0) < kRestRate) {
+    ph.push_back({t, x1, 0.0, 0.0});
+    replan(t, i, std::move(ph));
+    return;
+  }
+  const double dir = (d - stop_dist) >= 0 ? 1.0 : -1.0;
+  // Peak speed of an accelerate-then-brake profile covering d, capped by the rate limit.
+  double vp = std::sqrt(std::max(0.0, (2.0 * a * dir * d + v0 * v0) / 2.0));
+  vp = std::min(vp, vmax);
+  const double dv1 = dir * vp - v0;
+  const double acc1 = dv1 >= 0 ? a : -a;
+  const double t1 = std::abs(dv1) / a;
+  const double x_after1 = x0 + v0 * t1 + 0.5 * acc1 * t1 * t1;
+  const double brake = dir * vp * vp / (2.0 * a);
+  const double cruise = (vp > 0) ? std::max(0.0, (x1 - brake - x_after1) * dir / vp) : 0.0;
+  const double t3 = vp / a;
+  double tt = t;
+  ph.push_back({tt, x0, v0, acc1});
+  tt += t1;
+  if (cruise > 0) {
+    ph.push_back({tt, x_after1, dir * vp, 0.0});
+    tt += cruise;
+  }
+  ph.push_back({tt, x1 - brake, dir * vp, -dir * a});
+  tt += t3;
+  ph.push_back({tt, x1, 0.0, 0.0});
+  replan(t, i, std::move(ph));
+}
+
+bool VirtualTable::motionAllowed(std::string* why) const {
+  if (tripped_) {
+    *why = "interlock tripped: " + trip_reason_;
+    return false;
+  }
+  if (estop_) {
+    *why = "emergency stop active (reset the interlock)";
+    return false;
+  }
+  if (!interlock_closed_) {
+    *why = "interlock open";
+    return false;
+  }
+  return true;
+}
+
+bool VirtualTable::setMode(double t, int i, AxisMode mode, std::string* why) {
+  if (i < 0 || i >= spec_.axisCount()) {
+    *why = "no axis " + std::to_string(i);
+    return false;
+  }
+  auto& ax = axes_[static_cast<size_t>(i)];
+  if (ax.mode != mode) {
+    planRate(t, i, 0.0);  // a mode change brakes the axis first
+    ax.has_target = false;
+  }
+  ax.mode = mode;
+  return true;
+}
+
+bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
+  if (!motionAllowed(why)) return false;
+  auto& ax = axes_[static_cast<size_t>(i)];
+  if (ax.mode != AxisMode::kPosition) {
+    *why = "axis not in position mode";
+    return false;
+  }
+  const calib::AxisState s = stateAt(t, i);
+  double x1 = angle;
+  if (!spec_.limits.limited_travel) {
+    x1 = s.angle + wrapPi(angle - s.angle);  // shortest way
+  } else if (angle < spec_.limits.position_min || angle > spec_.limits.position_max) {
+    *why = "target outside the travel range";
+    return false;
+  }
+  ax.has_target = true;
+  ax.target = x1;
+  planMove(t, i, x1);
+  return true;
+}
+
+bool VirtualTable::rotateBy(double t, int i, double delta, std::string* why) {
+  if (!motionAllowed(why)) return false;
+  auto& ax = axes_[static_cast<size_t>(i)];
+  if (ax.mode != AxisMode::kPosition) {
+    *why = "axis not in position mode";
+    return false;
+  }
+  const double base = ax.has_target ? ax.target : stateAt(t, i).angle;
+  const double x1 = base + delta;
+  if (spec_.limits.limited_travel &&
+      (x1 < spec_.limits.position_min || x1 > spec_.limits.position_max)) {
+    *why = "rotation would leave the travel range";
+    return false;
+  }
+  ax.has_target = true;
+  ax.target = x1;
+  planMove(t, i, x1);
+  return true;
+}
+
+bool VirtualTable::setRate(double t, int i, double rate, std::string* why) {
+  if (!motionAllowed(why)) return false;
+  auto& ax = axes_[static_cast<size_t>(i)];
+  if (ax.mode != AxisMode::kRate) {
+    *why = "axis not in rate mode";
+    return false;
+  }
+  if (std::abs(rate) > spec_.limits.max_rate * (1 + 1e-9)) {
+    *why = "rate above the limit";
+    return false;
+  }
+  planRate(t, i, rate);
+  return true;
+}
+
+void VirtualTable::stop(double t, int i) {
+  if (i < 0 || i >= spec_.axisCount()) return;
+  axes_[static_cast<size_t>(i)].has_target = false;
+  planRate(t, i, 0.0);
+}
+
+void VirtualTable::brakeAll(double t) {
+  for (int i = 0; i < spec_.axisCount(); ++i) stop(t, i);
+}
+
+void VirtualTable::emergencyStop(double t) {
+  estop_ = true;
+  brakeAll(t);
+}
+
+void VirtualTable::interlockClose(double t, std::string* why) {
+  commit(t);
+  if (tripped_) {
+    *why = "interlock tripped: " + trip_reason_ + " (reset first)";
+    return;
+  }
+  interlock_closed_ = true;
+}
+
+void VirtualTable::interlockOpen(double t) {
+  interlock_closed_ = false;
+  brakeAll(t);
+}
+
+void VirtualTable::interlockReset(double t) {
+  commit(t);
+  tripped_ = false;
+  estop_ = false;
+  trip_reason_.clear();
+}
+
+void VirtualTable::trip(double t, std::string reason) {
+  tripped_ = true;
+  trip_reason_ = std::move(reason);
+  interlock_closed_ = false;
+  brakeAll(t);
+}
+
+VirtualAxisStatus VirtualTable::axis(double t, int i) {
+  const calib::AxisState s = stateAt(t, i);
+  const auto& ax = axes_[static_cast<size_t>(i)];
+  VirtualAxisStatus v;
+  v.angle = s.angle;
+  v.reported_angle = spec_.limits.limited_travel ? s.angle : wrapPi(s.angle);
+  v.rate = s.rate;
+  v.mode = ax.mode;
+  v.moving = std::abs(s.rate) > kRestRate || std::abs(s.accel) > 0.0 || !ax.pending.empty();
+  v.in_position = ax.mode == AxisMode::kPosition && ax.has_target && !v.moving &&
+                  std::abs(s.angle - ax.target) < kInPosition;
+  return v;
+}
+
+uint32_t VirtualTable::statusWord(double t) {
+  commit(t);
+  const auto& b = spec_.bits;
+  uint32_t w = 0;
+  if (interlock_closed_) w |= 1u << b.interlock_closed;
+  if (tripped_) w |= 1u << b.interlock_tripped;
+  if (estop_) w |= 1u << b.estop;
+  return w;
+}
+
+uint32_t VirtualTable::axisStatusWord(double t, int i) {
+  const VirtualAxisStatus s = axis(t, i);
+  uint32_t w = 0;
+  if (s.moving) w |= 1u << spec_.bits.axis_moving;
+  if (s.in_position) w |= 1u << spec_.bits.axis_in_position;
+  return w;
+}
+
+const calib::Motion& VirtualTable::motion(double t) {
+  commit(t);
+  return motion_;
+}
+
+}  // namespace imubench::drivers

@@ -1,0 +1,87 @@
+// The virtual turntable's controller physics, as a pure model driven by explicit times: every
+// command at time t plans acceleration-limited motion from the axis' current state and the
+// motion becomes calib::AxisPhase entries of a growing calib::Motion (so the simulator can
+// run on exactly what the table did). Phases are kept pending until their start time has
+// passed, so a new command can replace the rest of a plan.
+//
+// Controller behaviour modelled on common rate tables: modes off/position/rate; position mode
+// takes the shortest way (a 180-degree reversal needs a rotation with explicit direction);
+// motion needs a closed interlock; opening or tripping it brakes every axis to rest.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "calib/motion.h"
+#include "drivers/device_file.h"
+#include "drivers/table.h"
+
+namespace imubench::drivers {
+
+struct VirtualAxisStatus {
+  double angle = 0.0;           // continuous (unwrapped) angle, rad
+  double reported_angle = 0.0;  // what the controller reports: wrapped to (-pi, pi]
+  double rate = 0.0;            // rad/s
+  AxisMode mode = AxisMode::kOff;
+  bool moving = false;
+  bool in_position = false;
+};
+
+class VirtualTable {
+ public:
+  explicit VirtualTable(const TableDeviceSpec& spec, double t0 = 0.0);
+
+  // Commands at time t (non-decreasing). false + *why when the controller refuses.
+  bool setMode(double t, int axis, AxisMode mode, std::string* why);
+  bool moveTo(double t, int axis, double angle, std::string* why);
+  bool rotateBy(double t, int axis, double delta, std::string* why);
+  bool setRate(double t, int axis, double rate, std::string* why);
+  void stop(double t, int axis);
+  void emergencyStop(double t);
+  void interlockClose(double t, std::string* why);
+  void interlockOpen(double t);
+  void interlockReset(double t);
+  // Fault injection: the safety chain opens by itself (door switch, over-speed...).
+  void trip(double t, std::string reason);
+
+  VirtualAxisStatus axis(double t, int i);
+  uint32_t statusWord(double t);  // global bits per spec().bits
+  uint32_t axisStatusWord(double t, int i);
+  bool interlockClosed() const { return interlock_closed_; }
+  const std::string& tripReason() const { return trip_reason_; }
+  // The motion executed up to time t (phases that started after t are not in it yet).
+  const calib::Motion& motion(double t);
+  // The chamber's temperature history, so the Motion the simulator reads carries it too.
+  void setTemperatureHistory(const std::vector<calib::TemperatureKnot>& knots) {
+    motion_.temperature = knots;
+  }
+  const TableDeviceSpec& spec() const { return spec_; }
+
+ private:
+  struct Axis {
+    AxisMode mode = AxisMode::kOff;
+    std::vector<calib::AxisPhase> pending;  // planned, t0 > committed time
+    bool has_target = false;
+    double target = 0.0;  // continuous angle of the position target
+  };
+  void commit(double t);
+  calib::AxisState stateAt(double t, int i);
+  void replan(double t, int i, std::vector<calib::AxisPhase> phases);
+  // Rest-to-rest (from any current state) move to continuous angle x1, limited rate/accel.
+  void planMove(double t, int i, double x1);
+  // Change to a constant rate r with the acceleration limit.
+  void planRate(double t, int i, double r);
+  bool motionAllowed(std::string* why) const;
+  void brakeAll(double t);
+
+  TableDeviceSpec spec_;
+  calib::Motion motion_;
+  std::vector<Axis> axes_;
+  bool interlock_closed_ = false;
+  bool tripped_ = false;
+  bool estop_ = false;
+  std::string trip_reason_;
+};
+
+}  // namespace imubench::drivers
