@@ -40,7 +40,7 @@ NoiseModel NoiseModel::navigationGrade() {
   NoiseModel n;
   n.gyro.white = 0.002 * kDegToRad / 60.0;  // 0.002 deg/sqrt(h)
   n.gyro.bias_sigma = 0.003 * kDegPerHourToRadPerSec;
-  n.accel.white = 10.0 * kUg;  // 10 ug/sqrt(Hz) = m/s/sqrt(s) per sqrt(s)
+  n.accel.white = 10.0 * kUg;  // 10 ug/sqrt(Hz), i.e. (m/s)/sqrt(s)
   n.accel.bias_sigma = 10.0 * kUg;
   return n;
 }

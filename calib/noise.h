@@ -30,7 +30,7 @@ struct NoiseModel {
   static NoiseModel navigationGrade();
   // Tactical grade: gyro ARW 0.1 deg/sqrt(h), 1 deg/h; accel 100 ug/sqrt(Hz), 100 ug.
   static NoiseModel tactical();
-  // MEMS consumer grade: gyro 0.5 deg/sqrt(h)... (0.3 deg/sqrt(s) class), 10 deg/h; accel
+  // Consumer MEMS: gyro ARW 0.5 deg/sqrt(h), bias instability 10 deg/h (100 s); accel
   // 200 ug/sqrt(Hz), 1 mg.
   static NoiseModel consumer();
 

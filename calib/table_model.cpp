@@ -25,6 +25,26 @@ Mat3 rotZ(double c, double s) {
   return r;
 }
 
+// Rx(c, s) * m and Rz(c, s) * m without the full product (only two rows mix).
+Mat3 rotXTimes(double c, double s, const Mat3& m) {
+  Mat3 r;
+  r.row(0) = m.row(0);
+  r.row(1) = c * m.row(1) - s * m.row(2);
+  r.row(2) = s * m.row(1) + c * m.row(2);
+  return r;
+}
+Mat3 rotZTimes(double c, double s, const Mat3& m) {
+  Mat3 r;
+  r.row(0) = c * m.row(0) - s * m.row(1);
+  r.row(1) = s * m.row(0) + c * m.row(1);
+  r.row(2) = m.row(2);
+  return r;
+}
+// a * m, skipping an identity a.
+Mat3 times(const Mat3& a, bool a_identity, const Mat3& m) {
+  return a_identity ? m : Mat3(a * m);
+}
+
 // Wraps to (-pi, pi].
 double wrap(double a) {
   a = std::remainder(a, 2.0 * kPi);
@@ -78,6 +98,10 @@ TableModel::TableModel(const TableGeometry& geometry, const TableErrors& errors,
     a1_ = smallRotation(Vec3(nu.middle_x, nu.middle_y, 0.0), fo);
     a2_ = smallRotation(Vec3(0.0, nu.inner_y, 0.0), fo);
   }
+  a0_identity_ = a0_ == Mat3::Identity();
+  a1_identity_ = a1_ == Mat3::Identity();
+  a2_identity_ = a2_ == Mat3::Identity();
+  a3_identity_ = a3_ == Mat3::Identity();
 }
 
 Mat3 TableModel::C_LB(const TableAngles& a) const {
@@ -100,14 +124,14 @@ TableKinematics TableModel::kinematics(const TableState& s) const {
   TableKinematics k;
   const double o = s.outer.angle + z.outer;
   const double i = s.inner.angle + z.inner;
-  const Mat3 r_inner = rotZ(std::cos(i), std::sin(i));
   // Joint axes resolved in B, inner to outer.
   const Vec3 u_inner = a3_.transpose().col(2);  // A3^T e_z
-  const Mat3 p_inner = r_inner * a3_;           // R_inner A3
+  const Mat3 p_inner = a3_identity_ ? rotZ(std::cos(i), std::sin(i))
+                                    : rotZTimes(std::cos(i), std::sin(i), a3_);  // R_inner A3
   if (geometry_.kind == TableKind::kTwoAxis) {
-    const Mat3 right_of_outer = a1_ * p_inner;               // P_outer
-    const Vec3 u_outer = right_of_outer.transpose().col(0);  // P_outer^T e_x
-    k.C_LB = a0_ * rotX(std::cos(o), std::sin(o)) * right_of_outer;
+    const Mat3 right_of_outer = times(a1_, a1_identity_, p_inner);  // P_outer
+    const Vec3 u_outer = right_of_outer.row(0).transpose();         // P_outer^T e_x
+    k.C_LB = times(a0_, a0_identity_, rotXTimes(std::cos(o), std::sin(o), right_of_outer));
     const double qo = s.outer.rate, qi = s.inner.rate;
     k.w_LB_B = qo * u_outer + qi * u_inner;
     k.wdot_LB_B =
@@ -116,11 +140,12 @@ TableKinematics TableModel::kinematics(const TableState& s) const {
     return k;
   }
   const double m = s.middle.angle + z.middle;
-  const Mat3 right_of_middle = a2_ * p_inner;
-  const Vec3 u_middle = right_of_middle.transpose().col(0);
-  const Mat3 right_of_outer = a1_ * rotX(std::cos(m), std::sin(m)) * right_of_middle;
-  const Vec3 u_outer = right_of_outer.transpose().col(2);
-  k.C_LB = a0_ * rotZ(std::cos(o), std::sin(o)) * right_of_outer;
+  const Mat3 right_of_middle = times(a2_, a2_identity_, p_inner);
+  const Vec3 u_middle = right_of_middle.row(0).transpose();
+  const Mat3 right_of_outer =
+      times(a1_, a1_identity_, rotXTimes(std::cos(m), std::sin(m), right_of_middle));
+  const Vec3 u_outer = right_of_outer.row(2).transpose();
+  k.C_LB = times(a0_, a0_identity_, rotZTimes(std::cos(o), std::sin(o), right_of_outer));
   const double qo = s.outer.rate, qm = s.middle.rate, qi = s.inner.rate;
   k.w_LB_B = qo * u_outer + qm * u_middle + qi * u_inner;
   k.wdot_LB_B = s.outer.accel * u_outer + s.middle.accel * u_middle + s.inner.accel * u_inner +

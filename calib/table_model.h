@@ -129,6 +129,8 @@ class TableModel {
   Mat3 a2_;       // three-axis: nu2 after the middle joint
   Mat3 a3_;       // mounting
   Mat3 heading_;  // H (two-axis), I (three-axis)
+  // Exactly identity factors are skipped in the hot path (error-free tables).
+  bool a0_identity_ = true, a1_identity_ = true, a2_identity_ = true, a3_identity_ = true;
 };
 
 }  // namespace imubench::calib
