@@ -14,6 +14,8 @@
 #include <string_view>
 #include <system_error>
 
+#include "daemon/file_io.h"
+
 namespace imubench::daemon {
 namespace {
 
@@ -36,27 +38,6 @@ struct FileCloser {
   void operator()(std::FILE* f) const { std::fclose(f); }
 };
 using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
-
-// Reads a whole file in one go. Returns false and sets *why when it cannot.
-bool slurp(const std::string& path, std::string* out, std::string* why) {
-  FilePtr f(std::fopen(path.c_str(), "rb"));
-  if (!f) {
-    *why = path + ": cannot open: " + std::strerror(errno);
-    return false;
-  }
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec) {
-    *why = path + ": cannot stat: " + ec.message();
-    return false;
-  }
-  out->resize(size);
-  if (size > 0 && std::fread(out->data(), 1, size, f.get()) != size) {
-    *why = path + ": read error";
-    return false;
-  }
-  return true;
-}
 
 std::string quoteForMessage(std::string_view s) {
   constexpr size_t kMax = 40;
@@ -694,16 +675,13 @@ RecordingReadResult readRecording(const std::string& dir) {
   if (!fs::is_directory(d, ec)) return fail(RecordingStatus::Error(dir + ": not a directory"));
 
   std::string text;
-  std::string why;
   const std::string meta_path = (d / "meta.json").string();
-  if (!fs::exists(meta_path, ec)) return fail(RecordingStatus::Error(meta_path + ": missing file"));
-  if (!slurp(meta_path, &text, &why)) return fail(RecordingStatus::Error(why));
+  if (auto st = readWholeFile(meta_path, &text); !st.ok) return fail(st);
   if (auto st = readMeta(meta_path, text, &rec); !st.ok) return fail(st);
 
   // imu.csv
   const std::string imu_path = (d / "imu.csv").string();
-  if (!fs::exists(imu_path, ec)) return fail(RecordingStatus::Error(imu_path + ": missing file"));
-  if (!slurp(imu_path, &text, &why)) return fail(RecordingStatus::Error(why));
+  if (auto st = readWholeFile(imu_path, &text); !st.ok) return fail(st);
   {
     size_t rows = 0;
     rec.imu.clear();
@@ -730,9 +708,7 @@ RecordingReadResult readRecording(const std::string& dir) {
   }
   // table.csv
   const std::string table_path = (d / "table.csv").string();
-  if (!fs::exists(table_path, ec))
-    return fail(RecordingStatus::Error(table_path + ": missing file"));
-  if (!slurp(table_path, &text, &why)) return fail(RecordingStatus::Error(why));
+  if (auto st = readWholeFile(table_path, &text); !st.ok) return fail(st);
   {
     const bool two = rec.table_kind == calib::TableKind::kTwoAxis;
     const std::string_view header = two ? kTable2Header : kTable3Header;
@@ -754,7 +730,7 @@ RecordingReadResult readRecording(const std::string& dir) {
   // chamber.csv (optional)
   const std::string chamber_path = (d / "chamber.csv").string();
   if (fs::exists(chamber_path, ec)) {
-    if (!slurp(chamber_path, &text, &why)) return fail(RecordingStatus::Error(why));
+    if (auto st = readWholeFile(chamber_path, &text); !st.ok) return fail(st);
     auto st = readNumericCsv(
         chamber_path, text, kChamberHeader, "", -1,
         [&](const double* v) {
@@ -766,7 +742,7 @@ RecordingReadResult readRecording(const std::string& dir) {
   // segments.csv (optional)
   const std::string seg_path = (d / "segments.csv").string();
   if (fs::exists(seg_path, ec)) {
-    if (!slurp(seg_path, &text, &why)) return fail(RecordingStatus::Error(why));
+    if (auto st = readWholeFile(seg_path, &text); !st.ok) return fail(st);
     if (auto st = readSegments(seg_path, text, &rec.segments); !st.ok) return fail(st);
     rec.segments_from_file = true;
     fillRotateAxes(rec.table, rec.table_kind, &rec.segments);

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "calib/motion.h"
+#include "daemon/io_status.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"
 
@@ -58,14 +59,7 @@ struct Recording {
   double outerAxisHeadingDeg() const { return outer_axis_heading_deg.value_or(90.0); }
 };
 
-// Status the caller checks. message is "file:line: reason" (line left out when it does not
-// apply, e.g. a missing file).
-struct RecordingStatus {
-  bool ok = true;
-  std::string message;
-  static RecordingStatus Ok() { return {}; }
-  static RecordingStatus Error(std::string why) { return {false, std::move(why)}; }
-};
+using RecordingStatus = IoStatus;
 
 struct RecordingReadResult {
   RecordingStatus status;
