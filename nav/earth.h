@@ -8,12 +8,12 @@
 namespace imubench::nav {
 
 namespace wgs84 {
-inline constexpr double kA = 6378137.0;                 // semi-major axis, m
-inline constexpr double kF = 1.0 / 298.257223563;       // flattening
-inline constexpr double kE2 = kF * (2.0 - kF);          // first eccentricity squared
-inline constexpr double kGammaE = 9.7803253359;         // normal gravity at equator, m/s^2
-inline constexpr double kK = 0.00193185265241;          // Somigliana constant
-inline constexpr double kM = 0.00344978650684;          // w^2 a^2 b / GM
+inline constexpr double kA = 6378137.0;            // semi-major axis, m
+inline constexpr double kF = 1.0 / 298.257223563;  // flattening
+inline constexpr double kE2 = kF * (2.0 - kF);     // first eccentricity squared
+inline constexpr double kGammaE = 9.7803253359;    // normal gravity at equator, m/s^2
+inline constexpr double kK = 0.00193185265241;     // Somigliana constant
+inline constexpr double kM = 0.00344978650684;     // w^2 a^2 b / GM
 }  // namespace wgs84
 
 inline constexpr double kEarthRate = 7.292115e-5;  // rad/s (interchange.md)
@@ -33,7 +33,9 @@ double normalGravity(double latitude_rad, double height_m);
 double siteGravity(const Site& site);
 
 // Gravity vector in L (ENU): (0, 0, -g). (Normal gravity includes the centrifugal term.)
-inline Vec3 gravityL(const Site& site) { return {0.0, 0.0, -siteGravity(site)}; }
+inline Vec3 gravityL(const Site& site) {
+  return {0.0, 0.0, -siteGravity(site)};
+}
 
 // Earth rate resolved in L (ENU): (0, W cos(lat), W sin(lat)).
 inline Vec3 earthRateL(double latitude_rad) {
@@ -41,7 +43,7 @@ inline Vec3 earthRateL(double latitude_rad) {
 }
 
 struct Radii {
-  double meridian = 0.0;      // R_M, north-south radius of curvature, m
+  double meridian = 0.0;        // R_M, north-south radius of curvature, m
   double prime_vertical = 0.0;  // R_N, east-west radius of curvature, m
 };
 Radii radiiOfCurvature(double latitude_rad);

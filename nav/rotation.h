@@ -44,9 +44,15 @@ inline Mat3 skew(const Vec3& t) {
   return s;
 }
 
-inline Mat3 Rx(double a) { return Eigen::AngleAxisd(a, Vec3::UnitX()).toRotationMatrix(); }
-inline Mat3 Ry(double a) { return Eigen::AngleAxisd(a, Vec3::UnitY()).toRotationMatrix(); }
-inline Mat3 Rz(double a) { return Eigen::AngleAxisd(a, Vec3::UnitZ()).toRotationMatrix(); }
+inline Mat3 Rx(double a) {
+  return Eigen::AngleAxisd(a, Vec3::UnitX()).toRotationMatrix();
+}
+inline Mat3 Ry(double a) {
+  return Eigen::AngleAxisd(a, Vec3::UnitY()).toRotationMatrix();
+}
+inline Mat3 Rz(double a) {
+  return Eigen::AngleAxisd(a, Vec3::UnitZ()).toRotationMatrix();
+}
 
 // Quaternion of the rotation by the rotation vector phi (angle |phi| about phi/|phi|).
 // Exact for any angle; uses a series near zero so it stays accurate for tiny increments.
