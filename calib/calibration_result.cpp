@@ -11,7 +11,8 @@ std::string WeakDirection::describe() const {
     std::snprintf(buf, sizeof(buf), "%s%.2f %s", s.empty() ? "" : " ", value, name.c_str());
     s += buf;
   }
-  std::snprintf(buf, sizeof(buf), "  (relative eigenvalue %.3g)", relative_eigenvalue);
+  std::snprintf(buf, sizeof(buf), "  (sigma %.3g x typical, relative eigenvalue %.3g)",
+                sigma_typical, relative_eigenvalue);
   return s + buf;
 }
 
@@ -35,7 +36,9 @@ nlohmann::json toJson(const Conditioning& c) {
   for (const WeakDirection& w : c.weak) {
     nlohmann::json comps = nlohmann::json::object();
     for (const auto& [name, value] : w.components) comps[name] = value;
-    weak.push_back({{"relative_eigenvalue", w.relative_eigenvalue}, {"components", comps}});
+    weak.push_back({{"relative_eigenvalue", w.relative_eigenvalue},
+                    {"sigma_typical", w.sigma_typical},
+                    {"components", comps}});
   }
   j["weak_directions"] = weak;
   return j;

@@ -16,7 +16,10 @@ namespace imubench::calib {
 // One weak (or null) direction of the information matrix: a unit combination of parameters
 // the data barely constrains, e.g. "0.71 accel.misalignment.zy - 0.71 table.base_tilt.x".
 struct WeakDirection {
-  double relative_eigenvalue = 0.0;  // eigenvalue / largest, of the column-scaled matrix
+  double relative_eigenvalue = 0.0;  // eigenvalue / largest, of the scaled information
+  // 1-sigma of this combination in units of the parameters' typical magnitudes (the scaling
+  // of the information matrix): > 1 means the data constrain it less than its a-priori range.
+  double sigma_typical = 0.0;
   std::vector<std::pair<std::string, double>> components;  // |component| >= 0.1, largest first
   std::string describe() const;
 };

@@ -11,3 +11,9 @@ target_sources(imubench_calib PRIVATE
   indirect_calibration.cpp
   indirect_preintegration.cpp
 )
+# Navigation-based (indirect) calibration, validation experiment, shared result type.
+target_sources(imubench_calib PRIVATE
+  calibration_result.cpp
+  indirect_calibration.cpp
+  indirect_preintegration.cpp
+)

@@ -65,6 +65,7 @@ TriadModel blockToTriad(const double* block) {
 
 // A static hold reduced to means.
 struct Hold {
+  int leg = 0;
   const Segment* segment = nullptr;
   Mat3 C_LP = Mat3::Identity();
   Vec3 accel_mean = Vec3::Zero();
@@ -76,6 +77,7 @@ struct Hold {
 
 // A rotation run between two holds.
 struct Run {
+  std::span<const nav::ImuSample> imu;  // the run's recording
   const Segment* segment = nullptr;
   std::size_t first = 0;  // sample indices [first, last)
   std::size_t last = 0;
@@ -162,20 +164,24 @@ WeakDirection weakDirection(const Eigen::VectorXd& v, const std::vector<int>& in
   return w;
 }
 
-// Information analysis: fixes null directions (greedy, dominant parameter) and reports the
-// conditioning of what remains. `free` marks estimated parameters (in/out).
+double typicalMagnitude(int g, const IndirectOptions& o) {
+  if (g >= kTableOffset) return o.typical_base_tilt;
+  const int i = g % kTriadSize;
+  if (i < kBias) return o.typical_scale;
+  if (i < kMis) return g >= kGyroOffset ? o.typical_gyro_bias : o.typical_accel_bias;
+  return o.typical_misalignment;
+}
+
+// Information analysis on J scaled by the typical magnitudes: fixes directions the data
+// cannot see (greedy, dominant parameter first) and reports the conditioning of what
+// remains, naming the weakest directions. `free` marks estimated parameters (in/out).
 Conditioning analyseInformation(const Eigen::MatrixXd& J, std::vector<bool>* free,
                                 const IndirectOptions& opt) {
   Conditioning c;
   const int n = static_cast<int>(J.cols());
-  Eigen::VectorXd norms = J.colwise().norm();
-  for (int i = 0; i < n; ++i) {
-    if ((*free)[static_cast<std::size_t>(i)] && !(norms[i] > 0.0)) {
-      (*free)[static_cast<std::size_t>(i)] = false;
-      c.fixed_unobservable.push_back(parameterName(i));
-    }
-  }
-  for (int pass = 0; pass < n; ++pass) {
+  const double lambda_min_ok =
+      1.0 / (opt.unobservable_sigma_typical * opt.unobservable_sigma_typical);
+  for (int pass = 0; pass <= n; ++pass) {
     std::vector<int> index;
     for (int i = 0; i < n; ++i) {
       if ((*free)[static_cast<std::size_t>(i)]) index.push_back(i);
@@ -183,28 +189,30 @@ Conditioning analyseInformation(const Eigen::MatrixXd& J, std::vector<bool>* fre
     const int m = static_cast<int>(index.size());
     if (m == 0) return c;
     Eigen::MatrixXd Js(J.rows(), m);
-    for (int i = 0; i < m; ++i)
-      Js.col(i) =
-          J.col(index[static_cast<std::size_t>(i)]) / norms[index[static_cast<std::size_t>(i)]];
+    for (int i = 0; i < m; ++i) {
+      const int g = index[static_cast<std::size_t>(i)];
+      Js.col(i) = J.col(g) * typicalMagnitude(g, opt);
+    }
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Js.transpose() * Js);
     const Eigen::VectorXd& ev = es.eigenvalues();  // ascending
-    const double largest = ev[m - 1];
-    const double rel = ev[0] / largest;
-    if (rel < opt.null_eigenvalue_ratio) {
-      WeakDirection w = weakDirection(es.eigenvectors().col(0), index, rel);
+    const double largest = std::max(ev[m - 1], 1e-300);
+    auto direction = [&](int k) {
+      WeakDirection w = weakDirection(es.eigenvectors().col(k), index, ev[k] / largest);
+      w.sigma_typical = 1.0 / std::sqrt(std::max(ev[k], 1e-300));
+      return w;
+    };
+    if (ev[0] < lambda_min_ok) {
       int dominant = 0;
       es.eigenvectors().col(0).cwiseAbs().maxCoeff(&dominant);
       const int g = index[static_cast<std::size_t>(dominant)];
       (*free)[static_cast<std::size_t>(g)] = false;
       c.fixed_unobservable.push_back(parameterName(g));
-      c.weak.push_back(std::move(w));
+      c.weak.push_back(direction(0));
       continue;
     }
-    c.condition_number = largest / std::max(ev[0], 1e-300);
-    c.bad = rel < opt.bad_condition_ratio;
-    for (int k = 0; k < std::min(3, m); ++k) {
-      c.weak.push_back(weakDirection(es.eigenvectors().col(k), index, ev[k] / largest));
-    }
+    c.condition_number = largest / ev[0];
+    c.bad = c.condition_number > opt.bad_condition_number;
+    for (int k = 0; k < std::min(3, m); ++k) c.weak.push_back(direction(k));
     return c;
   }
   return c;
@@ -224,9 +232,12 @@ bool IndirectOptions::IsValid(std::string* why) const {
   if (max_outer_iterations < 1) return fail("max_outer_iterations must be >= 1");
   if (!(outer_tolerance_sigma > 0.0)) return fail("outer_tolerance_sigma must be > 0");
   if (!(min_accel_noise > 0.0) || !(min_gyro_noise > 0.0)) return fail("noise floors must be > 0");
-  if (!(null_eigenvalue_ratio > 0.0) || !(bad_condition_ratio >= null_eigenvalue_ratio)) {
-    return fail("need 0 < null_eigenvalue_ratio <= bad_condition_ratio");
+  if (!(typical_scale > 0.0) || !(typical_misalignment > 0.0) || !(typical_accel_bias > 0.0) ||
+      !(typical_gyro_bias > 0.0) || !(typical_base_tilt > 0.0)) {
+    return fail("typical magnitudes must be > 0");
   }
+  if (!(unobservable_sigma_typical > 0.0)) return fail("unobservable_sigma_typical must be > 0");
+  if (!(bad_condition_number > 1.0)) return fail("bad_condition_number must be > 1");
   return true;
 }
 
@@ -237,18 +248,23 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
     result.error = "invalid options: " + why;
     return result;
   }
-  if (in.imu.size() < 2) {
-    result.error = "recording has fewer than 2 IMU samples";
-    return result;
-  }
-  if (in.table.empty()) {
-    result.error = "recording has no table samples";
-    return result;
-  }
-  for (std::size_t k = 1; k < in.imu.size(); ++k) {
-    if (!(in.imu[k].t > in.imu[k - 1].t)) {
-      result.error = "IMU sample " + std::to_string(k) + ": time not increasing";
+  std::vector<IndirectLeg> legs{{in.imu, in.table, in.segments}};
+  legs.insert(legs.end(), in.extra_legs.begin(), in.extra_legs.end());
+  for (std::size_t l = 0; l < legs.size(); ++l) {
+    const std::string where = legs.size() > 1 ? "recording " + std::to_string(l + 1) + ": " : "";
+    if (legs[l].imu.size() < 2) {
+      result.error = where + "fewer than 2 IMU samples";
       return result;
+    }
+    if (legs[l].table.empty()) {
+      result.error = where + "no table samples";
+      return result;
+    }
+    for (std::size_t k = 1; k < legs[l].imu.size(); ++k) {
+      if (!(legs[l].imu[k].t > legs[l].imu[k - 1].t)) {
+        result.error = where + "IMU sample " + std::to_string(k) + ": time not increasing";
+        return result;
+      }
     }
   }
   const double gravity = nav::siteGravity(in.site);
@@ -257,53 +273,58 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
 
   // ---- Holds: means and noise -------------------------------------------------------------
   std::vector<Hold> holds;
-  holds.reserve(in.segments.size());
-  for (const Segment& seg : in.segments) {
-    if (seg.kind != SegmentKind::kStatic || !seg.recording) continue;
-    const double t0 = seg.t0 + opt.static_margin_s;
-    const double t1 = seg.t1 - opt.static_margin_s;
-    if (t1 - t0 < opt.min_static_s) {
-      std::snprintf(buf, sizeof(buf), "hold '%s' (%.1f-%.1f s): shorter than %.1f s, skipped",
-                    seg.label.c_str(), seg.t0, seg.t1, opt.min_static_s + 2 * opt.static_margin_s);
-      result.warnings.emplace_back(buf);
-      continue;
+  for (std::size_t l = 0; l < legs.size(); ++l) {
+    const std::span<const nav::ImuSample> imu = legs[l].imu;
+    for (const Segment& seg : legs[l].segments) {
+      if (seg.kind != SegmentKind::kStatic || !seg.recording) continue;
+      const double t0 = seg.t0 + opt.static_margin_s;
+      const double t1 = seg.t1 - opt.static_margin_s;
+      if (t1 - t0 < opt.min_static_s) {
+        std::snprintf(buf, sizeof(buf), "hold '%s' (%.1f-%.1f s): shorter than %.1f s, skipped",
+                      seg.label.c_str(), seg.t0, seg.t1,
+                      opt.min_static_s + 2 * opt.static_margin_s);
+        result.warnings.emplace_back(buf);
+        continue;
+      }
+      const std::size_t a = firstSampleStartingAt(imu, t0);
+      const std::size_t b = endSampleEndingAt(imu, t1);
+      if (b <= a + 2) {
+        std::snprintf(buf, sizeof(buf), "hold '%s' (%.1f-%.1f s): no IMU samples, skipped",
+                      seg.label.c_str(), seg.t0, seg.t1);
+        result.warnings.emplace_back(buf);
+        continue;
+      }
+      Hold h;
+      h.leg = static_cast<int>(l);
+      h.segment = &seg;
+      Vec3 sum_a = Vec3::Zero(), sum_g = Vec3::Zero();
+      double T = 0.0;
+      for (std::size_t k = a; k < b; ++k) {
+        sum_a += imu[k].dvel;
+        sum_g += imu[k].dtheta;
+      }
+      T = imu[b - 1].t - intervalStart(imu, a);
+      h.accel_mean = sum_a / T;
+      h.gyro_mean = sum_g / T;
+      Vec3 var_a = Vec3::Zero(), var_g = Vec3::Zero();
+      for (std::size_t k = a; k < b; ++k) {
+        const double dt = imu[k].t - intervalStart(imu, k);
+        var_a += (imu[k].dvel / dt - h.accel_mean).cwiseAbs2();
+        var_g += (imu[k].dtheta / dt - h.gyro_mean).cwiseAbs2();
+      }
+      const double n = static_cast<double>(b - a);
+      for (int i = 0; i < 3; ++i) {
+        const double sa = std::max(std::sqrt(var_a[i] / (n - 1)), opt.min_accel_noise);
+        const double sg = std::max(std::sqrt(var_g[i] / (n - 1)), opt.min_gyro_noise);
+        h.accel_sigma[i] = sa / std::sqrt(n);
+        h.gyro_sigma[i] = sg / std::sqrt(n);
+        h.gyro_noise = std::max(h.gyro_noise, sg);
+      }
+      h.C_LP = nominalAttitude(in.geometry, holdAngles(legs[l].table, t0, t1));
+      holds.push_back(h);
     }
-    const std::size_t a = firstSampleStartingAt(in.imu, t0);
-    const std::size_t b = endSampleEndingAt(in.imu, t1);
-    if (b <= a + 2) {
-      std::snprintf(buf, sizeof(buf), "hold '%s' (%.1f-%.1f s): no IMU samples, skipped",
-                    seg.label.c_str(), seg.t0, seg.t1);
-      result.warnings.emplace_back(buf);
-      continue;
-    }
-    Hold h;
-    h.segment = &seg;
-    Vec3 sum_a = Vec3::Zero(), sum_g = Vec3::Zero();
-    double T = 0.0;
-    for (std::size_t k = a; k < b; ++k) {
-      sum_a += in.imu[k].dvel;
-      sum_g += in.imu[k].dtheta;
-    }
-    T = in.imu[b - 1].t - intervalStart(in.imu, a);
-    h.accel_mean = sum_a / T;
-    h.gyro_mean = sum_g / T;
-    Vec3 var_a = Vec3::Zero(), var_g = Vec3::Zero();
-    for (std::size_t k = a; k < b; ++k) {
-      const double dt = in.imu[k].t - intervalStart(in.imu, k);
-      var_a += (in.imu[k].dvel / dt - h.accel_mean).cwiseAbs2();
-      var_g += (in.imu[k].dtheta / dt - h.gyro_mean).cwiseAbs2();
-    }
-    const double n = static_cast<double>(b - a);
-    for (int i = 0; i < 3; ++i) {
-      const double sa = std::max(std::sqrt(var_a[i] / (n - 1)), opt.min_accel_noise);
-      const double sg = std::max(std::sqrt(var_g[i] / (n - 1)), opt.min_gyro_noise);
-      h.accel_sigma[i] = sa / std::sqrt(n);
-      h.gyro_sigma[i] = sg / std::sqrt(n);
-      h.gyro_noise = std::max(h.gyro_noise, sg);
-    }
-    h.C_LP = nominalAttitude(in.geometry, holdAngles(in.table, t0, t1));
-    holds.push_back(h);
   }
+
   if (holds.empty()) {
     result.error = "no usable static hold in the recording (need holds of at least " +
                    std::to_string(opt.min_static_s + 2 * opt.static_margin_s) + " s)";
@@ -317,36 +338,42 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
 
   // ---- Runs: rotations between two usable holds -------------------------------------------
   std::vector<Run> runs;
-  for (const Segment& seg : in.segments) {
-    if (seg.kind != SegmentKind::kRotate || !seg.recording) continue;
-    const Hold* before = nullptr;
-    const Hold* after = nullptr;
-    for (const Hold& h : holds) {
-      if (std::abs(h.segment->t1 - seg.t0) <= opt.adjacency_tolerance_s) before = &h;
-      if (std::abs(h.segment->t0 - seg.t1) <= opt.adjacency_tolerance_s) after = &h;
+  for (std::size_t l = 0; l < legs.size(); ++l) {
+    const std::span<const nav::ImuSample> imu = legs[l].imu;
+    for (const Segment& seg : legs[l].segments) {
+      if (seg.kind != SegmentKind::kRotate || !seg.recording) continue;
+      const Hold* before = nullptr;
+      const Hold* after = nullptr;
+      for (const Hold& h : holds) {
+        if (h.leg != static_cast<int>(l)) continue;
+        if (std::abs(h.segment->t1 - seg.t0) <= opt.adjacency_tolerance_s) before = &h;
+        if (std::abs(h.segment->t0 - seg.t1) <= opt.adjacency_tolerance_s) after = &h;
+      }
+      if (!before || !after) {
+        std::snprintf(buf, sizeof(buf), "run '%s' (%.1f-%.1f s): no usable hold %s it, skipped",
+                      seg.label.c_str(), seg.t0, seg.t1, before ? "after" : "before");
+        result.warnings.emplace_back(buf);
+        continue;
+      }
+      const double pad_a =
+          std::min(opt.run_pad_s, 0.5 * (before->segment->t1 - before->segment->t0));
+      const double pad_b = std::min(opt.run_pad_s, 0.5 * (after->segment->t1 - after->segment->t0));
+      Run r;
+      r.segment = &seg;
+      r.first = firstSampleStartingAt(imu, seg.t0 - pad_a);
+      r.last = endSampleEndingAt(imu, seg.t1 + pad_b);
+      if (r.first >= r.last || r.first == 0) {
+        std::snprintf(buf, sizeof(buf), "run '%s': IMU data does not cover it, skipped",
+                      seg.label.c_str());
+        result.warnings.emplace_back(buf);
+        continue;
+      }
+      r.t_start = intervalStart(imu, r.first);
+      r.imu = imu;
+      r.before = before;
+      r.after = after;
+      runs.push_back(r);
     }
-    if (!before || !after) {
-      std::snprintf(buf, sizeof(buf), "run '%s' (%.1f-%.1f s): no usable hold %s it, skipped",
-                    seg.label.c_str(), seg.t0, seg.t1, before ? "after" : "before");
-      result.warnings.emplace_back(buf);
-      continue;
-    }
-    const double pad_a = std::min(opt.run_pad_s, 0.5 * (before->segment->t1 - before->segment->t0));
-    const double pad_b = std::min(opt.run_pad_s, 0.5 * (after->segment->t1 - after->segment->t0));
-    Run r;
-    r.segment = &seg;
-    r.first = firstSampleStartingAt(in.imu, seg.t0 - pad_a);
-    r.last = endSampleEndingAt(in.imu, seg.t1 + pad_b);
-    if (r.first >= r.last || r.first == 0) {
-      std::snprintf(buf, sizeof(buf), "run '%s': IMU data does not cover it, skipped",
-                    seg.label.c_str());
-      result.warnings.emplace_back(buf);
-      continue;
-    }
-    r.t_start = intervalStart(in.imu, r.first);
-    r.before = before;
-    r.after = after;
-    runs.push_back(r);
   }
 
   // ---- Parameters ----------------------------------------------------------------------------
@@ -358,7 +385,23 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
   table[kTiltY] = in.start_base_tilt.y();
 
   std::vector<bool> free(kParamCount, true);
-  if (!opt.estimate_base_tilt) free[kTableOffset] = free[kTableOffset + 1] = false;
+  std::vector<bool> held(kParamCount, false);  // held at the start values by convention
+  if (!opt.estimate_base_tilt) {
+    free[kTableOffset] = free[kTableOffset + 1] = false;
+    held[kTableOffset] = held[kTableOffset + 1] = true;
+  }
+  if (opt.gyro_reference == GyroReference::kStartValues) {
+    if (in.start) {
+      for (int i = 0; i < 6; ++i) {
+        free[static_cast<std::size_t>(kGyroOffset + kMis + i)] = false;
+        held[static_cast<std::size_t>(kGyroOffset + kMis + i)] = true;
+      }
+    } else {
+      result.warnings.emplace_back(
+          "no start values: gyro misalignments estimated from the runs (not from the direct "
+          "calibration)");
+    }
+  }
   std::vector<double> sigma(kParamCount, 0.0);
   bool analysed = false;
 
@@ -375,7 +418,7 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
                                nullptr, gyro, table);
     }
     for (const Run& r : runs) {
-      const RunPreintegration pre = preintegrateRun(in.imu.subspan(r.first, r.last - r.first),
+      const RunPreintegration pre = preintegrateRun(r.imu.subspan(r.first, r.last - r.first),
                                                     r.t_start, r.before->C_LP, gyro, w_ie_L);
       const double sigma_angle = std::max(gyro_noise, opt.min_gyro_noise) * pre.duration_s /
                                  std::sqrt(std::max(pre.samples, 1));
@@ -486,11 +529,15 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
   rep.values.table_kind = in.geometry.kind;
   for (int i = 0; i < kParamCount; ++i) {
     const std::string name = parameterName(i);
-    if (free[static_cast<std::size_t>(i)]) {
-      rep.setSigma(name, sigma[static_cast<std::size_t>(i)]);
-    } else if (i < kTableOffset || opt.estimate_base_tilt) {
-      rep.setUnobservable(name);
+    const std::size_t g = static_cast<std::size_t>(i);
+    if (free[g]) {
+      rep.setSigma(name, sigma[g]);
+      continue;
     }
+    // Held or unobservable: the start value stays, with its own uncertainty if known.
+    const auto it = in.start_uncertainty.find(name);
+    if (it != in.start_uncertainty.end()) rep.uncertainty[name] = it->second;
+    if (!held[g]) rep.setUnobservable(name);
   }
   // Navigation-based calibration cannot see the mounting: it is absorbed by the misalignments.
   rep.setUnobservable("table.mounting.x");

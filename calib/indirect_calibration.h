@@ -22,9 +22,11 @@
 //   if (!r.ok) ... r.error;   r.coefficients -> interchange JSON with sigma/observable.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "calib/calibration_result.h"
 #include "calib/motion.h"
@@ -36,18 +38,47 @@
 
 namespace imubench::calib {
 
+// One recording of the device on the table: IMU samples, encoder angles, segments (views; the
+// caller keeps the data).
+struct IndirectLeg {
+  std::span<const nav::ImuSample> imu;  // t strictly increasing
+  std::span<const TableSample> table;   // encoder angles (rad), t increasing
+  std::span<const Segment> segments;    // static holds and rotate runs
+};
+
 struct IndirectInput {
   nav::Site site;
   TableGeometry geometry;
   std::span<const nav::ImuSample> imu;  // t strictly increasing
   std::span<const TableSample> table;   // encoder angles (rad), t increasing
   std::span<const Segment> segments;    // static holds and rotate runs
+  // More recordings of the same device on the same table and mounting (e.g. the direct-plan
+  // recording, whose static positions show axes the 12-run plan never points up): their holds
+  // and runs join the same least-squares problem (same coefficients, same base tilt).
+  std::vector<IndirectLeg> extra_legs;
   // Start values (the direct calibration, "0"); empty: nominal (scale 1, no errors).
   std::optional<SensorModel> start;
+  // Their uncertainties by flat name (e.g. the direct result's CoefficientReport::uncertainty):
+  // reported for the parameters this method holds at the start values.
+  std::map<std::string, Uncertainty> start_uncertainty;
   Vec2 start_base_tilt = Vec2::Zero();
 };
 
+// Where the gyro misalignments come from (the frame every misalignment refers to).
+enum class GyroReference {
+  // The seed's decision: the gyro misalignments of the start values (the direct calibration,
+  // measured against the orthogonal table axes) are kept and define the frame; the runs refine
+  // the accelerometer misalignments relative to them. Needs IndirectInput::start.
+  kStartValues,
+  // Estimate the gyro misalignments from the runs as well (the plan must turn each axis from
+  // two placements); used when there are no start values.
+  kEstimate,
+};
+
 struct IndirectOptions {
+  // Default: the seed's gyro-referenced convention (falls back to kEstimate, with a warning,
+  // when the input has no start values).
+  GyroReference gyro_reference = GyroReference::kStartValues;
   // Data at the edges of a hold is skipped: the table may still settle after a move.
   double static_margin_s = 1.0;
   // Holds shorter than this (after the margins) carry too little averaging to use.
@@ -66,11 +97,20 @@ struct IndirectOptions {
   // otherwise give zero weights' inverse): m/s^2 and rad/s.
   double min_accel_noise = 1e-6;
   double min_gyro_noise = 1e-9;
-  // Column-scaled information eigenvalue (relative to the largest) below which a direction is
-  // a null direction: its dominant parameter is fixed and flagged unobservable.
-  double null_eigenvalue_ratio = 1e-12;
-  // Relative eigenvalue below which the solve is reported as badly conditioned.
-  double bad_condition_ratio = 1e-9;
+  // Typical magnitudes of the parameters (a-priori ranges of a navigation-grade IMU and a
+  // levelled table): the information matrix is scaled by them, so its eigenvalues compare a
+  // combination's sigma with its range, in any units.
+  double typical_scale = 1e-3;         // 1000 ppm
+  double typical_misalignment = 1e-3;  // rad (~200 arcsec)
+  double typical_accel_bias = 1e-3;    // m/s^2 (~100 ug)
+  double typical_gyro_bias = 5e-7;     // rad/s (~0.1 deg/h)
+  double typical_base_tilt = 1e-3;     // rad
+  // A direction whose sigma exceeds this multiple of its typical magnitude is not observable
+  // by the plan: its dominant parameter is fixed at the start value and flagged.
+  double unobservable_sigma_typical = 1.0;
+  // The solve is reported as badly conditioned when the scaled information's condition
+  // number exceeds this (weak directions are named either way).
+  double bad_condition_number = 1e10;
   // Estimate the base tilt (false: hold it at start_base_tilt).
   bool estimate_base_tilt = true;
 

@@ -1,0 +1,207 @@
+// imubench calibrate DIR [--method direct|indirect|scalar] [--json] [--out FILE] [--start FILE]
+//
+// Reads an imubench-csv/1 recording and runs one calibration method:
+//   direct    the table-based direct calibration (calib/direct_calibration.h);
+//   indirect  the navigation-based refinement (calib/indirect_calibration.h), started from the
+//             direct calibration of the same recording (or --start FILE, a coefficient file);
+//   scalar    the table-free field calibration (calib/scalar_calibration.h).
+// Prints the coefficients with sigmas in engineering units (ppm, ug, deg/h, arcsec) and what
+// the plan cannot see; --json prints the interchange coefficient JSON instead (with "sigma"
+// and "observable": false), --out FILE writes it.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include "calib/direct_calibration.h"
+#include "calib/indirect_calibration.h"
+#include "calib/scalar_calibration.h"
+#include "daemon/recording.h"
+#include "daemon/truth_file.h"
+#include "tools/cli_common.h"
+
+namespace imubench::tools {
+namespace {
+
+struct CalibrateOptions {
+  std::string dir;
+  std::string method = "indirect";
+  bool json = false;
+  std::string out;
+  std::string start;
+};
+
+std::vector<calib::TableSample> tableSamples(const daemon::Recording& rec) {
+  std::vector<calib::TableSample> out;
+  out.reserve(rec.table.size());
+  for (const daemon::TableSample& s : rec.table) {
+    const std::vector<double> a = daemon::tableAnglesRad(rec.table_kind, s);
+    out.push_back({s.t, calib::tableAnglesFromAxes(rec.table_kind, a.data())});
+  }
+  return out;
+}
+
+calib::TableGeometry geometryOf(const daemon::Recording& rec) {
+  calib::TableGeometry g;
+  g.kind = rec.table_kind;
+  g.outer_axis_heading_rad = rec.outerAxisHeadingDeg() * kDegToRad;
+  return g;
+}
+
+calib::DirectCalibrationResult runDirect(const daemon::Recording& rec,
+                                         const std::vector<calib::TableSample>& table) {
+  calib::DirectCalibrationInput in;
+  in.geometry = geometryOf(rec);
+  in.site = rec.site();
+  in.imu = rec.imu;
+  in.table = table;
+  in.segments = rec.segments;
+  return calib::calibrateDirect(in);
+}
+
+// One line per coefficient: value and sigma in engineering units.
+void printReport(const calib::CoefficientReport& r) {
+  const std::vector<std::string> names = calib::flatNames(r.values);
+  for (const std::string& n : names) {
+    if (n.rfind("extra.", 0) == 0) continue;
+    double unit = 1.0;
+    const char* u = "";
+    if (n.find(".scale.") != std::string::npos) {
+      unit = 1e-6;
+      u = "ppm (scale - 1)";
+    } else if (n.rfind("accel.bias", 0) == 0) {
+      unit = 9.80665e-6;
+      u = "ug";
+    } else if (n.rfind("gyro.bias", 0) == 0) {
+      unit = kDegPerHourToRadPerSec;
+      u = "deg/h";
+    } else {
+      unit = kArcsecToRad;
+      u = "arcsec";
+    }
+    double v = calib::flatValue(r.values, n).value_or(0.0);
+    if (n.find(".scale.") != std::string::npos) v -= 1.0;
+    const auto it = r.uncertainty.find(n);
+    char buf[160];
+    if (it != r.uncertainty.end() && !it->second.observable) {
+      std::snprintf(buf, sizeof(buf), "  %-34s %14.3f %-16s  not observable (fixed)\n", n.c_str(),
+                    v / unit, u);
+    } else if (it != r.uncertainty.end() && it->second.sigma) {
+      std::snprintf(buf, sizeof(buf), "  %-34s %14.3f %-16s  sigma %.3f\n", n.c_str(), v / unit, u,
+                    *it->second.sigma / unit);
+    } else {
+      std::snprintf(buf, sizeof(buf), "  %-34s %14.3f %-16s  (not estimated)\n", n.c_str(),
+                    v / unit, u);
+    }
+    std::cout << buf;
+  }
+}
+
+void emit(const CalibrateOptions& o, const calib::CoefficientReport& report,
+          const nlohmann::json& extra) {
+  if (o.json) {
+    nlohmann::json j = calib::toJson(report);
+    if (!extra.is_null()) j["calibration"] = extra;
+    std::cout << j.dump(2) << "\n";
+  } else {
+    printReport(report);
+  }
+  if (!o.out.empty()) {
+    const daemon::IoStatus s = daemon::writeCoefficientFile(o.out, report);
+    if (!s.ok) throw CommandFailed(s.message);
+    if (!o.json) std::cout << "coefficients written to " << o.out << "\n";
+  }
+}
+
+void runCalibrate(const CalibrateOptions& o) {
+  const auto read = daemon::readRecording(o.dir);
+  if (!read.status.ok) throw CommandFailed(read.status.message);
+  const daemon::Recording& rec = read.recording;
+  const std::vector<calib::TableSample> table = tableSamples(rec);
+  std::ostream& info = o.json ? std::cerr : std::cout;
+
+  if (o.method == "direct") {
+    const calib::DirectCalibrationResult r = runDirect(rec, table);
+    if (!r.ok) throw CommandFailed(o.dir + ": direct calibration failed: " + r.reason);
+    info << "direct calibration of " << o.dir << ": " << r.statics_used << " statics, "
+         << r.rotations_used << " rotations\n";
+    for (const std::string& n : r.notes) info << "  note: " << n << "\n";
+    emit(o, r.report, nullptr);
+    return;
+  }
+  if (o.method == "scalar") {
+    calib::RawImuData raw;
+    double t_prev = nav::firstIntervalStart(rec.imu);
+    for (const nav::ImuSample& s : rec.imu) {
+      const double dt = s.t - t_prev;
+      t_prev = s.t;
+      raw.t.push_back(s.t - 0.5 * dt);
+      raw.accel.push_back(s.dvel / dt);
+      raw.gyro.push_back(s.dtheta / dt);
+    }
+    calib::ScalarCalibrationOptions so;
+    so.gravity_mps2 = nav::siteGravity(rec.site());
+    so.gyro_scale_guess = 1.0;
+    const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
+    if (!r.status.ok()) throw CommandFailed(o.dir + ": scalar calibration: " + r.status.message);
+    info << "scalar calibration of " << o.dir << ": " << r.spans.size()
+         << " static spans, |a|-g RMS " << r.accel_rms_before << " -> " << r.accel_rms_after
+         << " m/s^2\n";
+    for (const std::string& n : r.notes) info << "  note: " << n << "\n";
+    emit(o, r.report, nullptr);
+    return;
+  }
+  if (o.method != "indirect") throw CommandFailed("unknown method '" + o.method + "'", 2);
+
+  calib::IndirectInput in;
+  in.site = rec.site();
+  in.geometry = geometryOf(rec);
+  in.imu = rec.imu;
+  in.table = table;
+  in.segments = rec.segments;
+  if (!o.start.empty()) {
+    const daemon::CoefficientFileResult s = daemon::readCoefficientFile(o.start);
+    if (!s.status.ok) throw CommandFailed(s.status.message);
+    in.start = s.report.values.sensors;
+    in.start_base_tilt = s.report.values.table.base_tilt;
+    info << "start values: " << o.start << "\n";
+  } else {
+    const calib::DirectCalibrationResult d = runDirect(rec, table);
+    if (d.ok) {
+      in.start = d.report.values.sensors;
+      info << "start values: direct calibration of the same recording\n";
+    } else {
+      info << "start values: nominal (direct calibration not possible: " << d.reason << ")\n";
+    }
+  }
+  const calib::CalibrationResult r = calib::calibrateIndirect(in, calib::IndirectOptions{});
+  for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
+  if (!r.ok) throw CommandFailed(o.dir + ": navigation-based calibration failed: " + r.error);
+  info << "navigation-based calibration of " << o.dir << ": " << r.outer_iterations
+       << " outer iterations, normalised residual RMS " << r.rms_normalised_residual << "\n"
+       << "  solver: " << r.solver_report << "\n"
+       << "  " << r.conditioning.describe();
+  nlohmann::json extra;
+  extra["method"] = "indirect";
+  extra["conditioning"] = calib::toJson(r.conditioning);
+  extra["rms_normalised_residual"] = r.rms_normalised_residual;
+  emit(o, r.coefficients, extra);
+}
+
+}  // namespace
+
+void addCalibrateCommand(CLI::App& app) {
+  auto opt = std::make_shared<CalibrateOptions>();
+  CLI::App* sub = app.add_subcommand("calibrate", "Calibrate an IMU from a recording");
+  sub->add_option("dir", opt->dir, "Recording directory (imubench-csv/1)")->required();
+  sub->add_option("--method", opt->method, "direct | indirect (navigation-based) | scalar")
+      ->check(CLI::IsMember({"direct", "indirect", "scalar"}));
+  sub->add_flag("--json", opt->json, "Print the interchange coefficient JSON");
+  sub->add_option("--out", opt->out, "Write the coefficient JSON to this file");
+  sub->add_option("--start", opt->start,
+                  "indirect: start values from this coefficient file instead of the direct "
+                  "calibration of the same recording");
+  sub->callback([opt] { runCalibrate(*opt); });
+}
+
+}  // namespace imubench::tools
