@@ -1,0 +1,98 @@
+#include "tools/cli_common.h"
+
+#include <filesystem>
+#include <iostream>
+
+#include "daemon/truth_file.h"
+
+namespace imubench::tools {
+
+nav::Site SiteOptions::site() const {
+  nav::Site s;
+  s.latitude_rad = latitude_deg * kDegToRad;
+  s.height_m = height_m;
+  s.gravity_mps2 = gravity_mps2;
+  return s;
+}
+
+void addSiteOptions(CLI::App& sub, SiteOptions* opt) {
+  sub.add_option("--site-lat", opt->latitude_deg, "site latitude, deg")
+      ->check(CLI::Range(-89.0, 89.0))
+      ->capture_default_str();
+  sub.add_option("--site-height", opt->height_m, "site height, m")
+      ->check(CLI::Range(-500.0, 9000.0))
+      ->capture_default_str();
+  sub.add_option("--site-gravity", opt->gravity_mps2,
+                 "measured site gravity, m/s^2 (default: WGS-84 normal gravity)")
+      ->check(CLI::Range(9.7, 9.9));
+}
+
+const char* noiseNames() {
+  return "none|nav-grade|tactical|consumer";
+}
+
+std::optional<calib::NoiseModel> noiseByName(const std::string& name) {
+  if (name == "none") return calib::NoiseModel::none();
+  if (name == "nav-grade") return calib::NoiseModel::navigationGrade();
+  if (name == "tactical") return calib::NoiseModel::tactical();
+  if (name == "consumer") return calib::NoiseModel::consumer();
+  return std::nullopt;
+}
+
+std::string bundledPlanPath(const std::string& file) {
+  namespace fs = std::filesystem;
+  const fs::path candidates[] = {
+#ifdef IMUBENCH_SOURCE_DIR
+      fs::path(IMUBENCH_SOURCE_DIR) / "plans" / "library" / file,
+#endif
+#ifdef IMUBENCH_DATA_DIR
+      fs::path(IMUBENCH_DATA_DIR) / "plans" / file,
+#endif
+  };
+  std::error_code ec;
+  for (const auto& p : candidates) {
+    if (fs::is_regular_file(p, ec)) return p.string();
+  }
+  return {};
+}
+
+// Navigation-grade IMU (ring-laser/FOG class gyros, quartz-pendulum accelerometers) on a
+// production two-axis table: accelerometer biases ~50-100 ug, scale errors ~100 ppm,
+// misalignments ~10-40 arcsec; gyro biases ~0.01-0.03 deg/h, scale errors ~10-30 ppm; table
+// errors tens of arcsec. Units SI (rad, rad/s, m/s^2).
+const char* defaultTruthJson() {
+  return R"({
+  "accel": {
+    "scale": [1.00012, 0.99991, 1.00007],
+    "bias": [5.0e-4, -7.5e-4, 9.0e-4],
+    "misalignment": {"xy": 9.7e-5, "xz": -6.3e-5, "yx": 1.45e-4, "yz": 4.8e-5, "zx": -1.21e-4, "zy": 7.3e-5}
+  },
+  "gyro": {
+    "scale": [1.000021, 0.999985, 1.000030],
+    "bias": [4.8e-8, -9.7e-8, 1.45e-7],
+    "misalignment": {"xy": 4.8e-5, "xz": -2.9e-5, "yx": 7.8e-5, "yz": -5.3e-5, "zx": 3.4e-5, "zy": -6.8e-5}
+  },
+  "table": {
+    "base_tilt": [9.7e-5, -7.3e-5],
+    "nonorthogonality": [1.45e-4],
+    "mounting": [1.94e-4, -1.21e-4],
+    "encoder_zero": [4.8e-5, -9.7e-5]
+  }
+})";
+}
+
+calib::BenchTruth defaultTruth() {
+  calib::BenchTruth truth;
+  std::string why;
+  const bool ok = calib::fromJson(nlohmann::json::parse(defaultTruthJson()), &truth, &why);
+  if (!ok) throw std::logic_error("embedded default truth does not parse: " + why);  // our bug
+  return truth;
+}
+
+calib::BenchTruth loadTruthOrFail(const std::string& path) {
+  auto r = daemon::readTruthFile(path);
+  if (!r.status.ok) throw CommandFailed(r.status.message);
+  return r.truth;
+}
+
+}  // namespace imubench::tools

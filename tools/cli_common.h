@@ -1,0 +1,70 @@
+// Shared pieces of the `imubench` command line.
+//
+// How subcommands are added (the pattern every cli_*.cpp follows):
+//   - one file per subcommand (or family), tools/cli_<name>.cpp, exposing
+//       void add<Name>Command(CLI::App& app);
+//     declared below and called once from tools/imubench.cpp's main();
+//   - add<Name>Command creates the subcommand, binds its options into a
+//     std::shared_ptr<Options> captured by the callback, and sets
+//       sub->callback([opt] { run<Name>(*opt); });
+//   - the run function prints results on stdout, problems on stderr, and on failure throws
+//     CommandFailed (exit code 1 for bad input files / failed work; CLI11 parse errors exit 2).
+//     main() turns every exception into a message and an exit code: nothing escapes.
+//   - the work itself lives in the libraries (plans/, calib/, nav/, daemon/); cli files only
+//     translate options, call them and format results.
+#pragma once
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "calib/bench_truth.h"
+#include "calib/noise.h"
+#include "nav/earth.h"
+#include "tools/cli11.h"
+
+namespace imubench::tools {
+
+// Registration functions, one per file.
+void addRunCommand(CLI::App& app);       // cli_run.cpp
+void addSimulateCommand(CLI::App& app);  // cli_simulate.cpp
+void addPlanCommand(CLI::App& app);      // cli_plan.cpp
+void addNavCommand(CLI::App& app);       // cli_nav.cpp
+
+// A subcommand failed; the message has already been printed (or is printed by main).
+class CommandFailed : public std::runtime_error {
+ public:
+  explicit CommandFailed(const std::string& message, int exit_code = 1)
+      : std::runtime_error(message), exit_code_(exit_code) {}
+  int exitCode() const { return exit_code_; }
+
+ private:
+  int exit_code_;
+};
+
+// Site options shared by simulate and run.
+struct SiteOptions {
+  double latitude_deg = 55.75;  // default lab site: a mid-latitude (Moscow) bench
+  double height_m = 150.0;
+  std::optional<double> gravity_mps2;
+  nav::Site site() const;
+};
+void addSiteOptions(CLI::App& sub, SiteOptions* opt);
+
+// Noise model by name: none, nav-grade, tactical, consumer.
+const char* noiseNames();  // "none|nav-grade|tactical|consumer"
+std::optional<calib::NoiseModel> noiseByName(const std::string& name);
+
+// The bundled plan library: <source dir>/plans/library when built from a checkout, else the
+// installed data dir. Empty string when neither holds `file`.
+std::string bundledPlanPath(const std::string& file);
+
+// The embedded default bench truth: navigation-grade sensor errors and table errors of tens
+// of arcseconds (JSON text in cli_common.cpp, so it reads like a truth file).
+calib::BenchTruth defaultTruth();
+const char* defaultTruthJson();
+
+// Reads --truth FILE (throws CommandFailed with the file error).
+calib::BenchTruth loadTruthOrFail(const std::string& path);
+
+}  // namespace imubench::tools

@@ -1,0 +1,37 @@
+// imubench: the command line. Subcommands register themselves from their own files (see the
+// pattern in tools/cli_common.h); main only wires them and maps failures to exit codes:
+//   0 success, 1 the command failed (bad input file, plan errors, failed work),
+//   2 bad command line (CLI11 parse error).
+#include <exception>
+#include <iostream>
+
+#include "tools/cli11.h"
+#include "tools/cli_common.h"
+
+int main(int argc, char** argv) {
+  using namespace imubench::tools;
+  CLI::App app{"imubench: IMU calibration test-bench controller"};
+  app.require_subcommand(1);
+  app.fallthrough(false);
+  addRunCommand(app);
+  addSimulateCommand(app);
+  addPlanCommand(app);
+  addNavCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);  // prints the message
+    return 2;
+  } catch (const CommandFailed& e) {
+    std::cerr << "imubench: " << e.what() << "\n";
+    return e.exitCode();
+  } catch (const std::exception& e) {
+    std::cerr << "imubench: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
