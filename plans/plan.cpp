@@ -161,6 +161,15 @@ SourcePos posOf(const toml::source_region& r) {
   return {static_cast<int>(r.begin.line), static_cast<int>(r.begin.column)};
 }
 
+// Position of a key (not its value) in a table.
+SourcePos keyPos(const toml::table& t, std::string_view key) {
+  for (auto&& [k, v] : t) {
+    (void)v;
+    if (k.str() == key) return posOf(k.source());
+  }
+  return posOf(t.source());
+}
+
 size_t editDistance(std::string_view a, std::string_view b) {
   std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
   for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
@@ -413,7 +422,7 @@ class Parser {
         const toml::node* an = t.get(axis);
         if (!an) continue;
         if (auto q = quantity(t, axis, Dimension::kAngle, true)) {
-          s.targets.push_back({std::string(axis), posOf(an->source()), *q});
+          s.targets.push_back({std::string(axis), keyPos(t, axis), *q});
         }
       }
       if (!t.get("outer") && !t.get("middle") && !t.get("inner")) {

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <utility>
 
@@ -73,15 +74,29 @@ constexpr UnitDef kUnits[] = {
 
 const char* dimensionName(Dimension d) {
   switch (d) {
-    case Dimension::kAngle: return "an angle (deg, rad, arcsec)";
-    case Dimension::kRate: return "a rate (deg/s, rad/s, deg/h)";
-    case Dimension::kAngularAccel: return "an angular acceleration (deg/s^2, rad/s^2)";
-    case Dimension::kTime: return "a duration (s, ms, min, h)";
-    case Dimension::kTemperature: return "a temperature (degC)";
-    case Dimension::kTemperatureRate: return "a temperature rate (degC/min, degC/s)";
-    case Dimension::kLength: return "a length (m, mm)";
+    case Dimension::kAngle:
+      return "an angle (deg, rad, arcsec)";
+    case Dimension::kRate:
+      return "a rate (deg/s, rad/s, deg/h)";
+    case Dimension::kAngularAccel:
+      return "an angular acceleration (deg/s^2, rad/s^2)";
+    case Dimension::kTime:
+      return "a duration (s, ms, min, h)";
+    case Dimension::kTemperature:
+      return "a temperature (degC)";
+    case Dimension::kTemperatureRate:
+      return "a temperature rate (degC/min, degC/s)";
+    case Dimension::kLength:
+      return "a length (m, mm)";
   }
   return "a quantity";
+}
+
+std::string_view exampleUnit(Dimension d) {
+  for (const auto& u : kUnits) {
+    if (u.dim == d) return u.name;
+  }
+  return "";
 }
 
 }  // namespace
@@ -123,15 +138,19 @@ std::optional<double> quantityField(const toml::table& t, std::string_view key, 
   const toml::node* node = t.get(key);
   if (!node) {
     if (required) {
-      diag.error(t.source(), "missing required key \"" + std::string(key) + "\" (" +
-                                 dimensionName(dim) + ")");
+      diag.error(t.source(),
+                 "missing required key \"" + std::string(key) + "\" (" + dimensionName(dim) + ")");
     }
     return std::nullopt;
   }
   if (node->is_integer() || node->is_floating_point()) {
-    diag.error(node->source(), "missing unit on \"" + std::string(key) + "\": write it as a string "
-                               "with its unit, e.g. \"" + std::to_string(node->value_or(0.0)).substr(0, 6) +
-                               " ...\" (" + dimensionName(dim) + ")");
+    char number[32];
+    std::snprintf(number, sizeof number, "%g", node->value_or(0.0));
+    diag.error(node->source(), "missing unit on \"" + std::string(key) +
+                                   "\": write the value as a string with its unit, e.g. " +
+                                   std::string(key) + " = \"" + number + " " +
+                                   std::string(exampleUnit(dim)) + "\" (" + dimensionName(dim) +
+                                   ")");
     return std::nullopt;
   }
   const auto* s = node->as_string();

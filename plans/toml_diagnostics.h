@@ -3,12 +3,12 @@
 // collected in a Diagnostics value the caller reports.
 #pragma once
 
+#include <toml++/toml.h>
+
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <toml++/toml.h>
 
 namespace imubench::plans {
 
@@ -42,7 +42,15 @@ std::optional<toml::table> parseToml(std::string_view text, Diagnostics& diag);
 
 // A physical quantity written with its unit, e.g. "180 deg", "10 deg/s", "15 min", "25 degC".
 // Plan and device files require units on every dimensioned value: a bare number is refused.
-enum class Dimension { kAngle, kRate, kAngularAccel, kTime, kTemperature, kTemperatureRate, kLength };
+enum class Dimension {
+  kAngle,
+  kRate,
+  kAngularAccel,
+  kTime,
+  kTemperature,
+  kTemperatureRate,
+  kLength
+};
 
 // Converts "<number> <unit>" to SI (rad, rad/s, rad/s^2, s, degC, degC/s, m). Returns nullopt
 // and sets *why on a missing or wrong unit. Accepted units:

@@ -75,8 +75,8 @@ class Validator {
       simulate(plan_.steps);
       if (opt_.require_recording && !records_) {
         error(plan_.plan_where,
-              "the plan never records: no hold, rotate, rate or chamber step runs with "
-              "recording on (add a record step with state = \"on\")");
+              "the plan never records: no step runs with recording on (add a record step with "
+              "state = \"on\")");
       }
     }
     return diag_.items().size() == before;
@@ -297,6 +297,7 @@ class Validator {
     for (const Step& s : steps) {
       switch (s.type) {
         case StepType::kMove:
+          if (recording_) records_ = true;
           for (const AxisTarget& t : s.targets) {
             auto i = axisIndex(plan_.table.kind, t.axis);
             if (!i || !s.complete) continue;
@@ -338,7 +339,8 @@ class Validator {
           if (s.complete) recording_ = s.record_on;
           break;
         case StepType::kRepeat:
-          for (int k = 0; k < s.count; ++k) simulate(s.steps);
+          // A count < 1 is already an error; run the body once to spare follow-on noise.
+          for (int k = 0; k < std::max(s.count, 1); ++k) simulate(s.steps);
           break;
       }
     }
