@@ -75,6 +75,9 @@ bool SimOptions::IsValid(std::string* why) const {
   }
   if (quadrature_nodes < 1 || quadrature_nodes > 5) return bad("quadrature_nodes must be 1..5");
   if (!(std::isfinite(end_time_s) && end_time_s >= 0.0)) return bad("end_time_s must be >= 0");
+  if (!(std::isfinite(bias_update_interval_s) && bias_update_interval_s >= 0.0)) {
+    return bad("bias_update_interval_s must be >= 0");
+  }
   return true;
 }
 
@@ -98,6 +101,7 @@ struct ImuSimulator::Impl {
   Vec3 gm_accel = Vec3::Zero();
   Vec3 gm_gyro = Vec3::Zero();
   double phi_accel = 0.0, q_accel = 0.0, phi_gyro = 0.0, q_gyro = 0.0;
+  std::uint64_t gm_every = 1;  // samples per Gauss-Markov update
 
   // Phase of axis a in effect at time t (cursor moves forward only; the time is monotone
   // except within one sample, so we look from the cursor).
@@ -220,8 +224,11 @@ std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, cons
   impl->n_axes = axisCount(motion->kind);
   impl->rng = GaussianSource(options.seed);
   const double dt = impl->dt;
-  impl->phi_accel = std::exp(-dt / world.noise.accel.correlation_time_s);
-  impl->phi_gyro = std::exp(-dt / world.noise.gyro.correlation_time_s);
+  impl->gm_every =
+      static_cast<std::uint64_t>(std::max(1.0, std::round(options.bias_update_interval_s / dt)));
+  const double gm_step = static_cast<double>(impl->gm_every) * dt;
+  impl->phi_accel = std::exp(-gm_step / world.noise.accel.correlation_time_s);
+  impl->phi_gyro = std::exp(-gm_step / world.noise.gyro.correlation_time_s);
   impl->q_accel = world.noise.accel.bias_sigma * std::sqrt(1.0 - impl->phi_accel * impl->phi_accel);
   impl->q_gyro = world.noise.gyro.bias_sigma * std::sqrt(1.0 - impl->phi_gyro * impl->phi_gyro);
   // Gauss-Markov biases start in their steady state.
@@ -254,17 +261,19 @@ nav::ImuSample ImuSimulator::next() {
   m.integrate(a, b, &s.dtheta, &s.dvel);
   const double dt = b - a;
   const NoiseModel& n = m.noise;
+  const bool update_gm = k_ % m.gm_every == 0;
   if (n.gyro.white > 0.0 || n.gyro.bias_sigma > 0.0) {
     Vec3 e = m.gm_gyro * dt;
     if (n.gyro.white > 0.0) e += (n.gyro.white * std::sqrt(dt)) * m.rng.next3();
     s.dtheta += m.sensors.gyro.scale.cwiseProduct(e);
-    if (n.gyro.bias_sigma > 0.0) m.gm_gyro = m.phi_gyro * m.gm_gyro + m.q_gyro * m.rng.next3();
+    if (update_gm && n.gyro.bias_sigma > 0.0)
+      m.gm_gyro = m.phi_gyro * m.gm_gyro + m.q_gyro * m.rng.next3();
   }
   if (n.accel.white > 0.0 || n.accel.bias_sigma > 0.0) {
     Vec3 e = m.gm_accel * dt;
     if (n.accel.white > 0.0) e += (n.accel.white * std::sqrt(dt)) * m.rng.next3();
     s.dvel += m.sensors.accel.scale.cwiseProduct(e);
-    if (n.accel.bias_sigma > 0.0) {
+    if (update_gm && n.accel.bias_sigma > 0.0) {
       m.gm_accel = m.phi_accel * m.gm_accel + m.q_accel * m.rng.next3();
     }
   }

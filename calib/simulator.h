@@ -17,9 +17,9 @@
 // w and accelerations the error of the rotation terms is ~ (w dt)^7/2016000 relative, i.e.
 // < 1e-16 for 100 deg/s at 100 Hz). A piece where the table is still is evaluated at one
 // node, exactly (readings are constant there, or linear in a linear temperature ramp).
-// Noise: white noise N(0, white^2 dt) per increment and a Gauss-Markov bias (held over each
-// sample) times dt, both scaled by the truth scale factors; deterministic per seed.
-// Temperature: Motion::temperatureAt(t_k - tau - dt/2).
+// Noise: white noise N(0, white^2 dt) per increment and a Gauss-Markov bias (updated every
+// SimOptions::bias_update_interval_s, held in between) times dt, both scaled by the truth scale
+// factors; deterministic per seed. Temperature: Motion::temperatureAt(t_k - tau - dt/2).
 #pragma once
 
 #include <cstdint>
@@ -55,6 +55,10 @@ struct SimOptions {
   double table_rate_hz = 100.0;  // typical encoder logging rate of a rate table
   std::uint64_t seed = 1;        // noise seed; same seed -> identical samples
   int quadrature_nodes = 3;      // Gauss-Legendre nodes per smooth piece (1..5)
+  // Gauss-Markov bias update step, s (rounded to whole samples, at least one): exact
+  // discretisation at this step, held in between. Bias instability correlation times are
+  // minutes to hours, so 10 ms changes nothing measurable and saves the draws at high rates.
+  double bias_update_interval_s = 0.01;
   // Batch only: simulate until motion.duration (true) or until this time if > 0.
   double end_time_s = 0.0;
 

@@ -227,6 +227,25 @@ TEST(Simulator, AngleRandomWalkStatistics) {
   }
 }
 
+TEST(Simulator, GaussMarkovBiasHasItsSteadyStateSigma) {
+  BenchWorld w = idealWorld();
+  w.noise.gyro.bias_sigma = 1e-5;  // rad/s
+  w.noise.gyro.correlation_time_s = 1.0;
+  const Motion m = twoAxis(2000.0, {}, {});
+  const Simulation s = run(w, m, 100.0, 3);
+  const Simulation clean = run(idealWorld(), m, 100.0, 3);
+  double var = 0.0, lag_cov = 0.0;
+  const std::size_t n = s.imu.size(), lag = 100;  // 1 s = one correlation time
+  std::vector<double> b(n);
+  for (std::size_t k = 0; k < n; ++k) b[k] = (s.imu[k].dtheta.x() - clean.imu[k].dtheta.x()) / 0.01;
+  for (std::size_t k = 0; k < n; ++k) var += b[k] * b[k];
+  for (std::size_t k = 0; k + lag < n; ++k) lag_cov += b[k] * b[k + lag];
+  var /= static_cast<double>(n);
+  lag_cov /= static_cast<double>(n - lag);
+  EXPECT_NEAR(std::sqrt(var), 1e-5, 0.15e-5);
+  EXPECT_NEAR(lag_cov / var, std::exp(-1.0), 0.1);  // first-order correlation
+}
+
 TEST(Simulator, StreamingOnAGrowingMotionEqualsBatch) {
   BenchWorld w = idealWorld();
   w.noise = NoiseModel::navigationGrade();
