@@ -1,0 +1,196 @@
+// Driver <-> virtual device over the real protocols: Modbus TCP (127.0.0.1, ephemeral port,
+// several clients), Modbus RTU on a pseudo-terminal, the SCPI-like serial command set on a
+// pseudo-terminal; the chamber over Modbus TCP and RTU.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "drivers/chamber.h"
+#include "drivers/table.h"
+#include "nav/rotation.h"
+#include "virtual_bench_fixture.h"
+
+namespace imubench::drivers {
+namespace {
+
+using testing::waitUntil;
+
+// Waits until the axis is at rest in position and returns the last reading.
+TableReading settle(TableDriver& drv, int axis) {
+  TableReading r;
+  const bool ok = waitUntil([&] {
+    return drv.read(&r).ok && r.axes[static_cast<size_t>(axis)].in_position &&
+           !r.axes[static_cast<size_t>(axis)].moving;
+  });
+  EXPECT_TRUE(ok) << "axis " << axis << " did not settle";
+  return r;
+}
+
+// Every executed phase of the axis turns one way (sign of the rates).
+void expectTurnedOneWay(const calib::Motion& m, int axis, double sign) {
+  for (const auto& p : m.axes[static_cast<size_t>(axis)].phases()) {
+    EXPECT_GE(sign * p.rate0, -1e-12);
+  }
+}
+
+class TableOverProtocols : public ::testing::Test {
+ protected:
+  // Moves the first axis by -180 deg, then +180 deg, then the last axis the short way to
+  // 270 deg (= -90 deg), checking the world and the driver's readings.
+  void exercise(VirtualWorld& world, TableDriver& drv, double tol) {
+    ASSERT_TRUE(drv.connect().ok);
+    ASSERT_TRUE(drv.interlock(InterlockCommand::kClose).ok);
+    const int last = drv.spec().axisCount() - 1;
+    Status s = drv.rotateBy(0, -kPi);
+    ASSERT_TRUE(s.ok) << s.message;
+    TableReading r = settle(drv, 0);
+    EXPECT_NEAR(std::abs(r.axes[0].angle), kPi, tol);  // the controller reports +-180 deg
+    calib::Motion m = world.motionSnapshot();
+    EXPECT_NEAR(m.axes[0].at(m.duration).angle, -kPi, 1e-6);  // ... but it went the - way
+    expectTurnedOneWay(m, 0, -1.0);
+    const size_t phases_after_first = m.axes[0].phases().size();
+
+    s = drv.rotateBy(0, kPi);
+    ASSERT_TRUE(s.ok) << s.message;
+    r = settle(drv, 0);
+    EXPECT_NEAR(r.axes[0].angle, 0.0, tol);
+    m = world.motionSnapshot();
+    EXPECT_NEAR(m.axes[0].at(m.duration).angle, 0.0, 1e-6);
+    for (size_t k = phases_after_first; k < m.axes[0].phases().size(); ++k) {
+      EXPECT_GE(m.axes[0].phases()[k].rate0, -1e-12);  // back the + way
+    }
+
+    s = drv.moveTo(last, 270 * kDegToRad);
+    ASSERT_TRUE(s.ok) << s.message;
+    r = settle(drv, last);
+    EXPECT_NEAR(r.axes[static_cast<size_t>(last)].angle, -90 * kDegToRad, tol);
+    m = world.motionSnapshot();
+    EXPECT_NEAR(m.axes[static_cast<size_t>(last)].at(m.duration).angle, -90 * kDegToRad, 1e-6);
+    expectTurnedOneWay(m, last, -1.0);  // shortest way: -90, not +270
+    EXPECT_EQ(drv.state(), DeviceState::kReady);
+  }
+  testing::EventLog log_;
+  LinkFaults faults_;
+};
+
+TEST_F(TableOverProtocols, ModbusTcpSeveralClients) {
+  auto spec = testing::tableSpec("imubench-ref-2axis-tcp.toml");
+  VirtualWorld world(spec, testing::chamberSpec("generic-float-chamber.toml"),
+                     testing::kTestTimeScale);
+  VirtualTableRegisters regs(world, spec, log_.sink());
+  ModbusServer server(regs, faults_, log_.sink());
+  ASSERT_TRUE(server.startTcp("127.0.0.1", 0).ok);
+  ASSERT_GT(server.port(), 0);
+  spec.transport.port = server.port();
+  auto drv = makeTableDriver(spec, log_.sink());
+  auto watcher = makeTableDriver(spec, log_.sink());  // a second client at the same time
+  ASSERT_TRUE(watcher->connect().ok);
+  exercise(world, *drv, 1e-5);
+  TableReading r;
+  ASSERT_TRUE(watcher->read(&r).ok);
+  EXPECT_NEAR(r.axes[1].angle, -90 * kDegToRad, 1e-5);
+  EXPECT_TRUE(waitUntil([&] { return server.clientCount() == 2; }));
+}
+
+TEST_F(TableOverProtocols, ModbusRtuOnPseudoTerminal) {
+  auto spec = testing::tableSpec("generic-3axis-rtu.toml");
+  VirtualWorld world(spec, testing::chamberSpec("generic-float-chamber.toml"),
+                     testing::kTestTimeScale);
+  VirtualTableRegisters regs(world, spec, log_.sink());
+  ModbusServer server(regs, faults_, log_.sink());
+  ASSERT_TRUE(server.startRtu(spec.transport.unit_id).ok);
+  spec.transport.device = server.ptyPath();
+  auto drv = makeTableDriver(spec, log_.sink());
+  exercise(world, *drv, 2e-4 * kDegToRad);  // i32 counts of 0.0001 deg
+}
+
+TEST_F(TableOverProtocols, SerialCommandSetOnPseudoTerminal) {
+  auto spec = testing::tableSpec("scpi-2axis-serial.toml");
+  VirtualWorld world(spec, testing::chamberSpec("generic-float-chamber.toml"),
+                     testing::kTestTimeScale);
+  VirtualTableScpi server(world, spec, faults_, log_.sink());
+  ASSERT_TRUE(server.start().ok);
+  spec.transport.device = server.ptyPath();
+  auto drv = makeTableDriver(spec, log_.sink());
+  exercise(world, *drv, 2e-6 * kDegToRad);  // 6 decimals of a degree
+  // Rate mode over the serial line.
+  ASSERT_TRUE(drv->setRate(1, 20 * kDegToRad).ok);
+  TableReading r;
+  EXPECT_TRUE(waitUntil(
+      [&] { return drv->read(&r).ok && std::abs(r.axes[1].rate - 20 * kDegToRad) < 1e-6; }));
+  ASSERT_TRUE(drv->stop(1).ok);
+  EXPECT_TRUE(waitUntil([&] { return drv->read(&r).ok && !r.axes[1].moving; }));
+}
+
+TEST_F(TableOverProtocols, DriverRefusesBeyondDeviceLimits) {
+  auto spec = testing::tableSpec("imubench-ref-2axis-tcp.toml");
+  auto drv = makeTableDriver(spec, log_.sink());
+  const Status s = drv->setRate(0, 400 * kDegToRad);  // limit 300 deg/s: refused before I/O
+  EXPECT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("exceeds the device limit"), std::string::npos) << s.message;
+  EXPECT_FALSE(drv->moveTo(5, 0.0).ok);
+}
+
+class ChamberOverProtocols : public ::testing::Test {
+ protected:
+  void exercise(VirtualWorld& world, ChamberDriver& drv, double tol) {
+    ASSERT_TRUE(drv.connect().ok);
+    Status s = drv.setRampRate(drv.spec().max_ramp);
+    ASSERT_TRUE(s.ok) << s.message;
+    ASSERT_TRUE(drv.setSetpoint(35.0).ok);
+    ASSERT_TRUE(drv.run(true).ok);
+    ChamberReading r;
+    ASSERT_TRUE(drv.read(&r).ok);
+    EXPECT_TRUE(r.running);
+    EXPECT_NEAR(r.setpoint_c, 35.0, tol);
+    EXPECT_NEAR(r.ramp_rate, drv.spec().max_ramp, 1e-4);
+    EXPECT_TRUE(waitUntil([&] {
+      return drv.read(&r).ok && std::abs(r.temperature_c - 35.0) < 0.15;
+    })) << r.temperature_c;
+    // The driver's reading is the world's temperature (to the register resolution).
+    const double truth =
+        world.withChamber([](VirtualChamber& c, double t) { return c.temperature(t); });
+    EXPECT_NEAR(r.temperature_c, truth, 0.2);
+    // A setpoint outside the device file's range is refused before any I/O.
+    EXPECT_FALSE(drv.setSetpoint(300.0).ok);
+    // Sensor break: the driver reports an alarm fault with its reason.
+    world.withChamber([](VirtualChamber& c, double t) {
+      c.setSensorBreak(t, true);
+      return 0;
+    });
+    s = drv.read(&r);
+    EXPECT_FALSE(s.ok);
+    EXPECT_NE(s.message.find("sensor-break alarm"), std::string::npos) << s.message;
+    EXPECT_EQ(drv.state(), DeviceState::kFault);
+    EXPECT_TRUE(log_.contains("fault: sensor-break alarm")) << log_.all();
+  }
+  testing::EventLog log_;
+  LinkFaults faults_;
+};
+
+TEST_F(ChamberOverProtocols, WatlowStyleOverModbusTcp) {
+  auto spec = testing::chamberSpec("watlow-f4-style.toml");
+  // 20 -> 35 degC at 5 degC/min with tau = 3 min is ~15 min: 3000x makes it well under 1 s.
+  VirtualWorld world(testing::tableSpec("imubench-ref-2axis-tcp.toml"), spec, 3000.0);
+  VirtualChamberRegisters regs(world, spec, log_.sink());
+  ModbusServer server(regs, faults_, log_.sink());
+  ASSERT_TRUE(server.startTcp("127.0.0.1", 0).ok);
+  spec.transport.port = server.port();
+  auto drv = makeChamberDriver(spec, log_.sink());
+  exercise(world, *drv, 0.05);
+}
+
+TEST_F(ChamberOverProtocols, GenericFloatOverModbusRtu) {
+  auto spec = testing::chamberSpec("generic-float-chamber.toml");
+  VirtualWorld world(testing::tableSpec("imubench-ref-2axis-tcp.toml"), spec, 3000.0);
+  VirtualChamberRegisters regs(world, spec, log_.sink());
+  ModbusServer server(regs, faults_, log_.sink());
+  ASSERT_TRUE(server.startRtu(spec.transport.unit_id).ok);
+  spec.transport.kind = TransportKind::kModbusRtu;
+  spec.transport.device = server.ptyPath();
+  auto drv = makeChamberDriver(spec, log_.sink());
+  exercise(world, *drv, 1e-5);
+}
+
+}  // namespace
+}  // namespace imubench::drivers

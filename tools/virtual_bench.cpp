@@ -1,0 +1,307 @@
+// imubench-virtual-bench: one process holding one simulated bench world (virtual table with
+// controller physics, thermal chamber with a first-order response, and the IMU simulator with
+// the truth file's errors and extra physics) and serving it over the real protocols:
+//   table   - Modbus TCP (several clients), optionally Modbus RTU and the serial command set on
+//             pseudo-terminals (their slave paths are announced on stdout);
+//   chamber - Modbus TCP;
+//   IMU     - CAN frames on a SocketCAN interface (vcan) in the device file's layout.
+// Time runs --time-scale times faster than the wall clock. Faults can be injected from the
+// command line, or while running by signal: SIGUSR1 drops every Modbus TCP connection,
+// SIGUSR2 trips the table interlock. Announcements go to stdout (one line each, for scripts);
+// events to syslog and stderr. Stops on SIGINT/SIGTERM.
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <ctime>
+#include <iostream>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "calib/simulator.h"
+#include "daemon/logging.h"
+#include "daemon/truth_file.h"
+#include "drivers/imu_layout.h"
+#include "drivers/modbus_device_models.h"
+#include "drivers/modbus_server.h"
+#include "drivers/virtual_imu_can.h"
+#include "drivers/virtual_table_scpi.h"
+#include "drivers/virtual_world.h"
+
+namespace {
+
+using namespace imubench;
+using namespace imubench::drivers;
+
+struct Args {
+  std::string table_file, serial_table_file, chamber_file;
+  std::string host = "127.0.0.1";
+  int table_port = -1;  // -1: the device file's port
+  int chamber_port = -1;
+  bool table_rtu = false;
+  int rtu_unit = 1;
+  double time_scale = 1.0;
+  double ambient_c = 20.0;
+  std::string imu_layout_file, can_interface = "vcan0", truth_file;
+  double imu_rate_hz = 0.0;  // 0: the layout's sample period
+  std::uint64_t seed = 1;
+  // faults
+  double reply_delay_ms = 0.0;
+  bool drop_replies = false;
+  double trip_after_s = -1.0;
+  std::string trip_reason = "injected interlock trip (virtual bench)";
+  int imu_drop_every = 0, imu_corrupt_every = 0;
+  std::int64_t imu_stop_after = -1;
+};
+
+void announce(const std::string& line) {
+  std::cout << line << std::endl;  // flushed: scripts wait for these lines
+}
+
+// Streams the simulator's samples whose stamps have passed on the virtual clock, one batch
+// per tick (the sample counter defines the timing: t_k = k / rate).
+class ImuStreamer {
+ public:
+  ImuStreamer(VirtualWorld& world, std::unique_ptr<calib::ImuSimulator> sim,
+              std::unique_ptr<VirtualImuCan> can, const daemon::Logger& log)
+      : world_(world), sim_(std::move(sim)), can_(std::move(can)), log_(log) {}
+  ~ImuStreamer() { stop(); }
+  void start() {
+    thread_ = std::thread([this] { run(); });
+  }
+  void stop() {
+    if (!thread_.joinable()) return;
+    {
+      std::lock_guard lock(mu_);
+      stopping_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+
+ private:
+  void run() {
+    std::vector<nav::ImuSample> batch;
+    bool reported = false;
+    for (;;) {
+      world_.withMotion([&](const calib::Motion&, double now) {
+        while (sim_->nextTime() <= now) batch.push_back(sim_->next());
+        return 0;
+      });
+      if (!batch.empty()) {
+        const Status s = can_->sendSamples(batch);
+        if (!s.ok && !reported) log_.error("virtual IMU: " + s.message);
+        reported = reported || !s.ok;
+        batch.clear();
+      }
+      std::unique_lock lock(mu_);
+      // Pacing tick of the stream (not a synchronisation): 5 ms of wall time.
+      if (cv_.wait_for(lock, std::chrono::milliseconds(5), [this] { return stopping_; })) return;
+    }
+  }
+  VirtualWorld& world_;
+  std::unique_ptr<calib::ImuSimulator> sim_;
+  std::unique_ptr<VirtualImuCan> can_;
+  const daemon::Logger& log_;
+  std::thread thread_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stopping_ = false;
+};
+
+int run(const Args& a) {
+  daemon::Logger log("imubench-virtual-bench", /*also_stderr=*/true);
+  auto fail = [&](const std::string& m) {
+    log.error(m);
+    return 1;
+  };
+  plans::Diagnostics tdiag(a.table_file);
+  auto table = loadTableDevice(a.table_file, tdiag);
+  if (!table) return fail("table device file refused:\n" + tdiag.str());
+  if (table->transport.kind == TransportKind::kSerialScpi) {
+    return fail(a.table_file +
+                ": --table needs a Modbus register map (give serial command sets "
+                "with --serial-table)");
+  }
+  plans::Diagnostics cdiag(a.chamber_file);
+  auto chamber = loadChamberDevice(a.chamber_file, cdiag);
+  if (!chamber) return fail("chamber device file refused:\n" + cdiag.str());
+  std::optional<TableDeviceSpec> serial_table;
+  if (!a.serial_table_file.empty()) {
+    plans::Diagnostics sdiag(a.serial_table_file);
+    serial_table = loadTableDevice(a.serial_table_file, sdiag);
+    if (!serial_table) return fail("serial table device file refused:\n" + sdiag.str());
+    if (serial_table->transport.kind != TransportKind::kSerialScpi ||
+        serial_table->kind != table->kind) {
+      return fail(a.serial_table_file +
+                  ": --serial-table needs a serial-scpi file for a table "
+                  "with as many axes as --table");
+    }
+  }
+
+  VirtualWorld world(*table, *chamber, a.time_scale, a.ambient_c);
+  LinkFaults faults;
+  faults.reply_delay_s = a.reply_delay_ms / 1000.0;
+  faults.drop_replies = a.drop_replies;
+  EventSink sink = [&log](const std::string& m) { log.warning(m); };
+
+  VirtualTableRegisters table_regs(world, *table, sink);
+  ModbusServer table_tcp(table_regs, faults, sink);
+  const int tport = a.table_port >= 0 ? a.table_port : table->transport.port;
+  if (Status s = table_tcp.startTcp(a.host, tport); !s.ok) return fail("table: " + s.message);
+  announce("table modbus-tcp " + a.host + ":" + std::to_string(table_tcp.port()) + " device " +
+           a.table_file);
+  std::unique_ptr<ModbusServer> table_rtu;
+  if (a.table_rtu) {
+    table_rtu = std::make_unique<ModbusServer>(table_regs, faults, sink);
+    if (Status s = table_rtu->startRtu(a.rtu_unit); !s.ok) return fail("table RTU: " + s.message);
+    announce("table modbus-rtu " + table_rtu->ptyPath() + " unit " + std::to_string(a.rtu_unit));
+  }
+  std::unique_ptr<VirtualTableScpi> table_serial;
+  if (serial_table) {
+    table_serial = std::make_unique<VirtualTableScpi>(world, *serial_table, faults, sink);
+    if (Status s = table_serial->start(); !s.ok) return fail("table serial: " + s.message);
+    announce("table serial " + table_serial->ptyPath() + " device " + a.serial_table_file);
+  }
+  VirtualChamberRegisters chamber_regs(world, *chamber, sink);
+  ModbusServer chamber_tcp(chamber_regs, faults, sink);
+  const int cport = a.chamber_port >= 0 ? a.chamber_port : chamber->transport.port;
+  if (Status s = chamber_tcp.startTcp(a.host, cport); !s.ok) return fail("chamber: " + s.message);
+  announce("chamber modbus-tcp " + a.host + ":" + std::to_string(chamber_tcp.port()) + " device " +
+           a.chamber_file);
+
+  std::unique_ptr<ImuStreamer> imu;
+  if (!a.imu_layout_file.empty()) {
+    plans::Diagnostics idiag(a.imu_layout_file);
+    auto layout = loadImuLayoutFile(a.imu_layout_file, idiag);
+    if (!layout) return fail("IMU device file refused:\n" + idiag.str());
+    calib::BenchWorld bench;
+    if (!a.truth_file.empty()) {
+      auto t = daemon::readTruthFile(a.truth_file);
+      if (!t.status.ok) return fail(t.status.message);
+      bench.truth = t.truth;
+    }
+    calib::SimOptions opts;
+    opts.imu_rate_hz = a.imu_rate_hz > 0 ? a.imu_rate_hz : 1.0 / layout->sample_period_s;
+    opts.seed = a.seed;
+    std::string why;
+    auto sim = world.withMotion([&](const calib::Motion& m, double) {
+      return calib::ImuSimulator::Create(bench, &m, opts, &why);
+    });
+    if (!sim) return fail("IMU simulator: " + why);
+    VirtualImuOptions io;
+    io.interface = a.can_interface;
+    io.faults.drop_frame_every = a.imu_drop_every;
+    io.faults.corrupt_frame_every = a.imu_corrupt_every;
+    io.faults.stop_after = a.imu_stop_after;
+    if (!io.IsValid(&why)) return fail("IMU: " + why);
+    auto can = std::make_unique<VirtualImuCan>(*layout, io);
+    if (Status s = can->open(); !s.ok) return fail("IMU on " + a.can_interface + ": " + s.message);
+    imu = std::make_unique<ImuStreamer>(world, std::move(sim), std::move(can), log);
+    imu->start();
+    announce("imu can " + a.can_interface + " layout " + a.imu_layout_file + " rate " +
+             std::to_string(opts.imu_rate_hz) + " Hz");
+  }
+  announce("ready time-scale " + std::to_string(a.time_scale));
+
+  // Wait for SIGINT/SIGTERM (blocked in main before any thread started); wake up for a
+  // scheduled interlock trip on the way.
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGUSR1);
+  sigaddset(&set, SIGUSR2);
+  auto trip = [&] {
+    world.withTable([&](VirtualTable& t, double now) {
+      t.trip(now, a.trip_reason);
+      return 0;
+    });
+    log.warning("fault injection: table interlock tripped: " + a.trip_reason);
+  };
+  bool tripped = a.trip_after_s < 0;
+  for (;;) {
+    timespec ts{1, 0};
+    if (!tripped) {
+      const double wall = std::max(0.0, (a.trip_after_s - world.now()) / a.time_scale);
+      ts.tv_sec = static_cast<time_t>(wall);
+      ts.tv_nsec = static_cast<long>((wall - std::floor(wall)) * 1e9);
+    }
+    const int sig = sigtimedwait(&set, nullptr, tripped ? nullptr : &ts);
+    if (sig == SIGINT || sig == SIGTERM) break;
+    if (sig == SIGUSR1) {
+      log.warning("fault injection: dropping every Modbus TCP connection");
+      table_tcp.dropConnections();
+      chamber_tcp.dropConnections();
+    }
+    if (sig == SIGUSR2) trip();
+    if (!tripped && world.now() >= a.trip_after_s) {
+      trip();
+      tripped = true;
+    }
+  }
+  log.info("stopping");
+  if (imu) imu->stop();
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  CLI::App app{"imubench-virtual-bench: a simulated table, chamber and IMU over real protocols"};
+  app.add_option("--table", a.table_file, "table device file with a Modbus register map")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--chamber", a.chamber_file, "chamber device file")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--serial-table", a.serial_table_file,
+                 "also serve the table's serial command set (serial-scpi device file) on a pty")
+      ->check(CLI::ExistingFile);
+  app.add_flag("--table-rtu", a.table_rtu,
+               "also serve the table's register map over Modbus RTU "
+               "on a pty");
+  app.add_option("--rtu-unit", a.rtu_unit, "Modbus RTU unit id")->check(CLI::Range(1, 247));
+  app.add_option("--host", a.host, "address the Modbus TCP servers listen on");
+  app.add_option("--table-port", a.table_port,
+                 "table Modbus TCP port (0: ephemeral; default: "
+                 "the device file's)");
+  app.add_option("--chamber-port", a.chamber_port, "chamber Modbus TCP port (0: ephemeral)");
+  app.add_option("--time-scale", a.time_scale, "simulated seconds per wall second")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--ambient", a.ambient_c, "ambient temperature, degC");
+  app.add_option("--imu", a.imu_layout_file, "IMU device file (CAN layout): stream the IMU")
+      ->check(CLI::ExistingFile);
+  app.add_option("--can", a.can_interface, "SocketCAN interface for the IMU");
+  app.add_option("--truth", a.truth_file, "truth JSON (sensor/table errors, extra physics)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--imu-rate", a.imu_rate_hz, "IMU rate, Hz (default: the layout's)");
+  app.add_option("--seed", a.seed, "noise seed");
+  app.add_option("--fault-reply-delay-ms", a.reply_delay_ms, "delay every Modbus/serial reply")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--fault-drop-replies", a.drop_replies, "never answer Modbus/serial requests");
+  app.add_option("--fault-trip-after", a.trip_after_s,
+                 "trip the table interlock at this simulated time, s");
+  app.add_option("--fault-imu-drop-every", a.imu_drop_every, "drop a frame of every Nth sample");
+  app.add_option("--fault-imu-corrupt-every", a.imu_corrupt_every,
+                 "corrupt a frame of every Nth sample");
+  app.add_option("--fault-imu-stop-after", a.imu_stop_after, "the IMU stops after N samples");
+  CLI11_PARSE(app, argc, argv);
+  // Signals are taken synchronously by the main thread (sigtimedwait): block them before any
+  // server thread starts so every thread inherits the mask.
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGUSR1);
+  sigaddset(&set, SIGUSR2);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+  return run(a);
+}
