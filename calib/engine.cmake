@@ -4,6 +4,7 @@ target_sources(imubench_calib PRIVATE
   static_detection.cpp
   scalar_calibration.cpp
   observability.cpp
+  direct_calibration.cpp
 )
 # Navigation-based (indirect) calibration, validation experiment, shared result type.
 target_sources(imubench_calib PRIVATE

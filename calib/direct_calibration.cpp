@@ -1,0 +1,364 @@
+#include "calib/direct_calibration.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "calib/observability.h"
+
+namespace imubench::calib {
+
+bool DirectCalibrationOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(static_trim_s >= 0.0)) return fail("static_trim_s must be >= 0");
+  if (!(min_static_s > 0.0)) return fail("min_static_s must be > 0");
+  if (!(min_rotation_rad > 0.0)) return fail("min_rotation_rad must be > 0");
+  return true;
+}
+
+namespace {
+
+constexpr std::array<const char*, 3> kAxis = {"x", "y", "z"};
+
+// Encoder angles at time t, linear between samples, held outside.
+TableAngles anglesAt(const std::vector<TableSample>& table, double t) {
+  auto it = std::lower_bound(table.begin(), table.end(), t,
+                             [](const TableSample& s, double v) { return s.t < v; });
+  if (it == table.begin()) return table.front().angles;
+  if (it == table.end()) return table.back().angles;
+  const TableSample& b = *it;
+  const TableSample& a = *(it - 1);
+  const double w = (t - a.t) / (b.t - a.t);
+  return {a.angles.outer + w * (b.angles.outer - a.angles.outer),
+          a.angles.middle + w * (b.angles.middle - a.angles.middle),
+          a.angles.inner + w * (b.angles.inner - a.angles.inner)};
+}
+
+double axisAngle(const TableAngles& a, TableKind kind, int axis) {
+  if (axis == 0) return a.outer;
+  if (kind == TableKind::kThreeAxis && axis == 1) return a.middle;
+  return a.inner;
+}
+
+// Unit rotation axis of `axis` in B for the nominal table at the given angles.
+Vec3 axisInBody(const TableModel& nominal, const TableAngles& a, int axis) {
+  TableState st;
+  st.outer.angle = a.outer;
+  st.middle.angle = a.middle;
+  st.inner.angle = a.inner;
+  const TableKind kind = nominal.geometry().kind;
+  if (axis == 0)
+    st.outer.rate = 1.0;
+  else if (kind == TableKind::kThreeAxis && axis == 1)
+    st.middle.rate = 1.0;
+  else
+    st.inner.rate = 1.0;
+  return nominal.kinematics(st).w_LB_B;
+}
+
+struct Rows {
+  std::vector<Vec3> input;    // regressor (SI input)
+  std::vector<Vec3> reading;  // mean reading
+  std::vector<std::string> what;
+  std::vector<bool> is_static;
+  std::vector<Vec3> up_B;  // static rows: the nominal Up direction in B
+};
+
+enum class TriadKind { kAccel, kGyro };
+
+// Seed's classic estimator for one axis i: the static positions with axis i up and down.
+// Returns false when the plan has no such pair.
+bool axisPairs(const Rows& rows, int i, std::vector<std::size_t>* up,
+               std::vector<std::size_t>* down) {
+  const double cos_tol = std::cos(2.0 * kDegToRad);
+  for (std::size_t j = 0; j < rows.input.size(); ++j) {
+    if (!rows.is_static[j]) continue;
+    if (rows.up_B[j][i] > cos_tol) up->push_back(j);
+    if (rows.up_B[j][i] < -cos_tol) down->push_back(j);
+  }
+  return !up->empty() && !down->empty();
+}
+
+// Per-axis least squares of reading_i = K_i . input + o_i; fills the triad, sigmas and flags.
+void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string& triad,
+              TriadModel* out, CoefficientReport* report, std::vector<std::string>* notes,
+              double* rms) {
+  const Eigen::Index n = static_cast<Eigen::Index>(rows.input.size());
+  Eigen::MatrixXd X(n, 4);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    X.block<1, 3>(j, 0) = rows.input[static_cast<std::size_t>(j)].transpose();
+    X(j, 3) = 1.0;
+  }
+  // Names of K_i's entries: diagonal -> scale, off-diagonal -> misalignment, o -> bias.
+  static const char* kMisName[3][3] = {{"", "xy", "xz"}, {"yx", "", "yz"}, {"zx", "zy", ""}};
+  static const double kMisSign[3][3] = {{0, 1, -1}, {-1, 0, 1}, {1, -1, 0}};
+  double ss = 0.0;
+  Mat3 K = Mat3::Identity();
+  Vec3 o = Vec3::Zero();
+  Misalignment mis;
+  double* mis_field[3][3] = {
+      {nullptr, &mis.xy, &mis.xz}, {&mis.yx, nullptr, &mis.yz}, {&mis.zx, &mis.zy, nullptr}};
+  for (int i = 0; i < 3; ++i) {
+    std::vector<std::string> names;
+    for (int c = 0; c < 3; ++c)
+      names.push_back(c == i ? triad + ".scale." + kAxis[static_cast<std::size_t>(i)]
+                             : triad + ".misalignment." + kMisName[i][c]);
+    names.push_back(triad + ".bias." + kAxis[static_cast<std::size_t>(i)]);
+    Eigen::VectorXd y(n);
+    for (Eigen::Index j = 0; j < n; ++j) y(j) = rows.reading[static_cast<std::size_t>(j)][i];
+    const InformationAnalysis ia = analyseInformation(X, names);
+    Eigen::Vector4d beta;
+    std::vector<std::size_t> up, down;
+    if (pairwise && axisPairs(rows, i, &up, &down)) {
+      // Scale/offset from the axis-up/axis-down positions (a table error tilts the input
+      // there only to second order), the rest by least squares with them held.
+      auto mean = [&](const std::vector<std::size_t>& idx, const Eigen::Vector4d& b, int skip) {
+        double m = 0.0;
+        for (std::size_t j : idx) {
+          double v = y(static_cast<Eigen::Index>(j));
+          for (int c = 0; c < 3; ++c)
+            if (c != skip) v -= b(c) * rows.input[j][c];
+          m += v;
+        }
+        return m / static_cast<double>(idx.size());
+      };
+      beta.setZero();
+      beta(i) = 1.0;
+      for (int iter = 0; iter < 4; ++iter) {
+        const double U = mean(up, beta, kind == TriadKind::kAccel ? i : -1);
+        const double D = mean(down, beta, kind == TriadKind::kAccel ? i : -1);
+        if (kind == TriadKind::kAccel) {
+          double gu = 0.0, gd = 0.0;
+          for (std::size_t j : up) gu += rows.input[j][i] / static_cast<double>(up.size());
+          for (std::size_t j : down) gd += rows.input[j][i] / static_cast<double>(down.size());
+          beta(i) = (U - D) / (gu - gd);
+          beta(3) = U - beta(i) * gu;
+          // Off-diagonal terms from every static position, scale and offset held.
+          Eigen::MatrixXd A(n, 2);
+          Eigen::VectorXd z(n);
+          const int c1 = (i + 1) % 3, c2 = (i + 2) % 3;
+          for (Eigen::Index j = 0; j < n; ++j) {
+            const Vec3& f = rows.input[static_cast<std::size_t>(j)];
+            A(j, 0) = f[c1];
+            A(j, 1) = f[c2];
+            z(j) = y(j) - beta(3) - beta(i) * f[i];
+          }
+          const Eigen::Vector2d m2 = A.colPivHouseholderQr().solve(z);
+          beta(c1) = m2(0);
+          beta(c2) = m2(1);
+        } else {
+          // Gyro: offset from the pair (Earth-rate inputs removed with the current K), K_i
+          // from the rotation rows with the offset held.
+          beta(3) = 0.5 * (U + D);
+          std::vector<Eigen::Index> rot;
+          for (Eigen::Index j = 0; j < n; ++j)
+            if (!rows.is_static[static_cast<std::size_t>(j)]) rot.push_back(j);
+          if (rot.size() < 3) break;
+          Eigen::MatrixXd A(static_cast<Eigen::Index>(rot.size()), 3);
+          Eigen::VectorXd z(static_cast<Eigen::Index>(rot.size()));
+          for (std::size_t q = 0; q < rot.size(); ++q) {
+            A.row(static_cast<Eigen::Index>(q)) =
+                rows.input[static_cast<std::size_t>(rot[q])].transpose();
+            z(static_cast<Eigen::Index>(q)) = y(rot[q]) - beta(3);
+          }
+          beta.head<3>() = A.colPivHouseholderQr().solve(z);
+        }
+      }
+    } else {
+      if (pairwise)
+        notes->push_back(triad + " axis " + kAxis[static_cast<std::size_t>(i)] +
+                         ": no axis-up/axis-down pair of positions, joint least squares "
+                         "(table errors may leak into its scale and bias)");
+      Eigen::JacobiSVD<Eigen::MatrixXd> svd0(X, Eigen::ComputeThinU | Eigen::ComputeThinV);
+      svd0.setThreshold(1e-10);
+      beta = svd0.solve(y);
+    }
+    // Covariance of the joint design, scaled by the residual scatter (approximate for the
+    // pairwise estimator).
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(X, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    svd.setThreshold(1e-10);
+    const Eigen::VectorXd r = y - X * beta;
+    ss += r.squaredNorm();
+    const double dof = std::max<double>(1.0, static_cast<double>(n - svd.rank()));
+    const double s2 = r.squaredNorm() / dof;
+    Eigen::Matrix4d cov = Eigen::Matrix4d::Zero();
+    const Eigen::VectorXd sv = svd.singularValues();
+    for (Eigen::Index k = 0; k < sv.size(); ++k)
+      if (sv(k) > 1e-10 * sv(0))
+        cov += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (sv(k) * sv(k));
+    cov *= s2;
+    K.row(i) = beta.head<3>().transpose();
+    o(i) = beta(3);
+    const double s = beta(i);
+    for (int c = 0; c < 3; ++c) {
+      if (c == i) {
+        report->setSigma(names[static_cast<std::size_t>(c)], std::sqrt(cov(c, c)));
+      } else {
+        *mis_field[i][c] = kMisSign[i][c] * beta(c) / s;
+        report->setSigma(names[static_cast<std::size_t>(c)], std::sqrt(cov(c, c)) / std::abs(s));
+      }
+    }
+    report->setSigma(names[3], std::sqrt(cov(3, 3)) / std::abs(s));
+    for (const NullDirection& d : ia.null_directions)
+      notes->push_back(triad + " axis " + kAxis[static_cast<std::size_t>(i)] +
+                       ": the positions cannot separate " + d.description);
+    for (std::size_t k = 0; k < names.size(); ++k)
+      if (!ia.observable[k]) report->setUnobservable(names[k]);
+  }
+  out->scale = K.diagonal();
+  out->bias = -o.cwiseQuotient(out->scale);
+  out->mis = mis;
+  *rms = n > 0 ? std::sqrt(ss / (3.0 * static_cast<double>(n))) : 0.0;
+}
+
+}  // namespace
+
+DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
+                                        const DirectCalibrationOptions& o) {
+  DirectCalibrationResult res;
+  std::string why;
+  if (!o.IsValid(&why)) {
+    res.reason = "options: " + why;
+    return res;
+  }
+  if (in.imu.size() < 2) {
+    res.reason = "recording has fewer than 2 IMU samples";
+    return res;
+  }
+  if (in.table.empty()) {
+    res.reason = "recording has no table samples";
+    return res;
+  }
+  for (std::size_t i = 0; i < in.imu.size(); ++i) {
+    const nav::ImuSample& s = in.imu[i];
+    if (!std::isfinite(s.t) || !s.dtheta.allFinite() || !s.dvel.allFinite()) {
+      res.reason = "IMU sample " + std::to_string(i) + ": NaN or infinite value";
+      return res;
+    }
+    if (i > 0 && !(s.t > in.imu[i - 1].t)) {
+      res.reason = "IMU sample " + std::to_string(i) + ": time does not increase";
+      return res;
+    }
+  }
+  const TableModel nominal(in.geometry, TableErrors{});
+  const double g = nav::siteGravity(in.site);
+  const Vec3 up_g(0.0, 0.0, g);
+  const Vec3 w_ie_L = o.use_earth_rate ? nav::earthRateL(in.site.latitude_rad) : Vec3::Zero();
+  const TableKind kind = in.geometry.kind;
+  const double dt0 = in.imu[1].t - in.imu[0].t;
+  auto startOf = [&](std::size_t i) { return i == 0 ? in.imu[0].t - dt0 : in.imu[i - 1].t; };
+
+  Rows acc, gyr;
+  for (const Segment& seg : in.segments) {
+    if (!seg.recording) continue;
+    if (seg.kind == SegmentKind::kStatic) {
+      const double a = seg.t0 + o.static_trim_s, b = seg.t1 - o.static_trim_s;
+      if (b - a < o.min_static_s) {
+        res.notes.push_back("static '" + seg.label + "' too short after trimming: skipped");
+        continue;
+      }
+      Vec3 dv = Vec3::Zero(), dth = Vec3::Zero();
+      double T = 0.0;
+      for (std::size_t i = 0; i < in.imu.size(); ++i) {
+        if (startOf(i) < a || in.imu[i].t > b) continue;
+        dv += in.imu[i].dvel;
+        dth += in.imu[i].dtheta;
+        T += in.imu[i].t - startOf(i);
+      }
+      if (T < o.min_static_s) {
+        res.notes.push_back("static '" + seg.label + "' has too few IMU samples: skipped");
+        continue;
+      }
+      // Mean encoder angles over the window.
+      TableAngles m{0, 0, 0};
+      int cnt = 0;
+      for (const TableSample& ts : in.table)
+        if (ts.t >= a && ts.t <= b) {
+          m.outer += ts.angles.outer;
+          m.middle += ts.angles.middle;
+          m.inner += ts.angles.inner;
+          ++cnt;
+        }
+      if (cnt == 0) {
+        m = anglesAt(in.table, 0.5 * (a + b));
+      } else {
+        m.outer /= cnt;
+        m.middle /= cnt;
+        m.inner /= cnt;
+      }
+      const Mat3 C_BL = nominal.nominalC_LB(m).transpose();
+      acc.input.push_back(C_BL * up_g);
+      acc.reading.push_back(dv / T);
+      acc.what.push_back(seg.label);
+      acc.is_static.push_back(true);
+      acc.up_B.push_back(C_BL.col(2));
+      gyr.input.push_back(C_BL * w_ie_L);
+      gyr.reading.push_back(dth / T);
+      gyr.what.push_back(seg.label);
+      gyr.is_static.push_back(true);
+      gyr.up_B.push_back(C_BL.col(2));
+      ++res.statics_used;
+    } else if (seg.kind == SegmentKind::kRotate) {
+      if (seg.axis < 0 || seg.axis >= axisCount(kind)) {
+        res.notes.push_back("rotation '" + seg.label + "' names no table axis: skipped");
+        continue;
+      }
+      std::size_t first = in.imu.size(), last = 0;
+      for (std::size_t i = 0; i < in.imu.size(); ++i)
+        if (in.imu[i].t > seg.t0 && startOf(i) < seg.t1) {
+          first = std::min(first, i);
+          last = i;
+        }
+      if (first >= in.imu.size()) {
+        res.notes.push_back("rotation '" + seg.label + "' has no IMU samples: skipped");
+        continue;
+      }
+      const double ta = startOf(first), tb = in.imu[last].t;
+      const TableAngles a0 = anglesAt(in.table, ta), a1 = anglesAt(in.table, tb);
+      const double phi = axisAngle(a1, kind, seg.axis) - axisAngle(a0, kind, seg.axis);
+      if (std::abs(phi) < o.min_rotation_rad) {
+        res.notes.push_back("rotation '" + seg.label +
+                            "' turns less than min_rotation_rad: skipped");
+        continue;
+      }
+      Vec3 dth = Vec3::Zero(), earth = Vec3::Zero();
+      for (std::size_t i = first; i <= last; ++i) {
+        dth += in.imu[i].dtheta;
+        const double tm = 0.5 * (startOf(i) + in.imu[i].t);
+        earth += nominal.nominalC_LB(anglesAt(in.table, tm)).transpose() * w_ie_L *
+                 (in.imu[i].t - startOf(i));
+      }
+      const double T = tb - ta;
+      gyr.input.push_back((axisInBody(nominal, a0, seg.axis) * phi + earth) / T);
+      gyr.reading.push_back(dth / T);
+      gyr.what.push_back(seg.label);
+      gyr.is_static.push_back(false);
+      gyr.up_B.push_back(Vec3::Zero());
+      ++res.rotations_used;
+    }
+  }
+  if (res.statics_used < 4) {
+    res.reason = "only " + std::to_string(res.statics_used) +
+                 " usable static positions: need >= 4 (12 accelerometer unknowns, 4 per axis)";
+    return res;
+  }
+  const bool pairwise = o.estimator == DirectEstimator::kAxisPairs;
+  fitTriad(acc, TriadKind::kAccel, pairwise, "accel", &res.report.values.sensors.accel, &res.report,
+           &res.notes, &res.accel_residual_rms);
+  if (res.rotations_used == 0)
+    res.notes.push_back("no rate runs: gyro scales and misalignments rest on the Earth rate alone");
+  fitTriad(gyr, TriadKind::kGyro, pairwise && res.rotations_used >= 3, "gyro",
+           &res.report.values.sensors.gyro, &res.report, &res.notes, &res.gyro_residual_rms);
+  res.report.values.table_kind = kind;
+  res.notes.push_back(
+      "table errors are not estimated by direct calibration: they leak into the coefficients "
+      "(mounting into both triads' misalignments, base tilt into the accelerometers')");
+  res.ok = true;
+  return res;
+}
+
+}  // namespace imubench::calib

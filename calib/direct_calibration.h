@@ -1,0 +1,80 @@
+// Direct calibration on a two- or three-axis table (the seed's "calibration by direct
+// measurements"): accelerometer scales, biases and six misalignments and the gyro biases from
+// static positions; gyro scales and misalignments from rate runs (full turns / rotations).
+//
+// The table is taken as nominal: each static position's attitude C_LB comes from the encoder
+// angles through the error-free chain, so table errors (base tilt, mounting, ...) leak into
+// the coefficients exactly as the seed analyses. Per sensor axis i the model is linear:
+//     mean reading_i = K_i . input + o_i,   K = diag(scale) M,  o = -diag(scale) bias
+// with input = C_BL (0, 0, g) (accel, statics), C_BL w_ie_L (gyro, statics) and
+// (axis_B * angle + integral of C_BL w_ie_L dt) / T (gyro, rotation of duration T: the axis
+// of a single-axis rotation keeps its body coordinates). Least squares per axis; sigmas from
+// the residual scatter; parameters the design cannot separate are named and flagged.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "calib/bench_truth.h"
+#include "calib/motion.h"
+#include "calib/simulator.h"
+#include "calib/table_model.h"
+#include "nav/earth.h"
+#include "nav/imu_sample.h"
+
+namespace imubench::calib {
+
+// A recording-like value (imubench-csv/1 in memory, SI).
+struct DirectCalibrationInput {
+  TableGeometry geometry;          // kind and (two-axis) outer-axis heading
+  nav::Site site;                  // gravity and Earth-rate projection
+  nav::ImuSamples imu;             // increments, t = END of each interval
+  std::vector<TableSample> table;  // encoder readings, rad, any rate
+  std::vector<Segment> segments;   // kStatic and kRotate are used, others ignored
+};
+
+enum class DirectEstimator {
+  // The seed's classic direct calibration: per axis, scale and bias from the positions with
+  // that axis up and down (gyro: bias from those statics, scale from the rate runs), the
+  // misalignments by least squares with them held. Table errors tilt the input of a vertical
+  // axis only to second order, so scales and biases stay free of them.
+  kAxisPairs,
+  // One least-squares fit of all four unknowns per axis over every position: uses the data
+  // best, but lets table errors leak into scales and biases on unbalanced plans.
+  kJointLeastSquares,
+};
+
+struct DirectCalibrationOptions {
+  // Which estimator (see DirectEstimator); the seed's is the default.
+  DirectEstimator estimator = DirectEstimator::kAxisPairs;
+  // Seconds left out at both ends of a static segment: servo settling after a move.
+  double static_trim_s = 0.5;
+  // Shortest static segment used (after trimming), s: shorter means average too little.
+  double min_static_s = 1.0;
+  // Shortest rotation used, rad: a rate run must turn enough for the angle to dominate
+  // encoder and timing errors (the seed uses full turns and 180-degree reversals).
+  double min_rotation_rad = kPi / 2.0;
+  // Include the Earth-rate projection in the gyro model (off only for Earth-rate-blind
+  // sensors whose bias would otherwise absorb it pose by pose).
+  bool use_earth_rate = true;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct DirectCalibrationResult {
+  bool ok = false;
+  std::string reason;  // why not, when !ok (bad input, nothing to fit)
+  // Accel and gyro coefficients (report.values.sensors), sigmas and unobservable flags by
+  // flat name; report.values.table stays zero (direct calibration does not estimate it).
+  CoefficientReport report;
+  int statics_used = 0;
+  int rotations_used = 0;
+  double accel_residual_rms = 0.0;  // m/s^2, static means minus fitted model
+  double gyro_residual_rms = 0.0;   // rad/s, static and rotation rows
+  std::vector<std::string> notes;   // plain-language: skipped segments, weak parameters
+};
+
+DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& input,
+                                        const DirectCalibrationOptions& options = {});
+
+}  // namespace imubench::calib
