@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <string_view>
 #include <system_error>
+#include <thread>
 
 #include "daemon/file_io.h"
 
@@ -72,12 +73,6 @@ class LineCursor {
   const char* end_;
   long line_no_ = 0;
 };
-
-size_t countLines(std::string_view text) {
-  size_t n = static_cast<size_t>(std::count(text.begin(), text.end(), '\n'));
-  if (!text.empty() && text.back() != '\n') ++n;
-  return n;
-}
 
 // Splits a line into exactly `expected` comma-separated fields (no quoting: numeric files).
 // Returns false with *why on a different count.
@@ -144,62 +139,162 @@ bool checkTimeOrder(bool first, double prev, double t, std::string* why) {
 // Generic numeric CSV reader: header must match exactly; each row has `columns.size()` fields,
 // all numeric except those listed as allowed-empty (returned as NaN); column 0 is the time and
 // must strictly increase. `row` receives the parsed values.
+// Result of parsing the data rows of one chunk of a numeric CSV.
+struct BodyParse {
+  bool ok = true;
+  long error_line = 0;  // 1-based within the chunk
+  std::string why;
+  long lines = 0;  // lines consumed
+  bool any = false;
+  double first_t = 0.0;
+  double last_t = 0.0;
+};
+
+// Parses data rows (no header): `names.size()` fields each, all numeric except an empty
+// `empty_ok_column` (NaN); column 0 is the time and must strictly increase.
 template <typename RowFn>
-RecordingStatus readNumericCsv(const std::string& path, std::string_view text,
-                               std::string_view header, std::string_view what_header,
-                               int empty_ok_column, RowFn&& row, size_t* rows_hint) {
-  LineCursor cur(text);
+BodyParse parseBody(std::string_view body, const std::vector<std::string_view>& names,
+                    int empty_ok_column, RowFn&& row) {
+  BodyParse r;
+  LineCursor cur(body);
   std::string_view line;
-  const std::string name = path;
-  if (!cur.next(&line))
-    return RecordingStatus::Error(
-        at(name, 1, "empty file, expected header '" + std::string(header) + "'"));
-  if (line != header) {
-    return RecordingStatus::Error(at(name, 1,
-                                     "wrong header " + quoteForMessage(line) + ", expected '" +
-                                         std::string(header) + "'" + std::string(what_header)));
-  }
-  if (rows_hint) *rows_hint = countLines(text);
-  // Column names, for messages.
-  std::vector<std::string_view> names;
-  {
-    size_t s = 0;
-    while (true) {
-      const size_t c = header.find(',', s);
-      names.push_back(
-          header.substr(s, c == std::string_view::npos ? std::string_view::npos : c - s));
-      if (c == std::string_view::npos) break;
-      s = c + 1;
-    }
-  }
   const size_t n = names.size();
   std::array<std::string_view, 8> fields;
   std::array<double, 8> values;
-  std::string why;
-  double prev_t = 0.0;
-  bool first = true;
+  auto fail = [&](std::string why) {
+    r.ok = false;
+    r.error_line = cur.lineNo();
+    r.why = std::move(why);
+    return r;
+  };
   while (cur.next(&line)) {
-    if (line.empty()) {
-      // Only a trailing newline at the very end is allowed (handled by LineCursor); an empty
-      // line inside the file is malformed.
-      return RecordingStatus::Error(at(name, cur.lineNo(), "empty line"));
-    }
-    if (!splitFields(line, fields.data(), n, &why))
-      return RecordingStatus::Error(at(name, cur.lineNo(), why));
+    // Only a trailing newline at the very end is allowed (LineCursor skips it); an empty
+    // line inside the file is malformed.
+    if (line.empty()) return fail("empty line");
+    if (!splitFields(line, fields.data(), n, &r.why)) return fail(r.why);
     for (size_t i = 0; i < n; ++i) {
       if (static_cast<int>(i) == empty_ok_column && fields[i].empty()) {
         values[i] = std::numeric_limits<double>::quiet_NaN();
         continue;
       }
-      if (!parseNumber(fields[i], names[i], &values[i], &why)) {
-        return RecordingStatus::Error(at(name, cur.lineNo(), why));
+      if (!parseNumber(fields[i], names[i], &values[i], &r.why)) return fail(r.why);
+    }
+    if (!checkTimeOrder(!r.any, r.last_t, values[0], &r.why)) return fail(r.why);
+    if (!r.any) r.first_t = values[0];
+    r.last_t = values[0];
+    r.any = true;
+    row(values.data());
+  }
+  r.lines = cur.lineNo();
+  return r;
+}
+
+std::vector<std::string_view> columnNames(std::string_view header) {
+  std::vector<std::string_view> names;
+  size_t s = 0;
+  while (true) {
+    const size_t c = header.find(',', s);
+    names.push_back(header.substr(s, c == std::string_view::npos ? std::string_view::npos : c - s));
+    if (c == std::string_view::npos) break;
+    s = c + 1;
+  }
+  return names;
+}
+
+// Checks the header line; on success *body is the text after it.
+RecordingStatus checkHeader(const std::string& name, std::string_view text, std::string_view header,
+                            std::string_view what_header, std::string_view* body) {
+  LineCursor cur(text);
+  std::string_view line;
+  if (!cur.next(&line)) {
+    return RecordingStatus::Error(
+        at(name, 1, "empty file, expected header '" + std::string(header) + "'"));
+  }
+  if (line != header) {
+    return RecordingStatus::Error(at(name, 1,
+                                     "wrong header " + quoteForMessage(line) + ", expected '" +
+                                         std::string(header) + "'" + std::string(what_header)));
+  }
+  const size_t nl = text.find('\n');
+  *body = nl == std::string_view::npos ? std::string_view() : text.substr(nl + 1);
+  return RecordingStatus::Ok();
+}
+
+template <typename RowFn>
+RecordingStatus readNumericCsv(const std::string& name, std::string_view text,
+                               std::string_view header, std::string_view what_header,
+                               int empty_ok_column, RowFn&& row) {
+  std::string_view body;
+  if (auto st = checkHeader(name, text, header, what_header, &body); !st.ok) return st;
+  const BodyParse r = parseBody(body, columnNames(header), empty_ok_column, row);
+  if (!r.ok) return RecordingStatus::Error(at(name, 1 + r.error_line, r.why));
+  return RecordingStatus::Ok();
+}
+
+// imu.csv, the big one (7.2 M rows for 1 h at 2 kHz): the body is cut at line boundaries into
+// one chunk per hardware thread, parsed in parallel into per-chunk vectors, then joined; time
+// order across chunk boundaries and the line numbers of errors are checked after the join.
+RecordingStatus readImuCsv(const std::string& name, std::string_view text, nav::ImuSamples* out) {
+  std::string_view body;
+  if (auto st = checkHeader(name, text, kImuHeader, "", &body); !st.ok) return st;
+  const auto names = columnNames(kImuHeader);
+  constexpr size_t kMinChunkBytes = 4u << 20;  // below this, threads cost more than they save
+  const size_t hw = std::max(1u, std::thread::hardware_concurrency());
+  const size_t n_chunks =
+      std::clamp<size_t>(body.size() / kMinChunkBytes, 1, std::min<size_t>(hw, 8));
+  std::vector<std::string_view> chunks;
+  size_t start = 0;
+  for (size_t k = 1; k <= n_chunks && start < body.size(); ++k) {
+    size_t end = k == n_chunks ? body.size() : body.size() * k / n_chunks;
+    if (end < body.size()) {
+      const size_t nl = body.find('\n', std::max(end, start));
+      end = nl == std::string_view::npos ? body.size() : nl + 1;
+    }
+    chunks.push_back(body.substr(start, end - start));
+    start = end;
+  }
+  std::vector<nav::ImuSamples> parts(chunks.size());
+  std::vector<BodyParse> results(chunks.size());
+  auto work = [&](size_t k) {
+    parts[k].reserve(chunks[k].size() / 64 + 16);  // rows are >= ~64 bytes in practice
+    results[k] = parseBody(chunks[k], names, 7, [&](const double* v) {
+      nav::ImuSample s;
+      s.t = v[0];
+      s.dtheta = Vec3(v[1], v[2], v[3]);
+      s.dvel = Vec3(v[4], v[5], v[6]);
+      s.temp_c = v[7];
+      parts[k].push_back(s);
+    });
+  };
+  {
+    std::vector<std::thread> threads;
+    for (size_t k = 1; k < chunks.size(); ++k) threads.emplace_back(work, k);
+    if (!chunks.empty()) work(0);
+    for (auto& t : threads) t.join();
+  }
+  long line0 = 1;  // the header
+  size_t total = 0;
+  for (size_t k = 0; k < chunks.size(); ++k) {
+    const BodyParse& r = results[k];
+    if (!r.ok) return RecordingStatus::Error(at(name, line0 + r.error_line, r.why));
+    if (k > 0 && r.any && results[k - 1].any) {
+      std::string why;
+      if (!checkTimeOrder(false, results[k - 1].last_t, r.first_t, &why)) {
+        return RecordingStatus::Error(at(name, line0 + 1, why));
       }
     }
-    if (!checkTimeOrder(first, prev_t, values[0], &why))
-      return RecordingStatus::Error(at(name, cur.lineNo(), why));
-    prev_t = values[0];
-    first = false;
-    row(values.data());
+    line0 += r.lines;
+    total += parts[k].size();
+  }
+  if (parts.size() == 1) {
+    *out = std::move(parts[0]);
+  } else {
+    out->clear();
+    out->reserve(total);
+    for (auto& p : parts) {
+      out->insert(out->end(), p.begin(), p.end());
+      nav::ImuSamples().swap(p);
+    }
   }
   return RecordingStatus::Ok();
 }
@@ -683,28 +778,10 @@ RecordingReadResult readRecording(const std::string& dir) {
   const std::string imu_path = (d / "imu.csv").string();
   if (auto st = readWholeFile(imu_path, &text); !st.ok) return fail(st);
   {
-    size_t rows = 0;
-    rec.imu.clear();
-    // The reserve happens inside via the hint; a lambda reserves on first use.
-    bool reserved = false;
-    auto st = readNumericCsv(
-        imu_path, text, kImuHeader, "", 7,
-        [&](const double* v) {
-          if (!reserved) {
-            rec.imu.reserve(rows);
-            reserved = true;
-          }
-          nav::ImuSample s;
-          s.t = v[0];
-          s.dtheta = Vec3(v[1], v[2], v[3]);
-          s.dvel = Vec3(v[4], v[5], v[6]);
-          s.temp_c = v[7];
-          rec.imu.push_back(s);
-        },
-        &rows);
-    if (!st.ok) return fail(st);
+    if (auto st = readImuCsv(imu_path, text, &rec.imu); !st.ok) return fail(st);
     if (rec.imu.empty())
       return fail(RecordingStatus::Error(at(imu_path, 2, "no samples after the header")));
+    std::string().swap(text);  // release the imu.csv text (1 GB for an hour at 2 kHz)
   }
   // table.csv
   const std::string table_path = (d / "table.csv").string();
@@ -714,15 +791,12 @@ RecordingReadResult readRecording(const std::string& dir) {
     const std::string_view header = two ? kTable2Header : kTable3Header;
     const std::string note = two ? " (meta.json says two-axis)" : " (meta.json says three-axis)";
     const int n_axes = calib::axisCount(rec.table_kind);
-    auto st = readNumericCsv(
-        table_path, text, header, note, -1,
-        [&](const double* v) {
-          TableSample s;
-          s.t = v[0];
-          for (int a = 0; a < n_axes; ++a) s.angles_deg[static_cast<size_t>(a)] = v[a + 1];
-          rec.table.push_back(s);
-        },
-        nullptr);
+    auto st = readNumericCsv(table_path, text, header, note, -1, [&](const double* v) {
+      TableSample s;
+      s.t = v[0];
+      for (int a = 0; a < n_axes; ++a) s.angles_deg[static_cast<size_t>(a)] = v[a + 1];
+      rec.table.push_back(s);
+    });
     if (!st.ok) return fail(st);
     if (rec.table.empty())
       return fail(RecordingStatus::Error(at(table_path, 2, "no samples after the header")));
@@ -731,12 +805,9 @@ RecordingReadResult readRecording(const std::string& dir) {
   const std::string chamber_path = (d / "chamber.csv").string();
   if (fs::exists(chamber_path, ec)) {
     if (auto st = readWholeFile(chamber_path, &text); !st.ok) return fail(st);
-    auto st = readNumericCsv(
-        chamber_path, text, kChamberHeader, "", -1,
-        [&](const double* v) {
-          rec.chamber.push_back({v[0], v[1], v[2]});
-        },
-        nullptr);
+    auto st = readNumericCsv(chamber_path, text, kChamberHeader, "", -1, [&](const double* v) {
+      rec.chamber.push_back({v[0], v[1], v[2]});
+    });
     if (!st.ok) return fail(st);
   }
   // segments.csv (optional)

@@ -30,6 +30,11 @@ void addRunCommand(CLI::App& app);       // cli_run.cpp
 void addSimulateCommand(CLI::App& app);  // cli_simulate.cpp
 void addPlanCommand(CLI::App& app);      // cli_plan.cpp
 void addNavCommand(CLI::App& app);       // cli_nav.cpp
+// Calibration engineer's subcommands (declared here; registered in main() once their
+// sources are in tools/CMakeLists.txt).
+void addCalibrateCommand(CLI::App& app);   // cli_calibrate.cpp
+void addExperimentCommand(CLI::App& app);  // cli_experiment.cpp
+void addObserveCommand(CLI::App& app);     // cli_observe.cpp (`imubench plan observe`)
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {

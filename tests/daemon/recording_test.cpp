@@ -438,3 +438,72 @@ TEST(DeriveSegments, OptionsValidation) {
 
 }  // namespace
 }  // namespace imubench::daemon
+
+namespace imubench::daemon {
+namespace {
+
+// imu.csv above the parallel-parse threshold (tens of MB): errors anywhere, including right at
+// the chunk boundaries (which depend on the thread count), get the right line number.
+class LargeImuCsv : public ::testing::Test {
+ protected:
+  static constexpr int kRows = 240000;  // fixed-length rows of 61 bytes: ~14.6 MB
+  static std::string row(double t) {
+    char buf[96];
+    std::snprintf(buf, sizeof(buf), "%010.4f,1.25e-06,-2.5e-07,3.5e-06,0.001,-0.002,0.0981,25.5\n",
+                  t);
+    return buf;
+  }
+  std::string text(int bad_line, const std::string& bad_row) const {
+    std::string s = "t,dthx,dthy,dthz,dvx,dvy,dvz,temp\n";
+    s.reserve(static_cast<size_t>(kRows) * 64);
+    for (int k = 1; k <= kRows; ++k) s += (k + 1 == bad_line) ? bad_row : row(k * 0.0005);
+    return s;
+  }
+};
+
+TEST_F(LargeImuCsv, ReadsAllRowsInOrder) {
+  TempDir dir("large-ok");
+  writeText(dir.file("meta.json"), kGoodMeta);
+  writeText(dir.file("table.csv"), kGoodTable);
+  writeText(dir.file("imu.csv"), text(-1, ""));
+  const auto r = readRecording(dir.str());
+  ASSERT_TRUE(r.status.ok) << r.status.message;
+  ASSERT_EQ(r.recording.imu.size(), static_cast<size_t>(kRows));
+  for (int k = 0; k < kRows; ++k)
+    ASSERT_DOUBLE_EQ(r.recording.imu[static_cast<size_t>(k)].t, (k + 1) * 0.0005);
+  EXPECT_DOUBLE_EQ(r.recording.imu.back().temp_c, 25.5);
+}
+
+TEST_F(LargeImuCsv, ErrorsNameTheirLineAcrossChunks) {
+  TempDir dir("large-bad");
+  writeText(dir.file("meta.json"), kGoodMeta);
+  writeText(dir.file("table.csv"), kGoodTable);
+  // Lines around the chunk boundaries for 2, 3 and 4 threads (halves, thirds, quarters).
+  std::vector<int> lines;
+  for (int parts = 2; parts <= 4; ++parts) {
+    for (int i = 1; i < parts; ++i) {
+      const int mid = 1 + kRows * i / parts;
+      for (int d = -1; d <= 2; ++d) lines.push_back(mid + d);
+    }
+  }
+  for (int line : {lines[0], lines[1], lines[2], lines[3]}) {
+    writeText(dir.file("imu.csv"), text(line, "12x,0,0,0,0,0,0,\n"));
+    const auto r = readRecording(dir.str());
+    ASSERT_FALSE(r.status.ok);
+    EXPECT_EQ(r.status.message, dir.file("imu.csv") + ":" + std::to_string(line) +
+                                    ": column 't': not a number '12x'");
+  }
+  for (int line : lines) {
+    // Time steps back to 0 at this line.
+    writeText(dir.file("imu.csv"), text(line, row(0.0)));
+    const auto r = readRecording(dir.str());
+    ASSERT_FALSE(r.status.ok);
+    EXPECT_EQ(r.status.message.rfind(
+                  dir.file("imu.csv") + ":" + std::to_string(line) + ": time 0 is not after", 0),
+              0u)
+        << r.status.message;
+  }
+}
+
+}  // namespace
+}  // namespace imubench::daemon
