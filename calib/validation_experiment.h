@@ -38,10 +38,11 @@
 namespace imubench::calib {
 
 struct ValidationMotions {
-  Motion direct;           // two-axis direct calibration plan (direct_two_axis.toml)
-  Motion two_axis_runs;    // two-axis 12-run plan (two_axis_12run.toml)
-  Motion three_axis_runs;  // three-axis plan (three_axis_indirect.toml)
-  Motion validation;       // two-axis 8-heading validation (validation_8heading.toml)
+  Motion direct;             // two-axis direct calibration plan (direct_two_axis.toml)
+  Motion direct_three_axis;  // three-axis direct plan (direct_three_axis.toml), start of (3)
+  Motion two_axis_runs;      // two-axis 12-run plan (two_axis_12run.toml)
+  Motion three_axis_runs;    // three-axis plan (three_axis_indirect.toml)
+  Motion validation;         // two-axis 8-heading validation (validation_8heading.toml)
 };
 
 struct ValidationOptions {
