@@ -12,23 +12,25 @@ TABLE=$DEV/tables/imubench-ref-2axis-tcp.toml
 CHAMBER=$DEV/chambers/generic-float-chamber.toml
 TARGET=123.5
 
-field() {  # field <python expression over d (the parsed device file)>
-  python3 -c 'import sys, tomllib; d = tomllib.load(open(sys.argv[1], "rb")); print(eval(sys.argv[2]))' \
-    "$TABLE" "$1"
+# One Python call reads every address/code the test needs from the device file.
+eval "$(python3 - "$TABLE" <<'PY'
+import sys, tomllib
+d = tomllib.load(open(sys.argv[1], "rb"))
+r, a0 = d["registers"], d["registers"]["axis"][0]
+vals = {
+    "ORDER": r["word_order"], "STATUS": r["status"]["address"],
+    "CONTROL": r["control"]["address"], "MODE": a0["mode"]["address"],
+    "COMMAND": a0["command"]["address"], "DEMAND": a0["position_demand"]["address"],
+    "POSITION": a0["position"]["address"], "AXSTATUS": a0["status"]["address"],
+    "CLOSE": d["codes"]["ctl_interlock_close"], "POSMODE": d["codes"]["mode_position"],
+    "MOVE": d["codes"]["cmd_move"], "BIT_CLOSED": d["status_bits"]["interlock_closed"],
+    "BIT_INPOS": d["status_bits"]["axis_in_position"],
 }
-[ "$(field 'd["registers"]["word_order"]')" = high-first ] || { echo "test expects high-first"; exit 1; }
-STATUS=$(field 'd["registers"]["status"]["address"]')
-CONTROL=$(field 'd["registers"]["control"]["address"]')
-MODE=$(field 'd["registers"]["axis"][0]["mode"]["address"]')
-COMMAND=$(field 'd["registers"]["axis"][0]["command"]["address"]')
-DEMAND=$(field 'd["registers"]["axis"][0]["position_demand"]["address"]')
-POSITION=$(field 'd["registers"]["axis"][0]["position"]["address"]')
-AXSTATUS=$(field 'd["registers"]["axis"][0]["status"]["address"]')
-CLOSE=$(field 'd["codes"]["ctl_interlock_close"]')
-POSMODE=$(field 'd["codes"]["mode_position"]')
-MOVE=$(field 'd["codes"]["cmd_move"]')
-BIT_CLOSED=$(field 'd["status_bits"]["interlock_closed"]')
-BIT_INPOS=$(field 'd["status_bits"]["axis_in_position"]')
+for k, v in vals.items():
+    print(f"{k}={v}")
+PY
+)"
+[ "$ORDER" = high-first ] || { echo "test expects a high-first word order"; exit 1; }
 
 OUT=$(mktemp -d)
 "$BENCH" --table "$TABLE" --chamber "$CHAMBER" --table-port 0 --chamber-port 0 \
@@ -71,13 +73,15 @@ mb -r "$MODE" -t 4 127.0.0.1 "$POSMODE" >/dev/null || fail "write mode"
 mb -r "$DEMAND" -t 4:float -B 127.0.0.1 "$TARGET" >/dev/null || fail "write demand"
 demand=$(value -r "$DEMAND" -t 4:float -B)
 echo "demand read back: $demand"
-python3 -c "import sys; sys.exit(abs(float('$demand') - $TARGET) > 1e-4)" || fail "demand read back $demand"
+awk -v v="$demand" -v t="$TARGET" 'BEGIN { d = v - t; exit !(d < 1e-4 && d > -1e-4) }' ||
+  fail "demand read back $demand"
 mb -r "$COMMAND" -t 4 127.0.0.1 "$MOVE" >/dev/null || fail "write command"
 
 for _ in $(seq 300); do
   pos=$(value -r "$POSITION" -t 4:float -B)
   ax=$(value -r "$AXSTATUS" -t 4)
-  if python3 -c "import sys; sys.exit(abs(float('$pos') - $TARGET) > 1e-3)" && (( (ax >> BIT_INPOS) & 1 )); then
+  if awk -v v="$pos" -v t="$TARGET" 'BEGIN { d = v - t; exit !(d < 1e-3 && d > -1e-3) }' &&
+    (( (ax >> BIT_INPOS) & 1 )); then
     echo "position register reads $pos deg, axis status $ax: in position"
     exit 0
   fi
