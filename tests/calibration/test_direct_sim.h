@@ -1,0 +1,73 @@
+// Test helper: a bundled plan simulated on a bench with a given truth, packaged as the
+// direct calibrator's input.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "calib/direct_calibration.h"
+#include "calib/simulator.h"
+#include "plans/expand.h"
+#include "plans/plan.h"
+#include "plans/validator.h"
+
+namespace imubench::calib::testing {
+
+inline Motion planMotion(const std::string& name) {
+  const std::string path = std::string(IMUBENCH_PLAN_DIR) + "/" + name + ".toml";
+  plans::Diagnostics diag(path);
+  auto plan = plans::loadPlanFile(path, diag);
+  EXPECT_TRUE(plan.has_value()) << diag.str();
+  if (!plan) return {};
+  EXPECT_TRUE(plans::validatePlan(*plan, diag)) << diag.str();
+  plans::ExpandResult r = plans::expand(*plan);
+  EXPECT_TRUE(r.ok) << r.error;
+  return r.motion;
+}
+
+// Sensor errors of a navigation-grade-like IMU, misalignments of ~ 1e-3 rad.
+inline SensorModel exampleSensors() {
+  SensorModel s;
+  s.accel.scale = Vec3(1.0012, 0.9991, 1.0004);
+  s.accel.bias = Vec3(0.012, -0.008, 0.02);
+  s.accel.mis = {1.1e-3, -0.7e-3, 0.5e-3, 0.9e-3, -1.2e-3, 0.4e-3};
+  s.gyro.scale = Vec3(1.0003, 0.9996, 1.0008);
+  s.gyro.bias = Vec3(2e-6, -3e-6, 1.5e-6);
+  s.gyro.mis = {0.8e-3, 0.6e-3, -0.9e-3, 0.3e-3, 1.0e-3, -0.5e-3};
+  return s;
+}
+
+inline nav::Site exampleSite() {
+  nav::Site s;
+  s.latitude_rad = 58.0 * kDegToRad;  // Perm
+  s.height_m = 170.0;
+  return s;
+}
+
+inline DirectCalibrationInput simulateDirect(const Motion& motion, const SensorModel& sensors,
+                                             const TableErrors& table,
+                                             const NoiseModel& noise = NoiseModel::none(),
+                                             double imu_rate_hz = 50.0) {
+  SimulatorInput si;
+  si.world.site = exampleSite();
+  si.world.truth.sensors = sensors;
+  si.world.truth.table = table;
+  si.world.truth.table_kind = motion.kind;
+  si.world.noise = noise;
+  si.motion = motion;
+  SimOptions so;
+  so.imu_rate_hz = imu_rate_hz;
+  so.table_rate_hz = 20.0;
+  const Simulation sim = simulate(si, so);
+  EXPECT_TRUE(sim.ok) << sim.error;
+  DirectCalibrationInput in;
+  in.geometry.kind = motion.kind;
+  in.site = si.world.site;
+  in.imu = sim.imu;
+  in.table = sim.table;
+  in.segments = sim.segments;
+  return in;
+}
+
+}  // namespace imubench::calib::testing
