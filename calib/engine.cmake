@@ -11,10 +11,5 @@ target_sources(imubench_calib PRIVATE
   calibration_result.cpp
   indirect_calibration.cpp
   indirect_preintegration.cpp
-)
-# Navigation-based (indirect) calibration, validation experiment, shared result type.
-target_sources(imubench_calib PRIVATE
-  calibration_result.cpp
-  indirect_calibration.cpp
-  indirect_preintegration.cpp
+  validation_experiment.cpp
 )

@@ -18,6 +18,7 @@
 #include "calib/scalar_calibration.h"
 #include "daemon/recording.h"
 #include "daemon/truth_file.h"
+#include "nav/free_navigation.h"
 #include "tools/cli_common.h"
 
 namespace imubench::tools {
@@ -143,7 +144,7 @@ void runCalibrate(const CalibrateOptions& o) {
     so.gravity_mps2 = nav::siteGravity(rec.site());
     so.gyro_scale_guess = 1.0;
     const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
-    if (!r.status.ok()) throw CommandFailed(o.dir + ": scalar calibration: " + r.status.message);
+    if (!r.status.ok()) throw CommandFailed(o.dir + ": scalar calibration: " + r.status.reason);
     info << "scalar calibration of " << o.dir << ": " << r.spans.size()
          << " static spans, |a|-g RMS " << r.accel_rms_before << " -> " << r.accel_rms_after
          << " m/s^2\n";

@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   addSimulateCommand(app);
   addPlanCommand(app);
   addNavCommand(app);
+  addCalibrateCommand(app);
+  addExperimentCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
