@@ -168,11 +168,15 @@ void runCalibrate(const CalibrateOptions& o) {
     info << "start values: " << o.start << "\n";
   } else {
     const calib::DirectCalibrationResult d = runDirect(rec, table);
-    if (d.ok) {
+    auto sane = [](const calib::TriadModel& t) {
+      return ((t.scale.array() - 1.0).abs() < 0.01).all() && t.bias.allFinite();
+    };
+    if (d.ok && sane(d.report.values.sensors.accel) && sane(d.report.values.sensors.gyro)) {
       in.start = d.report.values.sensors;
       info << "start values: direct calibration of the same recording\n";
     } else {
-      info << "start values: nominal (direct calibration not possible: " << d.reason << ")\n";
+      info << "start values: nominal (the direct calibration of this recording is not usable"
+           << (d.ok ? ": the plan does not determine it" : ": " + d.reason) << ")\n";
     }
   }
   const calib::CalibrationResult r = calib::calibrateIndirect(in, calib::IndirectOptions{});
