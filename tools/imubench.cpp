@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   addRunCommand(app);
   addSimulateCommand(app);
   addPlanCommand(app);
+  addObserveCommand(app);  // `plan observe`: after addPlanCommand
   addNavCommand(app);
   addCalibrateCommand(app);
   addExperimentCommand(app);
