@@ -21,6 +21,7 @@
 #include <iostream>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "calib/simulator.h"
@@ -50,6 +51,7 @@ struct Args {
   std::string imu_layout_file, can_interface = "vcan0", truth_file;
   double imu_rate_hz = 0.0;  // 0: the layout's sample period
   std::uint64_t seed = 1;
+  std::string noise = "none";  // IMU noise model by name (noiseByName)
   // faults
   double reply_delay_ms = 0.0;
   bool drop_replies = false;
@@ -58,6 +60,15 @@ struct Args {
   int imu_drop_every = 0, imu_corrupt_every = 0;
   std::int64_t imu_stop_after = -1;
 };
+
+// The IMU noise models by name (the names of `imubench simulate --noise`).
+std::optional<calib::NoiseModel> noiseByName(const std::string& name) {
+  if (name == "none") return calib::NoiseModel::none();
+  if (name == "nav-grade") return calib::NoiseModel::navigationGrade();
+  if (name == "tactical") return calib::NoiseModel::tactical();
+  if (name == "consumer") return calib::NoiseModel::consumer();
+  return std::nullopt;
+}
 
 void announce(const std::string& line) {
   std::cout << line << std::endl;  // flushed: scripts wait for these lines
@@ -186,6 +197,7 @@ int run(const Args& a) {
       if (!t.status.ok) return fail(t.status.message);
       bench.truth = t.truth;
     }
+    bench.noise = *noiseByName(a.noise);  // checked by CLI11
     calib::SimOptions opts;
     opts.imu_rate_hz = a.imu_rate_hz > 0 ? a.imu_rate_hz : 1.0 / layout->sample_period_s;
     opts.seed = a.seed;
@@ -282,7 +294,9 @@ int main(int argc, char** argv) {
   app.add_option("--truth", a.truth_file, "truth JSON (sensor/table errors, extra physics)")
       ->check(CLI::ExistingFile);
   app.add_option("--imu-rate", a.imu_rate_hz, "IMU rate, Hz (default: the layout's)");
-  app.add_option("--seed", a.seed, "noise seed");
+  app.add_option("--seed", a.seed, "IMU noise seed");
+  app.add_option("--noise", a.noise, "IMU noise: none|nav-grade|tactical|consumer")
+      ->check(CLI::IsMember({"none", "nav-grade", "tactical", "consumer"}));
   app.add_option("--fault-reply-delay-ms", a.reply_delay_ms, "delay every Modbus/serial reply")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--fault-drop-replies", a.drop_replies, "never answer Modbus/serial requests");
