@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Runs every benchmark in one go and prints each against its target as a ratio, so numbers
+# taken on a noisy machine are compared within one run (README "Performance").
+# Usage: bench/run.sh [BUILD_DIR]   (default: build; build it first: cmake --build build)
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-$here/build}
+run() {  # name, binary, extra args...
+  local name=$1 bin=$2
+  shift 2
+  echo "== $name =="
+  if [[ ! -x $bin ]]; then
+    echo "bench/run.sh: $bin is not built" >&2
+    return 1
+  fi
+  "$bin" "$@"
+}
+run "strapdown update (target >= 5 M samples/s, counter x_5M_target)" \
+  "$build/bench/nav/imubench_nav_bench"
+run "simulator (target >= 2 M samples/s)" "$build/bench/calib/imubench_calib_bench"
+run "indirect calibration of a 2 kHz 12-run recording (target < 10 s)" \
+  "$build/bench/calibration/imubench_bench_indirect_calibration"
+run "reading a 1 h, 2 kHz imubench-csv/1 recording (target < 10 s)" \
+  "$build/bench/daemon/imubench_daemon_bench"
+"$here/bench/can_bench.sh" "$build"
