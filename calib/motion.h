@@ -17,7 +17,9 @@ namespace imubench::calib {
 
 enum class TableKind { kTwoAxis, kThreeAxis };
 
-inline int axisCount(TableKind kind) { return kind == TableKind::kTwoAxis ? 2 : 3; }
+inline int axisCount(TableKind kind) {
+  return kind == TableKind::kTwoAxis ? 2 : 3;
+}
 
 struct AxisState {
   double angle = 0.0;  // rad
@@ -56,10 +58,14 @@ enum class SegmentKind { kStatic, kRotate, kMove, kSoak };
 
 inline const char* segmentKindName(SegmentKind k) {
   switch (k) {
-    case SegmentKind::kStatic: return "static";
-    case SegmentKind::kRotate: return "rotate";
-    case SegmentKind::kMove: return "move";
-    case SegmentKind::kSoak: return "soak";
+    case SegmentKind::kStatic:
+      return "static";
+    case SegmentKind::kRotate:
+      return "rotate";
+    case SegmentKind::kMove:
+      return "move";
+    case SegmentKind::kSoak:
+      return "soak";
   }
   return "static";
 }
@@ -85,10 +91,10 @@ struct TemperatureKnot {
 
 struct Motion {
   TableKind kind = TableKind::kTwoAxis;
-  std::vector<AxisTrajectory> axes;  // axisCount(kind) entries
-  std::vector<Segment> segments;     // sorted, non-overlapping
+  std::vector<AxisTrajectory> axes;          // axisCount(kind) entries
+  std::vector<Segment> segments;             // sorted, non-overlapping
   std::vector<TemperatureKnot> temperature;  // empty: constant 20 degC
-  double duration = 0.0;  // s
+  double duration = 0.0;                     // s
 
   double temperatureAt(double t) const;
 };

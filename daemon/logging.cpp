@@ -10,21 +10,31 @@ namespace imubench::daemon {
 namespace {
 int syslogPriority(LogLevel level) {
   switch (level) {
-    case LogLevel::kDebug: return LOG_DEBUG;
-    case LogLevel::kInfo: return LOG_INFO;
-    case LogLevel::kNotice: return LOG_NOTICE;
-    case LogLevel::kWarning: return LOG_WARNING;
-    case LogLevel::kError: return LOG_ERR;
+    case LogLevel::kDebug:
+      return LOG_DEBUG;
+    case LogLevel::kInfo:
+      return LOG_INFO;
+    case LogLevel::kNotice:
+      return LOG_NOTICE;
+    case LogLevel::kWarning:
+      return LOG_WARNING;
+    case LogLevel::kError:
+      return LOG_ERR;
   }
   return LOG_INFO;
 }
 const char* levelName(LogLevel level) {
   switch (level) {
-    case LogLevel::kDebug: return "debug";
-    case LogLevel::kInfo: return "info";
-    case LogLevel::kNotice: return "notice";
-    case LogLevel::kWarning: return "warning";
-    case LogLevel::kError: return "error";
+    case LogLevel::kDebug:
+      return "debug";
+    case LogLevel::kInfo:
+      return "info";
+    case LogLevel::kNotice:
+      return "notice";
+    case LogLevel::kWarning:
+      return "warning";
+    case LogLevel::kError:
+      return "error";
   }
   return "info";
 }
@@ -36,12 +46,15 @@ Logger::Logger(std::string ident, bool also_stderr)
   openlog(ident_.c_str(), LOG_PID | LOG_NDELAY, LOG_DAEMON);
 }
 
-Logger::~Logger() { closelog(); }
+Logger::~Logger() {
+  closelog();
+}
 
 void Logger::log(LogLevel level, std::string_view message) const {
   const std::string m(message);
   syslog(syslogPriority(level), "%s", m.c_str());
-  if (also_stderr_) std::fprintf(stderr, "%s: %s: %s\n", ident_.c_str(), levelName(level), m.c_str());
+  if (also_stderr_)
+    std::fprintf(stderr, "%s: %s: %s\n", ident_.c_str(), levelName(level), m.c_str());
 }
 
 }  // namespace imubench::daemon

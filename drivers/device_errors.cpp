@@ -4,10 +4,14 @@ namespace imubench::drivers {
 
 const char* deviceStateName(DeviceState s) {
   switch (s) {
-    case DeviceState::kOffline: return "offline";
-    case DeviceState::kReady: return "ready";
-    case DeviceState::kRetrying: return "retrying";
-    case DeviceState::kFault: return "fault";
+    case DeviceState::kOffline:
+      return "offline";
+    case DeviceState::kReady:
+      return "ready";
+    case DeviceState::kRetrying:
+      return "retrying";
+    case DeviceState::kFault:
+      return "fault";
   }
   return "unknown";
 }

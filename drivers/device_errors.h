@@ -7,10 +7,10 @@
 namespace imubench::drivers {
 
 enum class DeviceState {
-  kOffline,  // not connected yet, or connection lost and not re-established
-  kReady,    // connected and answering
-  kRetrying, // a request timed out or failed; retrying per the device file's policy
-  kFault,    // retries exhausted, interlock open, or device-reported alarm: operator action needed
+  kOffline,   // not connected yet, or connection lost and not re-established
+  kReady,     // connected and answering
+  kRetrying,  // a request timed out or failed; retrying per the device file's policy
+  kFault,     // retries exhausted, interlock open, or device-reported alarm: operator action needed
 };
 
 const char* deviceStateName(DeviceState s);
