@@ -108,4 +108,12 @@ double GaussianSource::next() {
   return u * m;
 }
 
+std::optional<NoiseModel> NoiseModel::byName(const std::string& name) {
+  if (name == "none") return none();
+  if (name == "nav-grade") return navigationGrade();
+  if (name == "tactical") return tactical();
+  if (name == "consumer") return consumer();
+  return std::nullopt;
+}
+
 }  // namespace imubench::calib

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "nav/rotation.h"
@@ -33,6 +34,10 @@ struct NoiseModel {
   // Consumer MEMS: gyro ARW 0.5 deg/sqrt(h), bias instability 10 deg/h (100 s); accel
   // 200 ug/sqrt(Hz), 1 mg.
   static NoiseModel consumer();
+
+  // The presets above by their command-line names; nullopt for an unknown name.
+  static std::optional<NoiseModel> byName(const std::string& name);
+  static const char* names() { return "none|nav-grade|tactical|consumer"; }
 
   bool IsValid(std::string* why) const;
 };

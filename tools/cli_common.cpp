@@ -28,15 +28,11 @@ void addSiteOptions(CLI::App& sub, SiteOptions* opt) {
 }
 
 const char* noiseNames() {
-  return "none|nav-grade|tactical|consumer";
+  return calib::NoiseModel::names();
 }
 
 std::optional<calib::NoiseModel> noiseByName(const std::string& name) {
-  if (name == "none") return calib::NoiseModel::none();
-  if (name == "nav-grade") return calib::NoiseModel::navigationGrade();
-  if (name == "tactical") return calib::NoiseModel::tactical();
-  if (name == "consumer") return calib::NoiseModel::consumer();
-  return std::nullopt;
+  return calib::NoiseModel::byName(name);
 }
 
 std::string bundledPlanPath(const std::string& file) {

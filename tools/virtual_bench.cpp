@@ -51,7 +51,7 @@ struct Args {
   std::string imu_layout_file, can_interface = "vcan0", truth_file;
   double imu_rate_hz = 0.0;  // 0: the layout's sample period
   std::uint64_t seed = 1;
-  std::string noise = "none";  // IMU noise model by name (noiseByName)
+  std::string noise = "none";  // IMU noise model by name (calib::NoiseModel::byName)
   // faults
   double reply_delay_ms = 0.0;
   bool drop_replies = false;
@@ -60,15 +60,6 @@ struct Args {
   int imu_drop_every = 0, imu_corrupt_every = 0;
   std::int64_t imu_stop_after = -1;
 };
-
-// The IMU noise models by name (the names of `imubench simulate --noise`).
-std::optional<calib::NoiseModel> noiseByName(const std::string& name) {
-  if (name == "none") return calib::NoiseModel::none();
-  if (name == "nav-grade") return calib::NoiseModel::navigationGrade();
-  if (name == "tactical") return calib::NoiseModel::tactical();
-  if (name == "consumer") return calib::NoiseModel::consumer();
-  return std::nullopt;
-}
 
 void announce(const std::string& line) {
   std::cout << line << std::endl;  // flushed: scripts wait for these lines
@@ -197,7 +188,7 @@ int run(const Args& a) {
       if (!t.status.ok) return fail(t.status.message);
       bench.truth = t.truth;
     }
-    bench.noise = *noiseByName(a.noise);  // checked by CLI11
+    bench.noise = *calib::NoiseModel::byName(a.noise);  // checked by CLI11
     calib::SimOptions opts;
     opts.imu_rate_hz = a.imu_rate_hz > 0 ? a.imu_rate_hz : 1.0 / layout->sample_period_s;
     opts.seed = a.seed;
