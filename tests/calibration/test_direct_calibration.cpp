@@ -9,7 +9,7 @@ namespace imubench::calib {
 namespace {
 
 using testing::exampleSensors;
-using testing::planMotion;
+using testing::libraryMotion;
 using testing::simulateDirect;
 
 double misDiff(const Misalignment& a, const Misalignment& b) {
@@ -21,7 +21,7 @@ class DirectPlans : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(DirectPlans, RecoversTruthOnAPerfectTable) {
   const SensorModel truth = exampleSensors();
-  const DirectCalibrationInput in = simulateDirect(planMotion(GetParam()), truth, {});
+  const DirectCalibrationInput in = simulateDirect(libraryMotion(GetParam()), truth, {});
   const DirectCalibrationResult r = calibrateDirect(in);
   ASSERT_TRUE(r.ok) << r.reason;
   EXPECT_GE(r.statics_used, 12);
@@ -49,7 +49,7 @@ TEST_P(DirectPlans, ErrorsStayWithinTheirSigmasUnderNoise) {
   NoiseModel noise = NoiseModel::tactical();
   noise.accel.bias_sigma = 0.0;
   noise.gyro.bias_sigma = 0.0;
-  const DirectCalibrationInput in = simulateDirect(planMotion(GetParam()), truth, {}, noise);
+  const DirectCalibrationInput in = simulateDirect(libraryMotion(GetParam()), truth, {}, noise);
   const DirectCalibrationResult r = calibrateDirect(in);
   ASSERT_TRUE(r.ok) << r.reason;
   const std::vector<std::string> names = flatNames(r.report.values);
@@ -76,7 +76,8 @@ INSTANTIATE_TEST_SUITE_P(Bundled, DirectPlans,
                          ::testing::Values("direct_two_axis", "direct_three_axis"));
 
 TEST(DirectCalibration, RefusesARecordingWithoutStatics) {
-  DirectCalibrationInput in = simulateDirect(planMotion("direct_two_axis"), exampleSensors(), {});
+  DirectCalibrationInput in =
+      simulateDirect(libraryMotion("direct_two_axis"), exampleSensors(), {});
   std::vector<Segment> rot;
   for (const Segment& s : in.segments)
     if (s.kind != SegmentKind::kStatic) rot.push_back(s);
@@ -87,7 +88,8 @@ TEST(DirectCalibration, RefusesARecordingWithoutStatics) {
 }
 
 TEST(DirectCalibration, RefusesNaNSamples) {
-  DirectCalibrationInput in = simulateDirect(planMotion("direct_two_axis"), exampleSensors(), {});
+  DirectCalibrationInput in =
+      simulateDirect(libraryMotion("direct_two_axis"), exampleSensors(), {});
   in.imu[1000].dvel.x() = std::nan("");
   const DirectCalibrationResult r = calibrateDirect(in);
   EXPECT_FALSE(r.ok);
@@ -98,7 +100,8 @@ TEST(DirectCalibration, NamesParametersAPoorPlanCannotSeparate) {
   // Only z up/down and y up/down, no rate runs: x_B is always horizontal, so nothing excites
   // the accelerometers' x input: accel.scale.x and the misalignments on it (yx, zx) cannot
   // be separated from the rest and must be named and flagged, not silently returned.
-  DirectCalibrationInput in = simulateDirect(planMotion("direct_two_axis"), exampleSensors(), {});
+  DirectCalibrationInput in =
+      simulateDirect(libraryMotion("direct_two_axis"), exampleSensors(), {});
   std::vector<Segment> keep;
   for (const Segment& s : in.segments)
     if (s.kind == SegmentKind::kStatic && (s.label == "pos01_z_up" || s.label == "pos02_y_up" ||

@@ -1,5 +1,5 @@
-// Test helper: a bundled plan simulated on a bench with a given truth, packaged as the
-// direct calibrator's input.
+// Test helper: a bundled plan (libraryMotion) simulated on a bench with a given truth, packaged as
+// the direct calibrator's input.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -8,23 +8,9 @@
 
 #include "calib/direct_calibration.h"
 #include "calib/simulator.h"
-#include "plans/expand.h"
-#include "plans/plan.h"
-#include "plans/validator.h"
+#include "test_indirect_plan_loader.h"
 
 namespace imubench::calib::testing {
-
-inline Motion planMotion(const std::string& name) {
-  const std::string path = std::string(IMUBENCH_PLAN_DIR) + "/" + name + ".toml";
-  plans::Diagnostics diag(path);
-  auto plan = plans::loadPlanFile(path, diag);
-  EXPECT_TRUE(plan.has_value()) << diag.str();
-  if (!plan) return {};
-  EXPECT_TRUE(plans::validatePlan(*plan, diag)) << diag.str();
-  plans::ExpandResult r = plans::expand(*plan);
-  EXPECT_TRUE(r.ok) << r.error;
-  return r.motion;
-}
 
 // Sensor errors of a navigation-grade-like IMU, misalignments of ~ 1e-3 rad.
 inline SensorModel exampleSensors() {

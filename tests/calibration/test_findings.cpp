@@ -16,7 +16,7 @@ namespace imubench::calib {
 namespace {
 
 using testing::exampleSensors;
-using testing::planMotion;
+using testing::libraryMotion;
 using testing::simulateDirect;
 
 constexpr double kAs = kArcsecToRad;
@@ -44,7 +44,7 @@ class Findings : public ::testing::TestWithParam<std::string> {
   // Coefficient changes caused by the table errors e, against a perfect table.
   Delta delta(const TableErrors& e) {
     if (motion_.axes.empty()) {
-      motion_ = planMotion(GetParam());
+      motion_ = libraryMotion(GetParam());
       base_ = calibrate(motion_, {});
     }
     const SensorModel s = calibrate(motion_, e);

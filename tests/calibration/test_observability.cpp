@@ -9,7 +9,7 @@ namespace imubench::calib {
 namespace {
 
 using testing::exampleSite;
-using testing::planMotion;
+using testing::libraryMotion;
 
 TEST(Information, NamesTheNullDirection) {
   // Columns a and b enter only as a - b... no: as a + b (identical columns): a - b is invisible.
@@ -33,7 +33,7 @@ TEST(Information, RefusesMismatchedNames) {
 PlanObservability observe(const std::string& plan, CalibrationMethod m) {
   PlanObservabilityOptions o;
   o.site = exampleSite();
-  const PlanObservability r = analysePlanObservability(planMotion(plan), m, o);
+  const PlanObservability r = analysePlanObservability(libraryMotion(plan), m, o);
   EXPECT_TRUE(r.analysis.ok) << r.analysis.reason;
   return r;
 }
