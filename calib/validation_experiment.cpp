@@ -6,6 +6,7 @@
 #include <random>
 
 #include "calib/simulator.h"
+#include "nav/alignment.h"
 #include "nav/free_navigation.h"
 
 namespace imubench::calib {
@@ -98,27 +99,34 @@ bool navigate(const Simulation& sim, const SensorModel& c, const ValidationOptio
               NavErrorCurve* curve, std::string* why) {
   const double t0 = nav::firstIntervalStart(sim.imu);
   const nav::ImuSamples comp = compensate(sim.imu, c, t0);
-  // Levelling: mean compensated specific force over the first levelling_s; heading from the
-  // nominal table setting (smallest rotation of the nominal attitude that levels it).
-  Vec3 dv = Vec3::Zero();
-  double T = 0.0;
-  double t_prev = t0;
-  for (const nav::ImuSample& s : comp) {
-    if (s.t - t0 > o.levelling_s) break;
-    dv += s.dvel;
-    T += s.t - t_prev;
-    t_prev = s.t;
-  }
-  if (!(T > 0.0) || sim.table.empty()) {
-    *why = "validation recording too short to level";
+  std::size_t n_align = 0;
+  while (n_align < comp.size() && comp[n_align].t - t0 <= o.levelling_s) ++n_align;
+  if (n_align < 2 || sim.table.empty()) {
+    *why = "validation recording too short to align";
     return false;
   }
-  const TableSample& ts = sim.table.front();
-  const Mat3 C_nom =
-      TableModel(TableGeometry{sim.kind, kPi / 2.0}, TableErrors{}).nominalC_LB(ts.angles);
-  const Vec3 up_nom = (C_nom * dv).normalized();
-  const Quat level = Quat::FromTwoVectors(up_nom, Vec3::UnitZ());
-  const Quat q0 = level * Quat(C_nom);
+  const std::span<const nav::ImuSample> align_span(comp.data(), n_align);
+  Quat q0;
+  if (o.alignment == ValidationAlignment::kGyrocompass) {
+    // Levelling and gyrocompassing with this coefficient set's own compensated data, as an
+    // INS aligns before a navigation test.
+    const nav::AlignmentResult a = nav::coarseAlign(align_span, o.site);
+    if (!a.ok()) {
+      *why = "alignment: " + a.message;
+      return false;
+    }
+    q0 = a.q_BtoL;
+  } else {
+    // Levelling with this set's accelerometers; heading from the nominal table setting
+    // (smallest rotation of the nominal attitude that levels it).
+    Vec3 dv = Vec3::Zero();
+    for (const nav::ImuSample& s : align_span) dv += s.dvel;
+    const TableSample& ts = sim.table.front();
+    const Mat3 C_nom =
+        TableModel(TableGeometry{sim.kind, kPi / 2.0}, TableErrors{}).nominalC_LB(ts.angles);
+    const Vec3 up_nom = (C_nom * dv).normalized();
+    q0 = Quat::FromTwoVectors(up_nom, Vec3::UnitZ()) * Quat(C_nom);
+  }
   nav::FreeNavOptions fo;
   fo.output_interval_s = o.output_interval_s;
   fo.mech.gravity_mps2 = o.site.gravity_mps2;
@@ -292,16 +300,24 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
 
 ValidationAggregate aggregate(const std::vector<ValidationBench>& benches) {
   ValidationAggregate a;
+  std::vector<double> ratios[kSetCount];
   for (const ValidationBench& b : benches) {
     if (!b.ok) continue;
     ++a.benches;
     for (int i = 0; i < kSetCount; ++i) {
       a.mean_ratio[i] += b.ratio[i];
       a.worst_ratio[i] = std::max(a.worst_ratio[i], b.ratio[i]);
+      if (b.ratio[i] <= kValidationTargetRatio) ++a.within_target[i];
+      ratios[i].push_back(b.ratio[i]);
     }
   }
-  if (a.benches > 0) {
-    for (double& r : a.mean_ratio) r /= a.benches;
+  if (a.benches == 0) return a;
+  for (int i = 0; i < kSetCount; ++i) {
+    a.mean_ratio[i] /= a.benches;
+    std::vector<double>& r = ratios[i];
+    std::sort(r.begin(), r.end());
+    const std::size_t n = r.size();
+    a.median_ratio[i] = n % 2 == 1 ? r[n / 2] : 0.5 * (r[n / 2 - 1] + r[n / 2]);
   }
   return a;
 }

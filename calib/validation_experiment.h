@@ -45,6 +45,18 @@ struct ValidationMotions {
   Motion validation;         // two-axis 8-heading validation (validation_8heading.toml)
 };
 
+// Initial attitude of the validation navigation.
+enum class ValidationAlignment {
+  // Levelling AND gyrocompassing with each set's own compensated data (an INS's alignment
+  // before a navigation test): a rotation common to both triads (the frame the set refers to)
+  // is absorbed entirely, so the sets compare on their relative errors only.
+  kGyrocompass,
+  // Levelling with the set's accelerometers, heading from the nominal table setting: sets that
+  // refer to another table's frame (the three-axis refinement) carry that frame's heading
+  // offset into the navigation.
+  kTableHeading,
+};
+
 struct ValidationOptions {
   // 100 Hz keeps 20 benches x 3 coefficient sets x ~2 h of navigation to about a minute;
   // the static/rotation means the calibrators use are rate-independent at this level.
@@ -66,7 +78,10 @@ struct ValidationOptions {
   double accel_noise_ug_sqrt_hz = 20.0;
   // Noise on the validation recording too (off: isolates the coefficient errors).
   bool validation_noise = false;
-  // Accelerometer levelling span at the start of the validation, s.
+  // How each coefficient set's navigation is initialised (see ValidationAlignment).
+  ValidationAlignment alignment = ValidationAlignment::kGyrocompass;
+  // Alignment (levelling, and gyrocompassing) span at the start of the validation, s: the
+  // first heading is held 15 min, so the span is static.
   double levelling_s = 60.0;
   // Output spacing of the error curves, s.
   double output_interval_s = 10.0;
@@ -112,7 +127,11 @@ struct ValidationAggregate {
   int benches = 0;
   double mean_ratio[kSetCount] = {};   // mean over benches of ratio
   double worst_ratio[kSetCount] = {};  // max over benches
+  double median_ratio[kSetCount] = {};
+  int within_target[kSetCount] = {};  // benches with ratio <= target_ratio
 };
+// Target of the refined sets (issue 3): mean total position error at most 20 % of direct.
+inline constexpr double kValidationTargetRatio = 0.20;
 ValidationAggregate aggregate(const std::vector<ValidationBench>& benches);
 
 // SVG (text) of the three total position-error curves sqrt(dS_E^2 + dS_N^2) of one bench.

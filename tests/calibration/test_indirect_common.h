@@ -9,6 +9,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "calib/indirect_calibration.h"
 #include "calib/simulator.h"
@@ -94,6 +95,31 @@ inline double flat(const CoefficientReport& r, const std::string& name) {
   return flatValue(r.values, name).value();
 }
 
+// Biases are random: with honest sigmas each is within 2 sigma of truth 95.4 % of the time, so
+// a bench with 6 biases has one outside 2 sigma in about a quarter of the draws (measured over
+// 40 benches per plan: 4.6-5 % of biases outside 2 sigma, mean z^2 0.95-1.0). A single bench
+// is held to 4 sigma (a gross-error bound: 6e-5 per bias); coverage of 2 sigma and the sigmas'
+// honesty are checked over many benches (IndirectLibraryPlans/BiasCoverage.*).
+inline constexpr double kBiasSigmaBound = 4.0;
+
+// (estimate - truth) / sigma of the six biases.
+inline std::vector<double> biasZScores(const Outcome& o) {
+  std::vector<double> z;
+  if (!o.result.ok) return z;
+  BenchTruth truth;
+  truth.sensors = o.expected.sensors;
+  const CoefficientReport& r = o.result.coefficients;
+  for (const char* triad : {"accel", "gyro"}) {
+    for (const char* ax : {"x", "y", "z"}) {
+      const std::string b = std::string(triad) + ".bias." + ax;
+      const auto u = r.uncertainty.find(b);
+      if (u == r.uncertainty.end() || !u->second.sigma || !(*u->second.sigma > 0.0)) continue;
+      z.push_back((flat(r, b) - *flatValue(truth, b)) / *u->second.sigma);
+    }
+  }
+  return z;
+}
+
 // allow_fixed: parameters the plan cannot see may be held at the start values (then they must
 // still meet the targets: the start is the direct calibration).
 inline void expectAccurate(const Outcome& o, bool allow_fixed = false) {
@@ -114,7 +140,10 @@ inline void expectAccurate(const Outcome& o, bool allow_fixed = false) {
       const std::string b = std::string(triad) + ".bias." + ax;
       ASSERT_TRUE(r.uncertainty.count(b) && r.uncertainty.at(b).sigma) << b;
       const double sigma = *r.uncertainty.at(b).sigma;
-      EXPECT_NEAR(flat(r, b), *flatValue(truth, b), 2.0 * sigma) << b << " sigma " << sigma;
+      // One bench: within kBiasSigmaBound sigma; the "within 2 sigma" target is a coverage
+      // statement checked over many benches (biasZScores, IndirectLibraryPlans.*Coverage).
+      EXPECT_NEAR(flat(r, b), *flatValue(truth, b), kBiasSigmaBound * sigma)
+          << b << " sigma " << sigma;
     }
     for (const char* m : {"xy", "xz", "yx", "yz", "zx", "zy"}) {
       const std::string n = std::string(triad) + ".misalignment." + m;

@@ -1,8 +1,11 @@
-// The seed's validation experiment, reduced: 3 random benches (table errors 10-60 arcsec,
-// navigation-grade sensors), direct calibration vs the two refinements, 8-heading validation
-// navigation. Target (issue 3 item 5): refined mean total position error at most 20 % of the
-// direct baseline for both methods.
+// The seed's validation experiment (issue 3 item 5): 20 random benches (table errors 10-60
+// arcsec, navigation-grade sensors), direct calibration vs the two refinements, 8-heading
+// validation navigation. Target: refined mean total position error at most 20 % of the direct
+// baseline for both methods, over the 20 benches.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
 
 #include "calib/validation_experiment.h"
 #include "test_indirect_plan_loader.h"
@@ -10,39 +13,96 @@
 namespace imubench::calib {
 namespace {
 
-// DISABLED (run with --gtest_also_run_disabled_tests): target not yet met. Measured at commit
-// time, seeds 1-3: two-axis refined 20.8 % worst (seed 3; seeds 1, 2 below 20 %), three-axis
-// refined 52 % on seed 3, mean 27.6 %. See docs/calibration.md "Status".
-TEST(ValidationExperiment, DISABLED_RefinedCoefficientsBeatDirectBaseline) {
+ValidationMotions bundledMotions() {
   ValidationMotions m;
   m.direct = testing::libraryMotion("direct_two_axis");
   m.direct_three_axis = testing::libraryMotion("direct_three_axis");
   m.two_axis_runs = testing::libraryMotion("two_axis_12run");
   m.three_axis_runs = testing::libraryMotion("three_axis_indirect");
   m.validation = testing::libraryMotion("validation_8heading");
-  ValidationOptions opt;
+  return m;
+}
+
+double maxPositionError(const NavErrorCurve& c) {
+  double m = 0.0;
+  for (std::size_t k = 0; k < c.t.size(); ++k) m = std::max(m, std::hypot(c.s_E[k], c.s_N[k]));
+  return m;
+}
+
+// Same benches as `imubench experiment validation --benches 20 --seed 1` (README "Results").
+TEST(ValidationExperiment, RefinedCoefficientsBeatDirectBaselineOverTwentyBenches) {
+  const ValidationMotions m = bundledMotions();
+  const ValidationOptions opt;
   std::vector<ValidationBench> benches;
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
     benches.push_back(runValidationBench(m, seed, opt));
     const ValidationBench& b = benches.back();
     ASSERT_TRUE(b.ok) << b.error;
     EXPECT_DOUBLE_EQ(b.ratio[0], 1.0);
-    EXPECT_LT(b.ratio[1], 0.20) << "seed " << seed;
-    EXPECT_LT(b.ratio[2], 0.20) << "seed " << seed;
     // The direct baseline itself must show a real error (the metric is not 0/0).
-    double max_s = 0.0;
-    for (std::size_t k = 0; k < b.curve[0].t.size(); ++k) {
-      max_s = std::max(max_s, std::hypot(b.curve[0].s_E[k], b.curve[0].s_N[k]));
-    }
-    EXPECT_GT(max_s, 10.0) << "direct solution position error (m)";
+    EXPECT_GT(maxPositionError(b.curve[0]), 100.0) << "direct solution position error (m)";
+    // Every refinement must improve on direct, by a margin, on every bench.
+    EXPECT_LT(b.ratio[1], 0.70) << "seed " << seed;
+    EXPECT_LT(b.ratio[2], 0.70) << "seed " << seed;
   }
   const ValidationAggregate a = aggregate(benches);
-  EXPECT_EQ(a.benches, 3);
-  EXPECT_LT(a.mean_ratio[1], 0.20);
-  EXPECT_LT(a.mean_ratio[2], 0.20);
+  ASSERT_EQ(a.benches, 20);
+  EXPECT_LE(a.mean_ratio[1], kValidationTargetRatio);
+  EXPECT_LE(a.mean_ratio[2], kValidationTargetRatio);
+  EXPECT_LE(a.median_ratio[1], kValidationTargetRatio);
+  EXPECT_LE(a.median_ratio[2], kValidationTargetRatio);
+  RecordProperty("mean_ratio_two_axis", std::to_string(a.mean_ratio[1]));
+  RecordProperty("mean_ratio_three_axis", std::to_string(a.mean_ratio[2]));
   const std::string svg = positionErrorSvg(benches.front());
   EXPECT_NE(svg.find("<svg"), std::string::npos);
-  EXPECT_NE(svg.find("polyline"), std::string::npos);
+  EXPECT_EQ(svg.find("nan"), std::string::npos);
+  std::size_t polylines = 0;
+  for (std::size_t p = svg.find("<polyline"); p != std::string::npos;
+       p = svg.find("<polyline", p + 1)) {
+    ++polylines;
+  }
+  EXPECT_EQ(polylines, static_cast<std::size_t>(kSetCount));
+}
+
+// Without sensor noise in the calibration runs, the refinements leave almost nothing: the
+// model the calibrators fit is the simulator's model, so what limits the refined sets above is
+// the noise of the calibration runs, not a modelling error.
+TEST(ValidationExperiment, NoiseFreeCalibrationLeavesOnlyNumericalError) {
+  const ValidationMotions m = bundledMotions();
+  ValidationOptions opt;
+  opt.gyro_arw_deg_sqrt_h = 0.0;
+  opt.accel_noise_ug_sqrt_hz = 0.0;
+  for (std::uint64_t seed = 1; seed <= 2; ++seed) {
+    const ValidationBench b = runValidationBench(m, seed, opt);
+    ASSERT_TRUE(b.ok) << b.error;
+    EXPECT_LT(b.ratio[1], 0.02) << "seed " << seed;
+    EXPECT_LT(b.ratio[2], 0.02) << "seed " << seed;
+  }
+}
+
+// Gyrocompassing absorbs a frame rotation common to both triads; with the heading taken from
+// the table instead, the three-axis set (referred to the three-axis table's axes) carries that
+// table's heading offset into the two-axis validation and does worse on average.
+TEST(ValidationExperiment, TableHeadingAlignmentStillImprovesOnDirect) {
+  const ValidationMotions m = bundledMotions();
+  ValidationOptions opt;
+  opt.alignment = ValidationAlignment::kTableHeading;
+  std::vector<ValidationBench> benches;
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    benches.push_back(runValidationBench(m, seed, opt));
+    ASSERT_TRUE(benches.back().ok) << benches.back().error;
+  }
+  const ValidationAggregate a = aggregate(benches);
+  EXPECT_LT(a.mean_ratio[1], 0.5);
+  EXPECT_LT(a.mean_ratio[2], 0.5);
+}
+
+TEST(ValidationExperiment, RefusesMotionsOfTheWrongTable) {
+  ValidationMotions m = bundledMotions();
+  std::swap(m.two_axis_runs, m.three_axis_runs);
+  const ValidationBench b = runValidationBench(m, 1, ValidationOptions{});
+  EXPECT_FALSE(b.ok);
+  EXPECT_NE(b.error.find("motions"), std::string::npos) << b.error;
 }
 
 }  // namespace
