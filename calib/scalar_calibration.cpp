@@ -20,6 +20,10 @@ bool ScalarCalibrationOptions::IsValid(std::string* why) const {
     return fail("gravity_mps2 must be in (9.7, 9.9)");
   if (gyro_scale_guess && !(*gyro_scale_guess > 0.0)) return fail("gyro_scale_guess must be > 0");
   if (!(min_initial_static_s >= 0.0)) return fail("min_initial_static_s must be >= 0");
+  if (!(same_pose_angle_deg > 0.0 && same_pose_angle_deg < 90.0)) {
+    if (why) *why = "same_pose_angle_deg must be in (0, 90)";
+    return false;
+  }
   if (min_poses_diagonal_accel < 6 || min_poses_full_accel < 9)
     return fail("pose minimums below the number of unknowns (6 diagonal, 9 full)");
   if (!(span_trim_s >= 0.0)) return fail("span_trim_s must be >= 0");
@@ -267,7 +271,24 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     res.notes.push_back(
         "accel 'before' RMS uses the per-axis min/max initial estimate (raw units)");
   }
-  const bool full_accel = n_poses >= o.min_poses_full_accel;
+  // Poses count by distinct gravity directions: a hand session holds the same face before and
+  // after a rotation, and repeats add averaging, not geometry (13 spans over 6 faces would
+  // otherwise pass for a 12-pose design and leave the misalignments unconditioned).
+  int n_directions = 0;
+  {
+    std::vector<Vec3> dirs;
+    const double cos_same = std::cos(o.same_pose_angle_deg * kDegToRad);
+    for (const Vec3& a : acc_means) {
+      Vec3 d;
+      for (int k = 0; k < 3; ++k) d[k] = a[k] / s_acc[k] + b_acc[k];
+      d.normalize();
+      bool seen = false;
+      for (const Vec3& e : dirs) seen = seen || d.dot(e) > cos_same;
+      if (!seen) dirs.push_back(d);
+    }
+    n_directions = static_cast<int>(dirs.size());
+  }
+  const bool full_accel = n_directions >= o.min_poses_full_accel;
   {
     ceres::Problem problem;
     for (const Vec3& a : acc_means)
@@ -277,7 +298,8 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     if (!full_accel) {
       problem.SetParameterBlockConstant(m_acc);
       std::ostringstream s;
-      s << "only " << n_poses << " static poses (< " << o.min_poses_full_accel
+      s << "only " << n_directions << " distinct gravity directions among " << n_poses
+        << " static poses (< " << o.min_poses_full_accel
         << "): accelerometer misalignments fixed at 0 and flagged unobservable";
       res.notes.push_back(s.str());
     }
@@ -421,6 +443,52 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
                                 "gyro bias includes the Earth-rate projection of the first pose");
   res.notes.push_back(s.str());
   return res;
+}
+
+namespace {
+
+std::string describeTriad(const CoefficientReport& rep, const std::string& which) {
+  const TriadModel& t = which == "accel" ? rep.values.sensors.accel : rep.values.sensors.gyro;
+  std::ostringstream o;
+  o.precision(6);
+  auto value = [&](const std::string& name, double v) {
+    o << name << " " << v;
+    const auto it = rep.uncertainty.find(which + "." + name);
+    if (it != rep.uncertainty.end()) {
+      if (!it->second.observable) {
+        o << " (unobservable, fixed)";
+      } else if (it->second.sigma) {
+        o << " +- " << *it->second.sigma;
+      }
+    }
+    o << "; ";
+  };
+  static constexpr const char* kAxis[3] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) value(std::string("scale.") + kAxis[k], t.scale[k]);
+  for (int k = 0; k < 3; ++k) value(std::string("bias.") + kAxis[k], t.bias[k]);
+  const std::pair<const char*, double> m[6] = {{"xy", t.mis.xy}, {"xz", t.mis.xz},
+                                               {"yx", t.mis.yx}, {"yz", t.mis.yz},
+                                               {"zx", t.mis.zx}, {"zy", t.mis.zy}};
+  for (const auto& [n, v] : m) value(std::string("misalignment.") + n, v);
+  return o.str();
+}
+
+}  // namespace
+
+std::string describe(const ScalarCalibrationResult& r) {
+  std::ostringstream o;
+  o << "static poses found: " << r.spans.size()
+    << ", rotations used for the gyro: " << r.rotations_used << "\n"
+    << "RMS |a| - g over static poses: before " << r.accel_rms_before << " m/s^2, after "
+    << r.accel_rms_after << " m/s^2\n"
+    << "gravity-direction mismatch RMS: before " << r.gyro_rms_before << ", after "
+    << r.gyro_rms_after << "\n"
+    << "accel (scale in reading units per m/s^2, bias m/s^2): " << describeTriad(r.report, "accel")
+    << "\n"
+    << "gyro (scale in reading units per rad/s, bias rad/s): " << describeTriad(r.report, "gyro")
+    << "\n";
+  for (const std::string& n : r.notes) o << "note: " << n << "\n";
+  return o.str();
 }
 
 }  // namespace imubench::calib

@@ -35,7 +35,11 @@ struct ScalarCalibrationOptions {
   double min_initial_static_s = 2.0;
   // Static poses required to fit the full accelerometer model (9 unknowns; imu_tk
   // recommends >= 36 poses). Fewer: misalignments fixed at 0 and flagged unobservable.
+  // (counted as distinct gravity directions: poses closer than same_pose_angle_deg are one).
   int min_poses_full_accel = 12;
+  // Two static poses whose gravity directions differ by less than this are the same face
+  // (hand placement repeats a face within a few degrees; distinct faces differ by >= 30).
+  double same_pose_angle_deg = 10.0;
   int min_poses_diagonal_accel = 6;
   // Readings of static samples are skipped this long at each span end, s (settling).
   double span_trim_s = 0.1;
@@ -73,5 +77,10 @@ struct ScalarCalibrationResult {
 ScalarCalibrationResult scalarCalibrate(const RawImuData& data,
                                         const ScalarCalibrationOptions& options = {},
                                         bool accel_unit_is_si = false);
+
+// Plain-text summary for people: poses found, RMS of |a| - g before/after, the gravity-
+// direction mismatch, the coefficients of both triads in reading units with sigmas (or
+// "unobservable, fixed"), and the notes. One line per item, each ending in '\n'.
+std::string describe(const ScalarCalibrationResult& r);
 
 }  // namespace imubench::calib

@@ -2,8 +2,9 @@
 //  - imu_tk (Tedaldi et al.) Xsens pair: two whitespace-separated text files, columns
 //    t x y z, raw 16-bit counts, 100 Hz; accelerometer and gyro files share the timestamps;
 //  - imucal example Ferraris session: CSV "n_samples,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z"
-//    (deg/s, m/s^2) sampled at 204.8 Hz (imucal's example calls compute(...,
-//    sampling_rate_hz=204.8)), plus its section list JSON {"x_p": {"start", "end"}, ...}.
+//    (deg/s, m/s^2) sampled at 102.4 Hz (imucal's examples/basic_ferraris.py calibrates this
+//    session with compute(..., sampling_rate_hz=102.4); at that rate every *_rot section
+//    integrates to one full turn), plus its section list JSON {"x_p": {"start", "end"}, ...}.
 // Readings stay in the source's units (counts, deg/s, m/s^2); the scalar calibration fits
 // scale factors in reading units per SI unit. Malformed input is refused with file:line and
 // the reason; nothing is guessed.
@@ -29,7 +30,8 @@ struct RealImport {
 RealImport readImuTkPair(const std::string& accel_path, const std::string& gyro_path);
 
 // imucal CSV; t = n_samples / rate_hz.
-RealImport readImucalCsv(const std::string& csv_path, double rate_hz = 204.8);
+inline constexpr double kImucalExampleRateHz = 102.4;
+RealImport readImucalCsv(const std::string& csv_path, double rate_hz = kImucalExampleRateHz);
 
 struct LabelledRange {
   std::string name;       // "x_p", ..., "z_rot"

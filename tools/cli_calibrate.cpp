@@ -1,6 +1,15 @@
 // imubench calibrate DIR [--method direct|indirect|scalar] [--json] [--out FILE] [--start FILE]
+// imubench calibrate FILE --format imutk --gyro GYRO_FILE [--latitude DEG --height M | --gravity G]
+// imubench calibrate FILE --format imucal [--rate HZ] [--gravity G]
 //
-// Reads an imubench-csv/1 recording and runs one calibration method:
+// Examples:
+//   imubench calibrate /tmp/rec --method indirect --json --out coef.json
+//   imubench calibrate ../shared/data/real/imutk_xsens_acc.txt --format imutk \
+//       --gyro ../shared/data/real/imutk_xsens_gyro.txt --latitude 45.4 --height 12
+//   imubench calibrate ../shared/data/real/imucal_example_ferraris_session.csv --format imucal
+//
+// Reads an imubench-csv/1 recording (or, with --format, a third-party recording without table
+// angles: scalar calibration only) and runs one calibration method:
 //   direct    the table-based direct calibration (calib/direct_calibration.h);
 //   indirect  the navigation-based refinement (calib/indirect_calibration.h), started from the
 //             direct calibration of the same recording (or --start FILE, a coefficient file);
@@ -12,10 +21,12 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "calib/direct_calibration.h"
 #include "calib/indirect_calibration.h"
 #include "calib/scalar_calibration.h"
+#include "daemon/import_real.h"
 #include "daemon/recording.h"
 #include "daemon/truth_file.h"
 #include "nav/free_navigation.h"
@@ -26,7 +37,13 @@ namespace {
 
 struct CalibrateOptions {
   std::string dir;
-  std::string method = "indirect";
+  std::string method;  // empty: indirect for imubench recordings, scalar for the others
+  std::string format = "imubench";
+  std::string gyro_file;                          // imutk: the gyro file of the pair
+  double rate_hz = daemon::kImucalExampleRateHz;  // imucal: sampling rate
+  std::optional<double> gravity;                  // m/s^2; else from --latitude/--height
+  std::optional<double> latitude_deg;
+  double height_m = 0.0;
   bool json = false;
   std::string out;
   std::string start;
@@ -114,14 +131,69 @@ void emit(const CalibrateOptions& o, const calib::CoefficientReport& report,
   }
 }
 
+// Third-party recordings (no table angles): the scalar calibration only, in the source's
+// reading units (counts, deg/s).
+void runCalibrateReal(const CalibrateOptions& o) {
+  if (!o.method.empty() && o.method != "scalar") {
+    throw CommandFailed("--format " + o.format + " has no table angles: only --method scalar", 2);
+  }
+  daemon::RealImport in;
+  calib::ScalarCalibrationOptions so;
+  bool accel_si = false;
+  if (o.format == "imutk") {
+    if (o.gyro_file.empty()) throw CommandFailed("--format imutk needs --gyro FILE", 2);
+    in = daemon::readImuTkPair(o.dir, o.gyro_file);
+    so.min_initial_static_s = 30.0;  // imu_tk records a long initial static for the gyro bias
+    so.checks.accel_min = so.checks.gyro_min = 0.0;  // 16-bit unsigned raw counts
+    so.checks.accel_max = so.checks.gyro_max = 65535.0;
+  } else {
+    in = daemon::readImucalCsv(o.dir, o.rate_hz);
+    accel_si = true;
+  }
+  if (!in.ok) throw CommandFailed(in.error);
+  if (o.gravity) {
+    so.gravity_mps2 = *o.gravity;
+  } else if (o.latitude_deg) {
+    so.gravity_mps2 = nav::normalGravity(*o.latitude_deg * kDegToRad, o.height_m);
+  }
+  std::string why;
+  if (!so.IsValid(&why)) throw CommandFailed("options: " + why, 2);
+  const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, so, accel_si);
+  if (!r.status.ok()) throw CommandFailed(o.dir + ": scalar calibration: " + r.status.reason);
+  std::ostream& info = o.json ? std::cerr : std::cout;
+  info << "scalar calibration of " << o.dir << " (" << in.data.size() << " samples, accel in "
+       << in.accel_unit << ", gyro in " << in.gyro_unit << ", g = " << so.gravity_mps2
+       << " m/s^2)\n"
+       << calib::describe(r);
+  if (o.json) {
+    nlohmann::json j = calib::toJson(r.report);
+    j["calibration"] = {{"method", "scalar"},
+                        {"accel_unit", in.accel_unit},
+                        {"gyro_unit", in.gyro_unit},
+                        {"static_poses", r.spans.size()},
+                        {"accel_rms_before_mps2", r.accel_rms_before},
+                        {"accel_rms_after_mps2", r.accel_rms_after}};
+    std::cout << j.dump(2) << "\n";
+  }
+  if (!o.out.empty()) {
+    const daemon::IoStatus s = daemon::writeCoefficientFile(o.out, r.report);
+    if (!s.ok) throw CommandFailed(s.message);
+  }
+}
+
 void runCalibrate(const CalibrateOptions& o) {
+  if (o.format != "imubench") {
+    runCalibrateReal(o);
+    return;
+  }
   const auto read = daemon::readRecording(o.dir);
   if (!read.status.ok) throw CommandFailed(read.status.message);
   const daemon::Recording& rec = read.recording;
   const std::vector<calib::TableSample> table = tableSamples(rec);
   std::ostream& info = o.json ? std::cerr : std::cout;
 
-  if (o.method == "direct") {
+  const std::string method = o.method.empty() ? "indirect" : o.method;
+  if (method == "direct") {
     const calib::DirectCalibrationResult r = runDirect(rec, table);
     if (!r.ok) throw CommandFailed(o.dir + ": direct calibration failed: " + r.reason);
     info << "direct calibration of " << o.dir << ": " << r.statics_used << " statics, "
@@ -130,7 +202,7 @@ void runCalibrate(const CalibrateOptions& o) {
     emit(o, r.report, nullptr);
     return;
   }
-  if (o.method == "scalar") {
+  if (method == "scalar") {
     calib::RawImuData raw;
     double t_prev = nav::firstIntervalStart(rec.imu);
     for (const nav::ImuSample& s : rec.imu) {
@@ -152,7 +224,7 @@ void runCalibrate(const CalibrateOptions& o) {
     emit(o, r.report, nullptr);
     return;
   }
-  if (o.method != "indirect") throw CommandFailed("unknown method '" + o.method + "'", 2);
+  if (method != "indirect") throw CommandFailed("unknown method '" + method + "'", 2);
 
   calib::IndirectInput in;
   in.site = rec.site();
@@ -198,14 +270,28 @@ void runCalibrate(const CalibrateOptions& o) {
 void addCalibrateCommand(CLI::App& app) {
   auto opt = std::make_shared<CalibrateOptions>();
   CLI::App* sub = app.add_subcommand("calibrate", "Calibrate an IMU from a recording");
-  sub->add_option("dir", opt->dir, "Recording directory (imubench-csv/1)")->required();
-  sub->add_option("--method", opt->method, "direct | indirect (navigation-based) | scalar")
+  sub->add_option("dir", opt->dir,
+                  "Recording directory (imubench-csv/1), or with --format the recording file")
+      ->required();
+  sub->add_option("--method", opt->method,
+                  "direct | indirect (navigation-based, default) | scalar (default and only "
+                  "choice with --format imutk/imucal)")
       ->check(CLI::IsMember({"direct", "indirect", "scalar"}));
   sub->add_flag("--json", opt->json, "Print the interchange coefficient JSON");
   sub->add_option("--out", opt->out, "Write the coefficient JSON to this file");
   sub->add_option("--start", opt->start,
                   "indirect: start values from this coefficient file instead of the direct "
                   "calibration of the same recording");
+  sub->add_option("--format", opt->format,
+                  "imubench (recording directory, default) | imutk (imu_tk text pair: "
+                  "accelerometer file + --gyro) | imucal (imucal Ferraris CSV)")
+      ->check(CLI::IsMember({"imubench", "imutk", "imucal"}));
+  sub->add_option("--gyro", opt->gyro_file, "imutk: the gyro file of the pair");
+  sub->add_option("--rate", opt->rate_hz, "imucal: sampling rate, Hz (default 102.4)");
+  sub->add_option("--gravity", opt->gravity, "scalar on --format: local gravity, m/s^2");
+  sub->add_option("--latitude", opt->latitude_deg,
+                  "scalar on --format: site latitude, deg (WGS-84 normal gravity)");
+  sub->add_option("--height", opt->height_m, "scalar on --format: site height, m (default 0)");
   sub->callback([opt] { runCalibrate(*opt); });
 }
 

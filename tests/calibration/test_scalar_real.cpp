@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <iostream>
-#include <sstream>
 
 #include "calib/scalar_calibration.h"
 #include "daemon/import_real.h"
@@ -15,40 +14,8 @@ namespace {
 
 const std::string kDir = IMUBENCH_REAL_DATA_DIR;
 
-std::string triad(const calib::CoefficientReport& rep, const std::string& which) {
-  const calib::TriadModel& t =
-      which == "accel" ? rep.values.sensors.accel : rep.values.sensors.gyro;
-  std::ostringstream o;
-  auto sig = [&](const std::string& n) {
-    auto it = rep.uncertainty.find(which + "." + n);
-    if (it == rep.uncertainty.end()) return std::string();
-    if (!it->second.observable) return std::string(" (unobservable, fixed)");
-    return it->second.sigma ? " +- " + std::to_string(*it->second.sigma) : std::string();
-  };
-  const char* ax[3] = {"x", "y", "z"};
-  for (int k = 0; k < 3; ++k)
-    o << "scale." << ax[k] << " " << t.scale[k] << sig(std::string("scale.") + ax[k]) << "; ";
-  for (int k = 0; k < 3; ++k)
-    o << "bias." << ax[k] << " " << t.bias[k] << sig(std::string("bias.") + ax[k]) << "; ";
-  const std::pair<const char*, double> m[6] = {{"xy", t.mis.xy}, {"xz", t.mis.xz},
-                                               {"yx", t.mis.yx}, {"yz", t.mis.yz},
-                                               {"zx", t.mis.zx}, {"zy", t.mis.zy}};
-  for (const auto& [n, v] : m)
-    o << "mis." << n << " " << v << sig(std::string("misalignment.") + n) << "; ";
-  return o.str();
-}
-
 void print(const std::string& title, const calib::ScalarCalibrationResult& r) {
-  std::cout << "== " << title << "\n"
-            << "static poses found: " << r.spans.size()
-            << ", rotations used for the gyro: " << r.rotations_used << "\n"
-            << "RMS |a| - g over static poses: before " << r.accel_rms_before << " m/s^2, after "
-            << r.accel_rms_after << " m/s^2\n"
-            << "gravity-direction mismatch RMS: before " << r.gyro_rms_before << ", after "
-            << r.gyro_rms_after << "\n"
-            << "accel " << triad(r.report, "accel") << "\n"
-            << "gyro  " << triad(r.report, "gyro") << "\n";
-  for (const std::string& n : r.notes) std::cout << "note: " << n << "\n";
+  std::cout << "== " << title << "\n" << calib::describe(r);
 }
 
 TEST(ScalarReal, ImuTkXsensPair) {
@@ -77,7 +44,7 @@ TEST(ScalarReal, ImuTkXsensPair) {
 
 TEST(ScalarReal, ImucalFerrarisSession) {
   const daemon::RealImport in =
-      daemon::readImucalCsv(kDir + "/imucal_example_ferraris_session.csv", 204.8);
+      daemon::readImucalCsv(kDir + "/imucal_example_ferraris_session.csv");
   ASSERT_TRUE(in.ok) << in.error;
   const daemon::SectionListImport sl =
       daemon::readImucalSectionList(kDir + "/imucal_example_ferraris_session_list.json");
@@ -97,7 +64,10 @@ TEST(ScalarReal, ImucalFerrarisSession) {
     EXPECT_TRUE(inside) << s.name;
   }
   EXPECT_LT(r.accel_rms_after, 0.02 * r.accel_rms_before);
-  EXPECT_LT(r.gyro_rms_after, 0.1 * r.gyro_rms_before);
+  // The gravity directions the calibrated gyros carry from pose to pose agree with the
+  // measured ones to a quarter degree (the coarse start is already close at the right rate).
+  EXPECT_LT(r.gyro_rms_after, 0.01);
+  EXPECT_LE(r.gyro_rms_after, r.gyro_rms_before);
   // Independent of the annotation, the gravity-direction fit says how many readings make one
   // rad/s. Check it against imucal's protocol: each *_rot section is one full turn (imucal's
   // FerrarisCalibration expects -360 deg). Integrating the calibrated gyro over x_rot must
@@ -110,9 +80,10 @@ TEST(ScalarReal, ImucalFerrarisSession) {
     std::cout << s.name << ": calibrated turn " << (angle * kRadToDeg).transpose() << " deg\n";
     EXPECT_NEAR(angle.norm() * kRadToDeg, 360.0, 15.0) << s.name;
   }
-  // With 204.8 Hz and deg/s readings the scale would be 57.3 readings per rad/s; the data
-  // says about half: either the export's rate is 102.4 Hz or its gyro unit is off by 2.
-  for (int k = 0; k < 3; ++k) EXPECT_NEAR(r.gyro().scale[k], 0.5 * kRadToDeg, 3.0) << k;
+  // The readings are deg/s sampled at 102.4 Hz (imucal's own example), so the fit must find
+  // about 57.3 readings per rad/s: the gyro scale comes from the gravity-direction changes
+  // between poses, independent of the declared unit, so this checks rate and unit together.
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(r.gyro().scale[k], kRadToDeg, 0.03 * kRadToDeg) << k;
 }
 
 }  // namespace
