@@ -21,7 +21,20 @@ namespace indirect {
 std::string parameterName(int global_index) {
   static constexpr const char* kAxis[3] = {"x", "y", "z"};
   if (global_index >= kTableOffset) {
-    return std::string("table.base_tilt.") + kAxis[global_index - kTableOffset];
+    switch (global_index - kTableOffset) {
+      case kTiltX:
+        return "table.base_tilt.x";
+      case kTiltY:
+        return "table.base_tilt.y";
+      case kNonorthInnerY:
+        return "table.nonorthogonality.inner_y";
+      case kNonorthMiddleX:
+        return "table.nonorthogonality.middle_x";
+      case kNonorthMiddleY:
+        return "table.nonorthogonality.middle_y";
+      default:
+        return "table.?";
+    }
   }
   const std::string triad = global_index >= kGyroOffset ? "gyro." : "accel.";
   const int i = global_index % kTriadSize;
@@ -35,13 +48,6 @@ std::string parameterName(int global_index) {
 namespace {
 
 using namespace indirect;
-
-Mat3 nominalAttitude(const TableGeometry& g, const TableAngles& a) {
-  if (g.kind == TableKind::kTwoAxis) {
-    return Rz(kPi / 2.0 - g.outer_axis_heading_rad) * Rx(a.outer) * Rz(a.inner);
-  }
-  return Rz(a.outer) * Rx(a.middle) * Rz(a.inner);
-}
 
 void triadToBlock(const TriadModel& m, double* block) {
   for (int i = 0; i < 3; ++i) {
@@ -67,7 +73,7 @@ TriadModel blockToTriad(const double* block) {
 struct Hold {
   int leg = 0;
   const Segment* segment = nullptr;
-  Mat3 C_LP = Mat3::Identity();
+  TableAngles angles;  // mean encoder angles over the hold
   Vec3 accel_mean = Vec3::Zero();
   Vec3 gyro_mean = Vec3::Zero();
   Vec3 accel_sigma = Vec3::Zero();  // of the mean
@@ -165,7 +171,9 @@ WeakDirection weakDirection(const Eigen::VectorXd& v, const std::vector<int>& in
 }
 
 double typicalMagnitude(int g, const IndirectOptions& o) {
-  if (g >= kTableOffset) return o.typical_base_tilt;
+  if (g >= kTableOffset) {
+    return g - kTableOffset < kNonorthInnerY ? o.typical_base_tilt : o.typical_nonorthogonality;
+  }
   const int i = g % kTriadSize;
   if (i < kBias) return o.typical_scale;
   if (i < kMis) return g >= kGyroOffset ? o.typical_gyro_bias : o.typical_accel_bias;
@@ -233,7 +241,8 @@ bool IndirectOptions::IsValid(std::string* why) const {
   if (!(outer_tolerance_sigma > 0.0)) return fail("outer_tolerance_sigma must be > 0");
   if (!(min_accel_noise > 0.0) || !(min_gyro_noise > 0.0)) return fail("noise floors must be > 0");
   if (!(typical_scale > 0.0) || !(typical_misalignment > 0.0) || !(typical_accel_bias > 0.0) ||
-      !(typical_gyro_bias > 0.0) || !(typical_base_tilt > 0.0)) {
+      !(typical_gyro_bias > 0.0) || !(typical_base_tilt > 0.0) ||
+      !(typical_nonorthogonality > 0.0)) {
     return fail("typical magnitudes must be > 0");
   }
   if (!(unobservable_sigma_typical > 0.0)) return fail("unobservable_sigma_typical must be > 0");
@@ -320,7 +329,7 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
         h.gyro_sigma[i] = sg / std::sqrt(n);
         h.gyro_noise = std::max(h.gyro_noise, sg);
       }
-      h.C_LP = nominalAttitude(in.geometry, holdAngles(legs[l].table, t0, t1));
+      h.angles = holdAngles(legs[l].table, t0, t1);
       holds.push_back(h);
     }
   }
@@ -383,19 +392,34 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
   triadToBlock(start.gyro, gyro);
   table[kTiltX] = in.start_base_tilt.x();
   table[kTiltY] = in.start_base_tilt.y();
+  table[kNonorthInnerY] = in.start_nonorthogonality.inner_y;
+  table[kNonorthMiddleX] = in.start_nonorthogonality.middle_x;
+  table[kNonorthMiddleY] = in.start_nonorthogonality.middle_y;
 
   std::vector<bool> free(kParamCount, true);
-  std::vector<bool> held(kParamCount, false);  // held at the start values by convention
+  std::vector<bool> held(kParamCount, false);     // held at the start values by convention
+  std::vector<bool> in_model(kParamCount, true);  // false: not part of this table's chain
+  auto hold = [&](int g) {
+    free[static_cast<std::size_t>(g)] = false;
+    held[static_cast<std::size_t>(g)] = true;
+  };
+  if (in.geometry.kind == TableKind::kTwoAxis) {
+    for (int i : {kNonorthMiddleX, kNonorthMiddleY}) {
+      hold(kTableOffset + i);
+      in_model[static_cast<std::size_t>(kTableOffset + i)] = false;
+      table[i] = 0.0;
+    }
+  }
   if (!opt.estimate_base_tilt) {
-    free[kTableOffset] = free[kTableOffset + 1] = false;
-    held[kTableOffset] = held[kTableOffset + 1] = true;
+    hold(kTableOffset + kTiltX);
+    hold(kTableOffset + kTiltY);
+  }
+  if (!opt.estimate_nonorthogonality) {
+    for (int i : {kNonorthInnerY, kNonorthMiddleX, kNonorthMiddleY}) hold(kTableOffset + i);
   }
   if (opt.gyro_reference == GyroReference::kStartValues) {
     if (in.start) {
-      for (int i = 0; i < 6; ++i) {
-        free[static_cast<std::size_t>(kGyroOffset + kMis + i)] = false;
-        held[static_cast<std::size_t>(kGyroOffset + kMis + i)] = true;
-      }
+      for (int i = 0; i < 6; ++i) hold(kGyroOffset + kMis + i);
     } else {
       result.warnings.emplace_back(
           "no start values: gyro misalignments estimated from the runs (not from the direct "
@@ -412,17 +436,22 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
     problem.AddParameterBlock(table, kTableSize);
     for (const Hold& h : holds) {
       problem.AddResidualBlock(
-          StaticAccelCost::Create(h.accel_mean, h.C_LP, gravity, h.accel_sigma), nullptr, accel,
-          table);
-      problem.AddResidualBlock(StaticGyroCost::Create(h.gyro_mean, h.C_LP, w_ie_L, h.gyro_sigma),
-                               nullptr, gyro, table);
+          StaticAccelCost::Create(h.accel_mean, in.geometry, h.angles, gravity, h.accel_sigma),
+          nullptr, accel, table);
+      problem.AddResidualBlock(
+          StaticGyroCost::Create(h.gyro_mean, in.geometry, h.angles, w_ie_L, h.gyro_sigma), nullptr,
+          gyro, table);
     }
     for (const Run& r : runs) {
+      // Navigate from the start setting at the current table estimate.
+      const Mat3 C_LP_start0 = platformAttitude(in.geometry, r.before->angles, table);
       const RunPreintegration pre = preintegrateRun(r.imu.subspan(r.first, r.last - r.first),
-                                                    r.t_start, r.before->C_LP, gyro, w_ie_L);
+                                                    r.t_start, C_LP_start0, gyro, w_ie_L);
       const double sigma_angle = std::max(gyro_noise, opt.min_gyro_noise) * pre.duration_s /
                                  std::sqrt(std::max(pre.samples, 1));
-      problem.AddResidualBlock(RunCost::Create(pre, r.after->C_LP, sigma_angle), nullptr, gyro);
+      problem.AddResidualBlock(RunCost::Create(pre, in.geometry, r.before->angles, r.after->angles,
+                                               C_LP_start0, sigma_angle),
+                               nullptr, gyro, table);
     }
 
     if (!analysed) {
@@ -526,10 +555,13 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
   rep.values.sensors.accel = blockToTriad(accel);
   rep.values.sensors.gyro = blockToTriad(gyro);
   rep.values.table.base_tilt = Vec2(table[kTiltX], table[kTiltY]);
+  rep.values.table.nonorthogonality = {table[kNonorthInnerY], table[kNonorthMiddleX],
+                                       table[kNonorthMiddleY]};
   rep.values.table_kind = in.geometry.kind;
   for (int i = 0; i < kParamCount; ++i) {
     const std::string name = parameterName(i);
     const std::size_t g = static_cast<std::size_t>(i);
+    if (!in_model[g]) continue;
     if (free[g]) {
       rep.setSigma(name, sigma[g]);
       continue;
@@ -565,6 +597,11 @@ GyroReferencedTruth toGyroReferenced(const BenchTruth& truth, const TableGeometr
   out.sensors.accel = mapTriad(truth.sensors.accel);
   out.sensors.gyro = mapTriad(truth.sensors.gyro);
   out.base_tilt = e.base_tilt;
+  out.nonorthogonality = e.nonorthogonality;
+  // Rx(middle + m0) = Rx(m0) Rx(middle): the middle zero is a rotation about x right after
+  // nu1, i.e. part of middle_x.
+  if (geometry.kind == TableKind::kThreeAxis)
+    out.nonorthogonality.middle_x += e.encoder_zero.middle;
   if (geometry.kind == TableKind::kTwoAxis) {
     const double h = geometry.outer_axis_heading_rad;
     out.base_tilt += e.encoder_zero.outer * Vec2(std::sin(h), std::cos(h));

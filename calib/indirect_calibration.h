@@ -12,8 +12,10 @@
 // accelerometers' against the same frame, so the device mounting (beta', gamma'; not
 // observable by this method) is absorbed by both triads' misalignments in one definite way:
 //     M_est = M_true * E^T,  E = Rz(i0) (I + [mu x])  (mu = mounting, i0 = inner encoder zero).
-// The base tilt (beta_oc, gamma_oc) is estimated; the outer encoder zero of a two-axis table
-// is indistinguishable from the tilt about the outer axis and is absorbed there.
+// The base tilt (beta_oc, gamma_oc) and the axis nonorthogonality are estimated; the outer
+// encoder zero of a two-axis table is indistinguishable from the tilt about the outer axis and
+// is absorbed there, the middle encoder zero of a three-axis table is a rotation about the same
+// axis as nonorthogonality middle_x and is absorbed there.
 //
 // Usage:
 //   IndirectInput in{site, geometry, imu, table, segments};   // views, caller keeps the data
@@ -62,6 +64,7 @@ struct IndirectInput {
   // reported for the parameters this method holds at the start values.
   std::map<std::string, Uncertainty> start_uncertainty;
   Vec2 start_base_tilt = Vec2::Zero();
+  Nonorthogonality start_nonorthogonality;
 };
 
 // Where the gyro misalignments come from (the frame every misalignment refers to).
@@ -100,11 +103,12 @@ struct IndirectOptions {
   // Typical magnitudes of the parameters (a-priori ranges of a navigation-grade IMU and a
   // levelled table): the information matrix is scaled by them, so its eigenvalues compare a
   // combination's sigma with its range, in any units.
-  double typical_scale = 1e-3;         // 1000 ppm
-  double typical_misalignment = 1e-3;  // rad (~200 arcsec)
-  double typical_accel_bias = 1e-3;    // m/s^2 (~100 ug)
-  double typical_gyro_bias = 5e-7;     // rad/s (~0.1 deg/h)
-  double typical_base_tilt = 1e-3;     // rad
+  double typical_scale = 1e-3;             // 1000 ppm
+  double typical_misalignment = 1e-3;      // rad (~200 arcsec)
+  double typical_accel_bias = 1e-3;        // m/s^2 (~100 ug)
+  double typical_gyro_bias = 5e-7;         // rad/s (~0.1 deg/h)
+  double typical_base_tilt = 1e-3;         // rad
+  double typical_nonorthogonality = 1e-3;  // rad (certified tables: tens of arcsec)
   // A direction whose sigma exceeds this multiple of its typical magnitude is not observable
   // by the plan: its dominant parameter is fixed at the start value and flagged.
   double unobservable_sigma_typical = 1.0;
@@ -113,6 +117,9 @@ struct IndirectOptions {
   double bad_condition_number = 1e10;
   // Estimate the base tilt (false: hold it at start_base_tilt).
   bool estimate_base_tilt = true;
+  // Estimate the axis nonorthogonality (two-axis: inner_y; three-axis: middle_x, middle_y,
+  // inner_y); false: hold it at start_nonorthogonality (e.g. the table's certificate).
+  bool estimate_nonorthogonality = true;
 
   bool IsValid(std::string* why) const;
 };
@@ -129,6 +136,7 @@ CalibrationResult calibrateIndirect(const IndirectInput& input, const IndirectOp
 struct GyroReferencedTruth {
   SensorModel sensors;
   Vec2 base_tilt = Vec2::Zero();
+  Nonorthogonality nonorthogonality;  // three-axis middle_x includes the middle encoder zero
 };
 GyroReferencedTruth toGyroReferenced(const BenchTruth& truth, const TableGeometry& geometry);
 

@@ -16,6 +16,7 @@
 #include <array>
 #include <string>
 
+#include "calib/table_model.h"
 #include "nav/rotation.h"
 
 namespace imubench::calib::indirect {
@@ -34,10 +35,15 @@ inline constexpr int kMisZX = 4;
 inline constexpr int kMisZY = 5;
 inline constexpr std::array<const char*, 6> kMisNames{"xy", "xz", "yx", "yz", "zx", "zy"};
 
-// Offsets inside the table block.
+// Offsets inside the table block (rad): base tilt theta in L, and the axis nonorthogonality
+// of interchange.md: two-axis nu = (0, inner_y, 0); three-axis nu1 = (middle_x, middle_y, 0),
+// nu2 = (0, inner_y, 0). The middle entries are not part of a two-axis table's chain.
 inline constexpr int kTiltX = 0;
 inline constexpr int kTiltY = 1;
-inline constexpr int kTableSize = 2;
+inline constexpr int kNonorthInnerY = 2;
+inline constexpr int kNonorthMiddleX = 3;
+inline constexpr int kNonorthMiddleY = 4;
+inline constexpr int kTableSize = 5;
 
 // Total parameter count and the global index helpers used for naming (information matrix,
 // covariance, observability flags): [accel block | gyro block | table block].
@@ -62,6 +68,36 @@ Mat3T<T> misalignmentMatrix(const T* triad) {
   Mat3T<T> M;
   M << one, m[kMisXY], -m[kMisXZ], -m[kMisYX], one, m[kMisYZ], m[kMisZX], -m[kMisZY], one;
   return M;
+}
+
+// I + [v x] (first order: the table errors are tens of arcsec, the neglected second-order
+// term is below 1e-7 rad).
+template <typename T>
+Mat3T<T> smallRotation(const T& x, const T& y, const T& z) {
+  const T one(1.0);
+  Mat3T<T> R;
+  R << one, -z, y, z, one, -x, -y, x, one;
+  return R;
+}
+
+// Attitude C_LP of the platform frame P (the inner gimbal: z = the inner axis) for the encoder
+// angles, with the base tilt and nonorthogonality of the table block — the interchange.md chain
+// without the mounting and with the encoder zeros absorbed (the outer zero of a two-axis table
+// into the tilt, the inner zero into the frame P, the three-axis middle zero into middle_x):
+//   two-axis:   (I + [theta x]) H Rx(outer) (I + [nu x]) Rz(inner)
+//   three-axis: (I + [theta x]) Rz(outer) (I + [nu1 x]) Rx(middle) (I + [nu2 x]) Rz(inner)
+template <typename T>
+Mat3T<T> platformAttitude(const TableGeometry& g, const TableAngles& a, const T* table) {
+  const T zero(0.0);
+  const Mat3T<T> tilt = smallRotation(table[kTiltX], table[kTiltY], zero);
+  const Mat3T<T> inner = Rz(a.inner).cast<T>();
+  if (g.kind == TableKind::kTwoAxis) {
+    const Mat3 HRx = Rz(kPi / 2.0 - g.outer_axis_heading_rad) * Rx(a.outer);
+    return tilt * HRx.cast<T>() * smallRotation(zero, table[kNonorthInnerY], zero) * inner;
+  }
+  return tilt * Rz(a.outer).cast<T>() *
+         smallRotation(table[kNonorthMiddleX], table[kNonorthMiddleY], zero) *
+         Rx(a.middle).cast<T>() * smallRotation(zero, table[kNonorthInnerY], zero) * inner;
 }
 
 // Compensation is affine in the reading: input = G * reading + h with

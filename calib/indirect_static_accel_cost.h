@@ -1,10 +1,11 @@
 // Cost of one static hold for the accelerometer triad (navigation-based calibration).
 //
 // The navigation solution starts from the table setting, so at rest the specific force it
-// resolves in L is  f_L = (I + [theta x]) C_LP f_P,  with C_LP the nominal table attitude from
-// the encoder angles, theta the base tilt and f_P the compensated accelerometer mean. A perfect
-// model gives f_L = (0, 0, g). The horizontal components are the seed's "horizontal apparent
-// acceleration" at the start/end of each run; the vertical one fixes the scale factors.
+// resolves in L is  f_L = C_LP(angles, theta, nu) f_P,  with C_LP the platform attitude of
+// indirect_params.h (encoder angles, base tilt theta, nonorthogonality nu) and f_P the
+// compensated accelerometer mean. A perfect model gives f_L = (0, 0, g). The horizontal components
+// are the seed's "horizontal apparent acceleration" at the start/end of each run; the vertical one
+// fixes the scale factors.
 #pragma once
 
 #include <ceres/ceres.h>
@@ -17,30 +18,34 @@ class StaticAccelCost {
  public:
   // reading_mean: mean accelerometer reading over the hold (m/s^2); C_LP: nominal attitude;
   // gravity: site gravity (m/s^2); sigma: standard deviation of each mean component (m/s^2).
-  StaticAccelCost(const Vec3& reading_mean, const Mat3& C_LP, double gravity, const Vec3& sigma)
-      : reading_(reading_mean), C_LP_(C_LP), gravity_(gravity), sigma_(sigma) {}
+  StaticAccelCost(const Vec3& reading_mean, const TableGeometry& geometry,
+                  const TableAngles& angles, double gravity, const Vec3& sigma)
+      : reading_(reading_mean),
+        geometry_(geometry),
+        angles_(angles),
+        gravity_(gravity),
+        sigma_(sigma) {}
 
   template <typename T>
   bool operator()(const T* accel, const T* table, T* residual) const {
     const Vec3T<T> f_P = compensate(accel, reading_);
-    const Vec3T<T> theta(table[kTiltX], table[kTiltY], T(0.0));
-    const Vec3T<T> f_nom = C_LP_.cast<T>() * f_P;
-    const Vec3T<T> f_L = f_nom + theta.cross(f_nom);
+    const Vec3T<T> f_L = platformAttitude(geometry_, angles_, table) * f_P;
     residual[0] = f_L.x() / sigma_.x();
     residual[1] = f_L.y() / sigma_.y();
     residual[2] = (f_L.z() - gravity_) / sigma_.z();
     return true;
   }
 
-  static ceres::CostFunction* Create(const Vec3& reading_mean, const Mat3& C_LP, double gravity,
-                                     const Vec3& sigma) {
+  static ceres::CostFunction* Create(const Vec3& reading_mean, const TableGeometry& geometry,
+                                     const TableAngles& angles, double gravity, const Vec3& sigma) {
     return new ceres::AutoDiffCostFunction<StaticAccelCost, 3, kTriadSize, kTableSize>(
-        new StaticAccelCost(reading_mean, C_LP, gravity, sigma));
+        new StaticAccelCost(reading_mean, geometry, angles, gravity, sigma));
   }
 
  private:
   Vec3 reading_;
-  Mat3 C_LP_;
+  TableGeometry geometry_;
+  TableAngles angles_;
   double gravity_;
   Vec3 sigma_;
 };

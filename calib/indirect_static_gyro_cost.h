@@ -1,6 +1,6 @@
 // Cost of one static hold for the gyro triad (navigation-based calibration): at rest the
 // compensated gyro mean must equal the Earth rate resolved in P through the table setting,
-//   w_P = C_LP^T (I - [theta x]) w_ie_L.
+//   w_P = C_LP(angles, theta, nu)^T w_ie_L   (platform attitude of indirect_params.h).
 // This fixes the gyro biases (the rotations see them only weakly).
 #pragma once
 
@@ -14,28 +14,34 @@ class StaticGyroCost {
  public:
   // reading_mean: mean gyro reading over the hold (rad/s); sigma: standard deviation of each
   // mean component (rad/s).
-  StaticGyroCost(const Vec3& reading_mean, const Mat3& C_LP, const Vec3& w_ie_L, const Vec3& sigma)
-      : reading_(reading_mean), C_LP_(C_LP), w_ie_L_(w_ie_L), sigma_(sigma) {}
+  StaticGyroCost(const Vec3& reading_mean, const TableGeometry& geometry, const TableAngles& angles,
+                 const Vec3& w_ie_L, const Vec3& sigma)
+      : reading_(reading_mean),
+        geometry_(geometry),
+        angles_(angles),
+        w_ie_L_(w_ie_L),
+        sigma_(sigma) {}
 
   template <typename T>
   bool operator()(const T* gyro, const T* table, T* residual) const {
     const Vec3T<T> w_P = compensate(gyro, reading_);
-    const Vec3T<T> theta(table[kTiltX], table[kTiltY], T(0.0));
-    const Vec3T<T> w_L = w_ie_L_.cast<T>();
-    const Vec3T<T> expected = C_LP_.transpose().cast<T>() * (w_L - theta.cross(w_L));
+    const Vec3T<T> expected =
+        platformAttitude(geometry_, angles_, table).transpose() * w_ie_L_.cast<T>();
     for (int i = 0; i < 3; ++i) residual[i] = (w_P[i] - expected[i]) / sigma_[i];
     return true;
   }
 
-  static ceres::CostFunction* Create(const Vec3& reading_mean, const Mat3& C_LP, const Vec3& w_ie_L,
+  static ceres::CostFunction* Create(const Vec3& reading_mean, const TableGeometry& geometry,
+                                     const TableAngles& angles, const Vec3& w_ie_L,
                                      const Vec3& sigma) {
     return new ceres::AutoDiffCostFunction<StaticGyroCost, 3, kTriadSize, kTableSize>(
-        new StaticGyroCost(reading_mean, C_LP, w_ie_L, sigma));
+        new StaticGyroCost(reading_mean, geometry, angles, w_ie_L, sigma));
   }
 
  private:
   Vec3 reading_;
-  Mat3 C_LP_;
+  TableGeometry geometry_;
+  TableAngles angles_;
   Vec3 w_ie_L_;
   Vec3 sigma_;
 };
