@@ -38,6 +38,20 @@ TableAngles anglesAt(const std::vector<TableSample>& table, double t) {
           a.angles.inner + w * (b.angles.inner - a.angles.inner)};
 }
 
+// Encoder angles of the table at rest just outside a motion that starts at t (before = true:
+// the last sample at or before t) or ends at t (the first sample at or after t). A sample
+// taken during the motion's ramps must not be interpolated: the angle is quadratic there.
+TableAngles restAngles(const std::vector<TableSample>& table, double t, bool before) {
+  if (before) {
+    auto it = std::upper_bound(table.begin(), table.end(), t,
+                               [](double v, const TableSample& s) { return v < s.t; });
+    return it == table.begin() ? table.front().angles : (it - 1)->angles;
+  }
+  auto it = std::lower_bound(table.begin(), table.end(), t,
+                             [](const TableSample& s, double v) { return s.t < v; });
+  return it == table.end() ? table.back().angles : it->angles;
+}
+
 double axisAngle(const TableAngles& a, TableKind kind, int axis) {
   if (axis == 0) return a.outer;
   if (kind == TableKind::kThreeAxis && axis == 1) return a.middle;
@@ -317,8 +331,13 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
         res.notes.push_back("rotation '" + seg.label + "' has no IMU samples: skipped");
         continue;
       }
+      // The segment holds the whole motion, ramps included, so the table rests on [ta, t0]
+      // and [t1, tb]: the angle turned is read from encoder samples taken at rest on either
+      // side. Interpolating them linearly at ta and tb instead brackets the ramp's quadratic
+      // start and end and loses up to (accel/2) * (encoder period)^2 per end.
       const double ta = startOf(first), tb = in.imu[last].t;
-      const TableAngles a0 = anglesAt(in.table, ta), a1 = anglesAt(in.table, tb);
+      const TableAngles a0 = restAngles(in.table, seg.t0, true);
+      const TableAngles a1 = restAngles(in.table, seg.t1, false);
       const double phi = axisAngle(a1, kind, seg.axis) - axisAngle(a0, kind, seg.axis);
       if (std::abs(phi) < o.min_rotation_rad) {
         res.notes.push_back("rotation '" + seg.label +
