@@ -58,7 +58,7 @@ double axisAngle(const TableAngles& a, TableKind kind, int axis) {
   return a.inner;
 }
 
-// Unit rotation axis of `axis` in B for the nominal table at the given angles.
+// Unit rotation axis of `axis` in B for the (nominal or known-error) table at the given angles.
 Vec3 axisInBody(const TableModel& nominal, const TableAngles& a, int axis) {
   TableState st;
   st.outer.angle = a.outer;
@@ -258,7 +258,8 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
       return res;
     }
   }
-  const TableModel nominal(in.geometry, TableErrors{});
+  // The table as the calibration takes it: nominal, or with the errors known beforehand.
+  const TableModel nominal(in.geometry, o.known_table_errors);
   const double g = nav::siteGravity(in.site);
   const Vec3 up_g(0.0, 0.0, g);
   const Vec3 w_ie_L = o.use_earth_rate ? nav::earthRateL(in.site.latitude_rad) : Vec3::Zero();
@@ -304,7 +305,7 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
         m.middle /= cnt;
         m.inner /= cnt;
       }
-      const Mat3 C_BL = nominal.nominalC_LB(m).transpose();
+      const Mat3 C_BL = nominal.C_LB(m).transpose();
       acc.input.push_back(C_BL * up_g);
       acc.reading.push_back(dv / T);
       acc.what.push_back(seg.label);
@@ -348,8 +349,8 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
       for (std::size_t i = first; i <= last; ++i) {
         dth += in.imu[i].dtheta;
         const double tm = 0.5 * (startOf(i) + in.imu[i].t);
-        earth += nominal.nominalC_LB(anglesAt(in.table, tm)).transpose() * w_ie_L *
-                 (in.imu[i].t - startOf(i));
+        earth +=
+            nominal.C_LB(anglesAt(in.table, tm)).transpose() * w_ie_L * (in.imu[i].t - startOf(i));
       }
       const double T = tb - ta;
       gyr.input.push_back((axisInBody(nominal, a0, seg.axis) * phi + earth) / T);

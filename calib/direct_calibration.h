@@ -2,8 +2,9 @@
 // measurements"): accelerometer scales, biases and six misalignments and the gyro biases from
 // static positions; gyro scales and misalignments from rate runs (full turns / rotations).
 //
-// The table is taken as nominal: each static position's attitude C_LB comes from the encoder
-// angles through the error-free chain, so table errors (base tilt, mounting, ...) leak into
+// The table is taken as nominal (unless DirectCalibrationOptions::known_table_errors says
+// otherwise): each static position's attitude C_LB comes from the encoder angles through the
+// error-free chain, so table errors (base tilt, mounting, ...) leak into
 // the coefficients exactly as the seed analyses. Per sensor axis i the model is linear:
 //     mean reading_i = K_i . input + o_i,   K = diag(scale) M,  o = -diag(scale) bias
 // with input = C_BL (0, 0, g) (accel, statics), C_BL w_ie_L (gyro, statics) and
@@ -57,6 +58,10 @@ struct DirectCalibrationOptions {
   // Include the Earth-rate projection in the gyro model (off only for Earth-rate-blind
   // sensors whose bias would otherwise absorb it pose by pose).
   bool use_earth_rate = true;
+  // Table errors known beforehand (a certificate, or the navigation-based refinement's
+  // estimate of base tilt and nonorthogonality, calib/bench_calibration.h): the chain uses
+  // them instead of the nominal table. Default: none (the seed's direct calibration).
+  TableErrors known_table_errors;
 
   bool IsValid(std::string* why) const;
 };

@@ -5,7 +5,9 @@
 //   (3) refined with the three-axis plan         (navigation-based, on the three-axis table,
 //       started from the direct calibration on that table: the coefficients of one set must
 //       refer to one table's axes, the gyro-referenced convention),
-// each refinement over its navigation recording AND the direct recording of the same table.
+// each refinement by the production pipeline (calib/bench_calibration.h): over its navigation
+// recording AND the direct recording of the same table, estimating base tilt and axis
+// nonorthogonality, with a second pass when the axes are nonorthogonal.
 // then navigate the 8-heading validation recording (level, 15 min static per heading,
 // 45-degree steps) with each coefficient set and compare the East/North velocity and position
 // errors, normalised by the direct solution's maxima:
@@ -63,8 +65,8 @@ struct ValidationOptions {
   double imu_rate_hz = 100.0;
   double table_rate_hz = 10.0;                  // encoder logging; the holds are averaged anyway
   nav::Site site{58.0 * kDegToRad, 100.0, {}};  // a northern lab, as in the nav tests
-  // Table errors (base tilt, mounting, encoder zeros): uniform magnitude in this range,
-  // random sign (the brief: 10-60 arcsec).
+  // Table errors (base tilt, axis nonorthogonality, mounting, encoder zeros): uniform
+  // magnitude in this range, random sign (the brief: 10-60 arcsec).
   double table_error_min_arcsec = 10.0;
   double table_error_max_arcsec = 60.0;
   // Sensor errors of the simulated device (navigation grade): constant biases of these

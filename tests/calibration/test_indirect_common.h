@@ -25,7 +25,10 @@ struct Bench {
 
 // Navigation-grade sensors (gyro ARW 0.002 deg/sqrt(h), bias 0.01 deg/h; accel 20 ug/sqrt(Hz),
 // bias 50 ug) and table errors of 10-60 arcsec with random signs.
-inline Bench randomBench(std::uint64_t seed, TableKind kind) {
+// with_nonorthogonality: the table's axes are also nonorthogonal (10-60 arcsec each component,
+// and a three-axis middle encoder zero); drawn after everything else, so the rest of the bench
+// is the same as without.
+inline Bench randomBench(std::uint64_t seed, TableKind kind, bool with_nonorthogonality = false) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::uniform_real_distribution<double> mag(10.0, 60.0);
@@ -50,6 +53,14 @@ inline Bench randomBench(std::uint64_t seed, TableKind kind) {
     b.truth.table.encoder_zero.inner = tableErr();
   } else {
     b.truth.table.encoder_zero.inner = tableErr();
+  }
+  if (with_nonorthogonality) {
+    b.truth.table.nonorthogonality.inner_y = tableErr();
+    if (kind == TableKind::kThreeAxis) {
+      b.truth.table.nonorthogonality.middle_x = tableErr();
+      b.truth.table.nonorthogonality.middle_y = tableErr();
+      b.truth.table.encoder_zero.middle = tableErr();
+    }
   }
   b.noise.gyro.white = 0.002 * kDegToRad / 60.0;
   b.noise.accel.white = 20.0 * kUg;
@@ -153,6 +164,15 @@ inline void expectAccurate(const Outcome& o, bool allow_fixed = false) {
   for (const char* ax : {"x", "y"}) {
     const std::string n = std::string("table.base_tilt.") + ax;
     EXPECT_NEAR(flat(r, n) * kRadToArcsec, *flatValue(truth, n) * kRadToArcsec, 3.0) << n;
+  }
+  // The table's axis nonorthogonality, where this table's chain has it.
+  truth.table.nonorthogonality = o.expected.nonorthogonality;
+  truth.table_kind = r.values.table_kind;
+  for (const char* c : {"inner_y", "middle_x", "middle_y"}) {
+    const std::string n = std::string("table.nonorthogonality.") + c;
+    const std::optional<double> expected = flatValue(truth, n);
+    if (!expected) continue;
+    EXPECT_NEAR(flat(r, n) * kRadToArcsec, *expected * kRadToArcsec, 3.0) << n;
   }
   EXPECT_FALSE(r.uncertainty.at("table.mounting.x").observable);
   EXPECT_LT(o.result.rms_normalised_residual, 3.0);

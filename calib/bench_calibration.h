@@ -1,0 +1,57 @@
+// The production calibration of one device on one table, as a lab runs it:
+//   1. direct calibration (0) from the direct plan's recording (calib/direct_calibration.h),
+//      the table taken as nominal;
+//   2. navigation-based refinement (calib/indirect_calibration.h) over the navigation plan's
+//      recordings AND the direct recording (same table, same mounting), started from (0):
+//      sensor coefficients, base tilt and the table's axis nonorthogonality;
+//   3. when the table's axes are found nonorthogonal: the direct calibration repeated with
+//      that nonorthogonality (its gyro misalignments are measured against the table's rotation
+//      axes and otherwise carry it), and the refinement again from it. The gyro-referenced
+//      convention keeps the direct gyro misalignments, so they must refer to the orthogonal
+//      platform frame the refinement uses.
+// Pure: value types in, value types out.
+//
+// Usage:
+//   BenchCalibrationInput in;
+//   in.direct = {geometry, site, imu, table, segments};          // direct plan recording
+//   in.navigation.push_back({nav_imu, nav_table, nav_segments});  // 12-run / three-axis plan
+//   BenchCalibrationResult r = calibrateBench(in, BenchCalibrationOptions{});
+//   if (!r.ok) ... r.error;   r.refined.coefficients -> interchange JSON
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "calib/direct_calibration.h"
+#include "calib/indirect_calibration.h"
+
+namespace imubench::calib {
+
+struct BenchCalibrationInput {
+  DirectCalibrationInput direct;        // the direct plan's recording, site and geometry
+  std::vector<IndirectLeg> navigation;  // navigation-plan recordings (views; may be empty)
+};
+
+struct BenchCalibrationOptions {
+  DirectCalibrationOptions direct;
+  IndirectOptions indirect;
+  // Repeat direct + refinement with the estimated nonorthogonality when any component
+  // exceeds this many of its sigmas (below it the correction is lost in the noise).
+  double nonorthogonality_significance_sigma = 2.0;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct BenchCalibrationResult {
+  bool ok = false;
+  std::string error;                     // which stage failed and why
+  DirectCalibrationResult direct;        // (0): the first, table-unaware direct calibration
+  DirectCalibrationResult direct_final;  // the direct calibration the refinement started from
+  CalibrationResult refined;             // the final refinement
+  int passes = 0;                        // 1, or 2 when the nonorthogonality was fed back
+};
+
+BenchCalibrationResult calibrateBench(const BenchCalibrationInput& input,
+                                      const BenchCalibrationOptions& options = {});
+
+}  // namespace imubench::calib
