@@ -1,9 +1,11 @@
 // imubench calibrate DIR [--method direct|indirect|scalar] [--json] [--out FILE] [--start FILE]
+//                        [--direct DIRECT_DIR]
 // imubench calibrate FILE --format imutk --gyro GYRO_FILE [--latitude DEG --height M | --gravity G]
 // imubench calibrate FILE --format imucal [--rate HZ] [--gravity G]
 //
 // Examples:
 //   imubench calibrate /tmp/rec --method indirect --json --out coef.json
+//   imubench calibrate /tmp/rec12 --method indirect --direct /tmp/recdirect   (the pipeline)
 //   imubench calibrate ../shared/data/real/imutk_xsens_acc.txt --format imutk \
 //       --gyro ../shared/data/real/imutk_xsens_gyro.txt --latitude 45.4 --height 12
 //   imubench calibrate ../shared/data/real/imucal_example_ferraris_session.csv --format imucal
@@ -13,6 +15,10 @@
 //   direct    the table-based direct calibration (calib/direct_calibration.h);
 //   indirect  the navigation-based refinement (calib/indirect_calibration.h), started from the
 //             direct calibration of the same recording (or --start FILE, a coefficient file);
+//             with --direct DIRECT_DIR (the direct plan's recording of the same device on the
+//             same table) the production pipeline of calib/bench_calibration.h: direct
+//             calibration of DIRECT_DIR, refinement over both recordings, second pass when the
+//             table's axes are nonorthogonal;
 //   scalar    the table-free field calibration (calib/scalar_calibration.h).
 // Prints the coefficients with sigmas in engineering units (ppm, ug, deg/h, arcsec) and what
 // the plan cannot see; --json prints the interchange coefficient JSON instead (with "sigma"
@@ -23,6 +29,7 @@
 #include <memory>
 #include <optional>
 
+#include "calib/bench_calibration.h"
 #include "calib/direct_calibration.h"
 #include "calib/indirect_calibration.h"
 #include "calib/scalar_calibration.h"
@@ -47,6 +54,7 @@ struct CalibrateOptions {
   bool json = false;
   std::string out;
   std::string start;
+  std::string direct_dir;  // indirect: the direct plan's recording (pipeline)
 };
 
 std::vector<calib::TableSample> tableSamples(const daemon::Recording& rec) {
@@ -181,6 +189,54 @@ void runCalibrateReal(const CalibrateOptions& o) {
   }
 }
 
+nlohmann::json indirectExtra(const calib::CalibrationResult& r) {
+  nlohmann::json extra;
+  extra["method"] = "indirect";
+  extra["conditioning"] = calib::toJson(r.conditioning);
+  extra["rms_normalised_residual"] = r.rms_normalised_residual;
+  return extra;
+}
+
+void printIndirect(std::ostream& info, const std::string& what, const calib::CalibrationResult& r) {
+  for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
+  info << what << ": " << r.outer_iterations << " outer iterations, normalised residual RMS "
+       << r.rms_normalised_residual << "\n"
+       << "  solver: " << r.solver_report << "\n"
+       << "  " << r.conditioning.describe();
+}
+
+// Direct recording + navigation recording of the same device on the same table.
+void runPipeline(const CalibrateOptions& o, const daemon::Recording& rec,
+                 const std::vector<calib::TableSample>& table) {
+  std::ostream& info = o.json ? std::cerr : std::cout;
+  const auto read = daemon::readRecording(o.direct_dir);
+  if (!read.status.ok) throw CommandFailed(read.status.message);
+  const daemon::Recording& drec = read.recording;
+  if (drec.table_kind != rec.table_kind) {
+    throw CommandFailed(o.direct_dir + " and " + o.dir +
+                        " were recorded on different table kinds: not the same table");
+  }
+  calib::BenchCalibrationInput in;
+  in.direct.geometry = geometryOf(drec);
+  in.direct.site = drec.site();
+  in.direct.imu = drec.imu;
+  in.direct.table = tableSamples(drec);
+  in.direct.segments = drec.segments;
+  in.navigation.push_back({rec.imu, table, rec.segments});
+  const calib::BenchCalibrationResult r = calib::calibrateBench(in);
+  if (!r.ok) throw CommandFailed(o.dir + " + " + o.direct_dir + ": " + r.error);
+  info << "direct calibration of " << o.direct_dir << ": " << r.direct.statics_used << " statics, "
+       << r.direct.rotations_used << " rotations\n";
+  if (r.passes == 2) {
+    info << "table axes nonorthogonal: direct calibration repeated with the estimated "
+            "nonorthogonality, refinement repeated from it\n";
+  }
+  printIndirect(info, "navigation-based calibration of " + o.dir + " + " + o.direct_dir, r.refined);
+  nlohmann::json extra = indirectExtra(r.refined);
+  extra["passes"] = r.passes;
+  emit(o, r.refined.coefficients, extra);
+}
+
 void runCalibrate(const CalibrateOptions& o) {
   if (o.format != "imubench") {
     runCalibrateReal(o);
@@ -225,6 +281,10 @@ void runCalibrate(const CalibrateOptions& o) {
     return;
   }
   if (method != "indirect") throw CommandFailed("unknown method '" + method + "'", 2);
+  if (!o.direct_dir.empty()) {
+    runPipeline(o, rec, table);
+    return;
+  }
 
   calib::IndirectInput in;
   in.site = rec.site();
@@ -252,17 +312,12 @@ void runCalibrate(const CalibrateOptions& o) {
     }
   }
   const calib::CalibrationResult r = calib::calibrateIndirect(in, calib::IndirectOptions{});
-  for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
-  if (!r.ok) throw CommandFailed(o.dir + ": navigation-based calibration failed: " + r.error);
-  info << "navigation-based calibration of " << o.dir << ": " << r.outer_iterations
-       << " outer iterations, normalised residual RMS " << r.rms_normalised_residual << "\n"
-       << "  solver: " << r.solver_report << "\n"
-       << "  " << r.conditioning.describe();
-  nlohmann::json extra;
-  extra["method"] = "indirect";
-  extra["conditioning"] = calib::toJson(r.conditioning);
-  extra["rms_normalised_residual"] = r.rms_normalised_residual;
-  emit(o, r.coefficients, extra);
+  if (!r.ok) {
+    for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
+    throw CommandFailed(o.dir + ": navigation-based calibration failed: " + r.error);
+  }
+  printIndirect(info, "navigation-based calibration of " + o.dir, r);
+  emit(o, r.coefficients, indirectExtra(r));
 }
 
 }  // namespace
@@ -282,6 +337,9 @@ void addCalibrateCommand(CLI::App& app) {
   sub->add_option("--start", opt->start,
                   "indirect: start values from this coefficient file instead of the direct "
                   "calibration of the same recording");
+  sub->add_option("--direct", opt->direct_dir,
+                  "indirect: the direct plan's recording of the same device and table; runs "
+                  "the full pipeline (direct, refinement over both, nonorthogonality pass)");
   sub->add_option("--format", opt->format,
                   "imubench (recording directory, default) | imutk (imu_tk text pair: "
                   "accelerometer file + --gyro) | imucal (imucal Ferraris CSV)")
