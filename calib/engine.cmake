@@ -9,6 +9,7 @@ target_sources(imubench_calib PRIVATE
 # Navigation-based (indirect) calibration, validation experiment, shared result type.
 target_sources(imubench_calib PRIVATE
   bench_calibration.cpp
+  truth_comparison.cpp
   calibration_result.cpp
   indirect_calibration.cpp
   indirect_preintegration.cpp

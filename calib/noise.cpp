@@ -39,8 +39,13 @@ std::uint64_t rotl(std::uint64_t x, int k) {
 NoiseModel NoiseModel::navigationGrade() {
   NoiseModel n;
   n.gyro.white = 0.002 * kDegToRad / 60.0;  // 0.002 deg/sqrt(h)
+  n.accel.white = 20.0 * kUg;               // 20 ug/sqrt(Hz), i.e. (m/s)/sqrt(s)
+  return n;
+}
+
+NoiseModel NoiseModel::navigationGradeDrifting() {
+  NoiseModel n = navigationGrade();
   n.gyro.bias_sigma = 0.003 * kDegPerHourToRadPerSec;
-  n.accel.white = 10.0 * kUg;  // 10 ug/sqrt(Hz), i.e. (m/s)/sqrt(s)
   n.accel.bias_sigma = 10.0 * kUg;
   return n;
 }
@@ -111,6 +116,7 @@ double GaussianSource::next() {
 std::optional<NoiseModel> NoiseModel::byName(const std::string& name) {
   if (name == "none") return none();
   if (name == "nav-grade") return navigationGrade();
+  if (name == "nav-grade-drift") return navigationGradeDrifting();
   if (name == "tactical") return tactical();
   if (name == "consumer") return consumer();
   return std::nullopt;

@@ -26,9 +26,14 @@ struct NoiseModel {
 
   // No noise at all (exact readings).
   static NoiseModel none() { return {}; }
-  // Navigation grade: gyro ARW 0.002 deg/sqrt(h), bias instability 0.003 deg/h;
-  // accel VRW 10 ug/sqrt(Hz) (~1e-4 m/s/sqrt(s)), bias instability 10 ug.
+  // Navigation grade as the calibration targets are stated (issue 3): gyro ARW
+  // 0.002 deg/sqrt(h), accel 20 ug/sqrt(Hz); white only. The constant biases of such a unit
+  // (0.01 deg/h, 50 ug) belong to the truth file, where a calibration can be judged on them.
   static NoiseModel navigationGrade();
+  // The same plus first-order Gauss-Markov bias instability (0.003 deg/h, 10 ug, 1 h): the
+  // biases wander within and between recordings, which the calibrators' constant-bias model
+  // leaves out (their residual RMS shows it).
+  static NoiseModel navigationGradeDrifting();
   // Tactical grade: gyro ARW 0.1 deg/sqrt(h), 1 deg/h; accel 100 ug/sqrt(Hz), 100 ug.
   static NoiseModel tactical();
   // Consumer MEMS: gyro ARW 0.5 deg/sqrt(h), bias instability 10 deg/h (100 s); accel
@@ -37,7 +42,7 @@ struct NoiseModel {
 
   // The presets above by their command-line names; nullopt for an unknown name.
   static std::optional<NoiseModel> byName(const std::string& name);
-  static const char* names() { return "none|nav-grade|tactical|consumer"; }
+  static const char* names() { return "none|nav-grade|nav-grade-drift|tactical|consumer"; }
 
   bool IsValid(std::string* why) const;
 };

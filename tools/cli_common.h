@@ -56,8 +56,8 @@ struct SiteOptions {
 };
 void addSiteOptions(CLI::App& sub, SiteOptions* opt);
 
-// Noise model by name: none, nav-grade, tactical, consumer.
-const char* noiseNames();  // "none|nav-grade|tactical|consumer"
+// Noise model by name: none, nav-grade, nav-grade-drift, tactical, consumer.
+const char* noiseNames();  // "none|nav-grade|nav-grade-drift|tactical|consumer"
 std::optional<calib::NoiseModel> noiseByName(const std::string& name);
 
 // The bundled plan library: <source dir>/plans/library when built from a checkout, else the

@@ -77,7 +77,7 @@ void addRunCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--seed", opt->seed, "noise seed")->capture_default_str();
   sub->add_option("--noise", opt->noise, std::string("sensor noise: ") + noiseNames())
-      ->check(CLI::IsMember({"none", "nav-grade", "tactical", "consumer"}))
+      ->check(CLI::IsMember({"none", "nav-grade", "nav-grade-drift", "tactical", "consumer"}))
       ->capture_default_str();
   addSiteOptions(*sub, &opt->site);
   sub->callback([opt] { runMain(*opt); });

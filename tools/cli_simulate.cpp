@@ -1,5 +1,5 @@
 // imubench simulate PLAN --truth T.json --out DIR [--rate HZ] [--seed N] [--site-lat DEG]
-//                   [--site-height M] [--noise none|nav-grade|tactical|consumer]
+//                   [--site-height M] [--noise none|nav-grade|nav-grade-drift|tactical|consumer]
 #include <iostream>
 #include <memory>
 
@@ -54,7 +54,7 @@ void addSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--seed", opt->seed, "noise seed")->capture_default_str();
   sub->add_option("--noise", opt->noise, std::string("sensor noise: ") + noiseNames())
-      ->check(CLI::IsMember({"none", "nav-grade", "tactical", "consumer"}))
+      ->check(CLI::IsMember({"none", "nav-grade", "nav-grade-drift", "tactical", "consumer"}))
       ->capture_default_str();
   addSiteOptions(*sub, &opt->site);
   sub->callback([opt] { runSimulate(*opt); });

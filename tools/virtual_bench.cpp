@@ -286,8 +286,8 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--imu-rate", a.imu_rate_hz, "IMU rate, Hz (default: the layout's)");
   app.add_option("--seed", a.seed, "IMU noise seed");
-  app.add_option("--noise", a.noise, "IMU noise: none|nav-grade|tactical|consumer")
-      ->check(CLI::IsMember({"none", "nav-grade", "tactical", "consumer"}));
+  app.add_option("--noise", a.noise, "IMU noise: none|nav-grade|nav-grade-drift|tactical|consumer")
+      ->check(CLI::IsMember({"none", "nav-grade", "nav-grade-drift", "tactical", "consumer"}));
   app.add_option("--fault-reply-delay-ms", a.reply_delay_ms, "delay every Modbus/serial reply")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--fault-drop-replies", a.drop_replies, "never answer Modbus/serial requests");

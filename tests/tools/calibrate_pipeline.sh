@@ -3,7 +3,8 @@
 # bench (truth file with base tilt, nonorthogonality, mounting, encoder zeros; white noise),
 # then `imubench calibrate NAV --method indirect --direct DIRECT --json` must find the table's
 # nonorthogonality and base tilt (+ outer encoder zero, which acts as a tilt) within 3 arcsec
-# and report the mounting unobservable.
+# and report the mounting unobservable; its --truth comparison must judge every scale,
+# misalignment, tilt and nonorthogonality within target.
 # Usage: calibrate_pipeline.sh IMUBENCH PLAN_DIR TRUTH WORKDIR
 set -e
 bin="$1"; plans="$2"; truth="$3"; work="$4"
@@ -13,13 +14,14 @@ rm -rf "$work"; mkdir -p "$work"
 "$bin" simulate "$plans/two_axis_12run.toml" --truth "$truth" --out "$work/nav" --rate 100 \
   --seed 6 --noise none > /dev/null
 "$bin" calibrate "$work/nav" --method indirect --direct "$work/direct" --json \
-  > "$work/coef.json" 2> "$work/log.txt" || { cat "$work/log.txt"; exit 1; }
+  --truth "$truth" > "$work/coef.json" 2> "$work/log.txt" || { cat "$work/log.txt"; exit 1; }
 cat "$work/log.txt"
 grep -q "table axes nonorthogonal" "$work/log.txt" ||
   { echo "calibrate_pipeline.sh: no second pass for a nonorthogonal table" >&2; exit 1; }
 python3 - "$work/coef.json" "$truth" <<'PY'
 import json, math, sys
-est = json.load(open(sys.argv[1]))["table"]
+doc = json.load(open(sys.argv[1]))
+est = doc["table"]
 truth = json.load(open(sys.argv[2]))["table"]
 arcsec = math.pi / 180 / 3600
 checks = [
@@ -37,6 +39,15 @@ obs = est.get("observable", {})
 if obs.get("mounting") not in ([False, False], False):
     print("mounting not reported unobservable:", obs)
     bad = True
+rows = doc["truth_comparison"]["rows"]
+judged = [r for r in rows if r["unit"] in ("arcsec", "ppm") and r["observable"]]
+if len(judged) < 21:  # 3 + 6 per triad, 2 tilt, 1 nonorthogonality
+    print("truth comparison: only", len(judged), "scale/angle rows")
+    bad = True
+for r in judged:
+    if not r["within"]:
+        print("truth comparison:", r["name"], r["error_in_unit"], r["unit"], "outside")
+        bad = True
 sys.exit(1 if bad else 0)
 PY
 rm -rf "$work"

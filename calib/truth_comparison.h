@@ -1,0 +1,41 @@
+// Estimates against a known truth (simulated benches, certified reference units), parameter
+// by parameter, with the accuracy targets of a navigation-grade calibration:
+//   misalignments, base tilt, nonorthogonality within 3 arcsec; scale factors within 10 ppm;
+//   biases within 2 sigma (a 95 % statement: about one bias in twenty lies outside by chance).
+// The truth must first be put into the frame the method's coefficients refer to (for the
+// navigation-based method toGyroReferenced(), calib/indirect_calibration.h): comparing raw
+// misalignments with gyro-referenced ones would blame the calibration for the mounting.
+// Pure: value types in, value types out.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "calib/bench_truth.h"
+
+namespace imubench::calib {
+
+struct ComparisonRow {
+  std::string name;       // flat name, e.g. "gyro.misalignment.xy"
+  double estimate = 0.0;  // SI
+  double expected = 0.0;  // SI, truth in the method's frame
+  double error = 0.0;     // estimate - expected, SI
+  double sigma = 0.0;     // reported sigma (0: none)
+  std::string unit;       // display unit of `error`: "arcsec", "ppm", "ug", "deg/h"
+  double error_in_unit = 0.0;
+  double limit_in_unit = 0.0;  // the target in `unit` (biases: 2 sigma)
+  bool within = true;          // |error| <= limit
+  bool observable = true;      // false: held at the start value, not judged
+};
+
+struct TruthComparison {
+  std::vector<ComparisonRow> rows;
+  int judged = 0;   // rows with a target that were observable
+  int outside = 0;  // of those, outside the target
+};
+
+// Compares every estimated sensor coefficient, the base tilt and the nonorthogonality
+// (mounting and encoder zeros are never estimated and are skipped).
+TruthComparison compareWithTruth(const CoefficientReport& estimate, const BenchTruth& expected);
+
+}  // namespace imubench::calib
