@@ -367,7 +367,11 @@ void runCalibrate(const CalibrateOptions& o) {
       info << "start values: direct calibration of the same recording\n";
     } else {
       info << "start values: nominal (the direct calibration of this recording is not usable"
-           << (d.ok ? ": the plan does not determine it" : ": " + d.reason) << ")\n";
+           << (d.ok ? ": the plan does not determine it" : ": " + d.reason) << ")\n"
+           << "  hint: the runs alone see the gyro misalignments only weakly (the 12-run "
+              "residuals see gyro minus accelerometer misalignments); record the direct plan "
+              "on the same table and pass it with --direct DIR for the seed's gyro-referenced "
+              "result\n";
     }
   }
   const calib::CalibrationResult r = calib::calibrateIndirect(in, calib::IndirectOptions{});
