@@ -173,7 +173,10 @@ void printComparison(const calib::TruthComparison& c, const std::string& truth_p
                 r.unit.c_str(), r.limit_in_unit,
                 !r.observable ? "held (not judged)" : (r.within ? "ok" : "OUTSIDE"));
   }
-  std::printf("  %d of %d judged parameters within target\n", c.judged - c.outside, c.judged);
+  std::printf(
+      "  %d of %d judged parameters within target (a 2-sigma bias bound is a 95 %% statement: "
+      "about one bias in twenty lies outside it by chance)\n",
+      c.judged - c.outside, c.judged);
 }
 
 void emit(const CalibrateOptions& o, const calib::CoefficientReport& report,
