@@ -214,9 +214,17 @@ Eigen::VectorXd measure(const PlanSegments& segs, TableKind kind, const BenchTru
       push(readingOf(s.gyro, rate) * r.duration, o.angle_sigma);
     }
   } else {
-    // Navigation-based: start from the nominal attitude given by the encoders, turn with the
-    // measured gyro increments, and compare the apparent acceleration in L after and before
-    // each run (horizontal components only: the seed's residual).
+    // Navigation-based, as calib/indirect_calibration.h measures: at every hold the solution
+    // started from the nominal table setting resolves the specific force and the Earth rate in
+    // L (horizontal apparent acceleration, vertical against gravity, rate against w_ie)...
+    for (const TableAngles& a : segs.statics) {
+      const Mat3 C_BL = table.C_LB(a).transpose();
+      const Mat3 C_LB_nav = nominal.C_LB(a);
+      push(C_LB_nav * readingOf(s.accel, C_BL * Vec3(0, 0, g)), o.accel_sigma);
+      push(C_LB_nav * readingOf(s.gyro, C_BL * w_ie_L) * 100.0, o.angle_sigma);
+    }
+    // ... and through each run it turns with the measured gyro increments and compares the
+    // apparent acceleration in L after and before (horizontal components: the seed's residual).
     for (const PlanSegments::Run& r : segs.runs) {
       const Mat3 C_BL0 = table.C_LB(r.start).transpose();
       const Mat3 C_BL1 = table.C_LB(r.end).transpose();
@@ -275,6 +283,26 @@ PlanObservability analysePlanObservability(const Motion& motion, CalibrationMeth
   }
   res.analysis = analyseInformation(J, names, o.information);
   if (!res.analysis.ok) return res;
+  // The method's own parameter set (see PlanObservability::model_analysis).
+  {
+    std::vector<std::string> model_names;
+    std::vector<Eigen::Index> cols;
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      const std::string& n = names[k];
+      const bool sensor = n.rfind("accel.", 0) == 0 || n.rfind("gyro.", 0) == 0;
+      const bool table_param =
+          n.rfind("table.base_tilt", 0) == 0 || n.rfind("table.nonorthogonality", 0) == 0;
+      if (sensor || (method == CalibrationMethod::kIndirect && table_param)) {
+        model_names.push_back(n);
+        cols.push_back(static_cast<Eigen::Index>(k));
+      }
+    }
+    Eigen::MatrixXd Jm(J.rows(), static_cast<Eigen::Index>(cols.size()));
+    for (std::size_t k = 0; k < cols.size(); ++k) {
+      Jm.col(static_cast<Eigen::Index>(k)) = J.col(cols[k]);
+    }
+    res.model_analysis = analyseInformation(Jm, model_names, o.information);
+  }
   const InformationAnalysis& a = res.analysis;
   auto observable = [&](const std::string& prefix) {
     bool all = true;
@@ -299,6 +327,24 @@ PlanObservability analysePlanObservability(const Motion& motion, CalibrationMeth
         std::string(gr.what) +
         (observable(gr.prefix) ? " can be estimated by " : " cannot be estimated by ") + m +
         " calibration with this plan");
+  {
+    const InformationAnalysis& ma = res.model_analysis;
+    std::string blind;
+    for (std::size_t k = 0; k < ma.names.size(); ++k) {
+      if (ma.observable[k]) continue;
+      blind += (blind.empty() ? "" : ", ") + ma.names[k];
+    }
+    const std::string set = method == CalibrationMethod::kIndirect
+                                ? "sensor coefficients, base tilt, nonorthogonality; mounting "
+                                  "and encoder zeros absorbed"
+                                : "sensor coefficients; the table taken as nominal";
+    res.statements.push_back("in the method's own parameter set (" + set + "): " +
+                             (blind.empty()
+                                  ? std::string("every parameter can be estimated with this plan")
+                                  : "cannot be estimated with this plan (fixed and flagged by the "
+                                    "calibrator): " +
+                                        blind));
+  }
   for (const NullDirection& d : a.null_directions) {
     const bool has_g = d.description.find("gravity_error") != std::string::npos;
     const bool has_scale = d.description.find("accel.scale") != std::string::npos;

@@ -81,7 +81,16 @@ struct PlanObservabilityOptions {
 };
 
 struct PlanObservability {
+  // Every physical parameter (sensor coefficients, all table errors, gravity and latitude
+  // errors): what the data can tell apart at all.
   InformationAnalysis analysis;
+  // The method's own parameter set, after its conventions: the direct method takes the table
+  // as nominal (sensor coefficients only); the navigation-based method absorbs the mounting
+  // and the inner encoder zero into the misalignments, the two-axis outer zero into the base
+  // tilt and the three-axis middle zero into nonorthogonality middle_x (sensor coefficients,
+  // base tilt, nonorthogonality). This is what the calibrator solves for; its unobservable
+  // parameters are the ones the calibrator fixes and flags.
+  InformationAnalysis model_analysis;
   std::vector<std::string> statements;  // plain language
 };
 

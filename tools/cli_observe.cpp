@@ -54,6 +54,9 @@ void runObserve(const ObserveOptions& o) {
     for (std::size_t k = 0; k < a.names.size(); ++k) j["observable"][a.names[k]] = a.observable[k];
     for (const auto& d : a.null_directions)
       j["null_directions"].push_back({{"eigenvalue", d.eigenvalue}, {"direction", d.description}});
+    for (std::size_t k = 0; k < r.model_analysis.names.size(); ++k) {
+      j["model_observable"][r.model_analysis.names[k]] = r.model_analysis.observable[k];
+    }
     j["statements"] = r.statements;
     std::cout << j.dump(2) << "\n";
     return;

@@ -2,6 +2,9 @@
 // the direct and navigation-based methods.
 #include <gtest/gtest.h>
 
+#include <set>
+
+#include "calib/indirect_calibration.h"
 #include "calib/observability.h"
 #include "test_direct_sim.h"
 
@@ -104,6 +107,48 @@ TEST(PlanObservability, DirectCalibrationCannotSeparateMountingFromMisalignments
   EXPECT_TRUE(observable(r, "accel.bias.x"));
   EXPECT_TRUE(observable(r, "gyro.scale.z"));
 }
+
+// The plan analysis (before anything runs) and the calibrator (on a recording of the plan)
+// must agree on what cannot be estimated: the navigation-based calibrator, without start
+// values, fixes and flags exactly the parameters of its own set that the plan's information
+// matrix says it cannot see.
+class NavigationPlans : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(NavigationPlans, CalibratorFixesExactlyWhatThePlanAnalysisCannotSee) {
+  const Motion motion = libraryMotion(GetParam());
+  PlanObservabilityOptions po;
+  po.site = exampleSite();
+  const PlanObservability plan = analysePlanObservability(motion, CalibrationMethod::kIndirect, po);
+  ASSERT_TRUE(plan.model_analysis.ok) << plan.model_analysis.reason;
+  std::set<std::string> blind_by_plan;
+  for (std::size_t k = 0; k < plan.model_analysis.names.size(); ++k) {
+    if (!plan.model_analysis.observable[k]) blind_by_plan.insert(plan.model_analysis.names[k]);
+  }
+
+  TableErrors table;
+  table.base_tilt = Vec2(30, -20) * kArcsecToRad;
+  table.nonorthogonality.inner_y = 25 * kArcsecToRad;
+  const DirectCalibrationInput rec = testing::simulateDirect(
+      motion, testing::exampleSensors(), table, NoiseModel::navigationGrade(), 100.0, 10.0);
+  IndirectInput in;
+  in.site = rec.site;
+  in.geometry = rec.geometry;
+  in.imu = rec.imu;
+  in.table = rec.table;
+  in.segments = rec.segments;
+  const CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
+  ASSERT_TRUE(r.ok) << r.error;
+  const std::set<std::string> fixed(r.conditioning.fixed_unobservable.begin(),
+                                    r.conditioning.fixed_unobservable.end());
+  EXPECT_EQ(fixed, blind_by_plan) << r.conditioning.describe();
+  for (const std::string& n : fixed) {
+    ASSERT_TRUE(r.coefficients.uncertainty.count(n)) << n;
+    EXPECT_FALSE(r.coefficients.uncertainty.at(n).observable) << n;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Bundled, NavigationPlans,
+                         ::testing::Values("two_axis_12run", "three_axis_indirect"));
 
 }  // namespace
 }  // namespace imubench::calib
