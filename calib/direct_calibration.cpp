@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "calib/observability.h"
+#include "calib/static_detection.h"
 
 namespace imubench::calib {
 
@@ -17,7 +18,7 @@ bool DirectCalibrationOptions::IsValid(std::string* why) const {
   if (!(static_trim_s >= 0.0)) return fail("static_trim_s must be >= 0");
   if (!(min_static_s > 0.0)) return fail("min_static_s must be > 0");
   if (!(min_rotation_rad > 0.0)) return fail("min_rotation_rad must be > 0");
-  return true;
+  return checks.IsValid(why);
 }
 
 namespace {
@@ -247,16 +248,10 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
     res.reason = "recording has no table samples";
     return res;
   }
-  for (std::size_t i = 0; i < in.imu.size(); ++i) {
-    const nav::ImuSample& s = in.imu[i];
-    if (!std::isfinite(s.t) || !s.dtheta.allFinite() || !s.dvel.allFinite()) {
-      res.reason = "IMU sample " + std::to_string(i) + ": NaN or infinite value";
-      return res;
-    }
-    if (i > 0 && !(s.t > in.imu[i - 1].t)) {
-      res.reason = "IMU sample " + std::to_string(i) + ": time does not increase";
-      return res;
-    }
+  const RecordingCheck check = checkIncrements(in.imu, o.checks, "recording");
+  if (!check.ok()) {
+    res.reason = check.reason;
+    return res;
   }
   // The table as the calibration takes it: nominal, or with the errors known beforehand.
   const TableModel nominal(in.geometry, o.known_table_errors);

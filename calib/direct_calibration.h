@@ -19,6 +19,7 @@
 #include "calib/bench_truth.h"
 #include "calib/motion.h"
 #include "calib/simulator.h"
+#include "calib/static_detection.h"
 #include "calib/table_model.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"
@@ -62,6 +63,8 @@ struct DirectCalibrationOptions {
   // estimate of base tilt and nonorthogonality, calib/bench_calibration.h): the chain uses
   // them instead of the nominal table. Default: none (the seed's direct calibration).
   TableErrors known_table_errors;
+  // Refusals of bad recordings: gaps, non-finite values, samples at the IMU's range.
+  IncrementCheckOptions checks;
 
   bool IsValid(std::string* why) const;
 };

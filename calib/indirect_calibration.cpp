@@ -13,6 +13,7 @@
 #include "calib/indirect_run_cost.h"
 #include "calib/indirect_static_accel_cost.h"
 #include "calib/indirect_static_gyro_cost.h"
+#include "calib/static_detection.h"
 
 namespace imubench::calib {
 
@@ -247,7 +248,7 @@ bool IndirectOptions::IsValid(std::string* why) const {
   }
   if (!(unobservable_sigma_typical > 0.0)) return fail("unobservable_sigma_typical must be > 0");
   if (!(bad_condition_number > 1.0)) return fail("bad_condition_number must be > 1");
-  return true;
+  return checks.IsValid(why);
 }
 
 CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptions& opt) {
@@ -269,11 +270,12 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
       result.error = where + "no table samples";
       return result;
     }
-    for (std::size_t k = 1; k < legs[l].imu.size(); ++k) {
-      if (!(legs[l].imu[k].t > legs[l].imu[k - 1].t)) {
-        result.error = where + "IMU sample " + std::to_string(k) + ": time not increasing";
-        return result;
-      }
+    const RecordingCheck check =
+        checkIncrements(legs[l].imu, opt.checks,
+                        legs.size() > 1 ? "recording " + std::to_string(l + 1) : "recording");
+    if (!check.ok()) {
+      result.error = check.reason;
+      return result;
     }
   }
   const double gravity = nav::siteGravity(in.site);

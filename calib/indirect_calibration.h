@@ -34,6 +34,7 @@
 #include "calib/motion.h"
 #include "calib/sensor_model.h"
 #include "calib/simulator.h"
+#include "calib/static_detection.h"
 #include "calib/table_model.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"
@@ -120,6 +121,8 @@ struct IndirectOptions {
   // Estimate the axis nonorthogonality (two-axis: inner_y; three-axis: middle_x, middle_y,
   // inner_y); false: hold it at start_nonorthogonality (e.g. the table's certificate).
   bool estimate_nonorthogonality = true;
+  // Refusals of bad recordings (every leg): gaps, non-finite values, samples at the IMU's range.
+  IncrementCheckOptions checks;
 
   bool IsValid(std::string* why) const;
 };

@@ -161,6 +161,72 @@ RecordingCheck checkRecording(const RawImuData& d, const RecordingCheckOptions& 
   return RecordingCheck::Ok();
 }
 
+bool IncrementCheckOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(max_gap_factor > 1.0)) return fail("max_gap_factor must be > 1");
+  if (gyro_range_radps && !(*gyro_range_radps > 0.0)) return fail("gyro range must be > 0");
+  if (accel_range_mps2 && !(*accel_range_mps2 > 0.0)) return fail("accel range must be > 0");
+  return true;
+}
+
+RecordingCheck checkIncrements(std::span<const nav::ImuSample> imu, const IncrementCheckOptions& o,
+                               const std::string& what) {
+  std::string why;
+  if (!o.IsValid(&why)) return RecordingCheck::Error(RecordingStatusCode::kBadOptions, why);
+  if (imu.size() < 2) {
+    return RecordingCheck::Error(RecordingStatusCode::kEmpty, what + ": fewer than 2 IMU samples");
+  }
+  auto at = [&](std::size_t i) {
+    std::ostringstream s;
+    s << what << ": IMU sample " << i << " (t = " << imu[i].t << " s)";
+    return s.str();
+  };
+  std::vector<double> steps;
+  steps.reserve(imu.size());
+  for (std::size_t i = 0; i < imu.size(); ++i) {
+    if (!std::isfinite(imu[i].t) || !imu[i].dtheta.allFinite() || !imu[i].dvel.allFinite()) {
+      return RecordingCheck::Error(RecordingStatusCode::kNonFinite,
+                                   at(i) + ": NaN or infinite value");
+    }
+    if (i > 0 && !(imu[i].t > imu[i - 1].t)) {
+      return RecordingCheck::Error(RecordingStatusCode::kTimeNotIncreasing,
+                                   at(i) + ": time does not increase");
+    }
+    if (i > 0) steps.push_back(imu[i].t - imu[i - 1].t);
+  }
+  std::vector<double> sorted = steps;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                   sorted.end());
+  const double step = sorted[sorted.size() / 2];
+  for (std::size_t i = 1; i < imu.size(); ++i) {
+    const double dt = steps[i - 1];
+    if (dt > o.max_gap_factor * step) {
+      std::ostringstream s;
+      s << at(i) << ": gap of " << dt << " s after t = " << imu[i - 1].t << " s (median step "
+        << step << " s): samples missing";
+      return RecordingCheck::Error(RecordingStatusCode::kMissingSegment, s.str());
+    }
+    for (int k = 0; k < 3; ++k) {
+      const double rate = std::abs(imu[i].dtheta[k]) / dt;
+      const double force = std::abs(imu[i].dvel[k]) / dt;
+      if ((o.gyro_range_radps && rate >= *o.gyro_range_radps) ||
+          (o.accel_range_mps2 && force >= *o.accel_range_mps2)) {
+        const bool gyro = o.gyro_range_radps && rate >= *o.gyro_range_radps;
+        std::ostringstream s;
+        s << at(i) << ": " << (gyro ? "gyro" : "accel") << " axis "
+          << "xyz"[k] << " at its range limit (" << (gyro ? rate : force)
+          << (gyro ? " rad/s" : " m/s^2")
+          << " >= " << (gyro ? *o.gyro_range_radps : *o.accel_range_mps2) << "): clipped";
+        return RecordingCheck::Error(RecordingStatusCode::kSaturated, s.str());
+      }
+    }
+  }
+  return RecordingCheck::Ok();
+}
+
 StaticDetectionResult detectStaticSpans(const RawImuData& d, const StaticDetectionOptions& o) {
   StaticDetectionResult r;
   std::string why;

@@ -11,9 +11,11 @@
 
 #include <cstddef>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
+#include "nav/imu_sample.h"
 #include "nav/rotation.h"
 
 namespace imubench::calib {
@@ -104,6 +106,24 @@ struct RecordingCheckOptions {
 // Refuses empty series, size mismatch, NaN/inf, non-increasing time, gaps and saturated
 // samples, naming the first offending sample.
 RecordingCheck checkRecording(const RawImuData& data, const RecordingCheckOptions& options = {});
+
+// The same refusals for a bench recording of increments (nav::ImuSample, t = END of each
+// interval): non-finite values, time not increasing, gaps (missing samples would bias a hold's
+// mean and lose rotation inside a run), and samples at the IMU's range when the range is known.
+struct IncrementCheckOptions {
+  double max_gap_factor = 5.0;  // see RecordingCheckOptions
+  // Symmetric ranges of the IMU (datasheet): a sample whose mean rate / specific force over
+  // its interval reaches this magnitude on any axis is clipped. Unset: not checked (the
+  // recording format does not state the range; `imubench calibrate --gyro-range/--accel-range`).
+  std::optional<double> gyro_range_radps;
+  std::optional<double> accel_range_mps2;
+
+  bool IsValid(std::string* why) const;
+};
+
+// `what` names the recording in the reasons (e.g. "recording 2").
+RecordingCheck checkIncrements(std::span<const nav::ImuSample> samples,
+                               const IncrementCheckOptions& options, const std::string& what);
 
 // Per-span mean of a series.
 Vec3 spanMean(const std::vector<Vec3>& v, const StaticSpan& span);

@@ -55,8 +55,10 @@ struct CalibrateOptions {
   bool json = false;
   std::string out;
   std::string start;
-  std::string direct_dir;  // indirect: the direct plan's recording (pipeline)
-  std::string truth;       // compare the estimate with this truth file
+  std::string direct_dir;                // indirect: the direct plan's recording (pipeline)
+  std::string truth;                     // compare the estimate with this truth file
+  std::optional<double> gyro_range_dps;  // IMU ranges: samples at them are refused
+  std::optional<double> accel_range_g;
 };
 
 std::vector<calib::TableSample> tableSamples(const daemon::Recording& rec) {
@@ -77,14 +79,17 @@ calib::TableGeometry geometryOf(const daemon::Recording& rec) {
 }
 
 calib::DirectCalibrationResult runDirect(const daemon::Recording& rec,
-                                         const std::vector<calib::TableSample>& table) {
+                                         const std::vector<calib::TableSample>& table,
+                                         const calib::IncrementCheckOptions& checks) {
   calib::DirectCalibrationInput in;
   in.geometry = geometryOf(rec);
   in.site = rec.site();
   in.imu = rec.imu;
   in.table = table;
   in.segments = rec.segments;
-  return calib::calibrateDirect(in);
+  calib::DirectCalibrationOptions o;
+  o.checks = checks;
+  return calib::calibrateDirect(in, o);
 }
 
 // One line per coefficient: value and sigma in engineering units.
@@ -251,6 +256,13 @@ void runCalibrateReal(const CalibrateOptions& o) {
   }
 }
 
+calib::IncrementCheckOptions checksOf(const CalibrateOptions& o) {
+  calib::IncrementCheckOptions c;
+  if (o.gyro_range_dps) c.gyro_range_radps = *o.gyro_range_dps * kDegToRad;
+  if (o.accel_range_g) c.accel_range_mps2 = *o.accel_range_g * 9.80665;
+  return c;
+}
+
 nlohmann::json indirectExtra(const calib::CalibrationResult& r) {
   nlohmann::json extra;
   extra["method"] = "indirect";
@@ -285,7 +297,9 @@ void runPipeline(const CalibrateOptions& o, const daemon::Recording& rec,
   in.direct.table = tableSamples(drec);
   in.direct.segments = drec.segments;
   in.navigation.push_back({rec.imu, table, rec.segments});
-  const calib::BenchCalibrationResult r = calib::calibrateBench(in);
+  calib::BenchCalibrationOptions bo;
+  bo.direct.checks = bo.indirect.checks = checksOf(o);
+  const calib::BenchCalibrationResult r = calib::calibrateBench(in, bo);
   if (!r.ok) throw CommandFailed(o.dir + " + " + o.direct_dir + ": " + r.error);
   info << "direct calibration of " << o.direct_dir << ": " << r.direct.statics_used << " statics, "
        << r.direct.rotations_used << " rotations\n";
@@ -312,7 +326,7 @@ void runCalibrate(const CalibrateOptions& o) {
 
   const std::string method = o.method.empty() ? "indirect" : o.method;
   if (method == "direct") {
-    const calib::DirectCalibrationResult r = runDirect(rec, table);
+    const calib::DirectCalibrationResult r = runDirect(rec, table, checksOf(o));
     if (!r.ok) throw CommandFailed(o.dir + ": direct calibration failed: " + r.reason);
     info << "direct calibration of " << o.dir << ": " << r.statics_used << " statics, "
          << r.rotations_used << " rotations\n";
@@ -361,7 +375,7 @@ void runCalibrate(const CalibrateOptions& o) {
     in.start_base_tilt = s.report.values.table.base_tilt;
     info << "start values: " << o.start << "\n";
   } else {
-    const calib::DirectCalibrationResult d = runDirect(rec, table);
+    const calib::DirectCalibrationResult d = runDirect(rec, table, checksOf(o));
     auto sane = [](const calib::TriadModel& t) {
       return ((t.scale.array() - 1.0).abs() < 0.01).all() && t.bias.allFinite();
     };
@@ -377,7 +391,9 @@ void runCalibrate(const CalibrateOptions& o) {
               "result\n";
     }
   }
-  const calib::CalibrationResult r = calib::calibrateIndirect(in, calib::IndirectOptions{});
+  calib::IndirectOptions io;
+  io.checks = checksOf(o);
+  const calib::CalibrationResult r = calib::calibrateIndirect(in, io);
   if (!r.ok) {
     for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
     throw CommandFailed(o.dir + ": navigation-based calibration failed: " + r.error);
@@ -407,6 +423,13 @@ void addCalibrateCommand(CLI::App& app) {
                   "Compare the estimate with this truth file (simulated bench): per parameter "
                   "error against the targets (3 arcsec, 10 ppm, biases 2 sigma), the truth put "
                   "into the frame the method refers to");
+  sub->add_option("--gyro-range", opt->gyro_range_dps,
+                  "IMU gyro range, deg/s: samples at it are clipped and the recording is refused")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--accel-range", opt->accel_range_g,
+                  "IMU accelerometer range, g: samples at it are clipped and the recording is "
+                  "refused")
+      ->check(CLI::PositiveNumber);
   sub->add_option("--direct", opt->direct_dir,
                   "indirect: the direct plan's recording of the same device and table; runs "
                   "the full pipeline (direct, refinement over both, nonorthogonality pass)");

@@ -119,6 +119,29 @@ TEST(DirectCalibration, RefusesNaNSamples) {
   EXPECT_NE(r.reason.find("sample 1000"), std::string::npos) << r.reason;
 }
 
+TEST(DirectCalibration, RefusesARecordingWithMissingSamples) {
+  DirectCalibrationInput in =
+      simulateDirect(libraryMotion("direct_two_axis"), exampleSensors(), {});
+  in.imu.erase(in.imu.begin() + 5000, in.imu.begin() + 5100);  // 2 s lost at 50 Hz
+  const DirectCalibrationResult r = calibrateDirect(in);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.reason.find("IMU sample 5000"), std::string::npos) << r.reason;
+  EXPECT_NE(r.reason.find("samples missing"), std::string::npos) << r.reason;
+}
+
+TEST(DirectCalibration, RefusesSamplesAtTheImuRange) {
+  // The plan's rate runs turn at 30 deg/s; a 20 deg/s gyro clips them.
+  const DirectCalibrationInput in =
+      simulateDirect(libraryMotion("direct_two_axis"), exampleSensors(), {});
+  DirectCalibrationOptions o;
+  o.checks.gyro_range_radps = 20.0 * kDegToRad;
+  const DirectCalibrationResult r = calibrateDirect(in, o);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.reason.find("at its range limit"), std::string::npos) << r.reason;
+  o.checks.gyro_range_radps = 100.0 * kDegToRad;  // a range the plan stays inside
+  EXPECT_TRUE(calibrateDirect(in, o).ok);
+}
+
 TEST(DirectCalibration, NamesParametersAPoorPlanCannotSeparate) {
   // Only z up/down and y up/down, no rate runs: x_B is always horizontal, so nothing excites
   // the accelerometers' x input: accel.scale.x and the misalignments on it (yx, zx) cannot

@@ -116,5 +116,28 @@ TEST(IndirectCalibration, RefusesRecordingWithoutHolds) {
   EXPECT_FALSE(r.warnings.empty());
 }
 
+// A gap in the second recording (e.g. the direct plan's leg) is refused, naming that recording.
+TEST(IndirectCalibration, RefusesAGapInAnyRecording) {
+  nav::ImuSamples imu(1000), imu2(1000);
+  for (std::size_t k = 0; k < imu.size(); ++k) {
+    imu[k].t = imu2[k].t = 0.01 * static_cast<double>(k + 1);
+    imu[k].dvel = imu2[k].dvel = Vec3(0, 0, 9.8 * 0.01);
+  }
+  for (std::size_t k = 600; k < imu2.size(); ++k) imu2[k].t += 3.0;  // 3 s of samples lost
+  std::vector<TableSample> table(1);
+  std::vector<Segment> segs(1);
+  segs[0].t1 = 10.0;
+  segs[0].kind = SegmentKind::kStatic;
+  IndirectInput in;
+  in.imu = imu;
+  in.table = table;
+  in.segments = segs;
+  in.extra_legs.push_back({imu2, table, segs});
+  const CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("recording 2: IMU sample 600"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("samples missing"), std::string::npos) << r.error;
+}
+
 }  // namespace
 }  // namespace imubench::calib
