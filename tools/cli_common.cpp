@@ -2,6 +2,8 @@
 
 #include <filesystem>
 #include <iostream>
+#include <sstream>
+#include <vector>
 
 #include "daemon/truth_file.h"
 
@@ -33,6 +35,19 @@ const char* noiseNames() {
 
 std::optional<calib::NoiseModel> noiseByName(const std::string& name) {
   return calib::NoiseModel::byName(name);
+}
+
+void addSimulationOptions(CLI::App& sub, SimulationOptions* opt) {
+  std::vector<std::string> names;
+  std::stringstream all(noiseNames());
+  for (std::string n; std::getline(all, n, '|');) names.push_back(n);
+  sub.add_option("--rate", opt->rate_hz, "IMU output rate, Hz")
+      ->check(CLI::Range(1.0, 10000.0))
+      ->capture_default_str();
+  sub.add_option("--seed", opt->seed, "noise seed")->capture_default_str();
+  sub.add_option("--noise", opt->noise, std::string("sensor noise: ") + noiseNames())
+      ->check(CLI::IsMember(names))
+      ->capture_default_str();
 }
 
 std::string bundledPlanPath(const std::string& file) {

@@ -14,6 +14,7 @@
 //     translate options, call them and format results.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -58,6 +59,15 @@ void addSiteOptions(CLI::App& sub, SiteOptions* opt);
 
 // Noise model by name: none, nav-grade, nav-grade-drift, tactical, consumer.
 const char* noiseNames();  // "none|nav-grade|nav-grade-drift|tactical|consumer"
+
+// The simulation options shared by `run` and `simulate`: --rate HZ (IMU output rate),
+// --seed N (noise seed), --noise NAME (one of noiseNames()).
+struct SimulationOptions {
+  double rate_hz = 200.0;
+  std::uint64_t seed = 1;
+  std::string noise = "nav-grade";
+};
+void addSimulationOptions(CLI::App& sub, SimulationOptions* opt);
 std::optional<calib::NoiseModel> noiseByName(const std::string& name);
 
 // The bundled plan library: <source dir>/plans/library when built from a checkout, else the

@@ -19,9 +19,7 @@ struct RunOptions {
   std::string truth;  // empty: embedded default
   std::string out;    // empty: do not write the recording
   std::string write_truth;
-  double rate_hz = 200.0;
-  std::uint64_t seed = 1;
-  std::string noise = "nav-grade";
+  SimulationOptions sim{200.0, 1, "nav-grade"};
   SiteOptions site;
 };
 
@@ -34,9 +32,9 @@ void runMain(const RunOptions& o) {
   }
   req.truth = o.truth.empty() ? defaultTruth() : loadTruthOrFail(o.truth);
   req.site = o.site;
-  req.imu_rate_hz = o.rate_hz;
-  req.seed = o.seed;
-  req.noise = *noiseByName(o.noise);  // checked by CLI11
+  req.imu_rate_hz = o.sim.rate_hz;
+  req.seed = o.sim.seed;
+  req.noise = *noiseByName(o.sim.noise);  // checked by CLI11
   if (!o.write_truth.empty()) {
     const auto st = daemon::writeTruthFile(o.write_truth, req.truth);
     if (!st.ok) throw CommandFailed(st.message);
@@ -50,8 +48,8 @@ void runMain(const RunOptions& o) {
   std::cout << "imubench run: plan '" << sim.plan.name << "' (" << req.plan_path << ")\n"
             << "  table " << plans::tableKindName(sim.motion.kind) << ", outer axis heading "
             << sim.plan.table.outer_axis_heading * kRadToDeg << " deg; site " << o.site.latitude_deg
-            << " deg N, " << o.site.height_m << " m; IMU " << o.rate_hz << " Hz, noise " << o.noise
-            << ", seed " << o.seed << "\n"
+            << " deg N, " << o.site.height_m << " m; IMU " << o.sim.rate_hz << " Hz, noise "
+            << o.sim.noise << ", seed " << o.sim.seed << "\n"
             << "  truth: " << (o.truth.empty() ? "embedded default (navigation grade)" : o.truth)
             << "; " << sim.sim.imu.size() << " IMU samples over " << sim.motion.duration << " s, "
             << runs.size() << " rotation runs\n\n";
@@ -72,13 +70,7 @@ void addRunCommand(CLI::App& app) {
   sub->add_option("--truth", opt->truth, "bench truth JSON instead of the embedded default");
   sub->add_option("--out", opt->out, "also write the recording (imubench-csv/1) to this directory");
   sub->add_option("--write-truth", opt->write_truth, "write the truth used to this JSON file");
-  sub->add_option("--rate", opt->rate_hz, "IMU output rate, Hz")
-      ->check(CLI::Range(1.0, 10000.0))
-      ->capture_default_str();
-  sub->add_option("--seed", opt->seed, "noise seed")->capture_default_str();
-  sub->add_option("--noise", opt->noise, std::string("sensor noise: ") + noiseNames())
-      ->check(CLI::IsMember({"none", "nav-grade", "nav-grade-drift", "tactical", "consumer"}))
-      ->capture_default_str();
+  addSimulationOptions(*sub, &opt->sim);
   addSiteOptions(*sub, &opt->site);
   sub->callback([opt] { runMain(*opt); });
 }

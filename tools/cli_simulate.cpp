@@ -13,10 +13,8 @@ struct SimulateOptions {
   std::string plan;
   std::string truth;
   std::string out;
-  double rate_hz = 200.0;
+  SimulationOptions sim{200.0, 1, "none"};
   double table_rate_hz = 100.0;
-  std::uint64_t seed = 1;
-  std::string noise = "none";
   SiteOptions site;
 };
 
@@ -25,14 +23,14 @@ void runSimulate(const SimulateOptions& o) {
   req.plan_path = o.plan;
   req.truth = loadTruthOrFail(o.truth);
   req.site = o.site;
-  req.imu_rate_hz = o.rate_hz;
+  req.imu_rate_hz = o.sim.rate_hz;
   req.table_rate_hz = o.table_rate_hz;
-  req.seed = o.seed;
-  req.noise = *noiseByName(o.noise);  // checked by CLI11
+  req.seed = o.sim.seed;
+  req.noise = *noiseByName(o.sim.noise);  // checked by CLI11
   const SimOutcome sim = simulatePlanOrFail(req);
   writeRecordingOrFail(o.out, recordingOf(sim, req));
   std::cout << "simulated " << sim.plan.name << ": " << sim.sim.imu.size() << " IMU samples ("
-            << sim.motion.duration << " s at " << o.rate_hz << " Hz), " << sim.sim.table.size()
+            << sim.motion.duration << " s at " << o.sim.rate_hz << " Hz), " << sim.sim.table.size()
             << " table samples, " << sim.sim.segments.size() << " segments -> " << o.out << "\n";
 }
 
@@ -46,15 +44,9 @@ void addSimulateCommand(CLI::App& app) {
   sub->add_option("--truth", opt->truth, "bench truth JSON (interchange.md coefficient file)")
       ->required();
   sub->add_option("--out", opt->out, "output recording directory")->required();
-  sub->add_option("--rate", opt->rate_hz, "IMU output rate, Hz")
-      ->check(CLI::Range(1.0, 10000.0))
-      ->capture_default_str();
+  addSimulationOptions(*sub, &opt->sim);
   sub->add_option("--table-rate", opt->table_rate_hz, "encoder logging rate, Hz")
       ->check(CLI::Range(1.0, 10000.0))
-      ->capture_default_str();
-  sub->add_option("--seed", opt->seed, "noise seed")->capture_default_str();
-  sub->add_option("--noise", opt->noise, std::string("sensor noise: ") + noiseNames())
-      ->check(CLI::IsMember({"none", "nav-grade", "nav-grade-drift", "tactical", "consumer"}))
       ->capture_default_str();
   addSiteOptions(*sub, &opt->site);
   sub->callback([opt] { runSimulate(*opt); });
