@@ -76,8 +76,9 @@ Vec3 axisInBody(const TableModel& nominal, const TableAngles& a, int axis) {
 }
 
 struct Rows {
-  std::vector<Vec3> input;    // regressor (SI input)
-  std::vector<Vec3> reading;  // mean reading
+  std::vector<Vec3> input;       // regressor (SI input)
+  std::vector<Vec3> reading;     // mean reading
+  std::vector<Vec3> reading_se;  // standard error of the mean reading (white sensor noise)
   std::vector<std::string> what;
   std::vector<bool> is_static;
   std::vector<Vec3> up_B;  // static rows: the nominal Up direction in B
@@ -111,6 +112,20 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
   // Names of K_i's entries: diagonal -> scale, off-diagonal -> misalignment, o -> bias.
   static const char* kMisName[3][3] = {{"", "xy", "xz"}, {"yx", "", "yz"}, {"zx", "zy", ""}};
   static const double kMisSign[3][3] = {{0, 1, -1}, {-1, 0, 1}, {1, -1, 0}};
+  // Variance of the mean over `idx` rows of axis i's reading, and per-row weights.
+  auto meanVar = [&](const std::vector<std::size_t>& idx, int i) {
+    double v = 0.0;
+    for (std::size_t j : idx) v += rows.reading_se[j][i] * rows.reading_se[j][i];
+    return v / (static_cast<double>(idx.size()) * static_cast<double>(idx.size()));
+  };
+  auto rowWeights = [&](int i) {
+    Eigen::VectorXd w(n);
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double se = rows.reading_se[static_cast<std::size_t>(j)][i];
+      w(j) = se > 0.0 ? 1.0 / (se * se) : 1.0;
+    }
+    return w;
+  };
   double ss = 0.0;
   Mat3 K = Mat3::Identity();
   Vec3 o = Vec3::Zero();
@@ -128,6 +143,8 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
     const InformationAnalysis ia = analyseInformation(X, names);
     Eigen::Vector4d beta;
     std::vector<std::size_t> up, down;
+    Eigen::Matrix4d cov_pair = Eigen::Matrix4d::Zero();
+    bool have_cov_pair = false;
     if (pairwise && axisPairs(rows, i, &up, &down)) {
       // Scale/offset from the axis-up/axis-down positions (a table error tilts the input
       // there only to second order), the rest by least squares with them held.
@@ -165,6 +182,35 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
           const Eigen::Vector2d m2 = A.colPivHouseholderQr().solve(z);
           beta(c1) = m2(0);
           beta(c2) = m2(1);
+          // Covariance from the sensor noise (the residual scatter also holds the table
+          // errors, which are a bias of the misalignments, not noise): U, D are means of the
+          // up/down rows; the off-diagonal fit adds its own noise and that of (scale, offset).
+          const double varU = meanVar(up, i), varD = meanVar(down, i);
+          const double den = gu - gd;
+          Eigen::Matrix2d J_so;  // d(scale, offset)/d(U, D)
+          J_so << 1.0 / den, -1.0 / den, -gd / den, gu / den;
+          const Eigen::Matrix2d cov_so =
+              J_so * Eigen::Vector2d(varU, varD).asDiagonal() * J_so.transpose();
+          const Eigen::VectorXd w = rowWeights(i);
+          const Eigen::Matrix2d N = A.transpose() * w.asDiagonal() * A;
+          const Eigen::Matrix2d Ninv = N.inverse();
+          Eigen::MatrixXd B(n, 2);  // dz/d(scale, offset)
+          for (Eigen::Index j = 0; j < n; ++j) {
+            B(j, 0) = -rows.input[static_cast<std::size_t>(j)][i];
+            B(j, 1) = -1.0;
+          }
+          const Eigen::Matrix2d G = Ninv * A.transpose() * w.asDiagonal() * B;
+          const Eigen::Matrix2d cov_m = Ninv + G * cov_so * G.transpose();
+          const Eigen::Matrix2d cov_m_so = G * cov_so;
+          const int idx[4] = {i, 3, c1, c2};
+          Eigen::Matrix4d C = Eigen::Matrix4d::Zero();
+          C.block<2, 2>(0, 0) = cov_so;
+          C.block<2, 2>(2, 2) = cov_m;
+          C.block<2, 2>(2, 0) = cov_m_so;
+          C.block<2, 2>(0, 2) = cov_m_so.transpose();
+          for (int a = 0; a < 4; ++a)
+            for (int b = 0; b < 4; ++b) cov_pair(idx[a], idx[b]) = C(a, b);
+          have_cov_pair = true;
         } else {
           // Gyro: offset from the pair (Earth-rate inputs removed with the current K), K_i
           // from the rotation rows with the offset held.
@@ -181,6 +227,26 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
             z(static_cast<Eigen::Index>(q)) = y(rot[q]) - beta(3);
           }
           beta.head<3>() = A.colPivHouseholderQr().solve(z);
+          // Covariance from the sensor noise: the offset from the pair means, K_i from the
+          // rotation rows with the offset's uncertainty carried into them.
+          const double var_o = 0.25 * (meanVar(up, i) + meanVar(down, i));
+          Eigen::VectorXd w(static_cast<Eigen::Index>(rot.size()));
+          for (std::size_t q = 0; q < rot.size(); ++q) {
+            const double se = rows.reading_se[static_cast<std::size_t>(rot[q])][i];
+            w(static_cast<Eigen::Index>(q)) = se > 0.0 ? 1.0 / (se * se) : 0.0;
+          }
+          const Eigen::Matrix3d N = A.transpose() * w.asDiagonal() * A;
+          if (w.minCoeff() > 0.0 && N.determinant() != 0.0) {
+            const Eigen::Matrix3d Ninv = N.inverse();
+            const Eigen::Vector3d g = -Ninv * A.transpose() * w.asDiagonal() *
+                                      Eigen::VectorXd::Ones(static_cast<Eigen::Index>(rot.size()));
+            cov_pair.setZero();
+            cov_pair.topLeftCorner<3, 3>() = Ninv + g * g.transpose() * var_o;
+            cov_pair.block<3, 1>(0, 3) = g * var_o;
+            cov_pair.block<1, 3>(3, 0) = (g * var_o).transpose();
+            cov_pair(3, 3) = var_o;
+            have_cov_pair = true;
+          }
         }
       }
     } else {
@@ -192,8 +258,8 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
       svd0.setThreshold(1e-10);
       beta = svd0.solve(y);
     }
-    // Covariance of the joint design, scaled by the residual scatter (approximate for the
-    // pairwise estimator).
+    // Joint estimator: covariance of the design scaled by the residual scatter. The pairwise
+    // estimator replaces it with the noise propagation above.
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(X, Eigen::ComputeThinU | Eigen::ComputeThinV);
     svd.setThreshold(1e-10);
     const Eigen::VectorXd r = y - X * beta;
@@ -206,6 +272,7 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
       if (sv(k) > 1e-10 * sv(0))
         cov += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (sv(k) * sv(k));
     cov *= s2;
+    if (have_cov_pair) cov = cov_pair;
     K.row(i) = beta.head<3>().transpose();
     o(i) = beta(3);
     const double s = beta(i);
@@ -263,6 +330,8 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
   auto startOf = [&](std::size_t i) { return i == 0 ? in.imu[0].t - dt0 : in.imu[i - 1].t; };
 
   Rows acc, gyr;
+  std::vector<Vec3> gyro_sample_sigma;        // per-sample gyro noise of each hold
+  std::vector<std::size_t> rotation_samples;  // samples in each rotation row
   for (const Segment& seg : in.segments) {
     if (!seg.recording) continue;
     if (seg.kind == SegmentKind::kStatic) {
@@ -273,11 +342,14 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
       }
       Vec3 dv = Vec3::Zero(), dth = Vec3::Zero();
       double T = 0.0;
+      std::size_t i0 = in.imu.size(), i1 = 0;
       for (std::size_t i = 0; i < in.imu.size(); ++i) {
         if (startOf(i) < a || in.imu[i].t > b) continue;
         dv += in.imu[i].dvel;
         dth += in.imu[i].dtheta;
         T += in.imu[i].t - startOf(i);
+        i0 = std::min(i0, i);
+        i1 = i;
       }
       if (T < o.min_static_s) {
         res.notes.push_back("static '" + seg.label + "' has too few IMU samples: skipped");
@@ -301,6 +373,19 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
         m.inner /= cnt;
       }
       const Mat3 C_BL = nominal.C_LB(m).transpose();
+      // Per-sample scatter of the readings: the white-noise level of this hold.
+      Vec3 va = Vec3::Zero(), vg = Vec3::Zero();
+      const double ns = static_cast<double>(i1 - i0 + 1);
+      for (std::size_t i = i0; i <= i1 && i0 < in.imu.size(); ++i) {
+        const double dt = in.imu[i].t - startOf(i);
+        va += (in.imu[i].dvel / dt - dv / T).cwiseAbs2();
+        vg += (in.imu[i].dtheta / dt - dth / T).cwiseAbs2();
+      }
+      const Vec3 sa = (va / std::max(ns - 1.0, 1.0)).cwiseSqrt();
+      const Vec3 sg = (vg / std::max(ns - 1.0, 1.0)).cwiseSqrt();
+      gyro_sample_sigma.push_back(sg);
+      acc.reading_se.push_back(sa / std::sqrt(ns));
+      gyr.reading_se.push_back(sg / std::sqrt(ns));
       acc.input.push_back(C_BL * up_g);
       acc.reading.push_back(dv / T);
       acc.what.push_back(seg.label);
@@ -350,6 +435,8 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
       const double T = tb - ta;
       gyr.input.push_back((axisInBody(nominal, a0, seg.axis) * phi + earth) / T);
       gyr.reading.push_back(dth / T);
+      gyr.reading_se.push_back(Vec3::Zero());  // set below from the holds' noise level
+      rotation_samples.push_back(last - first + 1);
       gyr.what.push_back(seg.label);
       gyr.is_static.push_back(false);
       gyr.up_B.push_back(Vec3::Zero());
@@ -360,6 +447,27 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
     res.reason = "only " + std::to_string(res.statics_used) +
                  " usable static positions: need >= 4 (12 accelerometer unknowns, 4 per axis)";
     return res;
+  }
+  // A rotation row's mean rate carries the white gyro noise of its samples: the median
+  // per-sample level of the holds (motion hides it inside the run itself), floored so that a
+  // noise-free simulation keeps finite weights.
+  {
+    Vec3 level = Vec3::Constant(1e-12);
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> v;
+      for (const Vec3& s : gyro_sample_sigma) v.push_back(s[k]);
+      std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+      level[k] = std::max(level[k], v[v.size() / 2]);
+    }
+    std::size_t r = 0;
+    for (std::size_t j = 0; j < gyr.reading.size(); ++j) {
+      if (gyr.is_static[j]) {
+        gyr.reading_se[j] = gyr.reading_se[j].cwiseMax(Vec3::Constant(1e-15));
+        continue;
+      }
+      gyr.reading_se[j] = level / std::sqrt(static_cast<double>(rotation_samples[r++]));
+    }
+    for (Vec3& se : acc.reading_se) se = se.cwiseMax(Vec3::Constant(1e-15));
   }
   const bool pairwise = o.estimator == DirectEstimator::kAxisPairs;
   fitTriad(acc, TriadKind::kAccel, pairwise, "accel", &res.report.values.sensors.accel, &res.report,

@@ -27,16 +27,15 @@ TruthComparison compareWithTruth(const CoefficientReport& estimate, const BenchT
     const std::optional<double> e = flatValue(estimate.values, name);
     const std::optional<double> t = flatValue(expected, name);
     if (!e || !t) continue;
+    const auto u = estimate.uncertainty.find(name);
+    if (u == estimate.uncertainty.end()) continue;  // not estimated by this method
     ComparisonRow r;
     r.name = name;
     r.estimate = *e;
     r.expected = *t;
     r.error = *e - *t;
-    const auto u = estimate.uncertainty.find(name);
-    if (u != estimate.uncertainty.end()) {
-      r.observable = u->second.observable;
-      r.sigma = u->second.sigma.value_or(0.0);
-    }
+    r.observable = u->second.observable;
+    r.sigma = u->second.sigma.value_or(0.0);
     if (name.find(".scale.") != std::string::npos) {
       r.unit = "ppm";
       r.error_in_unit = r.error * 1e6;

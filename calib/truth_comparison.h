@@ -34,8 +34,9 @@ struct TruthComparison {
   int outside = 0;  // of those, outside the target
 };
 
-// Compares every estimated sensor coefficient, the base tilt and the nonorthogonality
-// (mounting and encoder zeros are never estimated and are skipped).
+// Compares every parameter the estimate carries an uncertainty entry for (sigma or an
+// "observable": false flag): what the method estimated or deliberately held. Parameters without
+// one (mounting and encoder zeros; the table under direct calibration) are not estimates.
 TruthComparison compareWithTruth(const CoefficientReport& estimate, const BenchTruth& expected);
 
 }  // namespace imubench::calib

@@ -34,8 +34,8 @@ inline nav::Site exampleSite() {
 inline DirectCalibrationInput simulateDirect(const Motion& motion, const SensorModel& sensors,
                                              const TableErrors& table,
                                              const NoiseModel& noise = NoiseModel::none(),
-                                             double imu_rate_hz = 50.0,
-                                             double table_rate_hz = 20.0) {
+                                             double imu_rate_hz = 50.0, double table_rate_hz = 20.0,
+                                             std::uint64_t seed = 1) {
   SimulatorInput si;
   si.world.site = exampleSite();
   si.world.truth.sensors = sensors;
@@ -46,6 +46,7 @@ inline DirectCalibrationInput simulateDirect(const Motion& motion, const SensorM
   SimOptions so;
   so.imu_rate_hz = imu_rate_hz;
   so.table_rate_hz = table_rate_hz;
+  so.seed = seed;
   const Simulation sim = simulate(si, so);
   EXPECT_TRUE(sim.ok) << sim.error;
   DirectCalibrationInput in;
