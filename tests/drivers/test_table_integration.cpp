@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
 
 #include "drivers/chamber.h"
 #include "drivers/table.h"
@@ -15,12 +16,22 @@ namespace {
 
 using testing::waitUntil;
 
-// Waits until the axis is at rest in position and returns the last reading.
+// Waits until the axis is at rest in position and returns the last reading. The status and
+// the angle may come from different transactions (a register block per poll on RTU), so the
+// status can report "in position" while the angle read a moment earlier is still the end of
+// the approach: at rest means two consecutive readings in position with the same angle.
 TableReading settle(TableDriver& drv, int axis) {
   TableReading r;
+  std::optional<double> previous;
   const bool ok = waitUntil([&] {
-    return drv.read(&r).ok && r.axes[static_cast<size_t>(axis)].in_position &&
-           !r.axes[static_cast<size_t>(axis)].moving;
+    const auto a = static_cast<size_t>(axis);
+    if (!drv.read(&r).ok || !r.axes[a].in_position || r.axes[a].moving) {
+      previous.reset();
+      return false;
+    }
+    const bool same = previous && *previous == r.axes[a].angle;
+    previous = r.axes[a].angle;
+    return same;
   });
   EXPECT_TRUE(ok) << "axis " << axis << " did not settle";
   return r;
