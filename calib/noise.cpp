@@ -5,7 +5,7 @@
 namespace imubench::calib {
 namespace {
 
-constexpr double kUg = 9.80665e-6;  // 1 micro-g, m/s^2
+constexpr double kUg = kMicroGToMps2;
 
 bool validTriad(const TriadNoise& n, const char* name, std::string* why) {
   if (!(std::isfinite(n.white) && n.white >= 0.0)) {

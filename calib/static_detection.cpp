@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 namespace imubench::calib {
 
@@ -62,13 +63,18 @@ std::string where(const RawImuData& d, std::size_t i) {
   return s.str();
 }
 
+// Median of the values (taken by value: reordered); 0 for none.
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
 double medianStep(const std::vector<double>& t) {
   std::vector<double> dt;
   dt.reserve(t.size());
   for (std::size_t i = 1; i < t.size(); ++i) dt.push_back(t[i] - t[i - 1]);
-  if (dt.empty()) return 0.0;
-  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
-  return dt[dt.size() / 2];
+  return median(std::move(dt));
 }
 
 // Centred moving-window total variance (sum over axes) of a vector series.
@@ -197,10 +203,7 @@ RecordingCheck checkIncrements(std::span<const nav::ImuSample> imu, const Increm
     }
     if (i > 0) steps.push_back(imu[i].t - imu[i - 1].t);
   }
-  std::vector<double> sorted = steps;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
-                   sorted.end());
-  const double step = sorted[sorted.size() / 2];
+  const double step = median(steps);
   for (std::size_t i = 1; i < imu.size(); ++i) {
     const double dt = steps[i - 1];
     if (dt > o.max_gap_factor * step) {

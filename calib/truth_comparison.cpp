@@ -6,7 +6,6 @@ namespace imubench::calib {
 
 namespace {
 
-constexpr double kUgToMps2 = 9.80665e-6;
 constexpr double kMisalignmentLimitArcsec = 3.0;
 constexpr double kScaleLimitPpm = 10.0;
 constexpr double kBiasLimitSigma = 2.0;
@@ -16,6 +15,13 @@ bool startsWith(const std::string& s, const char* prefix) {
 }
 
 }  // namespace
+
+DisplayUnit displayUnit(const std::string& n) {
+  if (n.find(".scale.") != std::string::npos) return {1e-6, "ppm"};
+  if (startsWith(n, "accel.bias")) return {kMicroGToMps2, "ug"};
+  if (startsWith(n, "gyro.bias")) return {kDegPerHourToRadPerSec, "deg/h"};
+  return {kArcsecToRad, "arcsec"};
+}
 
 TruthComparison compareWithTruth(const CoefficientReport& estimate, const BenchTruth& expected) {
   TruthComparison c;
@@ -36,19 +42,14 @@ TruthComparison compareWithTruth(const CoefficientReport& estimate, const BenchT
     r.error = *e - *t;
     r.observable = u->second.observable;
     r.sigma = u->second.sigma.value_or(0.0);
+    const DisplayUnit unit = displayUnit(name);
+    r.unit = unit.label;
+    r.error_in_unit = r.error / unit.si_per_unit;
     if (name.find(".scale.") != std::string::npos) {
-      r.unit = "ppm";
-      r.error_in_unit = r.error * 1e6;
       r.limit_in_unit = kScaleLimitPpm;
     } else if (name.find(".bias.") != std::string::npos) {
-      const bool accel = startsWith(name, "accel.");
-      const double unit = accel ? kUgToMps2 : kDegPerHourToRadPerSec;
-      r.unit = accel ? "ug" : "deg/h";
-      r.error_in_unit = r.error / unit;
-      r.limit_in_unit = kBiasLimitSigma * r.sigma / unit;
+      r.limit_in_unit = kBiasLimitSigma * r.sigma / unit.si_per_unit;
     } else {
-      r.unit = "arcsec";
-      r.error_in_unit = r.error * kRadToArcsec;
       r.limit_in_unit = kMisalignmentLimitArcsec;
     }
     r.within = std::abs(r.error_in_unit) <= r.limit_in_unit;

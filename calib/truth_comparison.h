@@ -15,6 +15,14 @@
 
 namespace imubench::calib {
 
+// How a coefficient is shown to people: SI value / si_per_unit in `label`. Scale factors in
+// ppm, accelerometer biases in ug, gyro biases in deg/h, angles in arcsec.
+struct DisplayUnit {
+  double si_per_unit = 1.0;
+  const char* label = "";
+};
+DisplayUnit displayUnit(const std::string& flat_name);
+
 struct ComparisonRow {
   std::string name;       // flat name, e.g. "gyro.misalignment.xy"
   double estimate = 0.0;  // SI

@@ -14,8 +14,6 @@ namespace imubench::calib {
 
 namespace {
 
-constexpr double kUgToMps2 = 9.80665e-6;
-
 SensorModel randomSensors(std::mt19937_64& rng, const ValidationOptions& o) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto sgn = [&] { return u(rng) < 0 ? -1.0 : 1.0; };
@@ -26,7 +24,7 @@ SensorModel randomSensors(std::mt19937_64& rng, const ValidationOptions& o) {
     t->mis = {m * u(rng), m * u(rng), m * u(rng), m * u(rng), m * u(rng), m * u(rng)};
   }
   for (int i = 0; i < 3; ++i) {
-    s.accel.bias[i] = sgn() * o.accel_bias_ug * kUgToMps2;
+    s.accel.bias[i] = sgn() * o.accel_bias_ug * kMicroGToMps2;
     s.gyro.bias[i] = sgn() * o.gyro_bias_deg_h * kDegPerHourToRadPerSec;
   }
   return s;
@@ -62,7 +60,7 @@ bool simulateRun(const BenchTruth& truth, const Motion& motion, const Validation
   si.world.truth = truth;
   if (noise) {
     si.world.noise.gyro.white = o.gyro_arw_deg_sqrt_h * kDegToRad / 60.0;
-    si.world.noise.accel.white = o.accel_noise_ug_sqrt_hz * kUgToMps2;
+    si.world.noise.accel.white = o.accel_noise_ug_sqrt_hz * kMicroGToMps2;
   }
   si.motion = motion;
   SimOptions so;

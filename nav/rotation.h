@@ -37,6 +37,7 @@ inline constexpr double kRadToDeg = 180.0 / kPi;
 inline constexpr double kArcsecToRad = kDegToRad / 3600.0;
 inline constexpr double kRadToArcsec = 1.0 / kArcsecToRad;
 inline constexpr double kDegPerHourToRadPerSec = kDegToRad / 3600.0;
+inline constexpr double kMicroGToMps2 = 9.80665e-6;  // 1 ug (standard gravity), m/s^2
 
 inline Mat3 skew(const Vec3& t) {
   Mat3 s;

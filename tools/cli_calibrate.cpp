@@ -97,23 +97,12 @@ void printReport(const calib::CoefficientReport& r) {
   const std::vector<std::string> names = calib::flatNames(r.values);
   for (const std::string& n : names) {
     if (n.rfind("extra.", 0) == 0) continue;
-    double unit = 1.0;
-    const char* u = "";
-    if (n.find(".scale.") != std::string::npos) {
-      unit = 1e-6;
-      u = "ppm (scale - 1)";
-    } else if (n.rfind("accel.bias", 0) == 0) {
-      unit = 9.80665e-6;
-      u = "ug";
-    } else if (n.rfind("gyro.bias", 0) == 0) {
-      unit = kDegPerHourToRadPerSec;
-      u = "deg/h";
-    } else {
-      unit = kArcsecToRad;
-      u = "arcsec";
-    }
+    const bool scale = n.find(".scale.") != std::string::npos;
+    const calib::DisplayUnit d = calib::displayUnit(n);
+    const double unit = d.si_per_unit;
+    const char* u = scale ? "ppm (scale - 1)" : d.label;
     double v = calib::flatValue(r.values, n).value_or(0.0);
-    if (n.find(".scale.") != std::string::npos) v -= 1.0;
+    if (scale) v -= 1.0;
     const auto it = r.uncertainty.find(n);
     char buf[160];
     if (it != r.uncertainty.end() && !it->second.observable) {
