@@ -66,6 +66,7 @@ ramdir=$work
 if [[ -d /dev/shm && -w /dev/shm ]]; then ramdir=$(mktemp -d /dev/shm/vcan-run.XXXXXX); fi
 trap 'rm -rf "$work" "$ramdir"' EXIT
 rcfile=$work/rc
+mkdir "$work/tmp"
 envfile=$work/env
 # The caller's environment, re-exported inside UML (read-only bash variables filtered out).
 export -p | grep -v -E '^declare -[a-zA-Z]*r' >"$envfile"
@@ -91,6 +92,9 @@ ip link add dev vcan0 type vcan || fail "ip link add vcan0 failed"
 ip link set vcan0 up || fail "vcan0 up failed"
 . $envfile
 export VCAN_RUN_INSIDE_UML=1
+# A scratch directory of this run: the host's /tmp is shared by concurrent UML runs, whose
+# identical boots hand out the same pids, so pid-named files there would collide.
+export TMPDIR=$work/tmp
 ( . $work/cmd ) </dev/null 2>&1
 echo \$? >$rcfile
 sync

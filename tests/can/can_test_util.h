@@ -10,6 +10,7 @@
 #include "drivers/imu_decoder.h"
 #include "drivers/imu_layout.h"
 #include "nav/imu_sample.h"
+#include "scratch_dir.h"
 
 namespace imubench::drivers::testing {
 

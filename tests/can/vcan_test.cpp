@@ -113,8 +113,7 @@ VirtualImuOptions imuOptions(const VirtualImuFaults& faults = VirtualImuFaults{}
 }
 
 std::string tempPath(const std::string& name) {
-  const char* dir = std::getenv("TMPDIR");
-  return std::string(dir ? dir : "/tmp") + "/imubench-can-" + std::to_string(getpid()) + "-" + name;
+  return testing::scratchPath(name);
 }
 
 class VcanStream : public ::testing::TestWithParam<const char*> {};

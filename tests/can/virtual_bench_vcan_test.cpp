@@ -26,6 +26,7 @@
 #include "daemon/truth_file.h"
 #include "drivers/imu_can_reader.h"
 #include "drivers/imu_layout.h"
+#include "scratch_dir.h"
 
 extern char** environ;
 
@@ -46,9 +47,7 @@ std::string truthPath() {
 }
 
 std::string tempPath(const std::string& name) {
-  const char* dir = std::getenv("TMPDIR");
-  return std::string(dir ? dir : "/tmp") + "/imubench-vbench-" + std::to_string(getpid()) + "-" +
-         name;
+  return testing::scratchPath(name);
 }
 
 // Starts argv with stdout and stderr redirected to out_path. Returns -1 on failure.
