@@ -24,81 +24,15 @@ const char* transportKindName(TransportKind k) {
 
 namespace {
 
-// Refuses keys the schema does not know: a typo must not silently fall back to a default.
-void checkKeys(const toml::table& t, std::initializer_list<std::string_view> allowed,
-               std::string_view where, Diagnostics& diag) {
-  for (const auto& [k, v] : t) {
-    bool known = false;
-    for (auto a : allowed) known = known || (a == k.str());
-    if (!known) {
-      diag.error(k.source(),
-                 "unknown key \"" + std::string(k.str()) + "\" in " + std::string(where));
-    }
-  }
-}
-
-const toml::table* subTable(const toml::table& t, std::string_view key, Diagnostics& diag,
-                            bool required) {
-  const toml::node* n = t.get(key);
-  if (!n) {
-    if (required) diag.error(t.source(), "missing required table [" + std::string(key) + "]");
-    return nullptr;
-  }
-  if (!n->is_table()) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" must be a table");
-    return nullptr;
-  }
-  return n->as_table();
-}
-
-std::optional<std::string> strField(const toml::table& t, std::string_view key, Diagnostics& diag,
-                                    bool required) {
-  const toml::node* n = t.get(key);
-  if (!n) {
-    if (required) diag.error(t.source(), "missing required key \"" + std::string(key) + "\"");
-    return std::nullopt;
-  }
-  if (!n->is_string()) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" must be a string");
-    return std::nullopt;
-  }
-  return n->as_string()->get();
-}
-
-std::optional<int64_t> intField(const toml::table& t, std::string_view key, Diagnostics& diag,
-                                bool required, int64_t lo, int64_t hi) {
-  const toml::node* n = t.get(key);
-  if (!n) {
-    if (required) diag.error(t.source(), "missing required key \"" + std::string(key) + "\"");
-    return std::nullopt;
-  }
-  if (!n->is_integer()) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" must be an integer");
-    return std::nullopt;
-  }
-  const int64_t v = n->as_integer()->get();
-  if (v < lo || v > hi) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" = " + std::to_string(v) +
-                                " is out of range [" + std::to_string(lo) + ", " +
-                                std::to_string(hi) + "]");
-    return std::nullopt;
-  }
-  return v;
-}
+using plans::boolField;
+using plans::checkKeys;
+using plans::intField;
+using plans::strField;
+using plans::subTable;
 
 void readInt(const toml::table& t, std::string_view key, int& out, Diagnostics& diag, int64_t lo,
              int64_t hi) {
   if (auto v = intField(t, key, diag, false, lo, hi)) out = static_cast<int>(*v);
-}
-
-std::optional<bool> boolField(const toml::table& t, std::string_view key, Diagnostics& diag) {
-  const toml::node* n = t.get(key);
-  if (!n) return std::nullopt;
-  if (!n->is_boolean()) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" must be true or false");
-    return std::nullopt;
-  }
-  return n->as_boolean()->get();
 }
 
 // Jerk ("deg/s^3") has no plans::Dimension: parse it as an angular acceleration with one more /s.

@@ -5,6 +5,8 @@
 
 #include <toml++/toml.h>
 
+#include <cstdint>
+#include <initializer_list>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -63,5 +65,20 @@ std::optional<double> parseQuantity(std::string_view text, Dimension dim, std::s
 // table when the key is missing) and returns nullopt on error.
 std::optional<double> quantityField(const toml::table& t, std::string_view key, Dimension dim,
                                     Diagnostics& diag, bool required = true);
+
+// Field readers shared by the TOML readers (device files, bench files). Each reports a
+// diagnostic at the offending node, or at the table when a required key is missing.
+
+// Refuses keys the schema does not know: a typo must not silently fall back to a default.
+void checkKeys(const toml::table& t, std::initializer_list<std::string_view> allowed,
+               std::string_view where, Diagnostics& diag);
+const toml::table* subTable(const toml::table& t, std::string_view key, Diagnostics& diag,
+                            bool required);
+std::optional<std::string> strField(const toml::table& t, std::string_view key, Diagnostics& diag,
+                                    bool required);
+// An integer in [lo, hi].
+std::optional<int64_t> intField(const toml::table& t, std::string_view key, Diagnostics& diag,
+                                bool required, int64_t lo, int64_t hi);
+std::optional<bool> boolField(const toml::table& t, std::string_view key, Diagnostics& diag);
 
 }  // namespace imubench::plans

@@ -1,0 +1,210 @@
+#include "daemon/bench_file.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "nav/rotation.h"
+
+namespace imubench::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+using plans::checkKeys;
+using plans::Diagnostics;
+using plans::Dimension;
+using plans::quantityField;
+using plans::strField;
+using plans::subTable;
+
+std::string resolve(const std::string& base_dir, const std::string& path) {
+  if (path.empty() || fs::path(path).is_absolute() || base_dir.empty()) return path;
+  return (fs::path(base_dir) / path).lexically_normal().string();
+}
+
+// A referenced device file's own diagnostics, reported at the key that names it.
+void reportDeviceFile(const toml::table& t, std::string_view key, const Diagnostics& device_diag,
+                      Diagnostics& diag) {
+  const toml::node* n = t.get(key);
+  diag.error(n != nullptr ? n->source() : t.source(),
+             "device file \"" + device_diag.file() + "\" refused:\n" + device_diag.str());
+}
+
+void parseBenchTable(const toml::table& root, const std::string& base_dir, BenchConfig& b,
+                     Diagnostics& diag) {
+  const toml::table* t = subTable(root, "bench", diag, true);
+  if (t == nullptr) return;
+  checkKeys(*t, {"name", "storage", "control_socket", "plan_dir"}, "[bench]", diag);
+  b.name = strField(*t, "name", diag, true).value_or("");
+  if (t->get("name") != nullptr && b.name.empty()) diag.error(t->source(), "name is empty");
+  b.storage_path = resolve(base_dir, strField(*t, "storage", diag, true).value_or(""));
+  b.control_socket = resolve(base_dir, strField(*t, "control_socket", diag, true).value_or(""));
+  b.plan_dir = resolve(base_dir, strField(*t, "plan_dir", diag, false).value_or(""));
+}
+
+void parseSite(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
+  const toml::table* t = subTable(root, "site", diag, true);
+  if (t == nullptr) return;
+  checkKeys(*t, {"latitude", "height", "gravity_mps2", "outer_axis_heading"}, "[site]", diag);
+  if (auto lat = quantityField(*t, "latitude", Dimension::kAngle, diag)) {
+    if (std::abs(*lat) > 0.5 * kPi) {
+      diag.error(t->get("latitude")->source(), "latitude must be within [-90, 90] deg");
+    }
+    b.site.latitude_rad = *lat;
+  }
+  if (auto h = quantityField(*t, "height", Dimension::kLength, diag)) b.site.height_m = *h;
+  if (const toml::node* g = t->get("gravity_mps2")) {
+    const auto v = g->value<double>();
+    if (!v || !(*v > 9.7 && *v < 9.9)) {
+      diag.error(g->source(), "gravity_mps2 must be a number in (9.7, 9.9) m/s^2");
+    } else {
+      b.site.gravity_mps2 = *v;
+    }
+  }
+  if (auto hd = quantityField(*t, "outer_axis_heading", Dimension::kAngle, diag, false)) {
+    b.outer_axis_heading_rad = *hd;
+  }
+}
+
+// Endpoint overrides (host/port for TCP, path for serial lines) shared by table and chamber.
+void applyEndpoint(const toml::table& t, drivers::TransportSpec& tr, Diagnostics& diag) {
+  if (auto host = strField(t, "host", diag, false)) tr.host = *host;
+  if (auto port = plans::intField(t, "port", diag, false, 1, 65535))
+    tr.port = static_cast<int>(*port);
+  if (auto path = strField(t, "path", diag, false)) tr.device = *path;
+}
+
+std::string fmt(double v) {
+  std::ostringstream ss;
+  ss << v;
+  return ss.str();
+}
+
+// A bench limit may only tighten the device's: a looser one is an error, not silently capped.
+void tightenLimit(const toml::table& t, std::string_view key, Dimension dim,
+                  std::string_view deg_unit, double& device_limit, Diagnostics& diag) {
+  const auto v = quantityField(t, key, dim, diag, false);
+  if (!v) return;
+  if (!(*v > 0.0)) {
+    diag.error(t.get(key)->source(), std::string(key) + " must be positive");
+  } else if (device_limit > 0.0 && *v > device_limit) {
+    diag.error(t.get(key)->source(),
+               std::string(key) + " " + fmt(*v * kRadToDeg) + " " + std::string(deg_unit) +
+                   " is looser than the device file's " + fmt(device_limit * kRadToDeg) + " " +
+                   std::string(deg_unit) + ": a bench may only tighten the controller's limits");
+  } else {
+    device_limit = *v;
+  }
+}
+
+void parseTable(const toml::table& root, const std::string& base_dir, BenchConfig& b,
+                Diagnostics& diag) {
+  const toml::table* t = subTable(root, "table", diag, true);
+  if (t == nullptr) return;
+  checkKeys(*t, {"device", "host", "port", "path", "max_rate", "max_accel"}, "[table]", diag);
+  const auto device = strField(*t, "device", diag, true);
+  if (!device) return;
+  Diagnostics ddiag(resolve(base_dir, *device));
+  auto spec = drivers::loadTableDevice(ddiag.file(), ddiag);
+  if (!spec) return reportDeviceFile(*t, "device", ddiag, diag);
+  b.table = std::move(*spec);
+  applyEndpoint(*t, b.table.transport, diag);
+  tightenLimit(*t, "max_rate", Dimension::kRate, "deg/s", b.table.limits.max_rate, diag);
+  tightenLimit(*t, "max_accel", Dimension::kAngularAccel, "deg/s^2", b.table.limits.max_accel,
+               diag);
+}
+
+void parseChamber(const toml::table& root, const std::string& base_dir, BenchConfig& b,
+                  Diagnostics& diag) {
+  const toml::table* t = subTable(root, "chamber", diag, false);
+  if (t == nullptr) return;
+  checkKeys(*t, {"device", "host", "port", "path", "safe_setpoint", "over_temperature"},
+            "[chamber]", diag);
+  const auto device = strField(*t, "device", diag, true);
+  if (!device) return;
+  Diagnostics ddiag(resolve(base_dir, *device));
+  auto spec = drivers::loadChamberDevice(ddiag.file(), ddiag);
+  if (!spec) return reportDeviceFile(*t, "device", ddiag, diag);
+  BenchChamber c;
+  c.device = std::move(*spec);
+  applyEndpoint(*t, c.device.transport, diag);
+  if (auto v = quantityField(*t, "safe_setpoint", Dimension::kTemperature, diag, false)) {
+    c.safe_setpoint_c = *v;
+  }
+  if (auto v = quantityField(*t, "over_temperature", Dimension::kTemperature, diag, false)) {
+    c.over_temperature_c = *v;
+  }
+  if (c.safe_setpoint_c < c.device.temp_min_c || c.safe_setpoint_c > c.device.temp_max_c) {
+    diag.error(t->source(), "safe_setpoint is outside the chamber's range");
+  }
+  if (c.over_temperature_c <= c.safe_setpoint_c) {
+    diag.error(t->source(), "over_temperature must be above safe_setpoint");
+  }
+  b.chamber = std::move(c);
+}
+
+void parseImu(const toml::table& root, const std::string& base_dir, BenchConfig& b,
+              Diagnostics& diag) {
+  const toml::table* t = subTable(root, "imu", diag, true);
+  if (t == nullptr) return;
+  checkKeys(*t, {"layout", "interface", "serial"}, "[imu]", diag);
+  b.imu.interface = strField(*t, "interface", diag, true).value_or("");
+  b.imu.serial = strField(*t, "serial", diag, false).value_or("");
+  const auto layout = strField(*t, "layout", diag, true);
+  if (!layout) return;
+  b.imu.layout_file = resolve(base_dir, *layout);
+  Diagnostics ddiag(b.imu.layout_file);
+  auto parsed = drivers::loadImuLayoutFile(b.imu.layout_file, ddiag);
+  if (!parsed) return reportDeviceFile(*t, "layout", ddiag, diag);
+  b.imu.layout = std::move(*parsed);
+}
+
+void parseSafety(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
+  const toml::table* t = subTable(root, "safety", diag, false);
+  if (t == nullptr) return;
+  checkKeys(*t, {"comm_timeout", "imu_timeout"}, "[safety]", diag);
+  for (auto [key, out] :
+       {std::pair<std::string_view, double*>{"comm_timeout", &b.safety.comm_timeout_s},
+        {"imu_timeout", &b.safety.imu_timeout_s}}) {
+    if (auto v = quantityField(*t, key, Dimension::kTime, diag, false)) {
+      if (*v > 0.0 && *v <= 60.0) {
+        *out = *v;
+      } else {
+        diag.error(t->get(key)->source(), std::string(key) + " must be in (0, 60] s");
+      }
+    }
+  }
+}
+
+}  // namespace
+
+std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_view file_name,
+                                          const std::string& base_dir, Diagnostics& diag) {
+  auto root = plans::parseToml(text, diag);
+  if (!root) return std::nullopt;
+  BenchConfig b;
+  b.file = std::string(file_name);
+  checkKeys(*root, {"bench", "site", "table", "chamber", "imu", "safety"}, "the top level", diag);
+  parseBenchTable(*root, base_dir, b, diag);
+  parseSite(*root, b, diag);
+  parseTable(*root, base_dir, b, diag);
+  parseChamber(*root, base_dir, b, diag);
+  parseImu(*root, base_dir, b, diag);
+  parseSafety(*root, b, diag);
+  if (!diag.ok()) return std::nullopt;
+  return b;
+}
+
+std::optional<BenchConfig> loadBenchFile(const std::string& path, Diagnostics& diag) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    diag.error(0, 0, "cannot open bench file");
+    return std::nullopt;
+  }
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parseBenchFile(ss.str(), path, fs::path(path).parent_path().string(), diag);
+}
+
+}  // namespace imubench::daemon

@@ -1,0 +1,100 @@
+// The bench file: what one imubenchd instance drives. One TOML file per bench names the device
+// files of its table, chamber and IMU, where they are reached, the site, the bench's own
+// limits and timeouts, and where the daemon keeps its database and control socket.
+//
+// Grammar (every dimensioned value is a string with its unit, as in plan and device files;
+// relative paths are relative to the bench file's directory):
+//
+//   [bench]
+//   name = "lab2-bench-a"                        # required; shown in status and stored per run
+//   storage = "/var/lib/imubench/imubench.db"    # SQLite database (WAL)
+//   control_socket = "/run/imubench/control.sock"  # unused when systemd passes the socket
+//   plan_dir = "plans"                           # optional: what list_plans shows
+//
+//   [site]
+//   latitude = "55.7558 deg"                     # required
+//   height = "150 m"                             # required
+//   gravity = 9.8155                             # optional, m/s^2 (measured); else WGS-84
+//   outer_axis_heading = "90 deg"                # two-axis tables; clockwise from North
+//
+//   [table]
+//   device = "devices/tables/imubench-ref-2axis-tcp.toml"   # required
+//   host = "10.0.0.20"                           # optional endpoint overrides of the device
+//   port = 502                                   #   file (Modbus TCP) ...
+//   path = "/dev/ttyUSB0"                        #   ... or its serial device (RTU, serial)
+//   max_rate = "30 deg/s"                        # optional bench limits: tighter than the
+//   max_accel = "10 deg/s^2"                     #   device's, never looser
+//
+//   [chamber]                                    # optional: a bench without a chamber
+//   device = "devices/chambers/watlow-f4-style.toml"
+//   host = "10.0.0.21"
+//   port = 502
+//   safe_setpoint = "23 degC"                    # where abort and faults leave it
+//   over_temperature = "90 degC"                 # measured above this -> safe state + alarm
+//
+//   [imu]
+//   layout = "devices/imus/navgrade_fd.toml"     # required: the CAN frame layout
+//   interface = "can0"                           # required: the SocketCAN interface
+//   serial = "SN-0001"                           # optional; results are stored per serial
+//
+//   [safety]
+//   comm_timeout = "1 s"      # table or chamber silent longer -> stop motion, pause, alarm
+//   imu_timeout = "0.5 s"     # no IMU frame for longer -> pause, alarm (recording goes on)
+//
+// Loading never throws: every problem is a diagnostic "file:line:column: reason", including
+// problems inside the referenced device files, and the bench is refused (nullopt).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "drivers/device_file.h"
+#include "drivers/imu_layout.h"
+#include "nav/earth.h"
+#include "plans/toml_diagnostics.h"
+
+namespace imubench::daemon {
+
+struct BenchSafety {
+  double comm_timeout_s = 1.0;  // longer than the device's retry chain, short enough to stop
+  double imu_timeout_s = 0.5;   // tens of IMU periods: a silent IMU, not one late frame
+};
+
+struct BenchChamber {
+  drivers::ChamberDeviceSpec device;
+  double safe_setpoint_c = 23.0;     // lab ambient: safe for the IMU and the operator
+  double over_temperature_c = 90.0;  // above any plan's setpoint, below damage
+};
+
+struct BenchImu {
+  drivers::ImuLayout layout;
+  std::string layout_file;
+  std::string interface;  // SocketCAN interface, e.g. "can0" or "vcan0"
+  std::string serial;     // empty: unknown
+};
+
+struct BenchConfig {
+  std::string file;  // the bench file as given
+  std::string name;
+  std::string storage_path;
+  std::string control_socket;
+  std::string plan_dir;  // empty: none
+  nav::Site site;
+  double outer_axis_heading_rad = 0.5 * 3.141592653589793;  // East
+  // The table's device spec with the bench's endpoint overrides applied and its limits
+  // tightened to the bench's: what the daemon enforces, whatever the controller allows.
+  drivers::TableDeviceSpec table;
+  std::optional<BenchChamber> chamber;
+  BenchImu imu;
+  BenchSafety safety;
+};
+
+// Parses bench text; device files are resolved against base_dir. file_name names the text in
+// diagnostics.
+std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_view file_name,
+                                          const std::string& base_dir, plans::Diagnostics& diag);
+// Reads and parses a bench file.
+std::optional<BenchConfig> loadBenchFile(const std::string& path, plans::Diagnostics& diag);
+
+}  // namespace imubench::daemon

@@ -1,0 +1,154 @@
+#include "daemon/bench_file.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "nav/rotation.h"
+
+namespace imubench::daemon {
+namespace {
+
+const std::string kSource = IMUBENCH_SOURCE_DIR;
+const std::string kBenchDir = kSource + "/daemon/benches";
+
+// A complete bench with every section; tests replace one line to break it.
+const std::string kGood = R"([bench]
+name = "lab2-a"
+storage = "state/imubench.db"
+control_socket = "/run/imubench/control.sock"
+
+[site]
+latitude = "55.7558 deg"
+height = "150 m"
+gravity_mps2 = 9.8155
+
+[table]
+device = "../../drivers/devices/tables/imubench-ref-2axis-tcp.toml"
+host = "10.0.0.20"
+port = 5020
+max_rate = "30 deg/s"
+
+[chamber]
+device = "../../drivers/devices/chambers/watlow-f4-style.toml"
+safe_setpoint = "25 degC"
+
+[imu]
+layout = "../../drivers/devices/imus/sbg_ecan.toml"
+interface = "can1"
+
+[safety]
+imu_timeout = "0.2 s"
+)";
+
+std::string replaced(const std::string& from, const std::string& to) {
+  std::string s = kGood;
+  const auto at = s.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) s.replace(at, from.size(), to);
+  return s;
+}
+
+std::optional<BenchConfig> parse(const std::string& text, plans::Diagnostics& diag) {
+  return parseBenchFile(text, "bench.toml", kBenchDir, diag);
+}
+
+TEST(BenchFile, ShippedVirtualBenchLoads) {
+  plans::Diagnostics diag(kBenchDir + "/virtual-bench.toml");
+  const auto b = loadBenchFile(diag.file(), diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_EQ(b->name, "virtual-bench");
+  EXPECT_NEAR(b->site.latitude_rad * kRadToDeg, 55.7558, 1e-12);
+  EXPECT_EQ(b->table.transport.port, 1502);
+  EXPECT_NEAR(b->table.limits.max_rate * kRadToDeg, 30.0, 1e-12);  // tightened from 300
+  ASSERT_TRUE(b->chamber.has_value());
+  EXPECT_EQ(b->chamber->device.transport.port, 1503);
+  EXPECT_EQ(b->imu.interface, "vcan0");
+  EXPECT_FALSE(b->imu.layout.messages.empty());
+  EXPECT_EQ(b->plan_dir, kSource + "/plans/library");
+}
+
+TEST(BenchFile, EveryFieldReadAndPathsResolvedAgainstTheBenchFile) {
+  plans::Diagnostics diag("bench.toml");
+  const auto b = parse(kGood, diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_EQ(b->storage_path, kBenchDir + "/state/imubench.db");
+  EXPECT_EQ(b->control_socket, "/run/imubench/control.sock");
+  EXPECT_EQ(b->table.transport.host, "10.0.0.20");
+  EXPECT_EQ(b->table.transport.port, 5020);
+  EXPECT_NEAR(b->table.limits.max_accel * kRadToDeg, 100.0, 1e-9);  // device's, not overridden
+  ASSERT_TRUE(b->site.gravity_mps2.has_value());
+  EXPECT_DOUBLE_EQ(*b->site.gravity_mps2, 9.8155);
+  EXPECT_NEAR(b->outer_axis_heading_rad * kRadToDeg, 90.0, 1e-12);
+  EXPECT_DOUBLE_EQ(b->chamber->safe_setpoint_c, 25.0);
+  EXPECT_DOUBLE_EQ(b->chamber->over_temperature_c, 90.0);
+  EXPECT_EQ(b->imu.interface, "can1");
+  EXPECT_DOUBLE_EQ(b->safety.imu_timeout_s, 0.2);
+  EXPECT_DOUBLE_EQ(b->safety.comm_timeout_s, 1.0);
+}
+
+TEST(BenchFile, ChamberIsOptional) {
+  std::string text = kGood;
+  const auto from = text.find("[chamber]");
+  const auto to = text.find("[imu]");
+  text.erase(from, to - from);
+  plans::Diagnostics diag("bench.toml");
+  const auto b = parse(text, diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_FALSE(b->chamber.has_value());
+}
+
+struct BadCase {
+  const char* name;
+  std::string text;
+  const char* expected;  // part of the diagnostic
+  int line;              // line it must name (0: do not check)
+};
+
+class BenchFileRefuses : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(BenchFileRefuses, WithFileLineAndReason) {
+  const BadCase& c = GetParam();
+  plans::Diagnostics diag("bench.toml");
+  EXPECT_FALSE(parse(c.text, diag).has_value());
+  const std::string msg = diag.str();
+  EXPECT_NE(msg.find(c.expected), std::string::npos) << msg;
+  EXPECT_NE(msg.find("bench.toml"), std::string::npos) << msg;
+  if (c.line > 0) {
+    EXPECT_NE(msg.find("bench.toml:" + std::to_string(c.line) + ":"), std::string::npos) << msg;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, BenchFileRefuses,
+    ::testing::Values(
+        BadCase{"not_toml", "[bench", "", 1},
+        BadCase{"unknown_key", replaced("height = \"150 m\"", "heigth = \"150 m\""),
+                "unknown key \"heigth\" in [site]", 8},
+        BadCase{"bare_number", replaced("\"55.7558 deg\"", "55.7558"), "missing unit", 7},
+        BadCase{"latitude_range", replaced("55.7558 deg", "95 deg"), "latitude", 7},
+        BadCase{"gravity_range", replaced("9.8155", "98.155"), "gravity_mps2", 9},
+        BadCase{"looser_rate", replaced("\"30 deg/s\"", "\"400 deg/s\""),
+                "looser than the device file's 300 deg/s", 15},
+        BadCase{"negative_rate", replaced("\"30 deg/s\"", "\"-3 deg/s\""), "positive", 15},
+        BadCase{"port_range", replaced("5020", "70000"), "out of range", 14},
+        BadCase{"missing_table_device", replaced("tables/imubench-ref-2axis-tcp", "tables/none"),
+                "cannot open device file", 12},
+        BadCase{"missing_imu", replaced("[imu]", "[imu_typo]"), "unknown key \"imu_typo\"", 0},
+        BadCase{"missing_imu_table", replaced("[imu]", "[imu_typo]"),
+                "missing required table [imu]", 0},
+        BadCase{"safe_setpoint_range", replaced("\"25 degC\"", "\"500 degC\""),
+                "safe_setpoint is outside", 0},
+        BadCase{"timeout_range", replaced("\"0.2 s\"", "\"0 s\""), "imu_timeout must be", 0},
+        BadCase{"wrong_type", replaced("\"lab2-a\"", "3"), "\"name\" must be a string", 2}),
+    [](const auto& info) { return std::string(info.param.name); });
+
+TEST(BenchFile, UnreadableFileNamesIt) {
+  plans::Diagnostics diag("/nonexistent/bench.toml");
+  EXPECT_FALSE(loadBenchFile(diag.file(), diag).has_value());
+  EXPECT_NE(diag.str().find("/nonexistent/bench.toml"), std::string::npos) << diag.str();
+  EXPECT_NE(diag.str().find("cannot open bench file"), std::string::npos) << diag.str();
+}
+
+}  // namespace
+}  // namespace imubench::daemon
