@@ -1,0 +1,365 @@
+#include "daemon/plan_runner.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+#include "nav/rotation.h"
+
+namespace imubench::daemon {
+
+const char* runnerStateName(RunnerState s) {
+  switch (s) {
+    case RunnerState::kIdle:
+      return "idle";
+    case RunnerState::kRunning:
+      return "running";
+    case RunnerState::kPaused:
+      return "paused";
+    case RunnerState::kAborting:
+      return "aborting";
+    case RunnerState::kFinished:
+      return "finished";
+    case RunnerState::kFaulted:
+      return "faulted";
+  }
+  return "?";
+}
+
+const char* runExitName(RunExit e) {
+  switch (e) {
+    case RunExit::kNone:
+      return "none";
+    case RunExit::kCompleted:
+      return "completed";
+    case RunExit::kAborted:
+      return "aborted";
+    case RunExit::kEmergencyStop:
+      return "emergency_stop";
+  }
+  return "?";
+}
+
+const char* runnerEventKindName(RunnerEvent::Kind k) {
+  switch (k) {
+    case RunnerEvent::Kind::kState:
+      return "state";
+    case RunnerEvent::Kind::kStepStarted:
+      return "step_started";
+    case RunnerEvent::Kind::kStepFinished:
+      return "step_finished";
+    case RunnerEvent::Kind::kAlarm:
+      return "alarm";
+  }
+  return "?";
+}
+
+std::vector<RunStep> runSteps(const calib::Motion& motion) {
+  std::vector<RunStep> out;
+  out.reserve(motion.segments.size());
+  for (const calib::Segment& seg : motion.segments) {
+    RunStep s;
+    s.index = static_cast<int>(out.size());
+    s.label = seg.label;
+    s.kind = seg.kind;
+    s.planned_t0_s = seg.t0;
+    s.planned_s = seg.t1 - seg.t0;
+    for (const calib::AxisTrajectory& a : motion.axes) {
+      s.start_angles.push_back(a.at(seg.t0).angle);
+      s.end_angles.push_back(a.at(seg.t1).angle);
+    }
+    if (seg.kind == calib::SegmentKind::kRotate) {
+      s.axis = seg.axis;
+      s.delta = seg.angle;
+    }
+    s.setpoint_c = motion.temperatureAt(seg.t1);
+    s.recording = seg.recording;
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+bool RunnerOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* m) {
+    if (why != nullptr) *why = m;
+    return false;
+  };
+  if (!(comm_timeout_s > 0.0)) return fail("comm_timeout_s must be positive");
+  if (!(imu_timeout_s > 0.0)) return fail("imu_timeout_s must be positive");
+  if (!(angle_tolerance_rad > 0.0 && angle_tolerance_rad < 0.1)) {
+    return fail("angle_tolerance_rad must be in (0, 0.1)");
+  }
+  if (!(overdue_factor >= 1.0) || !(overdue_margin_s >= 0.0)) {
+    return fail("overdue_factor must be >= 1 and overdue_margin_s >= 0");
+  }
+  if (chamber_safe_setpoint_c && chamber_over_temperature_c &&
+      !(*chamber_over_temperature_c > *chamber_safe_setpoint_c)) {
+    return fail("chamber_over_temperature_c must be above chamber_safe_setpoint_c");
+  }
+  return true;
+}
+
+PlanRunner::PlanRunner(std::vector<RunStep> steps, RunnerOptions options, BenchPort& port)
+    : steps_(std::move(steps)), options_(std::move(options)), port_(port) {}
+
+void PlanRunner::emit(RunnerEvent::Kind kind, double now_s, std::string message) {
+  RunnerEvent e;
+  e.kind = kind;
+  e.time_s = now_s;
+  e.step = step_;
+  if (step_ >= 0 && step_ < static_cast<int>(steps_.size())) e.label = steps_[step_].label;
+  e.message = std::move(message);
+  events_.push_back(std::move(e));
+}
+
+void PlanRunner::setState(RunnerState s, double now_s) {
+  if (s == state_) return;
+  state_ = s;
+  emit(RunnerEvent::Kind::kState, now_s, runnerStateName(s));
+}
+
+std::vector<RunnerEvent> PlanRunner::takeEvents() {
+  return std::exchange(events_, {});
+}
+
+CommandResult PlanRunner::start(double now_s) {
+  if (state_ != RunnerState::kIdle) {
+    return {false, std::string("busy: the runner is ") + runnerStateName(state_)};
+  }
+  if (steps_.empty()) return {false, "the plan has no steps"};
+  step_ = 0;
+  phase_ = Phase::kBegin;
+  step_interrupted_ = false;
+  setState(RunnerState::kRunning, now_s);
+  return {};
+}
+
+CommandResult PlanRunner::pause(double now_s) {
+  if (state_ != RunnerState::kRunning) {
+    return {false, std::string("nothing to pause: the runner is ") + runnerStateName(state_)};
+  }
+  issue(port_.stopAll(), now_s, "stop");
+  step_interrupted_ = true;
+  phase_ = Phase::kBegin;
+  step_elapsed_s_ = 0.0;
+  setState(RunnerState::kPaused, now_s);
+  return {};
+}
+
+CommandResult PlanRunner::resume(double now_s) {
+  if (state_ != RunnerState::kPaused) {
+    return {false, std::string("nothing to resume: the runner is ") + runnerStateName(state_)};
+  }
+  if (last_ && (!last_->table_ok || now_s - last_->table_last_ok_s > options_.comm_timeout_s)) {
+    return {false, "the table is not answering: resume when communication is back"};
+  }
+  if (last_ && now_s - last_->imu_last_frame_s > options_.imu_timeout_s) {
+    return {false, "the IMU is silent: resume when its frames arrive again"};
+  }
+  setState(RunnerState::kRunning, now_s);
+  return {};
+}
+
+CommandResult PlanRunner::abort(double now_s) {
+  if (state_ != RunnerState::kRunning && state_ != RunnerState::kPaused) {
+    return {false, std::string("nothing to abort: the runner is ") + runnerStateName(state_)};
+  }
+  issue(port_.stopAll(), now_s, "stop");
+  if (options_.chamber_safe_setpoint_c) {
+    issue(port_.chamberSetpoint(*options_.chamber_safe_setpoint_c), now_s, "chamber safe setpoint");
+  }
+  setState(RunnerState::kAborting, now_s);
+  return {};
+}
+
+void PlanRunner::emergencyStop(double now_s, const std::string& who) {
+  const drivers::Status st = port_.emergencyStop();
+  exit_ = RunExit::kEmergencyStop;
+  emit(RunnerEvent::Kind::kAlarm, now_s,
+       "emergency stop by " + who + (st.ok ? "" : " (the bench reported: " + st.message + ")"));
+  setState(RunnerState::kFaulted, now_s);
+}
+
+// A failed command is a communication fault: alarm and pause (the step re-runs on resume).
+bool PlanRunner::issue(const drivers::Status& st, double now_s, const std::string& what) {
+  if (st.ok) return true;
+  emit(RunnerEvent::Kind::kAlarm, now_s, what + " failed: " + st.message);
+  if (state_ == RunnerState::kRunning) {
+    step_interrupted_ = true;
+    phase_ = Phase::kBegin;
+    setState(RunnerState::kPaused, now_s);
+  }
+  return false;
+}
+
+void PlanRunner::alarmAndPause(double now_s, const std::string& why) {
+  emit(RunnerEvent::Kind::kAlarm, now_s, why);
+  if (state_ == RunnerState::kRunning) {
+    port_.stopAll();  // best effort: the alarm already says what is wrong
+    step_interrupted_ = true;
+    phase_ = Phase::kBegin;
+    step_elapsed_s_ = 0.0;
+    setState(RunnerState::kPaused, now_s);
+  }
+}
+
+// Returns false when a check paused the run (nothing else to do on this tick).
+bool PlanRunner::safetyChecks(const BenchObservation& obs) {
+  std::ostringstream why;
+  const double table_silent = obs.now_s - obs.table_last_ok_s;
+  const double imu_silent = obs.now_s - obs.imu_last_frame_s;
+  if (table_silent > options_.comm_timeout_s) {
+    why << "table not answering for " << table_silent << " s (timeout " << options_.comm_timeout_s
+        << " s): motion stopped, plan paused";
+  } else if (imu_silent > options_.imu_timeout_s) {
+    why << "IMU silent for " << imu_silent << " s (timeout " << options_.imu_timeout_s
+        << " s): plan paused, recording goes on";
+  } else if (obs.chamber_temp_c && options_.chamber_over_temperature_c &&
+             *obs.chamber_temp_c > *options_.chamber_over_temperature_c) {
+    why << "chamber over temperature: " << *obs.chamber_temp_c << " degC > "
+        << *options_.chamber_over_temperature_c << " degC: chamber to its safe setpoint, plan "
+        << "paused";
+    if (options_.chamber_safe_setpoint_c) port_.chamberSetpoint(*options_.chamber_safe_setpoint_c);
+  } else {
+    return true;
+  }
+  alarmAndPause(obs.now_s, why.str());
+  return false;
+}
+
+void PlanRunner::tick(const BenchObservation& obs) {
+  last_ = obs;
+  if (state_ == RunnerState::kAborting) {
+    if (obs.table_ok && !obs.moving) {
+      exit_ = RunExit::kAborted;
+      setState(RunnerState::kFinished, obs.now_s);
+    }
+    return;
+  }
+  if (state_ != RunnerState::kRunning) return;
+  if (!safetyChecks(obs)) return;
+  advance(obs);
+}
+
+bool PlanRunner::arrived(const BenchObservation& obs, const std::vector<double>& target) const {
+  if (!obs.table_ok || obs.moving || obs.angles.size() < target.size()) return false;
+  for (std::size_t a = 0; a < target.size(); ++a) {
+    const double d = std::remainder(obs.angles[a] - target[a], 2.0 * kPi);
+    if (std::abs(d) > options_.angle_tolerance_rad) return false;
+  }
+  return true;
+}
+
+void PlanRunner::beginStep(const BenchObservation& obs) {
+  const RunStep& s = steps_[step_];
+  emit(RunnerEvent::Kind::kStepStarted, obs.now_s,
+       step_interrupted_ ? "re-run from its start" : std::string(calib::segmentKindName(s.kind)));
+  step_elapsed_s_ = 0.0;
+  const bool moves = s.kind == calib::SegmentKind::kRotate || s.kind == calib::SegmentKind::kMove;
+  if (moves && !arrived(obs, s.start_angles)) {
+    // Interrupted (or the table is not where the previous step left it): back to the start.
+    for (std::size_t a = 0; a < s.start_angles.size(); ++a) {
+      if (!issue(port_.moveTo(static_cast<int>(a), s.start_angles[a]), obs.now_s, "move")) return;
+    }
+    phase_ = Phase::kReturning;
+    phase_t0_s_ = obs.now_s;
+    return;
+  }
+  commandStep(obs.now_s);
+}
+
+void PlanRunner::commandStep(double now_s) {
+  const RunStep& s = steps_[step_];
+  step_interrupted_ = false;
+  saw_moving_ = false;
+  phase_t0_s_ = now_s;
+  switch (s.kind) {
+    case calib::SegmentKind::kRotate:
+      if (!issue(port_.rotateBy(s.axis, s.delta), now_s, "rotate")) return;
+      phase_ = Phase::kMoving;
+      return;
+    case calib::SegmentKind::kMove:
+      for (std::size_t a = 0; a < s.end_angles.size(); ++a) {
+        if (std::abs(s.end_angles[a] - s.start_angles[a]) < options_.angle_tolerance_rad) continue;
+        if (!issue(port_.moveTo(static_cast<int>(a), s.end_angles[a]), now_s, "move")) return;
+      }
+      phase_ = Phase::kMoving;
+      return;
+    case calib::SegmentKind::kSoak:
+      if (!issue(port_.chamberSetpoint(s.setpoint_c), now_s, "chamber setpoint")) return;
+      phase_ = Phase::kWaiting;
+      return;
+    case calib::SegmentKind::kStatic:
+      phase_ = Phase::kWaiting;
+      return;
+  }
+}
+
+void PlanRunner::finishStep(double now_s) {
+  emit(RunnerEvent::Kind::kStepFinished, now_s, "");
+  step_elapsed_s_ = 0.0;
+  ++step_;
+  phase_ = Phase::kBegin;
+  if (step_ >= static_cast<int>(steps_.size())) {
+    exit_ = RunExit::kCompleted;
+    setState(RunnerState::kFinished, now_s);
+  }
+}
+
+void PlanRunner::advance(const BenchObservation& obs) {
+  const RunStep& s = steps_[step_];
+  const double in_phase = obs.now_s - phase_t0_s_;
+  const double overdue = options_.overdue_factor * s.planned_s + options_.overdue_margin_s;
+  switch (phase_) {
+    case Phase::kBegin:
+      beginStep(obs);
+      return;
+    case Phase::kReturning:
+      if (arrived(obs, s.start_angles)) {
+        commandStep(obs.now_s);
+      } else if (in_phase > overdue) {
+        alarmAndPause(obs.now_s,
+                      "step '" + s.label + "': the table did not reach the step's start");
+      }
+      return;
+    case Phase::kMoving:
+      step_elapsed_s_ = std::min(in_phase, s.planned_s);
+      saw_moving_ = saw_moving_ || obs.moving;
+      if ((saw_moving_ || in_phase >= s.planned_s) && arrived(obs, s.end_angles)) {
+        finishStep(obs.now_s);
+      } else if (in_phase > overdue) {
+        std::ostringstream why;
+        why << "step '" << s.label << "': motion not complete after " << in_phase << " s (planned "
+            << s.planned_s << " s)";
+        alarmAndPause(obs.now_s, why.str());
+      }
+      return;
+    case Phase::kWaiting:
+      step_elapsed_s_ = std::min(in_phase, s.planned_s);
+      if (in_phase >= s.planned_s) finishStep(obs.now_s);
+      return;
+  }
+}
+
+double PlanRunner::plannedTotalS() const {
+  double total = 0.0;
+  for (const RunStep& s : steps_) total += s.planned_s;
+  return total;
+}
+
+double PlanRunner::progress() const {
+  const double total = plannedTotalS();
+  if (!(total > 0.0)) return state_ == RunnerState::kFinished ? 1.0 : 0.0;
+  double done = step_elapsed_s_;
+  for (int k = 0; k < std::min<int>(step_, static_cast<int>(steps_.size())); ++k) {
+    done += steps_[k].planned_s;
+  }
+  return std::clamp(done / total, 0.0, 1.0);
+}
+
+double PlanRunner::etaS() const {
+  return (1.0 - progress()) * plannedTotalS();
+}
+
+}  // namespace imubench::daemon

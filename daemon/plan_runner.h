@@ -1,0 +1,161 @@
+// Plan execution as a state machine, apart from any I/O: the daemon's event loop feeds it
+// observations (table angles and status, when the IMU last spoke, chamber temperature) and
+// the time; it commands the bench through a small port interface and queues events for the
+// control socket and the store. Tests drive it with a simulated port and a fake clock.
+//
+// States:   idle --start--> running --pause--> paused --resume--> running --> finished
+//                                \--abort--> aborting (motion stopping) --> finished (aborted)
+//           any state --emergency stop--> faulted
+// Steps are the expanded plan's segments (plans/expand.h), so what runs is exactly what the
+// simulator and the calibrators assume. A step is a checkpoint: pause stops the table where
+// it is; resume brings every axis back to the interrupted step's start and runs it again
+// from its beginning (a half rotation is useless to the calibration; a repeated one is not).
+//
+// Safety (whatever the controller itself enforces): table silent beyond comm_timeout, IMU
+// silent beyond imu_timeout, a motion taking far longer than planned, or a failed command ->
+// stop motion, pause, alarm; chamber above over_temperature -> chamber to its safe setpoint,
+// stop, pause, alarm. Recording is the daemon's business and goes on through all of these.
+//
+// Angles: rad; the plan's angles are continuous (two +180 deg turns end at 360 deg), the
+// table reports wrapped angles, so position checks compare modulo 2 pi.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calib/motion.h"
+#include "drivers/device_errors.h"
+
+namespace imubench::daemon {
+
+enum class RunnerState { kIdle, kRunning, kPaused, kAborting, kFinished, kFaulted };
+const char* runnerStateName(RunnerState s);
+
+enum class RunExit { kNone, kCompleted, kAborted, kEmergencyStop };
+const char* runExitName(RunExit e);
+
+// One step of the plan as executed: a segment of the expanded motion.
+struct RunStep {
+  int index = 0;
+  std::string label;
+  calib::SegmentKind kind = calib::SegmentKind::kStatic;
+  double planned_t0_s = 0.0;         // plan time at the start
+  double planned_s = 0.0;            // planned duration
+  std::vector<double> start_angles;  // rad, every axis, continuous
+  std::vector<double> end_angles;    // rad, every axis, continuous
+  int axis = -1;                     // kRotate: the turning axis
+  double delta = 0.0;                // kRotate: signed turn (direction explicit), rad
+  double setpoint_c = 0.0;           // kSoak: chamber setpoint at the end
+  bool recording = true;
+};
+
+// The plan's steps from its expansion. Pure.
+std::vector<RunStep> runSteps(const calib::Motion& motion);
+
+// What the runner commands. The daemon implements it over the table and chamber drivers; a
+// command returns at once (the motion is observed through BenchObservation).
+class BenchPort {
+ public:
+  virtual ~BenchPort() = default;
+  virtual drivers::Status moveTo(int axis, double angle_rad) = 0;    // shortest way
+  virtual drivers::Status rotateBy(int axis, double delta_rad) = 0;  // sign = direction
+  virtual drivers::Status stopAll() = 0;                             // controlled stop
+  virtual drivers::Status emergencyStop() = 0;                       // table and chamber
+  virtual drivers::Status chamberSetpoint(double setpoint_c) = 0;    // no chamber: Ok
+};
+
+struct BenchObservation {
+  double now_s = 0.0;             // monotonic
+  bool table_ok = false;          // the last table read succeeded (the values below are fresh)
+  double table_last_ok_s = 0.0;   // when a table read last succeeded
+  std::vector<double> angles;     // rad, as read (wrapped or not)
+  bool moving = false;            // any axis moving
+  double imu_last_frame_s = 0.0;  // when the last IMU frame arrived
+  std::optional<double> chamber_temp_c;  // measured, when there is a chamber
+};
+
+struct RunnerOptions {
+  double comm_timeout_s = 1.0;  // bench file [safety]: table silent longer -> pause + alarm
+  double imu_timeout_s = 0.5;   // bench file [safety]: IMU silent longer -> pause + alarm
+  // A step is in position when every axis is within this of its target and nothing moves:
+  // far above encoder resolution, far below anything a calibration would accept.
+  double angle_tolerance_rad = 1e-3;
+  // A motion is overdue after factor * planned + margin: controllers ramp differently from
+  // the plan's profile, but a table that has not arrived by then is stuck.
+  double overdue_factor = 2.0;
+  double overdue_margin_s = 10.0;
+  std::optional<double> chamber_safe_setpoint_c;  // where abort and alarms leave the chamber
+  std::optional<double> chamber_over_temperature_c;
+  bool IsValid(std::string* why) const;
+};
+
+struct RunnerEvent {
+  enum class Kind { kState, kStepStarted, kStepFinished, kAlarm };
+  Kind kind = Kind::kState;
+  double time_s = 0.0;
+  int step = -1;
+  std::string label;    // step label
+  std::string message;  // state name, or the alarm's reason
+};
+const char* runnerEventKindName(RunnerEvent::Kind k);
+
+// Operator commands return this: ok, or why the command does not apply now.
+struct CommandResult {
+  bool ok = true;
+  std::string message;
+};
+
+class PlanRunner {
+ public:
+  PlanRunner(std::vector<RunStep> steps, RunnerOptions options, BenchPort& port);
+
+  CommandResult start(double now_s);
+  CommandResult pause(double now_s);
+  CommandResult resume(double now_s);
+  CommandResult abort(double now_s);
+  void emergencyStop(double now_s, const std::string& who);  // works in every state
+
+  void tick(const BenchObservation& obs);
+
+  RunnerState state() const { return state_; }
+  RunExit exit() const { return exit_; }
+  int currentStep() const { return step_; }  // -1 before the first, size() when done
+  const std::vector<RunStep>& steps() const { return steps_; }
+  double plannedTotalS() const;
+  double progress() const;  // 0..1 by planned time
+  double etaS() const;      // remaining planned time (the interrupted step counted whole)
+  std::vector<RunnerEvent> takeEvents();
+
+ private:
+  enum class Phase { kBegin, kReturning, kMoving, kWaiting };
+
+  void setState(RunnerState s, double now_s);
+  void alarmAndPause(double now_s, const std::string& why);
+  bool safetyChecks(const BenchObservation& obs);
+  void advance(const BenchObservation& obs);
+  void beginStep(const BenchObservation& obs);
+  void commandStep(double now_s);
+  void finishStep(double now_s);
+  bool arrived(const BenchObservation& obs, const std::vector<double>& target) const;
+  bool issue(const drivers::Status& st, double now_s, const std::string& what);
+  void emit(RunnerEvent::Kind kind, double now_s, std::string message);
+
+  std::vector<RunStep> steps_;
+  RunnerOptions options_;
+  BenchPort& port_;
+  RunnerState state_ = RunnerState::kIdle;
+  RunExit exit_ = RunExit::kNone;
+  int step_ = -1;
+  Phase phase_ = Phase::kBegin;
+  double phase_t0_s_ = 0.0;
+  double step_elapsed_s_ = 0.0;  // planned-time progress inside the current step
+  bool step_interrupted_ = false;
+  // The table was seen moving since the step's command: a full turn ends where it started,
+  // so "in position" alone cannot tell done from not yet begun.
+  bool saw_moving_ = false;
+  std::optional<BenchObservation> last_;
+  std::vector<RunnerEvent> events_;
+};
+
+}  // namespace imubench::daemon

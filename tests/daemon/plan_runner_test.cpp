@@ -1,0 +1,332 @@
+#include "daemon/plan_runner.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "nav/rotation.h"
+#include "plans/expand.h"
+#include "plans/plan.h"
+#include "plans/validator.h"
+
+namespace imubench::daemon {
+namespace {
+
+// A table that turns every commanded axis at a constant rate (no ramps: a controller that
+// differs from the plan's profile), reports wrapped angles, and can go silent or get stuck.
+class FakeBench : public BenchPort {
+ public:
+  explicit FakeBench(int axes) : angle_(axes, 0.0), target_(axes, 0.0) {}
+
+  drivers::Status moveTo(int axis, double angle) override {
+    log.push_back("move " + std::to_string(axis));
+    if (fail_commands) return drivers::Status::Error("injected: no reply");
+    target_[axis] = angle_[axis] + std::remainder(angle - angle_[axis], 2.0 * kPi);
+    return {};
+  }
+  drivers::Status rotateBy(int axis, double delta) override {
+    log.push_back("rotate " + std::to_string(axis));
+    rotated.push_back(delta);
+    if (fail_commands) return drivers::Status::Error("injected: no reply");
+    if (!stuck) target_[axis] = angle_[axis] + delta;
+    return {};
+  }
+  drivers::Status stopAll() override {
+    ++stops;
+    target_ = angle_;
+    return {};
+  }
+  drivers::Status emergencyStop() override {
+    ++estops;
+    target_ = angle_;
+    return {};
+  }
+  drivers::Status chamberSetpoint(double c) override {
+    setpoints.push_back(c);
+    return {};
+  }
+
+  // Advances the physics by dt and returns what the daemon would observe at `now`.
+  BenchObservation step(double now, double dt) {
+    bool moving = false;
+    for (std::size_t a = 0; a < angle_.size(); ++a) {
+      const double d = target_[a] - angle_[a];
+      const double max_step = rate * dt;
+      angle_[a] += std::clamp(d, -max_step, max_step);
+      moving = moving || std::abs(target_[a] - angle_[a]) > 0.0;
+    }
+    BenchObservation o;
+    o.now_s = now;
+    o.table_ok = !table_silent;
+    if (!table_silent) table_last_ok = now;
+    o.table_last_ok_s = table_last_ok;
+    if (!imu_silent) imu_last = now;
+    o.imu_last_frame_s = imu_last;
+    for (double a : angle_) o.angles.push_back(std::remainder(a, 2.0 * kPi));
+    o.moving = moving;
+    o.chamber_temp_c = chamber_temp;
+    return o;
+  }
+  double angle(int axis) const { return angle_[axis]; }
+
+  double rate = 20.0 * kDegToRad;  // rad/s
+  bool table_silent = false, imu_silent = false, stuck = false, fail_commands = false;
+  double table_last_ok = 0.0, imu_last = 0.0;
+  double chamber_temp = 22.0;
+  int stops = 0, estops = 0;
+  std::vector<std::string> log;
+  std::vector<double> rotated, setpoints;
+
+ private:
+  std::vector<double> angle_, target_;
+};
+
+std::vector<RunStep> twelveRunSteps() {
+  const std::string path = std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/two_axis_12run.toml";
+  plans::Diagnostics diag(path);
+  auto plan = plans::loadPlanFile(path, diag);
+  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
+  const auto ex = plans::expand(*plan);
+  EXPECT_TRUE(ex.ok) << ex.error;
+  return runSteps(ex.motion);
+}
+
+RunnerOptions options() {
+  RunnerOptions o;
+  o.chamber_safe_setpoint_c = 23.0;
+  o.chamber_over_temperature_c = 90.0;
+  return o;
+}
+
+struct Harness {
+  std::vector<RunStep> steps = twelveRunSteps();
+  FakeBench bench{2};
+  PlanRunner runner{steps, options(), bench};
+  double now = 0.0;
+  std::vector<RunnerEvent> events;
+  static constexpr double kDt = 0.05;  // the daemon's table poll period
+
+  void tick() {
+    now += kDt;
+    runner.tick(bench.step(now, kDt));
+    for (auto& e : runner.takeEvents()) events.push_back(std::move(e));
+  }
+  // Ticks until pred() or the time limit; returns pred().
+  template <class Pred>
+  bool until(Pred pred, double limit_s) {
+    const double end = now + limit_s;
+    while (!pred() && now < end) tick();
+    return pred();
+  }
+  int count(RunnerEvent::Kind kind, int step = -2) const {
+    int n = 0;
+    for (const auto& e : events) n += (e.kind == kind && (step == -2 || e.step == step)) ? 1 : 0;
+    return n;
+  }
+  std::string lastAlarm() const {
+    for (auto it = events.rbegin(); it != events.rend(); ++it) {
+      if (it->kind == RunnerEvent::Kind::kAlarm) return it->message;
+    }
+    return "";
+  }
+  bool finished() const { return runner.state() == RunnerState::kFinished; }
+  // Ticks until the first rotation step is under way and half done.
+  int midRotation() {
+    int k = -1;
+    until(
+        [&] {
+          k = runner.currentStep();
+          if (k < 0 || k >= static_cast<int>(steps.size())) return false;
+          const RunStep& s = steps[k];
+          return s.kind == calib::SegmentKind::kRotate &&
+                 std::abs(bench.angle(s.axis) - s.start_angles[s.axis]) > 0.5 * std::abs(s.delta);
+        },
+        4000.0);
+    return k;
+  }
+};
+
+TEST(PlanRunner, StepsAreThePlansSegments) {
+  const auto steps = twelveRunSteps();
+  int rotations = 0;
+  for (const auto& s : steps) rotations += s.kind == calib::SegmentKind::kRotate ? 1 : 0;
+  EXPECT_EQ(rotations, 12);  // the 12 runs (each a 180-degree turn; reversals are runs too)
+  for (std::size_t k = 1; k < steps.size(); ++k) {
+    for (std::size_t a = 0; a < 2; ++a) {
+      EXPECT_NEAR(steps[k].start_angles[a], steps[k - 1].end_angles[a], 1e-12) << k;
+    }
+  }
+}
+
+TEST(PlanRunner, RunsTheTwelveRunPlanToTheEnd) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  ASSERT_TRUE(h.until([&] { return h.finished(); }, 3.0 * h.runner.plannedTotalS()));
+  EXPECT_EQ(h.runner.exit(), RunExit::kCompleted);
+  // The fake turns at the plan's cruise rate without ramps: a little faster than planned.
+  EXPECT_GT(h.now, 0.8 * h.runner.plannedTotalS());
+  EXPECT_LT(h.now, 1.2 * h.runner.plannedTotalS());
+  std::cout << "12-run plan: " << h.steps.size() << " steps, planned " << h.runner.plannedTotalS()
+            << " s, ran " << h.now << " s of fake time\n";
+  EXPECT_DOUBLE_EQ(h.runner.progress(), 1.0);
+  EXPECT_DOUBLE_EQ(h.runner.etaS(), 0.0);
+  int rotations = 0;
+  for (std::size_t k = 0; k < h.steps.size(); ++k) {
+    EXPECT_EQ(h.count(RunnerEvent::Kind::kStepStarted, static_cast<int>(k)), 1) << k;
+    EXPECT_EQ(h.count(RunnerEvent::Kind::kStepFinished, static_cast<int>(k)), 1) << k;
+    if (h.steps[k].kind == calib::SegmentKind::kRotate) {
+      ASSERT_LT(rotations, static_cast<int>(h.bench.rotated.size()));
+      EXPECT_EQ(h.bench.rotated[rotations++], h.steps[k].delta) << "direction and size, step " << k;
+    }
+  }
+  EXPECT_EQ(rotations, static_cast<int>(h.bench.rotated.size()));
+  EXPECT_EQ(h.count(RunnerEvent::Kind::kAlarm), 0) << h.lastAlarm();
+  for (int a = 0; a < 2; ++a) {
+    EXPECT_NEAR(std::remainder(h.bench.angle(a) - h.steps.back().end_angles[a], 2.0 * kPi), 0.0,
+                1e-9);
+  }
+}
+
+TEST(PlanRunner, PauseMidRotationThenResumeRerunsTheStepFromItsStart) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  const int k = h.midRotation();
+  ASSERT_GE(k, 0);
+  const RunStep& s = h.steps[k];
+  const std::size_t rotations_before = h.bench.rotated.size();
+  ASSERT_TRUE(h.runner.pause(h.now).ok);
+  EXPECT_EQ(h.runner.state(), RunnerState::kPaused);
+  EXPECT_EQ(h.bench.stops, 1);
+  const double held = h.bench.angle(s.axis);
+  h.until([] { return false; }, 5.0);  // paused: holds, commands nothing
+  EXPECT_EQ(h.bench.angle(s.axis), held);
+  EXPECT_EQ(h.bench.rotated.size(), rotations_before);
+  EXPECT_FALSE(h.runner.pause(h.now).ok);
+
+  ASSERT_TRUE(h.runner.resume(h.now).ok);
+  ASSERT_TRUE(h.until([&] { return h.runner.currentStep() > k; }, 600.0));
+  // Back to the start (a move), then the whole rotation again, same signed angle.
+  ASSERT_EQ(h.bench.rotated.size(), rotations_before + 1);
+  EXPECT_EQ(h.bench.rotated.back(), s.delta);
+  EXPECT_EQ(h.count(RunnerEvent::Kind::kStepStarted, k), 2);
+  EXPECT_EQ(h.count(RunnerEvent::Kind::kStepFinished, k), 1);
+  ASSERT_TRUE(h.until([&] { return h.finished(); }, 3.0 * h.runner.plannedTotalS()));
+  EXPECT_EQ(h.runner.exit(), RunExit::kCompleted);
+}
+
+TEST(PlanRunner, AbortStopsMotionParksTheChamberAndClosesAsAborted) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  ASSERT_GE(h.midRotation(), 0);
+  ASSERT_TRUE(h.runner.abort(h.now).ok);
+  EXPECT_EQ(h.runner.state(), RunnerState::kAborting);
+  EXPECT_EQ(h.bench.stops, 1);
+  ASSERT_FALSE(h.bench.setpoints.empty());
+  EXPECT_EQ(h.bench.setpoints.back(), 23.0);
+  ASSERT_TRUE(h.until([&] { return h.finished(); }, 10.0));
+  EXPECT_EQ(h.runner.exit(), RunExit::kAborted);
+  EXPECT_FALSE(h.runner.resume(h.now).ok);
+  EXPECT_FALSE(h.runner.start(h.now).ok);  // a runner runs one plan; the daemon makes a new one
+}
+
+TEST(PlanRunner, EmergencyStopWorksInEveryState) {
+  for (int which = 0; which < 4; ++which) {
+    Harness h;
+    if (which >= 1) ASSERT_TRUE(h.runner.start(h.now).ok);
+    if (which >= 1) ASSERT_GE(h.midRotation(), 0);
+    if (which == 2) ASSERT_TRUE(h.runner.pause(h.now).ok);
+    if (which == 3) ASSERT_TRUE(h.runner.abort(h.now).ok);
+    h.runner.emergencyStop(h.now, "operator");
+    h.tick();
+    EXPECT_EQ(h.bench.estops, 1) << which;
+    EXPECT_EQ(h.runner.state(), RunnerState::kFaulted) << which;
+    EXPECT_EQ(h.runner.exit(), RunExit::kEmergencyStop) << which;
+    EXPECT_NE(h.lastAlarm().find("emergency stop by operator"), std::string::npos);
+    EXPECT_FALSE(h.runner.resume(h.now).ok);
+  }
+}
+
+TEST(PlanRunner, SecondStartWhileBusyIsRefused) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  const CommandResult again = h.runner.start(h.now);
+  EXPECT_FALSE(again.ok);
+  EXPECT_NE(again.message.find("busy"), std::string::npos) << again.message;
+  EXPECT_EQ(h.runner.state(), RunnerState::kRunning);
+}
+
+TEST(PlanRunner, SilentTableStopsPausesAndAlarmsThenResumesWhenBack) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  ASSERT_GE(h.midRotation(), 0);
+  h.bench.table_silent = true;
+  const double lost_at = h.now;
+  ASSERT_TRUE(h.until([&] { return h.runner.state() == RunnerState::kPaused; }, 5.0));
+  EXPECT_GT(h.now - lost_at, options().comm_timeout_s);
+  EXPECT_LT(h.now - lost_at, options().comm_timeout_s + 0.2);
+  EXPECT_NE(h.lastAlarm().find("table not answering"), std::string::npos) << h.lastAlarm();
+  EXPECT_GE(h.bench.stops, 1);
+  EXPECT_FALSE(h.runner.resume(h.now).ok);  // still silent
+  h.bench.table_silent = false;
+  h.tick();
+  ASSERT_TRUE(h.runner.resume(h.now).ok);
+  ASSERT_TRUE(h.until([&] { return h.finished(); }, 3.0 * h.runner.plannedTotalS()));
+  EXPECT_EQ(h.runner.exit(), RunExit::kCompleted);
+}
+
+TEST(PlanRunner, SilentImuPausesAndAlarms) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  h.until([] { return false; }, 20.0);
+  h.bench.imu_silent = true;
+  ASSERT_TRUE(h.until([&] { return h.runner.state() == RunnerState::kPaused; }, 5.0));
+  EXPECT_NE(h.lastAlarm().find("IMU silent"), std::string::npos) << h.lastAlarm();
+  EXPECT_FALSE(h.runner.resume(h.now).ok);
+}
+
+TEST(PlanRunner, StuckTableIsOverdueAndPauses) {
+  Harness h;
+  h.bench.stuck = true;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  ASSERT_TRUE(h.until([&] { return h.runner.state() == RunnerState::kPaused; }, 4000.0));
+  EXPECT_NE(h.lastAlarm().find("motion not complete"), std::string::npos) << h.lastAlarm();
+}
+
+TEST(PlanRunner, ChamberOverTemperatureGoesToTheSafeSetpointAndPauses) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  h.until([] { return false; }, 10.0);
+  h.bench.chamber_temp = 95.0;
+  h.tick();
+  EXPECT_EQ(h.runner.state(), RunnerState::kPaused);
+  ASSERT_FALSE(h.bench.setpoints.empty());
+  EXPECT_EQ(h.bench.setpoints.back(), 23.0);
+  EXPECT_NE(h.lastAlarm().find("over temperature"), std::string::npos) << h.lastAlarm();
+}
+
+TEST(PlanRunner, FailedCommandAlarmsAndPauses) {
+  Harness h;
+  h.bench.fail_commands = true;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  ASSERT_TRUE(h.until([&] { return h.runner.state() == RunnerState::kPaused; }, 4000.0));
+  EXPECT_NE(h.lastAlarm().find("injected: no reply"), std::string::npos) << h.lastAlarm();
+}
+
+TEST(PlanRunner, OptionsAreChecked) {
+  RunnerOptions o;
+  std::string why;
+  EXPECT_TRUE(o.IsValid(&why));
+  o.comm_timeout_s = 0.0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("comm_timeout_s"), std::string::npos);
+  o = RunnerOptions{};
+  o.chamber_safe_setpoint_c = 50.0;
+  o.chamber_over_temperature_c = 40.0;
+  EXPECT_FALSE(o.IsValid(&why));
+}
+
+}  // namespace
+}  // namespace imubench::daemon
