@@ -1,0 +1,422 @@
+#include "daemon/control_protocol.h"
+
+#include <algorithm>
+#include <array>
+#include <initializer_list>
+#include <limits>
+#include <utility>
+
+namespace imubench::daemon {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr std::array<std::pair<Command, std::string_view>, 13> kCommands{{
+    {Command::kStart, "start"},
+    {Command::kPause, "pause"},
+    {Command::kResume, "resume"},
+    {Command::kAbort, "abort"},
+    {Command::kStop, "stop"},
+    {Command::kStatus, "status"},
+    {Command::kSubscribe, "subscribe"},
+    {Command::kUnsubscribe, "unsubscribe"},
+    {Command::kListPlans, "list_plans"},
+    {Command::kValidatePlan, "validate_plan"},
+    {Command::kResults, "results"},
+    {Command::kExport, "export"},
+    {Command::kPing, "ping"},
+}};
+
+constexpr std::array<std::pair<Topic, std::string_view>, kTopicCount> kTopics{{
+    {Topic::kRun, "run"},
+    {Topic::kStatus, "status"},
+    {Topic::kLog, "log"},
+}};
+
+// Labels end up in the run history and in every status reply: bounded so they stay readable.
+constexpr std::size_t kMaxLabelBytes = 200;
+
+std::string quote(std::string_view s) {
+  return "\"" + std::string(s) + "\"";
+}
+
+std::string commandList() {
+  std::string out;
+  for (const auto& [c, name] : kCommands) out += (out.empty() ? "" : ", ") + std::string(name);
+  return out;
+}
+
+std::string topicList() {
+  std::string out;
+  for (const auto& [t, name] : kTopics) out += (out.empty() ? "" : ", ") + std::string(name);
+  return out;
+}
+
+std::string joinPath(std::string_view where, std::string_view key) {
+  return where.empty() ? std::string(key) : std::string(where) + "." + std::string(key);
+}
+
+bool fail(ProtocolError* err, ErrorCode code, std::string message) {
+  *err = {code, std::move(message)};
+  return false;
+}
+
+// Refuses any key of obj not in allowed, naming the first one (keys are sorted by json).
+bool refuseUnknownFields(const json& obj, std::initializer_list<std::string_view> allowed,
+                         std::string_view where, std::string_view owner, ProtocolError* err) {
+  for (const auto& [key, value] : obj.items()) {
+    if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+    std::string known;
+    for (std::string_view a : allowed) known += (known.empty() ? "" : ", ") + std::string(a);
+    return fail(err, ErrorCode::kBadArgument,
+                joinPath(where, key) + ": unknown field of " + std::string(owner) +
+                    " (known: " + known + ")");
+  }
+  return true;
+}
+
+// A string field; *present tells whether it was there (missing is an error when required).
+bool readString(const json& obj, std::string_view key, std::string_view where, bool required,
+                std::string* out, ProtocolError* err) {
+  const auto it = obj.find(key);
+  if (it == obj.end()) {
+    if (required) return fail(err, ErrorCode::kBadArgument, joinPath(where, key) + ": missing");
+    return true;
+  }
+  if (!it->is_string())
+    return fail(err, ErrorCode::kBadArgument,
+                joinPath(where, key) + ": must be a string, got " + it->type_name());
+  *out = it->get<std::string>();
+  // A NUL (\u0000) would silently cut the string short in every C API it reaches.
+  if (out->find('\0') != std::string::npos)
+    return fail(err, ErrorCode::kBadArgument, joinPath(where, key) + ": contains a NUL byte");
+  return true;
+}
+
+bool readNonEmptyString(const json& obj, std::string_view key, std::string_view where,
+                        bool required, std::string* out, ProtocolError* err) {
+  if (!readString(obj, key, where, required, out, err)) return false;
+  if (obj.contains(key) && out->empty())
+    return fail(err, ErrorCode::kBadArgument, joinPath(where, key) + ": must not be empty");
+  return true;
+}
+
+bool readAbsolutePath(const json& obj, std::string_view key, std::string_view where, bool required,
+                      std::string* out, ProtocolError* err) {
+  if (!readNonEmptyString(obj, key, where, required, out, err)) return false;
+  // The daemon's working directory is not the client's: a relative path would mislead.
+  if (obj.contains(key) && out->front() != '/')
+    return fail(err, ErrorCode::kBadArgument,
+                joinPath(where, key) + ": must be an absolute path, got " + quote(*out));
+  return true;
+}
+
+bool readBool(const json& obj, std::string_view key, std::string_view where, bool* out,
+              ProtocolError* err) {
+  const auto it = obj.find(key);
+  if (it == obj.end()) return true;
+  if (!it->is_boolean())
+    return fail(err, ErrorCode::kBadArgument,
+                joinPath(where, key) + ": must be true or false, got " + it->type_name());
+  *out = it->get<bool>();
+  return true;
+}
+
+// Run ids are positive integers (SQLite rowids); 1.0 or "3" are refused, not converted.
+bool readRunId(const json& obj, std::string_view key, bool required,
+               std::optional<std::int64_t>* out, ProtocolError* err) {
+  const auto it = obj.find(key);
+  if (it == obj.end()) {
+    if (required) return fail(err, ErrorCode::kBadArgument, std::string(key) + ": missing");
+    return true;
+  }
+  const std::string where(key);
+  if (!it->is_number_integer())
+    return fail(err, ErrorCode::kBadArgument,
+                where + ": must be an integer run id, got " +
+                    it->dump(-1, ' ', false, json::error_handler_t::replace));
+  if (it->is_number_unsigned() &&
+      it->get<std::uint64_t>() > std::uint64_t{std::numeric_limits<std::int64_t>::max()})
+    return fail(err, ErrorCode::kBadArgument, where + ": out of range");
+  const std::int64_t v = it->get<std::int64_t>();
+  if (v < 1) return fail(err, ErrorCode::kBadArgument, where + ": must be >= 1");
+  *out = v;
+  return true;
+}
+
+bool readPlan(const json& obj, PlanSource* out, ProtocolError* err) {
+  const auto it = obj.find("plan");
+  if (it == obj.end()) return fail(err, ErrorCode::kBadArgument, "plan: missing");
+  if (!it->is_object())
+    return fail(err, ErrorCode::kBadArgument,
+                std::string("plan: must be an object {\"path\":...} or {\"toml\":...}, got ") +
+                    it->type_name());
+  if (!refuseUnknownFields(*it, {"path", "toml"}, "plan", "plan", err)) return false;
+  const bool has_path = it->contains("path");
+  if (has_path == it->contains("toml"))
+    return fail(err, ErrorCode::kBadArgument, "plan: needs exactly one of \"path\" or \"toml\"");
+  out->kind = has_path ? PlanSource::Kind::kPath : PlanSource::Kind::kInline;
+  if (has_path) return readAbsolutePath(*it, "path", "plan", true, &out->text, err);
+  return readNonEmptyString(*it, "toml", "plan", true, &out->text, err);
+}
+
+bool readStartOptions(const json& obj, StartOptions* out, ProtocolError* err) {
+  const auto it = obj.find("options");
+  if (it == obj.end()) return true;
+  if (!it->is_object())
+    return fail(err, ErrorCode::kBadArgument,
+                std::string("options: must be an object, got ") + it->type_name());
+  if (!refuseUnknownFields(*it, {"dry_run", "label", "out_dir"}, "options", "options", err))
+    return false;
+  if (!readBool(*it, "dry_run", "options", &out->dry_run, err)) return false;
+  if (!readString(*it, "label", "options", false, &out->label, err)) return false;
+  if (out->label.size() > kMaxLabelBytes)
+    return fail(err, ErrorCode::kBadArgument,
+                "options.label: longer than " + std::to_string(kMaxLabelBytes) + " bytes");
+  return readAbsolutePath(*it, "out_dir", "options", false, &out->out_dir, err);
+}
+
+bool readTopics(const json& obj, bool required, std::vector<Topic>* out, ProtocolError* err) {
+  const auto it = obj.find("topics");
+  if (it == obj.end()) {
+    if (required) return fail(err, ErrorCode::kBadArgument, "topics: missing");
+    return true;
+  }
+  if (!it->is_array() || it->empty())
+    return fail(err, ErrorCode::kBadArgument,
+                "topics: must be a non-empty array of topic names (" + topicList() + ")");
+  for (std::size_t i = 0; i < it->size(); ++i) {
+    const std::string where = "topics[" + std::to_string(i) + "]";
+    const json& v = (*it)[i];
+    if (!v.is_string())
+      return fail(err, ErrorCode::kBadArgument, where + ": must be a string, got " + v.type_name());
+    const auto topic = topicFromName(v.get<std::string>());
+    if (!topic)
+      return fail(err, ErrorCode::kBadArgument,
+                  where + ": unknown topic " + quote(v.get<std::string>()) +
+                      " (known: " + topicList() + ")");
+    if (std::find(out->begin(), out->end(), *topic) != out->end())
+      return fail(err, ErrorCode::kBadArgument,
+                  where + ": duplicate topic " + quote(topicName(*topic)));
+    out->push_back(*topic);
+  }
+  return true;
+}
+
+// The request's id: a string or an integer (JSON-RPC's choice, minus fractions), echoed as is.
+bool readId(const json& obj, json* id, ProtocolError* err) {
+  const auto it = obj.find("id");
+  if (it == obj.end()) return true;
+  if (!it->is_string() && !it->is_number_integer())
+    return fail(err, ErrorCode::kBadArgument,
+                std::string("id: must be a string or an integer, got ") + it->type_name());
+  *id = *it;
+  return true;
+}
+
+bool readCommandName(const json& obj, Command* out, ProtocolError* err) {
+  const auto it = obj.find("cmd");
+  if (it == obj.end()) return fail(err, ErrorCode::kBadArgument, "cmd: missing");
+  if (!it->is_string())
+    return fail(err, ErrorCode::kBadArgument,
+                std::string("cmd: must be a string, got ") + it->type_name());
+  const std::string name = it->get<std::string>();
+  for (const auto& [c, n] : kCommands) {
+    if (n != name) continue;
+    *out = c;
+    return true;
+  }
+  return fail(err, ErrorCode::kUnknownCommand,
+              "cmd: unknown command " + quote(name) + " (known: " + commandList() + ")");
+}
+
+// The arguments of one command; refuses fields the command does not take.
+bool readArgs(const json& obj, Command c, RequestArgs* out, ProtocolError* err) {
+  const std::string owner = "command " + quote(commandName(c));
+  switch (c) {
+    case Command::kStart: {
+      if (!refuseUnknownFields(obj, {"id", "cmd", "plan", "options"}, "", owner, err)) return false;
+      StartArgs a;
+      if (!readPlan(obj, &a.plan, err) || !readStartOptions(obj, &a.options, err)) return false;
+      *out = std::move(a);
+      return true;
+    }
+    case Command::kSubscribe:
+    case Command::kUnsubscribe: {
+      if (!refuseUnknownFields(obj, {"id", "cmd", "topics"}, "", owner, err)) return false;
+      std::vector<Topic> topics;
+      if (!readTopics(obj, c == Command::kSubscribe, &topics, err)) return false;
+      if (c == Command::kSubscribe)
+        *out = SubscribeArgs{std::move(topics)};
+      else
+        *out = UnsubscribeArgs{std::move(topics)};
+      return true;
+    }
+    case Command::kValidatePlan: {
+      if (!refuseUnknownFields(obj, {"id", "cmd", "plan"}, "", owner, err)) return false;
+      ValidatePlanArgs a;
+      if (!readPlan(obj, &a.plan, err)) return false;
+      *out = std::move(a);
+      return true;
+    }
+    case Command::kResults: {
+      if (!refuseUnknownFields(obj, {"id", "cmd", "run"}, "", owner, err)) return false;
+      ResultsArgs a;
+      if (!readRunId(obj, "run", false, &a.run, err)) return false;
+      *out = a;
+      return true;
+    }
+    case Command::kExport: {
+      if (!refuseUnknownFields(obj, {"id", "cmd", "run", "dir"}, "", owner, err)) return false;
+      std::optional<std::int64_t> run;
+      ExportArgs a;
+      if (!readRunId(obj, "run", true, &run, err)) return false;
+      if (!readAbsolutePath(obj, "dir", "", true, &a.dir, err)) return false;
+      a.run = *run;
+      *out = std::move(a);
+      return true;
+    }
+    default:
+      *out = NoArgs{};
+      return refuseUnknownFields(obj, {"id", "cmd"}, "", owner, err);
+  }
+}
+
+// nlohmann's what() is "[json.exception.parse_error.101] parse error at line 1, column 5:
+// syntax error while parsing value - ...": keep the reason, the byte offset says where.
+std::string parseErrorReason(const json::parse_error& e) {
+  const std::string what = e.what();
+  const auto column = what.find("column ");
+  const auto colon = what.find(": ", column == std::string::npos ? 0 : column);
+  return colon == std::string::npos ? what : what.substr(colon + 2);
+}
+
+}  // namespace
+
+std::string_view commandName(Command c) {
+  for (const auto& [cmd, name] : kCommands)
+    if (cmd == c) return name;
+  return "?";
+}
+
+std::string_view errorCodeName(ErrorCode c) {
+  switch (c) {
+    case ErrorCode::kBadJson:
+      return "bad_json";
+    case ErrorCode::kUnknownCommand:
+      return "unknown_command";
+    case ErrorCode::kBadArgument:
+      return "bad_argument";
+    case ErrorCode::kTooLarge:
+      return "too_large";
+    case ErrorCode::kBusy:
+      return "busy";
+    case ErrorCode::kBadState:
+      return "bad_state";
+    case ErrorCode::kNotFound:
+      return "not_found";
+    case ErrorCode::kBadPlan:
+      return "bad_plan";
+    case ErrorCode::kInternal:
+      return "internal";
+  }
+  return "internal";
+}
+
+std::string_view topicName(Topic t) {
+  for (const auto& [topic, name] : kTopics)
+    if (topic == t) return name;
+  return "?";
+}
+
+std::optional<Topic> topicFromName(std::string_view name) {
+  for (const auto& [topic, n] : kTopics)
+    if (n == name) return topic;
+  return std::nullopt;
+}
+
+// Grammar (one JSON object per line, UTF-8, at most the server's max line size; blank lines
+// are ignored). Every request may carry "id" (string or integer), echoed in its reply. Fields
+// not listed are refused with bad_argument naming them. Paths are absolute.
+//
+//   {"cmd":"ping"}                                   -> {"id":null,"ok":true,"result":{}}
+//   {"id":1,"cmd":"start","plan":{"path":"/etc/imubench/plans/two_axis_12run.toml"}}
+//   {"id":2,"cmd":"start","plan":{"toml":"[plan]\nname = \"x\"\n..."},
+//    "options":{"dry_run":true,"label":"unit 42","out_dir":"/var/lib/imubench/runs/42"}}
+//   {"id":3,"cmd":"pause"}      {"id":4,"cmd":"resume"}     {"id":5,"cmd":"abort"}
+//   {"id":6,"cmd":"stop"}       (emergency stop)            {"id":7,"cmd":"status"}
+//   {"id":8,"cmd":"subscribe","topics":["run","status","log"]}
+//   {"id":9,"cmd":"unsubscribe"}                     (all topics; or "topics":[...])
+//   {"id":10,"cmd":"list_plans"}
+//   {"id":11,"cmd":"validate_plan","plan":{"path":"/tmp/p.toml"}}
+//   {"id":12,"cmd":"results"}   {"id":13,"cmd":"results","run":42}
+//   {"id":14,"cmd":"export","run":42,"dir":"/srv/export/42"}
+//
+// Errors (the id is echoed when it could be read):
+//   {"cmd":"ping"                -> bad_json     "byte 14: syntax error while parsing object ..."
+//   {"cmd":"fly"}                -> unknown_command "cmd: unknown command \"fly\" (known: ...)"
+//   {"cmd":"pause","force":1}    -> bad_argument "force: unknown field of command \"pause\" ..."
+//   {"cmd":"results","run":1.5}  -> bad_argument "run: must be an integer run id, got 1.5"
+//   a line over the size limit   -> too_large (sent by the server; the line is discarded)
+ParseResult parseRequest(std::string_view line) {
+  ParseResult r;
+  json doc;
+  try {
+    doc = json::parse(line.begin(), line.end());
+  } catch (const json::parse_error& e) {
+    r.error = {ErrorCode::kBadJson, "byte " + std::to_string(e.byte) + ": " + parseErrorReason(e)};
+    return r;
+  }
+  if (!doc.is_object()) {
+    r.error = {ErrorCode::kBadArgument,
+               std::string("request: must be a JSON object, got ") + doc.type_name()};
+    return r;
+  }
+  if (!readId(doc, &r.id, &r.error)) return r;
+  r.request.id = r.id;
+  if (!readCommandName(doc, &r.request.command, &r.error)) return r;
+  r.ok = readArgs(doc, r.request.command, &r.request.args, &r.error);
+  return r;
+}
+
+Reply okReply(json id, json result) {
+  Reply r;
+  r.id = std::move(id);
+  r.result = std::move(result);
+  return r;
+}
+
+Reply errorReply(json id, ErrorCode code, std::string message) {
+  Reply r;
+  r.id = std::move(id);
+  r.ok = false;
+  r.error = {code, std::move(message)};
+  return r;
+}
+
+namespace {
+std::string dumpLine(const json& j) {
+  // replace, not throw: error messages may quote the client's invalid UTF-8.
+  return j.dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
+}
+}  // namespace
+
+std::string serializeReply(const Reply& reply) {
+  json j = {{"id", reply.id}, {"ok", reply.ok}};
+  if (reply.ok)
+    j["result"] = reply.result;
+  else
+    j["error"] = {{"code", errorCodeName(reply.error.code)}, {"message", reply.error.message}};
+  return dumpLine(j);
+}
+
+std::string serializeEvent(Topic topic, std::string_view name, const json& fields) {
+  json j = json::object();
+  if (fields.is_object()) j = fields;
+  j["event"] = name;
+  j["topic"] = topicName(topic);
+  return dumpLine(j);
+}
+
+}  // namespace imubench::daemon

@@ -1,0 +1,437 @@
+#include "daemon/control_server.h"
+
+#include <fcntl.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <utility>
+#include <vector>
+
+namespace imubench::daemon {
+
+struct ControlServer::Client {
+  ClientId id = 0;
+  int fd = -1;
+  std::string in;            // the current line so far
+  bool discarding = false;   // inside an oversized line: drop bytes up to its newline
+  bool read_closed = false;  // the peer shut down its sending side: flush, then close
+  std::string out;           // queued output; out_sent bytes of it already written
+  std::size_t out_sent = 0;
+  std::uint32_t interest = EPOLLIN;  // the events registered with the loop
+  std::bitset<kTopicCount> topics;
+};
+
+namespace {
+
+// Per wake-up, a client's bytes are read in slices of kReadChunk up to kReadPerTurn: a flooding
+// client is served again next turn (level-triggered) after the others had theirs.
+constexpr std::size_t kReadChunk = 16 * 1024;
+constexpr std::size_t kReadPerTurn = 256 * 1024;
+constexpr int kAcceptsPerTurn = 16;
+// When accept fails for lack of fds or memory, the listening socket stays readable: pausing
+// keeps the loop from spinning on it.
+constexpr auto kAcceptPause = std::chrono::milliseconds(100);
+
+std::string errnoText(const std::string& what) {
+  return what + ": " + std::strerror(errno);
+}
+
+IoStatus errnoStatus(const std::string& what) {
+  return IoStatus::Error(errnoText(what));
+}
+
+bool fillAddress(const std::string& path, sockaddr_un* addr) {
+  *addr = {};
+  addr->sun_family = AF_UNIX;
+  if (path.empty() || path.size() >= sizeof addr->sun_path) return false;
+  std::memcpy(addr->sun_path, path.data(), path.size());
+  return true;
+}
+
+// A stale socket file (its server died) is replaced; a live server or a non-socket is kept.
+IoStatus clearStaleSocket(const std::string& path, const sockaddr_un& addr) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0)
+    return errno == ENOENT ? IoStatus::Ok() : errnoStatus(path + ": lstat");
+  if (!S_ISSOCK(st.st_mode)) return IoStatus::Error(path + ": exists and is not a socket");
+  const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (probe < 0) return errnoStatus("socket(AF_UNIX)");
+  const int rc = ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
+  const int err = errno;
+  ::close(probe);
+  if (rc == 0) return IoStatus::Error(path + ": another server is listening there");
+  if (err != ECONNREFUSED) {
+    errno = err;
+    return errnoStatus(path + ": probing the existing socket");
+  }
+  if (::unlink(path.c_str()) != 0 && errno != ENOENT)
+    return errnoStatus(path + ": removing the stale socket");
+  return IoStatus::Ok();
+}
+
+}  // namespace
+
+bool ControlServerOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  sockaddr_un addr{};
+  if (listen_fd < 0 && socket_path.empty()) return fail("socket_path: empty (and no listen_fd)");
+  if (listen_fd < 0 && socket_path.size() >= sizeof addr.sun_path)
+    return fail("socket_path: longer than the 107 bytes AF_UNIX allows");
+  if ((socket_mode & ~mode_t{0777}) != 0) return fail("socket_mode: only permission bits 0777");
+  if (max_line_bytes < 256) return fail("max_line_bytes: must be >= 256");
+  if (max_clients < 1) return fail("max_clients: must be >= 1");
+  if (max_output_bytes < max_line_bytes)
+    return fail("max_output_bytes: must be >= max_line_bytes (a reply may quote a request)");
+  return true;
+}
+
+ControlServer::ControlServer(EventLoop* loop, ControlServerOptions options, Handler handler,
+                             const Logger* logger)
+    : loop_(loop), options_(std::move(options)), handler_(std::move(handler)), logger_(logger) {}
+
+ControlServer::~ControlServer() {
+  while (!clients_.empty()) closeClient(clients_.begin()->first, "server shutting down");
+  loop_->cancelTimer(accept_pause_timer_);
+  if (listen_fd_ >= 0) {
+    loop_->remove(listen_fd_);
+    ::close(listen_fd_);
+  }
+  struct stat st {};
+  if (bound_path_ && ::lstat(options_.socket_path.c_str(), &st) == 0 && st.st_ino == bound_inode_)
+    ::unlink(options_.socket_path.c_str());
+}
+
+IoStatus ControlServer::start() {
+  std::string why;
+  if (!options_.IsValid(&why)) return IoStatus::Error("control server options: " + why);
+  const IoStatus s = options_.listen_fd >= 0 ? adoptListenFd() : listenOnPath();
+  if (!s.ok) return s;
+  return loop_->add(listen_fd_, EPOLLIN, [this](std::uint32_t) { onListenReadable(); });
+}
+
+IoStatus ControlServer::listenOnPath() {
+  const std::string& path = options_.socket_path;
+  sockaddr_un addr{};
+  if (!fillAddress(path, &addr)) return IoStatus::Error(path + ": not a usable socket path");
+  IoStatus s = clearStaleSocket(path, addr);
+  if (!s.ok) return s;
+  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (listen_fd_ < 0) return errnoStatus("socket(AF_UNIX)");
+  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0)
+    return errnoStatus(path + ": bind");
+  bound_path_ = true;
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0) bound_inode_ = st.st_ino;
+  // chmod between bind and listen: until listen() nobody can connect, so there is no window
+  // with the umask's looser mode (and no process-wide umask change).
+  if (::chmod(path.c_str(), options_.socket_mode) != 0) return errnoStatus(path + ": chmod");
+  if (::listen(listen_fd_, SOMAXCONN) != 0) return errnoStatus(path + ": listen");
+  log(LogLevel::kInfo, "control socket listening on " + path);
+  return IoStatus::Ok();
+}
+
+IoStatus ControlServer::adoptListenFd() {
+  const int fd = options_.listen_fd;
+  int type = 0;
+  int listening = 0;
+  socklen_t len = sizeof type;
+  if (::getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &len) != 0 || type != SOCK_STREAM)
+    return IoStatus::Error("inherited fd " + std::to_string(fd) + ": not a stream socket");
+  len = sizeof listening;
+  if (::getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &len) != 0 || listening == 0)
+    return IoStatus::Error("inherited fd " + std::to_string(fd) + ": not listening");
+  const int flags = ::fcntl(fd, F_GETFL);
+  if (flags < 0 || ::fcntl(fd, F_SETFL, flags | O_NONBLOCK) != 0)
+    return errnoStatus("inherited fd " + std::to_string(fd) + ": O_NONBLOCK");
+  ::fcntl(fd, F_SETFD, FD_CLOEXEC);
+  listen_fd_ = fd;
+  log(LogLevel::kInfo, "control socket inherited (fd " + std::to_string(fd) + ")");
+  return IoStatus::Ok();
+}
+
+void ControlServer::onListenReadable() {
+  for (int i = 0; i < kAcceptsPerTurn; ++i) {
+    const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd >= 0) {
+      acceptOne(fd);
+      continue;
+    }
+    if (errno == EAGAIN || errno == EWOULDBLOCK) return;
+    if (errno == EINTR || errno == ECONNABORTED || errno == EPROTO) continue;
+    log(LogLevel::kWarning, errnoText("control socket: accept"));
+    pauseAccepting();
+    return;
+  }
+}
+
+void ControlServer::pauseAccepting() {
+  if (accept_pause_timer_ >= 0) return;
+  (void)loop_->modify(listen_fd_, 0);
+  const IoStatus s = loop_->addTimer(
+      kAcceptPause, std::chrono::nanoseconds(0),
+      [this] {
+        loop_->cancelTimer(accept_pause_timer_);
+        accept_pause_timer_ = -1;
+        (void)loop_->modify(listen_fd_, EPOLLIN);
+      },
+      &accept_pause_timer_);
+  if (!s.ok) (void)loop_->modify(listen_fd_, EPOLLIN);  // better spinning than deaf
+}
+
+void ControlServer::acceptOne(int fd) {
+  if (clients_.size() >= options_.max_clients) {
+    ++stats_.refused_busy;
+    const std::string line = serializeReply(
+        errorReply(nullptr, ErrorCode::kBusy,
+                   "too many clients (max_clients " + std::to_string(options_.max_clients) + ")"));
+    // Best effort: a fresh socket's buffer takes one line; if not, the close says enough.
+    [[maybe_unused]] const ssize_t n = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
+    ::close(fd);
+    return;
+  }
+  auto c = std::make_unique<Client>();
+  c->id = next_id_++;
+  c->fd = fd;
+  const ClientId id = c->id;
+  const IoStatus s =
+      loop_->add(fd, EPOLLIN, [this, id](std::uint32_t events) { onClientEvent(id, events); });
+  if (!s.ok) {
+    log(LogLevel::kWarning, "control socket: " + s.message);
+    ::close(fd);
+    return;
+  }
+  ucred cred{};
+  socklen_t len = sizeof cred;
+  const bool have_cred = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0;
+  log(LogLevel::kInfo, "client " + std::to_string(id) + " connected" +
+                           (have_cred ? " (uid " + std::to_string(cred.uid) + ", pid " +
+                                            std::to_string(cred.pid) + ")"
+                                      : ""));
+  clients_.emplace(id, std::move(c));
+  ++stats_.accepted;
+}
+
+void ControlServer::onClientEvent(ClientId id, std::uint32_t events) {
+  auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  if ((events & EPOLLOUT) != 0 && !flush(*it->second)) {
+    closeClient(id, "write failed");
+    return;
+  }
+  if (finished(*it->second)) {
+    closeClient(id, "disconnected");
+    return;
+  }
+  if ((events & (EPOLLIN | EPOLLHUP | EPOLLERR)) != 0) readFrom(id);
+}
+
+void ControlServer::readFrom(ClientId id) {
+  std::array<char, kReadChunk> buf;
+  for (std::size_t total = 0; total < kReadPerTurn;) {
+    auto it = clients_.find(id);
+    if (it == clients_.end() || it->second->read_closed) return;
+    Client& c = *it->second;
+    const ssize_t n = ::recv(c.fd, buf.data(), buf.size(), 0);
+    if (n > 0) {
+      total += static_cast<std::size_t>(n);
+      feed(id, std::string_view(buf.data(), static_cast<std::size_t>(n)));
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
+    if (n < 0) {
+      closeClient(id, errnoText("recv"));
+      return;
+    }
+    // EOF: a last line without its newline still counts; replies still go out (socat-style
+    // clients half-close after sending).
+    c.read_closed = true;
+    if (!c.discarding && !c.in.empty()) {
+      const std::string last = std::move(c.in);
+      c.in.clear();
+      handleLine(id, last);
+    }
+    it = clients_.find(id);
+    if (it == clients_.end()) return;
+    if (finished(*it->second))
+      closeClient(id, "disconnected");
+    else
+      updateInterest(*it->second);
+    return;
+  }
+}
+
+void ControlServer::feed(ClientId id, std::string_view data) {
+  while (!data.empty()) {
+    const auto it = clients_.find(id);
+    if (it == clients_.end()) return;  // a handler's broadcast overflowed this client
+    Client& c = *it->second;
+    const std::size_t nl = data.find('\n');
+    const std::string_view part = data.substr(0, nl);
+    if (!c.discarding && c.in.size() + part.size() > options_.max_line_bytes) {
+      c.in.clear();
+      c.discarding = true;
+      reply(id, errorReply(nullptr, ErrorCode::kTooLarge,
+                           "line longer than max_line_bytes (" +
+                               std::to_string(options_.max_line_bytes) + "); discarded"));
+      continue;  // re-find: the reply may have overflowed the client's queue
+    }
+    if (!c.discarding) c.in.append(part);
+    if (nl == std::string_view::npos) return;
+    data.remove_prefix(nl + 1);
+    if (c.discarding) {
+      c.discarding = false;  // the oversized line ended here
+      continue;
+    }
+    const std::string line = std::move(c.in);
+    c.in.clear();
+    handleLine(id, line);
+  }
+}
+
+void ControlServer::handleLine(ClientId id, std::string_view line) {
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);  // telnet-style clients
+  if (line.find_first_not_of(" \t") == std::string_view::npos) return;
+  const ParseResult parsed = parseRequest(line);
+  if (!parsed.ok) {
+    reply(id, errorReply(parsed.id, parsed.error.code, parsed.error.message));
+    return;
+  }
+  const auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  Reply r = answer(*it->second, parsed.request);
+  r.id = parsed.request.id;
+  reply(id, r);
+}
+
+Reply ControlServer::answer(Client& c, const Request& request) {
+  switch (request.command) {
+    case Command::kPing:
+      return okReply(request.id, {{"pong", true}});
+    case Command::kSubscribe:
+    case Command::kUnsubscribe: {
+      const bool on = request.command == Command::kSubscribe;
+      const auto& topics = on ? std::get<SubscribeArgs>(request.args).topics
+                              : std::get<UnsubscribeArgs>(request.args).topics;
+      if (!on && topics.empty()) c.topics.reset();
+      for (const Topic t : topics) c.topics.set(static_cast<std::size_t>(t), on);
+      nlohmann::json now = nlohmann::json::array();
+      for (int t = 0; t < kTopicCount; ++t)
+        if (c.topics.test(static_cast<std::size_t>(t))) now.push_back(topicName(Topic(t)));
+      return okReply(request.id, {{"topics", now}});
+    }
+    default:
+      break;
+  }
+  try {
+    return handler_(request, c.id);
+  } catch (const std::exception& e) {
+    // The handler is daemon code that should return errors; this keeps one bug from
+    // taking the whole bench's loop down.
+    log(LogLevel::kError, std::string("control handler threw: ") + e.what());
+    return errorReply(request.id, ErrorCode::kInternal, "internal error");
+  }
+}
+
+void ControlServer::reply(ClientId id, const Reply& r) {
+  ++stats_.requests;
+  if (!r.ok) ++stats_.errors;
+  send(id, serializeReply(r));
+}
+
+bool ControlServer::send(ClientId client, std::string_view line) {
+  const auto it = clients_.find(client);
+  if (it == clients_.end()) return false;
+  if (enqueue(*it->second, line)) {
+    if (finished(*it->second)) closeClient(client, "disconnected");
+    return true;
+  }
+  ++stats_.overflow_disconnects;
+  closeClient(client, "output queue overflow (client does not read)");
+  return false;
+}
+
+void ControlServer::broadcast(Topic topic, std::string_view name, const nlohmann::json& fields) {
+  const std::string line = serializeEvent(topic, name, fields);
+  std::vector<ClientId> overflowed;
+  for (auto& [id, c] : clients_)
+    if (c->topics.test(static_cast<std::size_t>(topic)) && !enqueue(*c, line))
+      overflowed.push_back(id);
+  for (const ClientId id : overflowed) {
+    ++stats_.overflow_disconnects;
+    closeClient(id, "output queue overflow (client does not read)");
+  }
+  std::vector<ClientId> done;
+  for (auto& [id, c] : clients_)
+    if (finished(*c)) done.push_back(id);
+  for (const ClientId id : done) closeClient(id, "disconnected");
+}
+
+// Writes what it can now and queues the rest; false when the queue would exceed its bound or
+// the socket failed (the caller closes the client).
+bool ControlServer::enqueue(Client& c, std::string_view data) {
+  if (c.out.size() - c.out_sent + data.size() > options_.max_output_bytes) return false;
+  c.out.append(data);
+  return flush(c);
+}
+
+bool ControlServer::flush(Client& c) {
+  while (c.out_sent < c.out.size()) {
+    const ssize_t n = ::send(c.fd, c.out.data() + c.out_sent, c.out.size() - c.out_sent,
+                             MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n > 0) {
+      c.out_sent += static_cast<std::size_t>(n);
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+    return false;  // EPIPE / ECONNRESET: the peer is gone
+  }
+  if (c.out_sent == c.out.size()) {
+    c.out.clear();
+    c.out_sent = 0;
+  } else if (c.out_sent > c.out.size() / 2) {
+    c.out.erase(0, c.out_sent);  // keep the buffer from growing by its sent prefix
+    c.out_sent = 0;
+  }
+  updateInterest(c);
+  return true;
+}
+
+void ControlServer::updateInterest(Client& c) {
+  const bool pending = c.out_sent < c.out.size();
+  const std::uint32_t events =
+      (c.read_closed ? 0u : std::uint32_t{EPOLLIN}) | (pending ? std::uint32_t{EPOLLOUT} : 0u);
+  if (events == c.interest) return;
+  c.interest = events;
+  (void)loop_->modify(c.fd, events);
+}
+
+// After the peer's EOF, a client lives only until its queue is written.
+bool ControlServer::finished(const Client& c) const {
+  return c.read_closed && c.out_sent == c.out.size();
+}
+
+void ControlServer::closeClient(ClientId id, std::string_view why) {
+  const auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  loop_->remove(it->second->fd);
+  ::close(it->second->fd);
+  clients_.erase(it);
+  log(LogLevel::kInfo, "client " + std::to_string(id) + ": " + std::string(why));
+}
+
+void ControlServer::log(LogLevel level, const std::string& message) const {
+  if (logger_ != nullptr) logger_->log(level, message);
+}
+
+}  // namespace imubench::daemon

@@ -1,0 +1,231 @@
+// The control protocol's parser: every command, every error kind, and a property test over
+// random and mutated lines (never throws, every refusal says where and why, every reply
+// serializes to one valid JSON line).
+#include "daemon/control_protocol.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+
+namespace imubench::daemon {
+namespace {
+
+using nlohmann::json;
+
+Request parseOk(const std::string& line) {
+  const ParseResult r = parseRequest(line);
+  EXPECT_TRUE(r.ok) << line << " -> " << r.error.message;
+  return r.request;
+}
+
+ProtocolError parseErr(const std::string& line, ErrorCode code) {
+  const ParseResult r = parseRequest(line);
+  EXPECT_FALSE(r.ok) << line;
+  EXPECT_EQ(errorCodeName(r.error.code), errorCodeName(code)) << line << " -> " << r.error.message;
+  EXPECT_FALSE(r.error.message.empty());
+  return r.error;
+}
+
+TEST(ControlProtocol, CommandsWithoutArguments) {
+  const std::pair<const char*, Command> cases[] = {
+      {"pause", Command::kPause}, {"resume", Command::kResume}, {"abort", Command::kAbort},
+      {"stop", Command::kStop},   {"status", Command::kStatus}, {"list_plans", Command::kListPlans},
+      {"ping", Command::kPing}};
+  for (const auto& [name, cmd] : cases) {
+    const Request r = parseOk(std::string("{\"id\":3,\"cmd\":\"") + name + "\"}");
+    EXPECT_EQ(r.command, cmd);
+    EXPECT_EQ(r.id, json(3));
+    EXPECT_TRUE(std::holds_alternative<NoArgs>(r.args));
+    EXPECT_EQ(commandName(cmd), name);
+    // The same command refuses any argument, naming it.
+    const ProtocolError e =
+        parseErr(std::string("{\"cmd\":\"") + name + "\",\"force\":true}", ErrorCode::kBadArgument);
+    EXPECT_NE(e.message.find("force: unknown field of command"), std::string::npos) << e.message;
+  }
+}
+
+TEST(ControlProtocol, IdIsOptionalStringOrInteger) {
+  EXPECT_TRUE(parseOk(R"({"cmd":"ping"})").id.is_null());
+  EXPECT_EQ(parseOk(R"({"cmd":"ping","id":"abc"})").id, json("abc"));
+  EXPECT_EQ(parseOk(R"({"cmd":"ping","id":-5})").id, json(-5));
+  for (const char* bad : {R"({"cmd":"ping","id":1.5})", R"({"cmd":"ping","id":null})",
+                          R"({"cmd":"ping","id":[1]})", R"({"cmd":"ping","id":true})"}) {
+    const ProtocolError e = parseErr(bad, ErrorCode::kBadArgument);
+    EXPECT_EQ(e.message.rfind("id: must be a string or an integer", 0), 0u) << e.message;
+  }
+}
+
+TEST(ControlProtocol, StartWithPathOrInlinePlanAndOptions) {
+  Request r = parseOk(R"({"id":"a","cmd":"start","plan":{"path":"/etc/imubench/p.toml"}})");
+  ASSERT_EQ(r.command, Command::kStart);
+  const auto& a = std::get<StartArgs>(r.args);
+  EXPECT_EQ(a.plan.kind, PlanSource::Kind::kPath);
+  EXPECT_EQ(a.plan.text, "/etc/imubench/p.toml");
+  EXPECT_FALSE(a.options.dry_run);
+
+  r = parseOk(R"({"cmd":"start","plan":{"toml":"[plan]\nname = \"x\"\n"},)"
+              R"("options":{"dry_run":true,"label":"unit 42","out_dir":"/srv/runs"}})");
+  const auto& b = std::get<StartArgs>(r.args);
+  EXPECT_EQ(b.plan.kind, PlanSource::Kind::kInline);
+  EXPECT_EQ(b.plan.text, "[plan]\nname = \"x\"\n");
+  EXPECT_TRUE(b.options.dry_run);
+  EXPECT_EQ(b.options.label, "unit 42");
+  EXPECT_EQ(b.options.out_dir, "/srv/runs");
+}
+
+TEST(ControlProtocol, StartArgumentErrorsNameTheField) {
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"cmd":"start"})", "plan: missing"},
+      {R"({"cmd":"start","plan":"/p.toml"})", "plan: must be an object"},
+      {R"({"cmd":"start","plan":{}})", "plan: needs exactly one of"},
+      {R"({"cmd":"start","plan":{"path":"/a","toml":"x"}})", "plan: needs exactly one of"},
+      {R"({"cmd":"start","plan":{"path":"rel/p.toml"}})", "plan.path: must be an absolute path"},
+      {R"({"cmd":"start","plan":{"path":""}})", "plan.path: must not be empty"},
+      {R"({"cmd":"start","plan":{"path":"/a\u0000b"}})", "plan.path: contains a NUL byte"},
+      {R"({"cmd":"start","plan":{"path":7}})", "plan.path: must be a string, got number"},
+      {R"({"cmd":"start","plan":{"toml":""}})", "plan.toml: must not be empty"},
+      {R"({"cmd":"start","plan":{"path":"/a","url":"x"}})", "plan.url: unknown field"},
+      {R"({"cmd":"start","plan":{"path":"/a"},"options":[]})", "options: must be an object"},
+      {R"({"cmd":"start","plan":{"path":"/a"},"options":{"dry_run":1}})",
+       "options.dry_run: must be true or false"},
+      {R"({"cmd":"start","plan":{"path":"/a"},"options":{"label":3}})",
+       "options.label: must be a string"},
+      {R"({"cmd":"start","plan":{"path":"/a"},"options":{"out_dir":"x"}})",
+       "options.out_dir: must be an absolute path"},
+      {R"({"cmd":"start","plan":{"path":"/a"},"options":{"speed":2}})",
+       "options.speed: unknown field"},
+      {R"({"cmd":"start","plan":{"path":"/a"},"run":2})", "run: unknown field of command"},
+  };
+  for (const auto& [line, want] : cases) {
+    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
+    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
+  }
+  const std::string long_label = R"({"cmd":"start","plan":{"path":"/a"},"options":{"label":")" +
+                                 std::string(201, 'x') + "\"}}";
+  EXPECT_NE(parseErr(long_label, ErrorCode::kBadArgument).message.find("options.label: longer"),
+            std::string::npos);
+}
+
+TEST(ControlProtocol, SubscribeAndUnsubscribe) {
+  Request r = parseOk(R"({"cmd":"subscribe","topics":["run","log"]})");
+  EXPECT_EQ(std::get<SubscribeArgs>(r.args).topics, (std::vector<Topic>{Topic::kRun, Topic::kLog}));
+  r = parseOk(R"({"cmd":"unsubscribe"})");
+  EXPECT_TRUE(std::get<UnsubscribeArgs>(r.args).topics.empty());
+  r = parseOk(R"({"cmd":"unsubscribe","topics":["status"]})");
+  EXPECT_EQ(std::get<UnsubscribeArgs>(r.args).topics, std::vector<Topic>{Topic::kStatus});
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"cmd":"subscribe"})", "topics: missing"},
+      {R"({"cmd":"subscribe","topics":[]})", "topics: must be a non-empty array"},
+      {R"({"cmd":"subscribe","topics":"run"})", "topics: must be a non-empty array"},
+      {R"({"cmd":"subscribe","topics":["run",3]})", "topics[1]: must be a string"},
+      {R"({"cmd":"subscribe","topics":["weather"]})", "topics[0]: unknown topic \"weather\""},
+      {R"({"cmd":"subscribe","topics":["run","run"]})", "topics[1]: duplicate topic"},
+      {R"({"cmd":"unsubscribe","topics":[]})", "topics: must be a non-empty array"},
+  };
+  for (const auto& [line, want] : cases) {
+    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
+    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
+  }
+}
+
+TEST(ControlProtocol, ValidatePlanResultsExport) {
+  Request r = parseOk(R"({"cmd":"validate_plan","plan":{"toml":"x"}})");
+  EXPECT_EQ(std::get<ValidatePlanArgs>(r.args).plan.kind, PlanSource::Kind::kInline);
+  EXPECT_FALSE(std::get<ResultsArgs>(parseOk(R"({"cmd":"results"})").args).run.has_value());
+  EXPECT_EQ(std::get<ResultsArgs>(parseOk(R"({"cmd":"results","run":42})").args).run, 42);
+  r = parseOk(R"({"cmd":"export","run":7,"dir":"/srv/x"})");
+  EXPECT_EQ(std::get<ExportArgs>(r.args).run, 7);
+  EXPECT_EQ(std::get<ExportArgs>(r.args).dir, "/srv/x");
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"cmd":"validate_plan"})", "plan: missing"},
+      {R"({"cmd":"results","run":1.0})", "run: must be an integer run id, got 1.0"},
+      {R"({"cmd":"results","run":"3"})", "run: must be an integer run id"},
+      {R"({"cmd":"results","run":0})", "run: must be >= 1"},
+      {R"({"cmd":"results","run":18446744073709551615})", "run: out of range"},
+      {R"({"cmd":"export","dir":"/x"})", "run: missing"},
+      {R"({"cmd":"export","run":1})", "dir: missing"},
+      {R"({"cmd":"export","run":1,"dir":"out"})", "dir: must be an absolute path"},
+      {R"({"cmd":"export","run":1,"dir":"/x","format":"csv"})", "format: unknown field"},
+  };
+  for (const auto& [line, want] : cases) {
+    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
+    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
+  }
+}
+
+TEST(ControlProtocol, BadJsonSaysWhichByte) {
+  const ProtocolError e = parseErr(R"({"cmd":"ping")", ErrorCode::kBadJson);
+  EXPECT_EQ(e.message.rfind("byte 14: ", 0), 0u) << e.message;
+  EXPECT_EQ(parseErr("", ErrorCode::kBadJson).message.rfind("byte ", 0), 0u);
+  EXPECT_EQ(parseErr("{\"cmd\":\"\xff\"}", ErrorCode::kBadJson).message.rfind("byte 9: ", 0), 0u);
+  // Valid JSON of the wrong shape is an argument error, not a JSON error.
+  EXPECT_NE(parseErr("[1,2]", ErrorCode::kBadArgument).message.find("must be a JSON object"),
+            std::string::npos);
+}
+
+TEST(ControlProtocol, CommandErrors) {
+  EXPECT_NE(parseErr(R"({"id":1})", ErrorCode::kBadArgument).message.find("cmd: missing"),
+            std::string::npos);
+  EXPECT_NE(parseErr(R"({"cmd":5})", ErrorCode::kBadArgument).message.find("cmd: must be a string"),
+            std::string::npos);
+  const ParseResult r = parseRequest(R"({"id":9,"cmd":"fly"})");
+  EXPECT_EQ(r.error.code, ErrorCode::kUnknownCommand);
+  EXPECT_EQ(r.id, json(9));  // echoed even on errors
+  EXPECT_NE(r.error.message.find("unknown command \"fly\" (known: start, "), std::string::npos);
+}
+
+TEST(ControlProtocol, RepliesAndEventsAreSingleJsonLines) {
+  EXPECT_EQ(serializeReply(okReply(1, {{"state", "idle"}})),
+            "{\"id\":1,\"ok\":true,\"result\":{\"state\":\"idle\"}}\n");
+  EXPECT_EQ(
+      serializeReply(errorReply("x", ErrorCode::kBusy, "a run is going")),
+      "{\"error\":{\"code\":\"busy\",\"message\":\"a run is going\"},\"id\":\"x\",\"ok\":false}\n");
+  EXPECT_EQ(serializeEvent(Topic::kRun, "step_started", {{"step", 3}}),
+            "{\"event\":\"step_started\",\"step\":3,\"topic\":\"run\"}\n");
+  EXPECT_EQ(serializeEvent(Topic::kLog, "log"), "{\"event\":\"log\",\"topic\":\"log\"}\n");
+  // Invalid UTF-8 in a message is replaced, not thrown.
+  const std::string line = serializeReply(errorReply(nullptr, ErrorCode::kBadJson, "\xff\xfe"));
+  EXPECT_TRUE(json::accept(line));
+  for (const ErrorCode c :
+       {ErrorCode::kBadJson, ErrorCode::kUnknownCommand, ErrorCode::kBadArgument,
+        ErrorCode::kTooLarge, ErrorCode::kBusy, ErrorCode::kBadState, ErrorCode::kNotFound,
+        ErrorCode::kBadPlan, ErrorCode::kInternal})
+    EXPECT_NE(errorCodeName(c), "");
+}
+
+// Property: for any input the parser returns (never throws); a refusal has a message; its
+// error reply is one valid JSON line.
+TEST(ControlProtocol, RandomAndMutatedLinesNeverThrow) {
+  std::mt19937 rng(20240611);
+  const std::string valid[] = {
+      R"({"id":1,"cmd":"start","plan":{"path":"/p.toml"},"options":{"dry_run":true}})",
+      R"({"id":"q","cmd":"subscribe","topics":["run","status"]})",
+      R"({"cmd":"export","run":3,"dir":"/srv/e"})", R"({"cmd":"results","run":1})"};
+  int accepted = 0;
+  for (int i = 0; i < 20000; ++i) {
+    std::string line;
+    if (i % 2 == 0) {
+      line.resize(rng() % 64);
+      for (char& ch : line) ch = static_cast<char>(rng() % 256);
+    } else {
+      line = valid[rng() % 4];
+      for (int m = 0, n = 1 + static_cast<int>(rng() % 4); m < n; ++m)
+        line[rng() % line.size()] = static_cast<char>(rng() % 256);
+    }
+    ParseResult r;
+    ASSERT_NO_THROW(r = parseRequest(line)) << i;
+    if (r.ok) {
+      ++accepted;
+      continue;
+    }
+    EXPECT_FALSE(r.error.message.empty());
+    const std::string reply = serializeReply(errorReply(r.id, r.error.code, r.error.message));
+    ASSERT_TRUE(json::accept(reply.substr(0, reply.size() - 1))) << reply;
+    ASSERT_EQ(reply.find('\n'), reply.size() - 1);
+  }
+  EXPECT_GT(accepted, 0);  // some mutations stay valid (e.g. inside a string)
+}
+
+}  // namespace
+}  // namespace imubench::daemon
