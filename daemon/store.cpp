@@ -118,6 +118,13 @@ std::optional<calib::SegmentKind> segmentKindFromName(std::string_view name) {
   return std::nullopt;
 }
 
+// An operator's abort is worth a warning; a fault is an error.
+EventSeverity endSeverity(RunState state) {
+  if (state == RunState::kFinished) return EventSeverity::kInfo;
+  if (state == RunState::kAborted) return EventSeverity::kWarning;
+  return EventSeverity::kError;
+}
+
 std::string runLabel(std::int64_t run_id) {
   return "run " + std::to_string(run_id);
 }
@@ -800,9 +807,7 @@ IoStatus Store::finishRun(std::int64_t run_id, RunState state, const std::string
     q.bind(4, now);
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot finish " + runLabel(run_id));
     const nlohmann::json details = {{"state", runStateName(state)}, {"reason", reason}};
-    return impl_->insertEvent(
-        {run_id, now, state == RunState::kFinished ? EventSeverity::kInfo : EventSeverity::kError,
-         "run-end", details.dump()});
+    return impl_->insertEvent({run_id, now, endSeverity(state), "run-end", details.dump()});
   });
 }
 

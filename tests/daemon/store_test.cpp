@@ -265,6 +265,12 @@ TEST(Store, RunLifeCycleEventsAndResults) {
   EXPECT_EQ(events.events[0].kind, "interrupted");
   EXPECT_EQ(events.events[0].severity, EventSeverity::kWarning);
   EXPECT_EQ(store->markInterruptedRuns().count, 0);
+  const EventListResult faulted = store->events(b.run_id);
+  ASSERT_TRUE(faulted.status.ok);
+  ASSERT_EQ(faulted.events.size(), 1u);
+  EXPECT_EQ(faulted.events[0].kind, "run-end");
+  EXPECT_EQ(faulted.events[0].severity, EventSeverity::kError);
+  EXPECT_NE(faulted.events[0].json.find("table overtemperature"), std::string::npos);
 
   EXPECT_TRUE(store->addEvent({a.run_id, 1.0, EventSeverity::kInfo, "note", "{\"x\": 1}"}).ok);
   EXPECT_FALSE(store->addEvent({a.run_id, 1.0, EventSeverity::kInfo, "note", "{x"}).ok);
@@ -360,6 +366,7 @@ TEST(Store, CorruptFileIsRefusedNamingThePath) {
   EXPECT_FALSE(r.store);
   EXPECT_EQ(r.status.message.rfind(path + ": ", 0), 0u) << r.status.message;
   EXPECT_NE(r.status.message.find("not an SQLite database"), std::string::npos) << r.status.message;
+  std::cout << "corrupt file: " << r.status.message << "\n";
 
   const auto missing_dir = Store::open(dir.file("no/such/dir/bench.db"));
   EXPECT_FALSE(missing_dir.status.ok);
