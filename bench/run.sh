@@ -22,4 +22,6 @@ run "indirect calibration of a 2 kHz 12-run recording (target < 10 s)" \
   "$build/bench/calibration/imubench_bench_indirect_calibration"
 run "reading a 1 h, 2 kHz imubench-csv/1 recording (target < 10 s)" \
   "$build/bench/daemon/imubench_daemon_bench"
+run "SQLite store: appending a 2 kHz IMU + 100 Hz table run (target >= 10x real time, counter x_realtime)" \
+  "$build/bench/daemon/imubench_store_bench"
 "$here/bench/can_bench.sh" "$build"

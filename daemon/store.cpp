@@ -1,0 +1,1109 @@
+#include "daemon/store.h"
+
+#include <sqlite3.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <unordered_map>
+#include <utility>
+
+namespace imubench::daemon {
+namespace {
+
+// Sample columns are declared ANY (STRICT tables), not REAL: SQLite writes an integral value
+// of a REAL-affinity column as an integer and reads it back as +0.0 for -0.0, which breaks the
+// bit-exact round trip. ANY keeps the IEEE double as bound. NaN is stored as NULL by SQLite,
+// which is what imu_samples.temp_c needs ("not reported").
+//
+// imu/table/chamber samples are WITHOUT ROWID tables keyed by (run_id, t): the primary key is
+// the (run_id, t) index, rows are clustered in time order, and a duplicate time is refused.
+constexpr const char* kSchemaSql = R"sql(
+CREATE TABLE runs(
+  id INTEGER PRIMARY KEY,
+  plan_name TEXT NOT NULL,
+  plan_toml TEXT NOT NULL,
+  bench_name TEXT NOT NULL,
+  imu_serial TEXT NOT NULL,
+  imu_rate_hz ANY NOT NULL,
+  latitude_deg ANY NOT NULL,
+  height_m ANY NOT NULL,
+  gravity_mps2 ANY,
+  table_kind TEXT NOT NULL CHECK(table_kind IN ('two-axis', 'three-axis')),
+  outer_axis_heading_deg ANY,
+  segments_from_file INTEGER NOT NULL,
+  started_unix_s REAL NOT NULL,
+  finished_unix_s REAL,
+  state TEXT NOT NULL
+    CHECK(state IN ('running', 'finished', 'aborted', 'faulted', 'interrupted')),
+  exit_reason TEXT NOT NULL DEFAULT ''
+) STRICT;
+CREATE INDEX runs_by_state ON runs(state);
+CREATE TABLE events(
+  id INTEGER PRIMARY KEY,
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  wall_unix_s REAL NOT NULL,
+  severity TEXT NOT NULL CHECK(severity IN ('info', 'warning', 'error')),
+  kind TEXT NOT NULL,
+  json TEXT NOT NULL
+) STRICT;
+CREATE INDEX events_by_run ON events(run_id, wall_unix_s);
+CREATE TABLE imu_samples(
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  t ANY NOT NULL,
+  dthx ANY NOT NULL, dthy ANY NOT NULL, dthz ANY NOT NULL,
+  dvx ANY NOT NULL, dvy ANY NOT NULL, dvz ANY NOT NULL,
+  temp_c ANY,
+  PRIMARY KEY(run_id, t)
+) STRICT, WITHOUT ROWID;
+CREATE TABLE table_samples(
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  t ANY NOT NULL,
+  angle0_deg ANY NOT NULL, angle1_deg ANY NOT NULL, angle2_deg ANY NOT NULL,
+  PRIMARY KEY(run_id, t)
+) STRICT, WITHOUT ROWID;
+CREATE TABLE chamber_samples(
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  t ANY NOT NULL,
+  setpoint_c ANY NOT NULL,
+  temp_c ANY NOT NULL,
+  PRIMARY KEY(run_id, t)
+) STRICT, WITHOUT ROWID;
+CREATE TABLE segments(
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  idx INTEGER NOT NULL,
+  t0 ANY NOT NULL,
+  t1 ANY NOT NULL,
+  kind TEXT NOT NULL CHECK(kind IN ('static', 'rotate', 'move', 'soak')),
+  label TEXT NOT NULL,
+  recording INTEGER NOT NULL,
+  axis INTEGER NOT NULL,
+  angle_rad ANY NOT NULL,
+  PRIMARY KEY(run_id, idx)
+) STRICT, WITHOUT ROWID;
+CREATE TABLE results(
+  id INTEGER PRIMARY KEY,
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  imu_serial TEXT NOT NULL,
+  temperature_c ANY NOT NULL,
+  kind TEXT NOT NULL,
+  json TEXT NOT NULL,
+  created_unix_s REAL NOT NULL
+) STRICT;
+CREATE INDEX results_by_serial ON results(imu_serial, temperature_c);
+CREATE INDEX results_by_run ON results(run_id);
+)sql";
+
+// All runs (?1 NULL) or one; read by Store::Impl::readRun.
+constexpr const char* kSelectRunsSql =
+    "SELECT id, plan_name, plan_toml, bench_name, imu_serial, imu_rate_hz, latitude_deg, "
+    "height_m, gravity_mps2, table_kind, outer_axis_heading_deg, segments_from_file, "
+    "started_unix_s, finished_unix_s, state, exit_reason FROM runs "
+    "WHERE ?1 IS NULL OR id = ?1 ORDER BY id";
+
+double nowUnixS() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+const char* tableKindName(calib::TableKind kind) {
+  return kind == calib::TableKind::kTwoAxis ? "two-axis" : "three-axis";
+}
+
+std::optional<calib::SegmentKind> segmentKindFromName(std::string_view name) {
+  for (auto k : {calib::SegmentKind::kStatic, calib::SegmentKind::kRotate,
+                 calib::SegmentKind::kMove, calib::SegmentKind::kSoak}) {
+    if (name == calib::segmentKindName(k)) return k;
+  }
+  return std::nullopt;
+}
+
+// An operator's abort is worth a warning; a fault is an error.
+EventSeverity endSeverity(RunState state) {
+  if (state == RunState::kFinished) return EventSeverity::kInfo;
+  if (state == RunState::kAborted) return EventSeverity::kWarning;
+  return EventSeverity::kError;
+}
+
+std::string runLabel(std::int64_t run_id) {
+  return "run " + std::to_string(run_id);
+}
+
+// ---------------------------------------------------------------------------------------
+// Row checks shared by RunWriter (per append call) and Store (per batch)
+
+bool finiteRow(const nav::ImuSample& s) {
+  // temp_c NaN means "not reported"; infinity is a broken reading.
+  return std::isfinite(s.t) && s.dtheta.allFinite() && s.dvel.allFinite() && !std::isinf(s.temp_c);
+}
+bool finiteRow(const TableSample& s) {
+  return std::isfinite(s.t) && std::isfinite(s.angles_deg[0]) && std::isfinite(s.angles_deg[1]) &&
+         std::isfinite(s.angles_deg[2]);
+}
+bool finiteRow(const ChamberSample& s) {
+  return std::isfinite(s.t) && std::isfinite(s.setpoint_c) && std::isfinite(s.temp_c);
+}
+
+// Finite values and strictly increasing times (also after `last_t`, the previous row).
+template <typename Row>
+IoStatus checkRows(const char* what, std::span<const Row> rows, std::optional<double> last_t) {
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    if (!finiteRow(rows[i])) {
+      return IoStatus::Error(std::string(what) + " " + std::to_string(i) +
+                             " has a non-finite value");
+    }
+    if (last_t && !(rows[i].t > *last_t)) {
+      return IoStatus::Error(std::string(what) + " " + std::to_string(i) +
+                             ": time does not increase");
+    }
+    last_t = rows[i].t;
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus checkSegments(std::span<const calib::Segment> segments, std::optional<double> last_t1) {
+  for (std::size_t i = 0; i < segments.size(); ++i) {
+    const auto& s = segments[i];
+    const std::string which = "segment " + std::to_string(i);
+    if (!std::isfinite(s.t0) || !std::isfinite(s.t1) || !std::isfinite(s.angle))
+      return IoStatus::Error(which + " has a non-finite value");
+    if (!(s.t1 > s.t0)) return IoStatus::Error(which + ": t1 is not after t0");
+    if (last_t1 && s.t0 < *last_t1)
+      return IoStatus::Error(which + " starts before the previous one ends");
+    last_t1 = s.t1;
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus checkBatch(const RunBatch& b) {
+  if (auto st = checkRows<nav::ImuSample>("IMU sample", b.imu, std::nullopt); !st.ok) return st;
+  if (auto st = checkRows<TableSample>("table sample", b.table, std::nullopt); !st.ok) return st;
+  if (auto st = checkRows<ChamberSample>("chamber sample", b.chamber, std::nullopt); !st.ok)
+    return st;
+  return checkSegments(b.segments, std::nullopt);
+}
+
+// ---------------------------------------------------------------------------------------
+// SQLite RAII
+
+struct DbCloser {
+  void operator()(sqlite3* db) const { sqlite3_close_v2(db); }
+};
+using DbPtr = std::unique_ptr<sqlite3, DbCloser>;
+
+struct StmtFinalizer {
+  void operator()(sqlite3_stmt* s) const { sqlite3_finalize(s); }
+};
+using StmtPtr = std::unique_ptr<sqlite3_stmt, StmtFinalizer>;
+
+// A cached prepared statement in use. Reset and unbound when it goes out of scope, so no read
+// transaction lingers and bound text may be static (bound only for this use).
+class Bound {
+ public:
+  explicit Bound(sqlite3_stmt* s) : s_(s) {}
+  ~Bound() {
+    if (s_ != nullptr) {
+      sqlite3_reset(s_);
+      sqlite3_clear_bindings(s_);
+    }
+  }
+  Bound(const Bound&) = delete;
+  Bound& operator=(const Bound&) = delete;
+
+  explicit operator bool() const { return s_ != nullptr; }
+  // NaN is bound as NULL by SQLite.
+  void bind(int i, double v) { sqlite3_bind_double(s_, i, v); }
+  void bind(int i, std::int64_t v) { sqlite3_bind_int64(s_, i, v); }
+  void bind(int i, int v) { sqlite3_bind_int(s_, i, v); }
+  // nullptr destructor is SQLITE_STATIC (the macro is an old-style cast): the text outlives
+  // this use, and clear_bindings drops it before the caller's string can go away.
+  void bind(int i, std::string_view v) {
+    sqlite3_bind_text64(s_, i, v.data(), v.size(), nullptr, SQLITE_UTF8);
+  }
+  void bind(int i, const std::optional<double>& v) {
+    if (v) {
+      bind(i, *v);
+    } else {
+      sqlite3_bind_null(s_, i);
+    }
+  }
+  void bindNull(int i) { sqlite3_bind_null(s_, i); }
+  int step() { return sqlite3_step(s_); }
+  // Once stepped, the next use starts over (hot insert loops reuse one Bound).
+  void rewind() { sqlite3_reset(s_); }
+
+  bool isNull(int c) const { return sqlite3_column_type(s_, c) == SQLITE_NULL; }
+  double real(int c) const { return sqlite3_column_double(s_, c); }
+  double realOrNaN(int c) const {
+    return isNull(c) ? std::numeric_limits<double>::quiet_NaN() : real(c);
+  }
+  std::optional<double> optReal(int c) const {
+    return isNull(c) ? std::nullopt : std::optional<double>(real(c));
+  }
+  std::int64_t integer(int c) const { return sqlite3_column_int64(s_, c); }
+  std::string text(int c) const {
+    const auto* p = sqlite3_column_text(s_, c);
+    const int n = sqlite3_column_bytes(s_, c);
+    return p == nullptr ? std::string() : std::string(reinterpret_cast<const char*>(p), n);
+  }
+
+ private:
+  sqlite3_stmt* s_;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// Store::Impl: the connection, its cached statements and the SQL helpers
+
+struct Store::Impl {
+  std::string path;
+  StoreOptions options;
+  DbPtr db;
+  std::unordered_map<const char*, StmtPtr> statements;  // keyed by the SQL literal
+
+  IoStatus sqlError(std::string_view what) const {
+    return IoStatus::Error(path + ": " + std::string(what) + ": " + sqlite3_errmsg(db.get()));
+  }
+  // A file that is not SQLite, or is damaged, fails with these codes on its first read.
+  bool notADatabase() const {
+    const int code = sqlite3_errcode(db.get()) & 0xff;
+    return code == SQLITE_NOTADB || code == SQLITE_CORRUPT;
+  }
+  IoStatus error(std::string_view what) const {
+    return IoStatus::Error(path + ": " + std::string(what));
+  }
+
+  // The cached statement for `sql` (a string literal), prepared on first use.
+  Bound use(const char* sql, IoStatus* st) {
+    auto& slot = statements[sql];
+    if (!slot) {
+      sqlite3_stmt* s = nullptr;
+      if (sqlite3_prepare_v3(db.get(), sql, -1, SQLITE_PREPARE_PERSISTENT, &s, nullptr) !=
+          SQLITE_OK) {
+        *st = sqlError("cannot prepare statement");
+        statements.erase(sql);
+        return Bound(nullptr);
+      }
+      slot.reset(s);
+    }
+    return Bound(slot.get());
+  }
+
+  IoStatus execSql(const char* sql, std::string_view what) {
+    char* msg = nullptr;
+    if (sqlite3_exec(db.get(), sql, nullptr, nullptr, &msg) == SQLITE_OK) return IoStatus::Ok();
+    std::string why = msg != nullptr ? msg : sqlite3_errmsg(db.get());
+    sqlite3_free(msg);
+    return error(std::string(what) + ": " + why);
+  }
+
+  // Runs `body` (returning IoStatus) in one write transaction; rolls back on failure.
+  template <typename Fn>
+  IoStatus transaction(std::string_view what, Fn&& body) {
+    if (auto st = execSql("BEGIN IMMEDIATE", what); !st.ok) return st;
+    IoStatus st = body();
+    if (st.ok) st = execSql("COMMIT", what);
+    if (!st.ok) sqlite3_exec(db.get(), "ROLLBACK", nullptr, nullptr, nullptr);
+    return st;
+  }
+
+  // A single integer from a query without parameters (pragmas, counts).
+  IoStatus queryInt(const char* sql, std::string_view what, std::int64_t* out) {
+    IoStatus st;
+    Bound q = use(sql, &st);
+    if (!q) return st;
+    if (q.step() != SQLITE_ROW) return sqlError(what);
+    *out = q.integer(0);
+    return IoStatus::Ok();
+  }
+
+  IoStatus openConnection();
+  IoStatus checkSchemaVersion(std::int64_t* version);
+  IoStatus configure();
+  IoStatus createSchemaIfNew();
+  IoStatus runState(std::int64_t run_id, RunState* state);
+  IoStatus requireRunning(std::int64_t run_id);
+  IoStatus insertRun(const RunStart& start, RunState state, std::int64_t* run_id);
+  IoStatus insertEvent(const RunEvent& event);
+  IoStatus insertRows(std::int64_t run_id, const RunBatch& batch);
+  IoStatus insertImu(std::int64_t run_id, std::span<const nav::ImuSample> rows);
+  IoStatus insertTable(std::int64_t run_id, std::span<const TableSample> rows);
+  IoStatus insertChamber(std::int64_t run_id, std::span<const ChamberSample> rows);
+  IoStatus insertSegments(std::int64_t run_id, std::span<const calib::Segment> rows);
+  IoStatus readRun(Bound& q, RunInfo* run);
+  IoStatus loadSamples(std::int64_t run_id, Recording* rec);
+  IoStatus loadSegments(std::int64_t run_id, Recording* rec);
+};
+
+IoStatus Store::Impl::openConnection() {
+  sqlite3* raw = nullptr;
+  const int rc =
+      sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+  db.reset(raw);  // sqlite3_open_v2 hands out a handle even on failure; close it either way
+  if (rc != SQLITE_OK) {
+    return error(std::string("cannot open database: ") +
+                 (raw != nullptr ? sqlite3_errmsg(raw) : sqlite3_errstr(rc)));
+  }
+  sqlite3_extended_result_codes(db.get(), 1);
+  sqlite3_busy_timeout(db.get(), options.busy_timeout_ms);
+  return IoStatus::Ok();
+}
+
+// The first read of the file: also where a file that is not SQLite is found.
+IoStatus Store::Impl::checkSchemaVersion(std::int64_t* version) {
+  IoStatus st;
+  Bound q = use("PRAGMA user_version", &st);
+  if (!q || q.step() != SQLITE_ROW) {
+    if (!notADatabase()) return sqlError("cannot read the schema version");
+    return error(std::string("not an SQLite database, or corrupted (") + sqlite3_errmsg(db.get()) +
+                 ")");
+  }
+  *version = q.integer(0);
+  if (*version > kStoreSchemaVersion) {
+    return error("schema version " + std::to_string(*version) +
+                 " is newer than this imubench supports (" + std::to_string(kStoreSchemaVersion) +
+                 "); use a newer imubench");
+  }
+  if (*version < 0) return error("invalid schema version " + std::to_string(*version));
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::configure() {
+  IoStatus st;
+  {
+    Bound q = use("PRAGMA journal_mode=WAL", &st);
+    if (!q) return st;
+    if (q.step() != SQLITE_ROW) return sqlError("cannot switch to WAL mode");
+    const std::string mode = q.text(0);
+    // An in-memory database (":memory:", tests) has no WAL and needs none.
+    if (mode != "wal" && mode != "memory")
+      return error("cannot switch to WAL mode (journal mode stays '" + mode + "')");
+  }
+  // NORMAL in WAL mode: commits survive a process crash, only power loss may lose the last
+  // ones; FULL would fsync every commit for nothing the bench needs.
+  if (st = execSql("PRAGMA synchronous=NORMAL", "cannot set synchronous"); !st.ok) return st;
+  return execSql("PRAGMA foreign_keys=ON", "cannot enable foreign keys");
+}
+
+IoStatus Store::Impl::createSchemaIfNew() {
+  return transaction("cannot create the schema", [&]() {
+    std::int64_t version = 0;
+    std::int64_t objects = 0;
+    // Re-read inside the write transaction: another process may have created it meanwhile.
+    if (auto st = checkSchemaVersion(&version); !st.ok || version != 0) return st;
+    if (auto st =
+            queryInt("SELECT count(*) FROM sqlite_schema", "cannot read the schema", &objects);
+        !st.ok) {
+      return st;
+    }
+    if (objects != 0) return error("not an imubench store (has tables but no schema version)");
+    if (auto st = execSql(kSchemaSql, "cannot create the schema"); !st.ok) return st;
+    return execSql("PRAGMA user_version=1", "cannot set the schema version");
+  });
+}
+
+IoStatus Store::Impl::runState(std::int64_t run_id, RunState* state) {
+  IoStatus st;
+  Bound q = use("SELECT state FROM runs WHERE id = ?1", &st);
+  if (!q) return st;
+  q.bind(1, run_id);
+  const int rc = q.step();
+  if (rc == SQLITE_DONE) return error(runLabel(run_id) + " not found");
+  if (rc != SQLITE_ROW) return sqlError("cannot read " + runLabel(run_id));
+  const auto s = runStateFromName(q.text(0));
+  if (!s) return error(runLabel(run_id) + " has an unknown state '" + q.text(0) + "'");
+  *state = *s;
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::requireRunning(std::int64_t run_id) {
+  RunState state{};
+  if (auto st = runState(run_id, &state); !st.ok) return st;
+  if (state != RunState::kRunning) {
+    return error(runLabel(run_id) + " is " + runStateName(state) + ", not running");
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::insertRun(const RunStart& s, RunState state, std::int64_t* run_id) {
+  IoStatus st;
+  Bound q =
+      use("INSERT INTO runs(plan_name, plan_toml, bench_name, imu_serial, imu_rate_hz, "
+          "latitude_deg, height_m, gravity_mps2, table_kind, outer_axis_heading_deg, "
+          "segments_from_file, started_unix_s, state) "
+          "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)",
+          &st);
+  if (!q) return st;
+  q.bind(1, s.plan_name);
+  q.bind(2, s.plan_toml);
+  q.bind(3, s.bench_name);
+  q.bind(4, s.imu_serial);
+  q.bind(5, s.imu_rate_hz);
+  q.bind(6, s.latitude_deg);
+  q.bind(7, s.height_m);
+  q.bind(8, s.gravity_mps2);
+  q.bind(9, std::string_view(tableKindName(s.table_kind)));
+  q.bind(10, s.outer_axis_heading_deg);
+  q.bind(11, s.segments_from_file ? 1 : 0);
+  q.bind(12, nowUnixS());
+  q.bind(13, std::string_view(runStateName(state)));
+  if (q.step() != SQLITE_DONE) return sqlError("cannot start a run");
+  *run_id = sqlite3_last_insert_rowid(db.get());
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::insertEvent(const RunEvent& e) {
+  if (!nlohmann::json::accept(e.json)) {
+    return error(runLabel(e.run_id) + ": event '" + e.kind + "' details are not valid JSON");
+  }
+  IoStatus st;
+  Bound q = use(
+      "INSERT INTO events(run_id, wall_unix_s, severity, kind, json) VALUES(?1, ?2, ?3, ?4, ?5)",
+      &st);
+  if (!q) return st;
+  q.bind(1, e.run_id);
+  q.bind(2, e.wall_unix_s);
+  q.bind(3, std::string_view(eventSeverityName(e.severity)));
+  q.bind(4, e.kind);
+  q.bind(5, e.json);
+  if (q.step() != SQLITE_DONE) return sqlError(runLabel(e.run_id) + ": cannot add event");
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::insertImu(std::int64_t run_id, std::span<const nav::ImuSample> rows) {
+  IoStatus st;
+  Bound q =
+      use("INSERT INTO imu_samples(run_id, t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c) "
+          "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+          &st);
+  if (!q) return st;
+  q.bind(1, run_id);
+  for (const auto& s : rows) {
+    q.bind(2, s.t);
+    for (int i = 0; i < 3; ++i) {
+      q.bind(3 + i, s.dtheta[i]);
+      q.bind(6 + i, s.dvel[i]);
+    }
+    q.bind(9, s.temp_c);
+    if (q.step() != SQLITE_DONE)
+      return sqlError(runLabel(run_id) + ": cannot store IMU sample at t=" + std::to_string(s.t));
+    q.rewind();
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::insertTable(std::int64_t run_id, std::span<const TableSample> rows) {
+  IoStatus st;
+  Bound q =
+      use("INSERT INTO table_samples(run_id, t, angle0_deg, angle1_deg, angle2_deg) "
+          "VALUES(?1, ?2, ?3, ?4, ?5)",
+          &st);
+  if (!q) return st;
+  q.bind(1, run_id);
+  for (const auto& s : rows) {
+    q.bind(2, s.t);
+    for (int a = 0; a < 3; ++a) q.bind(3 + a, s.angles_deg[static_cast<std::size_t>(a)]);
+    if (q.step() != SQLITE_DONE) {
+      return sqlError(runLabel(run_id) + ": cannot store table sample at t=" + std::to_string(s.t));
+    }
+    q.rewind();
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::insertChamber(std::int64_t run_id, std::span<const ChamberSample> rows) {
+  IoStatus st;
+  Bound q =
+      use("INSERT INTO chamber_samples(run_id, t, setpoint_c, temp_c) VALUES(?1, ?2, ?3, ?4)", &st);
+  if (!q) return st;
+  q.bind(1, run_id);
+  for (const auto& s : rows) {
+    q.bind(2, s.t);
+    q.bind(3, s.setpoint_c);
+    q.bind(4, s.temp_c);
+    if (q.step() != SQLITE_DONE) {
+      return sqlError(runLabel(run_id) +
+                      ": cannot store chamber sample at t=" + std::to_string(s.t));
+    }
+    q.rewind();
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::insertSegments(std::int64_t run_id, std::span<const calib::Segment> rows) {
+  IoStatus st;
+  // idx continues the run's numbering: segments arrive one by one during a run.
+  Bound q =
+      use("INSERT INTO segments(run_id, idx, t0, t1, kind, label, recording, axis, angle_rad) "
+          "VALUES(?1, (SELECT coalesce(max(idx) + 1, 0) FROM segments WHERE run_id = ?1), "
+          "?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+          &st);
+  if (!q) return st;
+  q.bind(1, run_id);
+  for (const auto& s : rows) {
+    q.bind(2, s.t0);
+    q.bind(3, s.t1);
+    q.bind(4, std::string_view(calib::segmentKindName(s.kind)));
+    q.bind(5, s.label);
+    q.bind(6, s.recording ? 1 : 0);
+    q.bind(7, s.axis);
+    q.bind(8, s.angle);
+    if (q.step() != SQLITE_DONE)
+      return sqlError(runLabel(run_id) + ": cannot store segment '" + s.label + "'");
+    q.rewind();
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::insertRows(std::int64_t run_id, const RunBatch& b) {
+  if (auto st = insertImu(run_id, b.imu); !st.ok) return st;
+  if (auto st = insertTable(run_id, b.table); !st.ok) return st;
+  if (auto st = insertChamber(run_id, b.chamber); !st.ok) return st;
+  return insertSegments(run_id, b.segments);
+}
+
+// One row of kSelectRunsSql.
+IoStatus Store::Impl::readRun(Bound& q, RunInfo* run) {
+  run->id = q.integer(0);
+  RunStart& s = run->start;
+  s.plan_name = q.text(1);
+  s.plan_toml = q.text(2);
+  s.bench_name = q.text(3);
+  s.imu_serial = q.text(4);
+  s.imu_rate_hz = q.real(5);
+  s.latitude_deg = q.real(6);
+  s.height_m = q.real(7);
+  s.gravity_mps2 = q.optReal(8);
+  s.table_kind =
+      q.text(9) == "three-axis" ? calib::TableKind::kThreeAxis : calib::TableKind::kTwoAxis;
+  s.outer_axis_heading_deg = q.optReal(10);
+  s.segments_from_file = q.integer(11) != 0;
+  run->started_unix_s = q.real(12);
+  run->finished_unix_s = q.optReal(13);
+  const auto state = runStateFromName(q.text(14));
+  if (!state) return error(runLabel(run->id) + " has an unknown state '" + q.text(14) + "'");
+  run->state = *state;
+  run->exit_reason = q.text(15);
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::loadSamples(std::int64_t run_id, Recording* rec) {
+  IoStatus st;
+  {
+    Bound q =
+        use("SELECT t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c FROM imu_samples "
+            "WHERE run_id = ?1 ORDER BY t",
+            &st);
+    if (!q) return st;
+    q.bind(1, run_id);
+    int rc;
+    while ((rc = q.step()) == SQLITE_ROW) {
+      nav::ImuSample& s = rec->imu.emplace_back();
+      s.t = q.real(0);
+      s.dtheta = Vec3(q.real(1), q.real(2), q.real(3));
+      s.dvel = Vec3(q.real(4), q.real(5), q.real(6));
+      s.temp_c = q.realOrNaN(7);
+    }
+    if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read IMU samples");
+  }
+  {
+    Bound q =
+        use("SELECT t, angle0_deg, angle1_deg, angle2_deg FROM table_samples "
+            "WHERE run_id = ?1 ORDER BY t",
+            &st);
+    if (!q) return st;
+    q.bind(1, run_id);
+    int rc;
+    while ((rc = q.step()) == SQLITE_ROW) {
+      rec->table.push_back(TableSample{q.real(0), {q.real(1), q.real(2), q.real(3)}});
+    }
+    if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read table samples");
+  }
+  Bound q =
+      use("SELECT t, setpoint_c, temp_c FROM chamber_samples WHERE run_id = ?1 ORDER BY t", &st);
+  if (!q) return st;
+  q.bind(1, run_id);
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    rec->chamber.push_back(ChamberSample{q.real(0), q.real(1), q.real(2)});
+  }
+  if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read chamber samples");
+  return IoStatus::Ok();
+}
+
+IoStatus Store::Impl::loadSegments(std::int64_t run_id, Recording* rec) {
+  IoStatus st;
+  Bound q =
+      use("SELECT t0, t1, kind, label, recording, axis, angle_rad FROM segments "
+          "WHERE run_id = ?1 ORDER BY idx",
+          &st);
+  if (!q) return st;
+  q.bind(1, run_id);
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    calib::Segment& s = rec->segments.emplace_back();
+    s.t0 = q.real(0);
+    s.t1 = q.real(1);
+    const auto kind = segmentKindFromName(q.text(2));
+    if (!kind) return error(runLabel(run_id) + ": unknown segment kind '" + q.text(2) + "'");
+    s.kind = *kind;
+    s.label = q.text(3);
+    s.recording = q.integer(4) != 0;
+    s.axis = static_cast<int>(q.integer(5));
+    s.angle = q.real(6);
+  }
+  if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read segments");
+  return IoStatus::Ok();
+}
+
+// ---------------------------------------------------------------------------------------
+// Public API
+
+bool StoreOptions::IsValid(std::string* why) const {
+  auto fail = [&](const char* w) {
+    if (why != nullptr) *why = w;
+    return false;
+  };
+  if (busy_timeout_ms < 0) return fail("busy_timeout_ms must be >= 0");
+  if (!(max_unflushed_s > 0.0) || !std::isfinite(max_unflushed_s))
+    return fail("max_unflushed_s must be positive and finite");
+  if (max_unflushed_rows < 1) return fail("max_unflushed_rows must be >= 1");
+  return true;
+}
+
+const char* runStateName(RunState state) {
+  switch (state) {
+    case RunState::kRunning:
+      return "running";
+    case RunState::kFinished:
+      return "finished";
+    case RunState::kAborted:
+      return "aborted";
+    case RunState::kFaulted:
+      return "faulted";
+    case RunState::kInterrupted:
+      return "interrupted";
+  }
+  return "running";
+}
+
+std::optional<RunState> runStateFromName(std::string_view name) {
+  for (auto s : {RunState::kRunning, RunState::kFinished, RunState::kAborted, RunState::kFaulted,
+                 RunState::kInterrupted}) {
+    if (name == runStateName(s)) return s;
+  }
+  return std::nullopt;
+}
+
+const char* eventSeverityName(EventSeverity severity) {
+  switch (severity) {
+    case EventSeverity::kInfo:
+      return "info";
+    case EventSeverity::kWarning:
+      return "warning";
+    case EventSeverity::kError:
+      return "error";
+  }
+  return "info";
+}
+
+bool RunStart::IsValid(std::string* why) const {
+  auto fail = [&](const char* w) {
+    if (why != nullptr) *why = w;
+    return false;
+  };
+  if (!(imu_rate_hz > 0.0) || !std::isfinite(imu_rate_hz))
+    return fail("imu_rate_hz must be positive and finite");
+  if (!(std::abs(latitude_deg) <= 90.0)) return fail("latitude_deg must be within [-90, 90]");
+  if (!std::isfinite(height_m)) return fail("height_m must be finite");
+  if (gravity_mps2 && (!(*gravity_mps2 > 0.0) || !std::isfinite(*gravity_mps2)))
+    return fail("gravity_mps2 must be positive and finite");
+  if (outer_axis_heading_deg && table_kind != calib::TableKind::kTwoAxis)
+    return fail("outer_axis_heading_deg applies to two-axis tables only");
+  if (outer_axis_heading_deg && !std::isfinite(*outer_axis_heading_deg))
+    return fail("outer_axis_heading_deg must be finite");
+  return true;
+}
+
+RunStart runStartFromRecording(const Recording& rec) {
+  RunStart s;
+  s.imu_serial = rec.imu_serial;
+  s.imu_rate_hz = rec.imu_rate_hz;
+  s.latitude_deg = rec.latitude_deg;
+  s.height_m = rec.height_m;
+  s.gravity_mps2 = rec.gravity_mps2;
+  s.table_kind = rec.table_kind;
+  s.outer_axis_heading_deg = rec.outer_axis_heading_deg;
+  s.segments_from_file = rec.segments_from_file;
+  return s;
+}
+
+void RunBatch::clear() {
+  imu.clear();
+  table.clear();
+  chamber.clear();
+  segments.clear();
+}
+
+Store::Store(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Store::~Store() = default;
+
+const std::string& Store::path() const {
+  return impl_->path;
+}
+const StoreOptions& Store::options() const {
+  return impl_->options;
+}
+
+StoreOpenResult Store::open(const std::string& path, const StoreOptions& options) {
+  StoreOpenResult r;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    r.status = IoStatus::Error(path + ": invalid store options: " + why);
+    return r;
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->path = path;
+  impl->options = options;
+  std::int64_t version = 0;
+  IoStatus st = impl->openConnection();
+  if (st.ok) st = impl->checkSchemaVersion(&version);
+  if (st.ok) st = impl->configure();
+  if (st.ok && version == 0) st = impl->createSchemaIfNew();
+  if (!st.ok) {
+    r.status = st;
+    return r;
+  }
+  r.store.reset(new Store(std::move(impl)));
+  return r;
+}
+
+RunIdResult Store::beginRun(const RunStart& start) {
+  RunIdResult r;
+  std::string why;
+  if (!start.IsValid(&why)) {
+    r.status = impl_->error("cannot start a run: " + why);
+    return r;
+  }
+  r.status = impl_->insertRun(start, RunState::kRunning, &r.run_id);
+  return r;
+}
+
+IoStatus Store::finishRun(std::int64_t run_id, RunState state, const std::string& reason) {
+  if (state == RunState::kRunning) {
+    return impl_->error("cannot finish " + runLabel(run_id) + " in state running");
+  }
+  return impl_->transaction("cannot finish " + runLabel(run_id), [&]() {
+    if (auto st = impl_->requireRunning(run_id); !st.ok) return st;
+    IoStatus st;
+    Bound q = impl_->use(
+        "UPDATE runs SET state = ?2, exit_reason = ?3, finished_unix_s = ?4 WHERE id = ?1", &st);
+    if (!q) return st;
+    const double now = nowUnixS();
+    q.bind(1, run_id);
+    q.bind(2, std::string_view(runStateName(state)));
+    q.bind(3, reason);
+    q.bind(4, now);
+    if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot finish " + runLabel(run_id));
+    const nlohmann::json details = {{"state", runStateName(state)}, {"reason", reason}};
+    return impl_->insertEvent({run_id, now, endSeverity(state), "run-end", details.dump()});
+  });
+}
+
+CountResult Store::markInterruptedRuns() {
+  CountResult r;
+  r.status = impl_->transaction("cannot mark interrupted runs", [&]() {
+    std::vector<std::int64_t> ids;
+    IoStatus st;
+    {
+      Bound q = impl_->use("SELECT id FROM runs WHERE state = 'running' ORDER BY id", &st);
+      if (!q) return st;
+      int rc;
+      while ((rc = q.step()) == SQLITE_ROW) ids.push_back(q.integer(0));
+      if (rc != SQLITE_DONE) return impl_->sqlError("cannot list running runs");
+    }
+    const std::string reason = "the daemon stopped while the run was active (found at start-up)";
+    for (const std::int64_t id : ids) {
+      Bound q =
+          impl_->use("UPDATE runs SET state = 'interrupted', exit_reason = ?2 WHERE id = ?1", &st);
+      if (!q) return st;
+      q.bind(1, id);
+      q.bind(2, reason);
+      if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot mark " + runLabel(id));
+      const nlohmann::json details = {{"reason", reason}};
+      st = impl_->insertEvent(
+          {id, nowUnixS(), EventSeverity::kWarning, "interrupted", details.dump()});
+      if (!st.ok) return st;
+    }
+    r.count = static_cast<int>(ids.size());
+    return IoStatus::Ok();
+  });
+  if (!r.status.ok) r.count = 0;
+  return r;
+}
+
+RunListResult Store::listRuns() {
+  RunListResult r;
+  Bound q = impl_->use(kSelectRunsSql, &r.status);
+  if (!q) return r;
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    if (r.status = impl_->readRun(q, &r.runs.emplace_back()); !r.status.ok) return r;
+  }
+  if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot list runs");
+  return r;
+}
+
+RunInfoResult Store::runInfo(std::int64_t run_id) {
+  RunInfoResult r;
+  Bound q = impl_->use(kSelectRunsSql, &r.status);
+  if (!q) return r;
+  q.bind(1, run_id);
+  const int rc = q.step();
+  if (rc == SQLITE_DONE) {
+    r.status = impl_->error(runLabel(run_id) + " not found");
+  } else if (rc != SQLITE_ROW) {
+    r.status = impl_->sqlError("cannot read " + runLabel(run_id));
+  } else {
+    r.status = impl_->readRun(q, &r.run);
+  }
+  return r;
+}
+
+IoStatus Store::appendBatch(std::int64_t run_id, const RunBatch& batch) {
+  if (auto st = checkBatch(batch); !st.ok) {
+    return impl_->error(runLabel(run_id) + ": batch refused: " + st.message);
+  }
+  return impl_->transaction("cannot store samples of " + runLabel(run_id), [&]() {
+    if (auto st = impl_->requireRunning(run_id); !st.ok) return st;
+    return impl_->insertRows(run_id, batch);
+  });
+}
+
+IoStatus Store::addEvent(const RunEvent& event) {
+  return impl_->transaction("cannot add event", [&]() {
+    RunState state{};
+    if (auto st = impl_->runState(event.run_id, &state); !st.ok) return st;
+    return impl_->insertEvent(event);
+  });
+}
+
+EventListResult Store::events(std::int64_t run_id) {
+  EventListResult r;
+  RunState state{};
+  if (r.status = impl_->runState(run_id, &state); !r.status.ok) return r;
+  Bound q = impl_->use(
+      "SELECT wall_unix_s, severity, kind, json FROM events WHERE run_id = ?1 ORDER BY id",
+      &r.status);
+  if (!q) return r;
+  q.bind(1, run_id);
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    const std::string sev = q.text(1);
+    const EventSeverity severity = sev == "error"     ? EventSeverity::kError
+                                   : sev == "warning" ? EventSeverity::kWarning
+                                                      : EventSeverity::kInfo;
+    r.events.push_back({run_id, q.real(0), severity, q.text(2), q.text(3)});
+  }
+  if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot read events of " + runLabel(run_id));
+  return r;
+}
+
+RunIdResult Store::importRecording(const RunStart& start, const Recording& rec) {
+  RunIdResult r;
+  std::string why;
+  if (!start.IsValid(&why)) {
+    r.status = impl_->error("cannot import recording: " + why);
+    return r;
+  }
+  RunBatch batch{rec.imu, rec.table, rec.chamber, rec.segments};
+  if (auto st = checkBatch(batch); !st.ok) {
+    r.status = impl_->error("cannot import recording: " + st.message);
+    return r;
+  }
+  r.status = impl_->transaction("cannot import recording", [&]() {
+    if (auto st = impl_->insertRun(start, RunState::kRunning, &r.run_id); !st.ok) return st;
+    if (auto st = impl_->insertRows(r.run_id, batch); !st.ok) return st;
+    IoStatus st;
+    Bound q = impl_->use(
+        "UPDATE runs SET state = 'finished', exit_reason = 'imported', "
+        "finished_unix_s = started_unix_s WHERE id = ?1",
+        &st);
+    if (!q) return st;
+    q.bind(1, r.run_id);
+    if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot finish the imported run");
+    return IoStatus::Ok();
+  });
+  if (!r.status.ok) r.run_id = 0;
+  return r;
+}
+
+RecordingReadResult Store::loadRecording(std::int64_t run_id) {
+  RecordingReadResult r;
+  const RunInfoResult info = runInfo(run_id);
+  if (!info.status.ok) {
+    r.status = info.status;
+    return r;
+  }
+  const RunStart& s = info.run.start;
+  Recording& rec = r.recording;
+  rec.latitude_deg = s.latitude_deg;
+  rec.height_m = s.height_m;
+  rec.gravity_mps2 = s.gravity_mps2;
+  rec.imu_serial = s.imu_serial;
+  rec.imu_rate_hz = s.imu_rate_hz;
+  rec.table_kind = s.table_kind;
+  rec.outer_axis_heading_deg = s.outer_axis_heading_deg;
+  rec.segments_from_file = s.segments_from_file;
+  // A read transaction around the reads: one consistent snapshot while the daemon writes.
+  IoStatus st = impl_->execSql("BEGIN", "cannot read " + runLabel(run_id));
+  if (st.ok) st = impl_->loadSamples(run_id, &rec);
+  if (st.ok) st = impl_->loadSegments(run_id, &rec);
+  sqlite3_exec(impl_->db.get(), "COMMIT", nullptr, nullptr, nullptr);
+  if (!st.ok) {
+    r.status = st;
+    r.recording = Recording{};
+  }
+  return r;
+}
+
+ResultIdResult Store::storeResult(std::int64_t run_id, const std::string& imu_serial,
+                                  double temperature_c, const std::string& kind,
+                                  const std::string& json_text) {
+  ResultIdResult r;
+  if (!std::isfinite(temperature_c)) {
+    r.status = impl_->error("cannot store result: temperature is not finite");
+    return r;
+  }
+  if (!nlohmann::json::accept(json_text)) {
+    r.status = impl_->error("cannot store result '" + kind + "': not valid JSON");
+    return r;
+  }
+  r.status = impl_->transaction("cannot store result", [&]() {
+    RunState state{};
+    if (auto st = impl_->runState(run_id, &state); !st.ok) return st;
+    IoStatus st;
+    Bound q = impl_->use(
+        "INSERT INTO results(run_id, imu_serial, temperature_c, kind, json, created_unix_s) "
+        "VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
+        &st);
+    if (!q) return st;
+    q.bind(1, run_id);
+    q.bind(2, imu_serial);
+    q.bind(3, temperature_c);
+    q.bind(4, kind);
+    q.bind(5, json_text);
+    q.bind(6, nowUnixS());
+    if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot store result");
+    r.result_id = sqlite3_last_insert_rowid(impl_->db.get());
+    return IoStatus::Ok();
+  });
+  return r;
+}
+
+ResultListResult Store::results(const ResultFilter& filter) {
+  ResultListResult r;
+  Bound q = impl_->use(
+      "SELECT id, run_id, imu_serial, temperature_c, kind, json, created_unix_s FROM results "
+      "WHERE (?1 IS NULL OR imu_serial = ?1) AND (?2 IS NULL OR run_id = ?2) ORDER BY id",
+      &r.status);
+  if (!q) return r;
+  if (filter.imu_serial) q.bind(1, *filter.imu_serial);
+  if (filter.run_id) q.bind(2, *filter.run_id);
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    r.results.push_back(
+        {q.integer(0), q.integer(1), q.text(2), q.real(3), q.text(4), q.text(5), q.real(6)});
+  }
+  if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot list results");
+  return r;
+}
+
+IoStatus Store::integrityCheck() {
+  IoStatus st;
+  Bound q = impl_->use("PRAGMA integrity_check", &st);
+  if (!q) return st;
+  std::string problems;
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    const std::string line = q.text(0);
+    if (line != "ok") problems += (problems.empty() ? "" : "; ") + line;
+  }
+  if (rc != SQLITE_DONE) return impl_->sqlError("integrity check failed");
+  if (!problems.empty()) return impl_->error("integrity check: " + problems);
+  return IoStatus::Ok();
+}
+
+// ---------------------------------------------------------------------------------------
+// RunWriter
+
+RunWriter::RunWriter(Store& store, std::int64_t run_id) : store_(&store), run_id_(run_id) {}
+
+RunWriter::~RunWriter() {
+  (void)flush();
+}
+
+IoStatus RunWriter::appendImu(std::span<const nav::ImuSample> samples) {
+  if (samples.empty()) return IoStatus::Ok();
+  if (auto st = checkRows("IMU sample", samples, last_imu_t_); !st.ok) {
+    return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+  }
+  buffer_.imu.insert(buffer_.imu.end(), samples.begin(), samples.end());
+  last_imu_t_ = samples.back().t;
+  return buffered(samples.front().t, samples.back().t);
+}
+
+IoStatus RunWriter::appendTable(std::span<const TableSample> samples) {
+  if (samples.empty()) return IoStatus::Ok();
+  if (auto st = checkRows("table sample", samples, last_table_t_); !st.ok) {
+    return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+  }
+  buffer_.table.insert(buffer_.table.end(), samples.begin(), samples.end());
+  last_table_t_ = samples.back().t;
+  return buffered(samples.front().t, samples.back().t);
+}
+
+IoStatus RunWriter::appendChamber(std::span<const ChamberSample> samples) {
+  if (samples.empty()) return IoStatus::Ok();
+  if (auto st = checkRows("chamber sample", samples, last_chamber_t_); !st.ok) {
+    return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+  }
+  buffer_.chamber.insert(buffer_.chamber.end(), samples.begin(), samples.end());
+  last_chamber_t_ = samples.back().t;
+  return buffered(samples.front().t, samples.back().t);
+}
+
+IoStatus RunWriter::appendSegment(const calib::Segment& segment) {
+  if (auto st = checkSegments(std::span(&segment, 1), last_segment_t1_); !st.ok) {
+    return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+  }
+  buffer_.segments.push_back(segment);
+  last_segment_t1_ = segment.t1;
+  // A segment is appended when it ends; it is as old as its end time.
+  return buffered(segment.t1, segment.t1);
+}
+
+IoStatus RunWriter::buffered(double oldest_new_t, double newest_t) {
+  if (!oldest_buffered_t_ || oldest_new_t < *oldest_buffered_t_) oldest_buffered_t_ = oldest_new_t;
+  if (buffer_.rows() >= store_->options().max_unflushed_rows) return flush();
+  return flushIfDue(newest_t);
+}
+
+IoStatus RunWriter::flushIfDue(double now_t) {
+  if (oldest_buffered_t_ && now_t - *oldest_buffered_t_ >= store_->options().max_unflushed_s) {
+    return flush();
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus RunWriter::flush() {
+  if (buffer_.rows() == 0) return IoStatus::Ok();
+  // On failure the rows stay buffered, so a later flush can retry them.
+  if (auto st = store_->appendBatch(run_id_, buffer_); !st.ok) return st;
+  buffer_.clear();
+  oldest_buffered_t_.reset();
+  return IoStatus::Ok();
+}
+
+}  // namespace imubench::daemon

@@ -1,0 +1,246 @@
+// Storage of bench runs in one SQLite database (the daemon's embedded default): the run's plan
+// and meta data, its samples (IMU, table, chamber), segments, events, and calibration results.
+//
+// The database runs in WAL mode with synchronous=NORMAL: a committed transaction survives a
+// crash of the process (kill -9); only a power loss can drop the last few commits. Samples are
+// written in batches (RunWriter), one transaction per batch, so a killed daemon loses at most
+// the unflushed tail (StoreOptions::max_unflushed_s of sample time).
+//
+// loadRecording(run) rebuilds the exact Recording value (doubles bit-exact, -0.0 included), so
+// writeRecording() exports a run as imubench-csv/1 and the calibrators run on a run id.
+//
+// Errors are returned as IoStatus naming the database path; nothing here prints or throws.
+// A Store is one connection and is not thread-safe; other processes may read concurrently.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "daemon/io_status.h"
+#include "daemon/recording.h"
+
+namespace imubench::daemon {
+
+// PRAGMA user_version of the schema this code writes. A database with a higher version was
+// written by a newer imubench and is refused rather than misread.
+inline constexpr int kStoreSchemaVersion = 1;
+
+struct StoreOptions {
+  // How long a statement waits for a lock held by another connection (a CLI reading while
+  // the daemon writes, a checkpoint) before failing with "database is locked".
+  int busy_timeout_ms = 5000;
+  // RunWriter commits when its oldest buffered row is this much sample time older than the
+  // newest: bounds what a kill -9 loses. 0.5 s is two commits per second, cheap for SQLite.
+  double max_unflushed_s = 0.5;
+  // RunWriter also commits at this many buffered rows (all kinds together), bounding memory
+  // and transaction size for streams far faster than 2 kHz.
+  std::size_t max_unflushed_rows = 20000;
+
+  bool IsValid(std::string* why) const;
+};
+
+enum class RunState { kRunning, kFinished, kAborted, kFaulted, kInterrupted };
+// "running", "finished", "aborted", "faulted", "interrupted" (the database's text form).
+const char* runStateName(RunState state);
+std::optional<RunState> runStateFromName(std::string_view name);
+
+// What is known when a run starts: the plan, the bench and the recording's meta data
+// (Recording fields of the same name).
+struct RunStart {
+  std::string plan_name;
+  std::string plan_toml;  // the plan file's text, so a run can be repeated exactly
+  std::string bench_name;
+  std::string imu_serial;
+  double imu_rate_hz = 0.0;
+  double latitude_deg = 0.0;
+  double height_m = 0.0;
+  std::optional<double> gravity_mps2;
+  calib::TableKind table_kind = calib::TableKind::kTwoAxis;
+  std::optional<double> outer_axis_heading_deg;  // two-axis only
+  // Recording::segments_from_file: live runs log the plan's segments, so true.
+  bool segments_from_file = true;
+
+  bool IsValid(std::string* why) const;
+};
+
+// The meta data of `rec` as a RunStart (plan and bench names left empty).
+RunStart runStartFromRecording(const Recording& rec);
+
+struct RunInfo {
+  std::int64_t id = 0;
+  RunStart start;
+  double started_unix_s = 0.0;            // wall clock, s since the Unix epoch
+  std::optional<double> finished_unix_s;  // absent while running and for interrupted runs
+  RunState state = RunState::kRunning;
+  std::string exit_reason;
+};
+
+enum class EventSeverity { kInfo, kWarning, kError };
+const char* eventSeverityName(EventSeverity severity);
+
+struct RunEvent {
+  std::int64_t run_id = 0;
+  double wall_unix_s = 0.0;
+  EventSeverity severity = EventSeverity::kInfo;
+  std::string kind;  // short machine-readable tag, e.g. "interrupted", "table-fault"
+  std::string json;  // details, a JSON text
+};
+
+struct StoredResult {
+  std::int64_t id = 0;
+  std::int64_t run_id = 0;
+  std::string imu_serial;
+  double temperature_c = 0.0;
+  std::string kind;  // e.g. "coefficients", "report"
+  std::string json;
+  double created_unix_s = 0.0;
+};
+
+// Empty fields match everything.
+struct ResultFilter {
+  std::optional<std::string> imu_serial;
+  std::optional<std::int64_t> run_id;
+};
+
+// Rows of one run committed together (Store::appendBatch).
+struct RunBatch {
+  nav::ImuSamples imu;
+  std::vector<TableSample> table;
+  std::vector<ChamberSample> chamber;
+  std::vector<calib::Segment> segments;
+
+  std::size_t rows() const { return imu.size() + table.size() + chamber.size() + segments.size(); }
+  void clear();
+};
+
+class Store;
+
+struct StoreOpenResult {
+  IoStatus status;
+  std::unique_ptr<Store> store;  // set only when status.ok
+};
+struct RunIdResult {
+  IoStatus status;
+  std::int64_t run_id = 0;
+};
+struct RunInfoResult {
+  IoStatus status;
+  RunInfo run;
+};
+struct RunListResult {
+  IoStatus status;
+  std::vector<RunInfo> runs;  // by id
+};
+struct EventListResult {
+  IoStatus status;
+  std::vector<RunEvent> events;  // in insertion order
+};
+struct ResultIdResult {
+  IoStatus status;
+  std::int64_t result_id = 0;
+};
+struct ResultListResult {
+  IoStatus status;
+  std::vector<StoredResult> results;  // by id
+};
+struct CountResult {
+  IoStatus status;
+  int count = 0;
+};
+
+class Store {
+ public:
+  // Creates the database (and its schema) or opens an existing one. Refuses a file that is
+  // not an imubench store, a corrupted one, and a schema newer than kStoreSchemaVersion.
+  static StoreOpenResult open(const std::string& path, const StoreOptions& options = {});
+
+  ~Store();
+  Store(const Store&) = delete;
+  Store& operator=(const Store&) = delete;
+
+  const std::string& path() const;
+  const StoreOptions& options() const;
+
+  // A new run in state running, started now.
+  RunIdResult beginRun(const RunStart& start);
+  // Ends a running run; `state` must not be kRunning.
+  IoStatus finishRun(std::int64_t run_id, RunState state, const std::string& reason);
+  // Daemon start-up: every run still `running` was cut off by a crash or kill; it becomes
+  // `interrupted` with an event. Returns how many.
+  CountResult markInterruptedRuns();
+  RunListResult listRuns();
+  RunInfoResult runInfo(std::int64_t run_id);
+
+  // Commits the rows in one transaction. Refuses (nothing written) non-finite values, naming
+  // the row; IMU temp_c may be NaN (not reported).
+  IoStatus appendBatch(std::int64_t run_id, const RunBatch& batch);
+
+  IoStatus addEvent(const RunEvent& event);  // json must be valid JSON
+  EventListResult events(std::int64_t run_id);
+
+  // A whole recording as one finished run (import of an imubench-csv/1 directory).
+  RunIdResult importRecording(const RunStart& start, const Recording& rec);
+  // The run's samples and meta data as a Recording (also for a running or interrupted run:
+  // what has been committed).
+  RecordingReadResult loadRecording(std::int64_t run_id);
+
+  ResultIdResult storeResult(std::int64_t run_id, const std::string& imu_serial,
+                             double temperature_c, const std::string& kind,
+                             const std::string& json_text);
+  ResultListResult results(const ResultFilter& filter = {});
+
+  // PRAGMA integrity_check: ok, or the problems it lists.
+  IoStatus integrityCheck();
+
+ private:
+  struct Impl;
+  explicit Store(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// Buffers one run's rows during the run and commits them through Store::appendBatch when the
+// oldest buffered row is options().max_unflushed_s of sample time older than the newest, or
+// when max_unflushed_rows are buffered. Each append checks its rows (finite, times strictly
+// increasing per stream) and refuses the whole call, naming the row index, before buffering.
+// The store must outlive the writer.
+class RunWriter {
+ public:
+  RunWriter(Store& store, std::int64_t run_id);
+  // Best-effort flush; call flush() first to see its status.
+  ~RunWriter();
+  RunWriter(const RunWriter&) = delete;
+  RunWriter& operator=(const RunWriter&) = delete;
+
+  IoStatus appendImu(std::span<const nav::ImuSample> samples);
+  IoStatus appendTable(std::span<const TableSample> samples);
+  IoStatus appendChamber(std::span<const ChamberSample> samples);
+  IoStatus appendSegment(const calib::Segment& segment);
+
+  // Flushes when the oldest buffered row is max_unflushed_s older than `now_t` (sample
+  // clock): a timer calls this so a stalled stream does not hold rows back.
+  IoStatus flushIfDue(double now_t);
+  IoStatus flush();
+
+  std::size_t bufferedRows() const { return buffer_.rows(); }
+  std::int64_t runId() const { return run_id_; }
+
+ private:
+  IoStatus buffered(double oldest_new_t, double newest_t);
+
+  Store* store_;
+  std::int64_t run_id_;
+  RunBatch buffer_;
+  std::optional<double> oldest_buffered_t_;
+  std::optional<double> last_imu_t_;
+  std::optional<double> last_table_t_;
+  std::optional<double> last_chamber_t_;
+  std::optional<double> last_segment_t1_;
+};
+
+}  // namespace imubench::daemon

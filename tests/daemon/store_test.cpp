@@ -1,0 +1,548 @@
+// The SQLite run store: bit-exact Recording round trip, run life cycle, results, refusal of
+// bad input (corrupt file, newer schema, unknown run, non-finite samples), and crash safety:
+// a writer killed with SIGKILL loses at most the unflushed tail of its samples.
+#include "daemon/store.h"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sqlite3.h>
+#include <stdlib.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <thread>
+
+namespace imubench::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh mkdtemp directory under $TMPDIR (or /tmp), removed at the end of the test. Not a
+// pid-named path: concurrent user-mode-linux boots share /tmp and hand out the same pids.
+class ScratchDir {
+ public:
+  ScratchDir() {
+    const char* base = std::getenv("TMPDIR");
+    std::string templ = std::string(base != nullptr ? base : "/tmp") + "/imubench-store-XXXXXX";
+    if (mkdtemp(templ.data()) == nullptr) ADD_FAILURE() << "mkdtemp " << templ << " failed";
+    path_ = templ;
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  fs::path path_;
+};
+
+bool sameBits(double a, double b) {
+  return std::memcmp(&a, &b, sizeof(double)) == 0;
+}
+
+// Awkward doubles on purpose: random mantissas over many exponents, negative zero,
+// subnormals, extremes, NaN temperatures (not reported).
+Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::uniform_int_distribution<int> ex(-30, 5);
+  auto odd = [&]() { return std::ldexp(u(rng), ex(rng)); };
+  Recording rec;
+  rec.latitude_deg = 55.7558 + odd() * 1e-3;
+  rec.height_m = -0.0;
+  rec.gravity_mps2 = 9.8154321987654321;
+  rec.imu_serial = "SN-0042 \"test\", with comma";
+  rec.imu_rate_hz = 2000.0;
+  rec.table_kind = kind;
+  if (kind == calib::TableKind::kTwoAxis) rec.outer_axis_heading_deg = 90.0 + odd();
+  double t = 0.1 + 1.0 / 3.0;
+  for (size_t i = 0; i < n_imu; ++i) {
+    t += 1.0 / 2000.0;
+    nav::ImuSample s;
+    s.t = t;
+    s.dtheta = Vec3(odd(), odd(), odd());
+    s.dvel = Vec3(odd(), odd(), odd());
+    s.temp_c = (i % 7 == 3) ? std::numeric_limits<double>::quiet_NaN() : 25.0 + odd();
+    rec.imu.push_back(s);
+  }
+  rec.imu[1].dtheta.x() = -0.0;
+  rec.imu[2].dvel.y() = std::numeric_limits<double>::denorm_min();
+  rec.imu[3].dvel.z() = std::numeric_limits<double>::max();
+  rec.imu[4].dtheta.z() = -std::numeric_limits<double>::min();
+  rec.imu[5].dvel.x() = 3.0;  // integral: SQLite REAL affinity would store it as an integer
+  for (int i = 0; i < 300; ++i) {
+    TableSample s;
+    s.t = 0.01 * i + odd() * 1e-6;
+    for (int a = 0; a < 3; ++a) s.angles_deg[static_cast<size_t>(a)] = 180.0 * u(rng);
+    rec.table.push_back(s);
+  }
+  rec.table[7].angles_deg[1] = -0.0;
+  for (int i = 0; i < 40; ++i) rec.chamber.push_back({0.1 * i + 1e-9, 25.0 + i, 24.5 + odd()});
+  const double third = 1.0 / 3.0;
+  rec.segments.push_back({0.5, 0.5 + third, calib::SegmentKind::kStatic, "static-1", true});
+  rec.segments.push_back(
+      {1.0, 1.7, calib::SegmentKind::kRotate, "rotate \"x\", +180", true, 1, -kPi});
+  rec.segments.push_back({1.7, 2.0, calib::SegmentKind::kSoak, "", false});
+  rec.segments.push_back({2.0, 2.5, calib::SegmentKind::kMove, "move-1", true, -1, -0.0});
+  rec.segments_from_file = true;
+  return rec;
+}
+
+void expectSameRecording(const Recording& a, const Recording& b) {
+  EXPECT_TRUE(sameBits(a.latitude_deg, b.latitude_deg));
+  EXPECT_TRUE(sameBits(a.height_m, b.height_m));
+  ASSERT_EQ(a.gravity_mps2.has_value(), b.gravity_mps2.has_value());
+  EXPECT_TRUE(sameBits(a.gravity_mps2.value_or(0.0), b.gravity_mps2.value_or(0.0)));
+  EXPECT_EQ(a.imu_serial, b.imu_serial);
+  EXPECT_TRUE(sameBits(a.imu_rate_hz, b.imu_rate_hz));
+  EXPECT_EQ(a.table_kind, b.table_kind);
+  ASSERT_EQ(a.outer_axis_heading_deg.has_value(), b.outer_axis_heading_deg.has_value());
+  EXPECT_TRUE(
+      sameBits(a.outer_axis_heading_deg.value_or(0.0), b.outer_axis_heading_deg.value_or(0.0)));
+  EXPECT_EQ(a.segments_from_file, b.segments_from_file);
+  ASSERT_EQ(a.imu.size(), b.imu.size());
+  for (size_t i = 0; i < a.imu.size(); ++i) {
+    const auto &x = a.imu[i], &y = b.imu[i];
+    bool same = sameBits(x.t, y.t) &&
+                (std::isnan(x.temp_c) ? std::isnan(y.temp_c) : sameBits(x.temp_c, y.temp_c));
+    for (int k = 0; k < 3; ++k)
+      same = same && sameBits(x.dtheta[k], y.dtheta[k]) && sameBits(x.dvel[k], y.dvel[k]);
+    ASSERT_TRUE(same) << "IMU sample " << i;
+  }
+  ASSERT_EQ(a.table.size(), b.table.size());
+  for (size_t i = 0; i < a.table.size(); ++i) {
+    bool same = sameBits(a.table[i].t, b.table[i].t);
+    for (size_t k = 0; k < 3; ++k)
+      same = same && sameBits(a.table[i].angles_deg[k], b.table[i].angles_deg[k]);
+    ASSERT_TRUE(same) << "table sample " << i;
+  }
+  ASSERT_EQ(a.chamber.size(), b.chamber.size());
+  for (size_t i = 0; i < a.chamber.size(); ++i) {
+    ASSERT_TRUE(sameBits(a.chamber[i].t, b.chamber[i].t) &&
+                sameBits(a.chamber[i].setpoint_c, b.chamber[i].setpoint_c) &&
+                sameBits(a.chamber[i].temp_c, b.chamber[i].temp_c))
+        << "chamber sample " << i;
+  }
+  ASSERT_EQ(a.segments.size(), b.segments.size());
+  for (size_t i = 0; i < a.segments.size(); ++i) {
+    const auto &x = a.segments[i], &y = b.segments[i];
+    EXPECT_TRUE(sameBits(x.t0, y.t0) && sameBits(x.t1, y.t1) && sameBits(x.angle, y.angle))
+        << "segment " << i;
+    EXPECT_EQ(x.kind, y.kind);
+    EXPECT_EQ(x.label, y.label);
+    EXPECT_EQ(x.recording, y.recording);
+    EXPECT_EQ(x.axis, y.axis);
+  }
+}
+
+std::unique_ptr<Store> openOrFail(const std::string& path, const StoreOptions& options = {}) {
+  auto r = Store::open(path, options);
+  EXPECT_TRUE(r.status.ok) << r.status.message;
+  return std::move(r.store);
+}
+
+RunStart benchStart(const std::string& serial) {
+  RunStart s;
+  s.plan_name = "direct-12";
+  s.plan_toml = "[plan]\nname = \"direct-12\"\n";
+  s.bench_name = "bench-a";
+  s.imu_serial = serial;
+  s.imu_rate_hz = 2000.0;
+  s.latitude_deg = 55.75;
+  s.height_m = 150.0;
+  return s;
+}
+
+TEST(Store, ImportedRecordingLoadsBitExactAndExports) {
+  ScratchDir dir;
+  auto store = openOrFail(dir.file("bench.db"));
+  ASSERT_TRUE(store);
+  for (auto kind : {calib::TableKind::kTwoAxis, calib::TableKind::kThreeAxis}) {
+    const Recording rec = makeRecording(7, kind, 6000);
+    RunStart start = runStartFromRecording(rec);
+    start.plan_name = "imported";
+    const RunIdResult run = store->importRecording(start, rec);
+    ASSERT_TRUE(run.status.ok) << run.status.message;
+    const RecordingReadResult loaded = store->loadRecording(run.run_id);
+    ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
+    expectSameRecording(rec, loaded.recording);
+    const RunInfoResult info = store->runInfo(run.run_id);
+    ASSERT_TRUE(info.status.ok);
+    EXPECT_EQ(info.run.state, RunState::kFinished);
+    EXPECT_EQ(info.run.start.plan_name, "imported");
+    // The loaded value exports as imubench-csv/1.
+    const IoStatus st = writeRecording(dir.file("export"), loaded.recording);
+    EXPECT_TRUE(st.ok) << st.message;
+  }
+}
+
+TEST(Store, LiveRunThroughRunWriterLoadsBitExact) {
+  ScratchDir dir;
+  auto store = openOrFail(dir.file("bench.db"));
+  ASSERT_TRUE(store);
+  const Recording rec = makeRecording(11, calib::TableKind::kTwoAxis, 5000);
+  const RunIdResult run = store->beginRun(runStartFromRecording(rec));
+  ASSERT_TRUE(run.status.ok) << run.status.message;
+  {
+    RunWriter writer(*store, run.run_id);
+    const std::span<const nav::ImuSample> imu(rec.imu);
+    for (size_t i = 0; i < imu.size(); i += 37) {
+      const IoStatus st = writer.appendImu(imu.subspan(i, std::min<size_t>(37, imu.size() - i)));
+      ASSERT_TRUE(st.ok) << st.message;
+      // Time-based flushing keeps the buffer at about max_unflushed_s of samples.
+      EXPECT_LE(writer.bufferedRows(), 1100u);
+    }
+    ASSERT_TRUE(writer.appendTable(rec.table).ok);
+    ASSERT_TRUE(writer.appendChamber(rec.chamber).ok);
+    for (const auto& s : rec.segments) ASSERT_TRUE(writer.appendSegment(s).ok);
+    const IoStatus st = writer.flush();
+    ASSERT_TRUE(st.ok) << st.message;
+    EXPECT_EQ(writer.bufferedRows(), 0u);
+  }
+  ASSERT_TRUE(store->finishRun(run.run_id, RunState::kFinished, "plan complete").ok);
+  const RecordingReadResult loaded = store->loadRecording(run.run_id);
+  ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
+  expectSameRecording(rec, loaded.recording);
+}
+
+TEST(Store, DatabaseIsWalWithSchemaVersion) {
+  ScratchDir dir;
+  const std::string path = dir.file("bench.db");
+  ASSERT_TRUE(openOrFail(path));
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* q = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA journal_mode", -1, &q, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(q), SQLITE_ROW);
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(q, 0)), "wal");
+  sqlite3_finalize(q);
+  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA user_version", -1, &q, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(q), SQLITE_ROW);
+  EXPECT_EQ(sqlite3_column_int(q, 0), kStoreSchemaVersion);
+  sqlite3_finalize(q);
+  sqlite3_close(db);
+}
+
+TEST(Store, RunLifeCycleEventsAndResults) {
+  ScratchDir dir;
+  auto store = openOrFail(dir.file("bench.db"));
+  ASSERT_TRUE(store);
+  const auto a = store->beginRun(benchStart("SN-A"));
+  const auto b = store->beginRun(benchStart("SN-B"));
+  const auto c = store->beginRun(benchStart("SN-A"));
+  ASSERT_TRUE(a.status.ok && b.status.ok && c.status.ok);
+  ASSERT_TRUE(store->finishRun(a.run_id, RunState::kFinished, "done").ok);
+  ASSERT_TRUE(store->finishRun(b.run_id, RunState::kFaulted, "table overtemperature").ok);
+  const IoStatus again = store->finishRun(a.run_id, RunState::kAborted, "x");
+  EXPECT_FALSE(again.ok);
+  EXPECT_NE(again.message.find("is finished, not running"), std::string::npos) << again.message;
+  EXPECT_FALSE(store->finishRun(c.run_id, RunState::kRunning, "x").ok);
+
+  const CountResult marked = store->markInterruptedRuns();
+  ASSERT_TRUE(marked.status.ok) << marked.status.message;
+  EXPECT_EQ(marked.count, 1);
+  const RunListResult runs = store->listRuns();
+  ASSERT_TRUE(runs.status.ok);
+  ASSERT_EQ(runs.runs.size(), 3u);
+  EXPECT_EQ(runs.runs[0].state, RunState::kFinished);
+  EXPECT_EQ(runs.runs[1].state, RunState::kFaulted);
+  EXPECT_EQ(runs.runs[1].exit_reason, "table overtemperature");
+  EXPECT_TRUE(runs.runs[1].finished_unix_s.has_value());
+  EXPECT_EQ(runs.runs[2].state, RunState::kInterrupted);
+  EXPECT_EQ(runs.runs[2].start.plan_toml, benchStart("").plan_toml);
+  const EventListResult events = store->events(c.run_id);
+  ASSERT_TRUE(events.status.ok);
+  ASSERT_EQ(events.events.size(), 1u);
+  EXPECT_EQ(events.events[0].kind, "interrupted");
+  EXPECT_EQ(events.events[0].severity, EventSeverity::kWarning);
+  EXPECT_EQ(store->markInterruptedRuns().count, 0);
+  const EventListResult faulted = store->events(b.run_id);
+  ASSERT_TRUE(faulted.status.ok);
+  ASSERT_EQ(faulted.events.size(), 1u);
+  EXPECT_EQ(faulted.events[0].kind, "run-end");
+  EXPECT_EQ(faulted.events[0].severity, EventSeverity::kError);
+  EXPECT_NE(faulted.events[0].json.find("table overtemperature"), std::string::npos);
+
+  EXPECT_TRUE(store->addEvent({a.run_id, 1.0, EventSeverity::kInfo, "note", "{\"x\": 1}"}).ok);
+  EXPECT_FALSE(store->addEvent({a.run_id, 1.0, EventSeverity::kInfo, "note", "{x"}).ok);
+
+  ASSERT_TRUE(store->storeResult(a.run_id, "SN-A", 25.0, "coefficients", "{\"b\": 1}").status.ok);
+  ASSERT_TRUE(store->storeResult(b.run_id, "SN-B", 25.0, "coefficients", "{}").status.ok);
+  ASSERT_TRUE(store->storeResult(c.run_id, "SN-A", -10.0, "report", "[1, 2]").status.ok);
+  EXPECT_FALSE(store->storeResult(a.run_id, "SN-A", 25.0, "report", "not json").status.ok);
+  EXPECT_FALSE(store->storeResult(99, "SN-A", 25.0, "report", "{}").status.ok);
+  const ResultListResult by_serial = store->results({std::string("SN-A"), std::nullopt});
+  ASSERT_TRUE(by_serial.status.ok);
+  ASSERT_EQ(by_serial.results.size(), 2u);
+  EXPECT_EQ(by_serial.results[1].kind, "report");
+  EXPECT_EQ(by_serial.results[1].json, "[1, 2]");
+  EXPECT_EQ(by_serial.results[1].temperature_c, -10.0);
+  EXPECT_EQ(store->results({std::nullopt, b.run_id}).results.size(), 1u);
+  EXPECT_EQ(store->results().results.size(), 3u);
+}
+
+TEST(Store, UnknownRunIsAnError) {
+  ScratchDir dir;
+  auto store = openOrFail(dir.file("bench.db"));
+  ASSERT_TRUE(store);
+  const std::string missing = "run 42 not found";
+  auto expectMissing = [&](const IoStatus& st) {
+    EXPECT_FALSE(st.ok);
+    EXPECT_NE(st.message.find(missing), std::string::npos) << st.message;
+  };
+  expectMissing(store->runInfo(42).status);
+  expectMissing(store->loadRecording(42).status);
+  expectMissing(store->finishRun(42, RunState::kAborted, "x"));
+  expectMissing(store->events(42).status);
+  RunBatch batch;
+  batch.imu.resize(1);
+  expectMissing(store->appendBatch(42, batch));
+  RunWriter writer(*store, 42);
+  ASSERT_TRUE(writer.appendImu(batch.imu).ok);  // buffered: the error comes with the flush
+  expectMissing(writer.flush());
+  EXPECT_EQ(writer.bufferedRows(), 1u);
+}
+
+TEST(Store, NonFiniteAndUnorderedSamplesAreRefusedWithTheirIndex) {
+  ScratchDir dir;
+  auto store = openOrFail(dir.file("bench.db"));
+  ASSERT_TRUE(store);
+  const auto run = store->beginRun(benchStart("SN-A"));
+  ASSERT_TRUE(run.status.ok);
+  RunWriter writer(*store, run.run_id);
+  nav::ImuSamples imu(6);
+  for (size_t i = 0; i < imu.size(); ++i) imu[i].t = 0.001 * static_cast<double>(i + 1);
+  imu[3].dvel.y() = std::numeric_limits<double>::quiet_NaN();
+  IoStatus st = writer.appendImu(imu);
+  EXPECT_FALSE(st.ok);
+  EXPECT_NE(st.message.find("IMU sample 3 has a non-finite value"), std::string::npos)
+      << st.message;
+  EXPECT_EQ(writer.bufferedRows(), 0u);  // nothing of a refused call is kept
+  imu[3].dvel.y() = 0.0;
+  imu[4].temp_c = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(writer.appendImu(imu).ok);
+  imu[4].temp_c = std::numeric_limits<double>::quiet_NaN();  // not reported: fine
+  ASSERT_TRUE(writer.appendImu(imu).ok);
+  st = writer.appendImu(std::span(imu).subspan(5));  // same time again
+  EXPECT_NE(st.message.find("IMU sample 0: time does not increase"), std::string::npos)
+      << st.message;
+  std::vector<TableSample> table(2);
+  table[1].t = 1.0;
+  table[1].angles_deg[2] = std::numeric_limits<double>::infinity();
+  st = writer.appendTable(table);
+  EXPECT_NE(st.message.find("table sample 1 has a non-finite value"), std::string::npos)
+      << st.message;
+  RunBatch batch;
+  batch.chamber = {{0.0, 20.0, 20.0}, {1.0, std::nan(""), 20.0}};
+  st = store->appendBatch(run.run_id, batch);
+  EXPECT_NE(st.message.find("chamber sample 1 has a non-finite value"), std::string::npos)
+      << st.message;
+  ASSERT_TRUE(writer.flush().ok);
+  const auto loaded = store->loadRecording(run.run_id);
+  ASSERT_TRUE(loaded.status.ok);
+  EXPECT_EQ(loaded.recording.imu.size(), 6u);
+  EXPECT_TRUE(std::isnan(loaded.recording.imu[4].temp_c));
+}
+
+TEST(Store, CorruptFileIsRefusedNamingThePath) {
+  ScratchDir dir;
+  const std::string path = dir.file("garbage.db");
+  {
+    std::mt19937 rng(3);
+    std::ofstream f(path, std::ios::binary);
+    for (int i = 0; i < 16384; ++i) f.put(static_cast<char>(rng() & 0xff));
+  }
+  const auto r = Store::open(path);
+  EXPECT_FALSE(r.status.ok);
+  EXPECT_FALSE(r.store);
+  EXPECT_EQ(r.status.message.rfind(path + ": ", 0), 0u) << r.status.message;
+  EXPECT_NE(r.status.message.find("not an SQLite database"), std::string::npos) << r.status.message;
+  std::cout << "corrupt file: " << r.status.message << "\n";
+
+  const auto missing_dir = Store::open(dir.file("no/such/dir/bench.db"));
+  EXPECT_FALSE(missing_dir.status.ok);
+  EXPECT_NE(missing_dir.status.message.find("cannot open database"), std::string::npos)
+      << missing_dir.status.message;
+}
+
+TEST(Store, ForeignDatabaseAndNewerSchemaAreRefused) {
+  ScratchDir dir;
+  const std::string foreign = dir.file("foreign.db");
+  const std::string newer = dir.file("newer.db");
+  ASSERT_TRUE(openOrFail(newer));
+  for (const auto& [path, sql] :
+       {std::pair{foreign, "CREATE TABLE x(a)"}, std::pair{newer, "PRAGMA user_version = 99"}}) {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, sql, nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+  const auto f = Store::open(foreign);
+  EXPECT_FALSE(f.status.ok);
+  EXPECT_NE(f.status.message.find(foreign + ": not an imubench store"), std::string::npos)
+      << f.status.message;
+  const auto n = Store::open(newer);
+  EXPECT_FALSE(n.status.ok);
+  EXPECT_NE(n.status.message.find(newer + ": schema version 99 is newer"), std::string::npos)
+      << n.status.message;
+}
+
+TEST(Store, OptionsAndRunStartAreValidated) {
+  std::string why;
+  EXPECT_TRUE(StoreOptions{}.IsValid(&why));
+  StoreOptions o;
+  o.max_unflushed_s = 0.0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("max_unflushed_s"), std::string::npos);
+  ScratchDir dir;
+  EXPECT_FALSE(Store::open(dir.file("bench.db"), o).status.ok);
+  auto store = openOrFail(dir.file("bench.db"));
+  ASSERT_TRUE(store);
+  RunStart s = benchStart("SN-A");
+  s.imu_rate_hz = 0.0;
+  EXPECT_FALSE(store->beginRun(s).status.ok);
+}
+
+// ---------------------------------------------------------------------------------------
+// kill -9 crash safety
+
+constexpr double kImuRateHz = 2000.0;
+
+// Sample k (1-based) of the crash test: exact values the parent can recompute.
+nav::ImuSample crashSample(long k) {
+  nav::ImuSample s;
+  s.t = static_cast<double>(k) / kImuRateHz;
+  s.dtheta = Vec3(1e-6, -2e-6, 3e-6) * static_cast<double>(k);
+  s.dvel = Vec3(0.0, 0.0, 9.81 / kImuRateHz);
+  s.temp_c = 25.0;
+  return s;
+}
+
+bool writeAll(int fd, const void* data, size_t n) {
+  const char* p = static_cast<const char*>(data);
+  while (n > 0) {
+    const ssize_t w = ::write(fd, p, n);
+    if (w <= 0) return false;
+    p += w;
+    n -= static_cast<size_t>(w);
+  }
+  return true;
+}
+
+// Reads one progress record (a double); false at end of file (writer gone).
+bool readProgress(int fd, double* t) {
+  char* p = reinterpret_cast<char*>(t);
+  size_t n = sizeof(double);
+  while (n > 0) {
+    const ssize_t r = ::read(fd, p, n);
+    if (r <= 0) return false;
+    p += r;
+    n -= static_cast<size_t>(r);
+  }
+  return true;
+}
+
+// The forked writer: 20 samples every 10 ms of wall time (2 kHz, sample time = wall time),
+// reporting the last appended sample time after each append. Never returns; exits only by
+// the parent's SIGKILL (or with a code on failure), so no destructor flushes anything.
+[[noreturn]] void crashWriterChild(const std::string& path, int progress_fd) {
+  auto opened = Store::open(path);
+  if (!opened.status.ok) _exit(2);
+  const auto run = opened.store->beginRun(benchStart("KILL-9"));
+  if (!run.status.ok) _exit(3);
+  RunWriter writer(*opened.store, run.run_id);
+  std::vector<nav::ImuSample> batch(20);
+  const auto start = std::chrono::steady_clock::now();
+  long k = 0;
+  for (int tick = 1; tick <= 6000; ++tick) {  // 60 s cap if the parent never kills
+    std::this_thread::sleep_until(start + std::chrono::milliseconds(10 * tick));
+    for (auto& s : batch) s = crashSample(++k);
+    if (!writer.appendImu(batch).ok) _exit(4);
+    const double t = batch.back().t;
+    if (!writeAll(progress_fd, &t, sizeof t)) _exit(5);
+  }
+  _exit(6);
+}
+
+struct CrashOutcome {
+  double last_reported_t = 0.0;
+  double last_stored_t = 0.0;
+};
+
+// Checks the reopened store after the kill: integrity, interrupted state, a gap-free prefix.
+void checkAfterKill(const std::string& path, int expected_runs, CrashOutcome* out) {
+  auto store = openOrFail(path);
+  ASSERT_TRUE(store);
+  const IoStatus integrity = store->integrityCheck();
+  ASSERT_TRUE(integrity.ok) << integrity.message;
+  const CountResult marked = store->markInterruptedRuns();
+  ASSERT_TRUE(marked.status.ok) << marked.status.message;
+  EXPECT_EQ(marked.count, 1);
+  const RunListResult runs = store->listRuns();
+  ASSERT_TRUE(runs.status.ok);
+  ASSERT_EQ(static_cast<int>(runs.runs.size()), expected_runs);
+  const RunInfo& run = runs.runs.back();
+  EXPECT_EQ(run.state, RunState::kInterrupted);
+  const RecordingReadResult loaded = store->loadRecording(run.id);
+  ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
+  const nav::ImuSamples& imu = loaded.recording.imu;
+  ASSERT_FALSE(imu.empty());
+  for (size_t i = 0; i < imu.size(); ++i) {
+    const nav::ImuSample want = crashSample(static_cast<long>(i + 1));
+    ASSERT_TRUE(imu[i].t == want.t && imu[i].dtheta == want.dtheta && imu[i].dvel == want.dvel)
+        << "stored sample " << i << " is not sample " << i + 1 << " (gap or corruption)";
+  }
+  out->last_stored_t = imu.back().t;
+}
+
+TEST(StoreCrash, KillNineLosesAtMostOneSecondOfSamples) {
+  ScratchDir dir;
+  const std::string path = dir.file("bench.db");
+  std::mt19937 rng(::testing::UnitTest::GetInstance()->random_seed());
+  std::uniform_real_distribution<double> kill_after_s(2.0, 3.0);
+  constexpr int kRepeats = 3;
+  for (int rep = 1; rep <= kRepeats; ++rep) {
+    int fds[2];
+    ASSERT_EQ(::pipe(fds), 0);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::close(fds[0]);
+      crashWriterChild(path, fds[1]);
+    }
+    ::close(fds[1]);
+    CrashOutcome outcome;
+    const double kill_at_t = kill_after_s(rng);
+    double t = 0.0;
+    bool alive = true;
+    while (outcome.last_reported_t < kill_at_t && (alive = readProgress(fds[0], &t)))
+      outcome.last_reported_t = t;
+    ::kill(pid, SIGKILL);
+    int wstatus = 0;
+    ASSERT_EQ(::waitpid(pid, &wstatus, 0), pid);
+    // Progress written before the kill landed counts as appended too.
+    while (readProgress(fds[0], &t)) outcome.last_reported_t = t;
+    ::close(fds[0]);
+    ASSERT_TRUE(alive) << "writer exited early, status " << wstatus;
+    ASSERT_TRUE(WIFSIGNALED(wstatus) && WTERMSIG(wstatus) == SIGKILL);
+    checkAfterKill(path, rep, &outcome);
+    if (HasFatalFailure()) return;
+    const double loss_s = outcome.last_reported_t - outcome.last_stored_t;
+    std::cout << "kill -9 #" << rep << ": appended up to t=" << outcome.last_reported_t
+              << " s, stored up to t=" << outcome.last_stored_t << " s, lost " << loss_s << " s\n";
+    EXPECT_GE(loss_s, 0.0);
+    EXPECT_LE(loss_s, 1.0);
+  }
+}
+
+}  // namespace
+}  // namespace imubench::daemon
