@@ -141,7 +141,7 @@ INSTANTIATE_TEST_SUITE_P(
                 "safe_setpoint is outside", 0},
         BadCase{"timeout_range", replaced("\"0.2 s\"", "\"0 s\""), "imu_timeout must be", 0},
         BadCase{"wrong_type", replaced("\"lab2-a\"", "3"), "\"name\" must be a string", 2}),
-    [](const auto& info) { return std::string(info.param.name); });
+    [](const ::testing::TestParamInfo<BadCase>& tc) { return std::string(tc.param.name); });
 
 TEST(BenchFile, UnreadableFileNamesIt) {
   plans::Diagnostics diag("/nonexistent/bench.toml");
