@@ -235,10 +235,16 @@ TEST(PlanRunner, AbortStopsMotionParksTheChamberAndClosesAsAborted) {
 TEST(PlanRunner, EmergencyStopWorksInEveryState) {
   for (int which = 0; which < 4; ++which) {
     Harness h;
-    if (which >= 1) ASSERT_TRUE(h.runner.start(h.now).ok);
-    if (which >= 1) ASSERT_GE(h.midRotation(), 0);
-    if (which == 2) ASSERT_TRUE(h.runner.pause(h.now).ok);
-    if (which == 3) ASSERT_TRUE(h.runner.abort(h.now).ok);
+    if (which >= 1) {
+      ASSERT_TRUE(h.runner.start(h.now).ok);
+      ASSERT_GE(h.midRotation(), 0);
+    }
+    if (which == 2) {
+      ASSERT_TRUE(h.runner.pause(h.now).ok);
+    }
+    if (which == 3) {
+      ASSERT_TRUE(h.runner.abort(h.now).ok);
+    }
     h.runner.emergencyStop(h.now, "operator");
     h.tick();
     EXPECT_EQ(h.bench.estops, 1) << which;
