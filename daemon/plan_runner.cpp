@@ -128,6 +128,9 @@ CommandResult PlanRunner::start(double now_s) {
     return {false, std::string("busy: the runner is ") + runnerStateName(state_)};
   }
   if (steps_.empty()) return {false, "the plan has no steps"};
+  if (const drivers::Status st = port_.prepare(); !st.ok) {
+    return {false, "the bench is not ready: " + st.message};
+  }
   step_ = 0;
   phase_ = Phase::kBegin;
   step_interrupted_ = false;
@@ -153,6 +156,9 @@ CommandResult PlanRunner::resume(double now_s) {
   }
   if (last_ && (!last_->table_ok || now_s - last_->table_last_ok_s > options_.comm_timeout_s)) {
     return {false, "the table is not answering: resume when communication is back"};
+  }
+  if (last_ && !last_->table_fault.empty()) {
+    return {false, "the table reports a fault (" + last_->table_fault + "): clear it first"};
   }
   if (last_ && now_s - last_->imu_last_frame_s > options_.imu_timeout_s) {
     return {false, "the IMU is silent: resume when its frames arrive again"};
@@ -209,7 +215,9 @@ bool PlanRunner::safetyChecks(const BenchObservation& obs) {
   std::ostringstream why;
   const double table_silent = obs.now_s - obs.table_last_ok_s;
   const double imu_silent = obs.now_s - obs.imu_last_frame_s;
-  if (table_silent > options_.comm_timeout_s) {
+  if (!obs.table_fault.empty()) {
+    why << "table fault: " << obs.table_fault << ": plan paused";
+  } else if (table_silent > options_.comm_timeout_s) {
     why << "table not answering for " << table_silent << " s (timeout " << options_.comm_timeout_s
         << " s): motion stopped, plan paused";
   } else if (imu_silent > options_.imu_timeout_s) {

@@ -58,6 +58,8 @@ std::vector<RunStep> runSteps(const calib::Motion& motion);
 class BenchPort {
  public:
   virtual ~BenchPort() = default;
+  // Before the first step: the table ready to move (interlock closed). Refusal = no start.
+  virtual drivers::Status prepare() = 0;
   virtual drivers::Status moveTo(int axis, double angle_rad) = 0;    // shortest way
   virtual drivers::Status rotateBy(int axis, double delta_rad) = 0;  // sign = direction
   virtual drivers::Status stopAll() = 0;                             // controlled stop
@@ -71,6 +73,7 @@ struct BenchObservation {
   double table_last_ok_s = 0.0;   // when a table read last succeeded
   std::vector<double> angles;     // rad, as read (wrapped or not)
   bool moving = false;            // any axis moving
+  std::string table_fault;        // non-empty: the controller reports a fault (interlock, estop)
   double imu_last_frame_s = 0.0;  // when the last IMU frame arrived
   std::optional<double> chamber_temp_c;  // measured, when there is a chamber
 };

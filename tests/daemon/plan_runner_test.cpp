@@ -21,6 +21,10 @@ class FakeBench : public BenchPort {
  public:
   explicit FakeBench(int axes) : angle_(axes, 0.0), target_(axes, 0.0) {}
 
+  drivers::Status prepare() override {
+    ++prepares;
+    return {};
+  }
   drivers::Status moveTo(int axis, double angle) override {
     log.push_back("move " + std::to_string(axis));
     if (fail_commands) return drivers::Status::Error("injected: no reply");
@@ -76,7 +80,7 @@ class FakeBench : public BenchPort {
   bool table_silent = false, imu_silent = false, stuck = false, fail_commands = false;
   double table_last_ok = 0.0, imu_last = 0.0;
   double chamber_temp = 22.0;
-  int stops = 0, estops = 0;
+  int stops = 0, estops = 0, prepares = 0;
   std::vector<std::string> log;
   std::vector<double> rotated, setpoints;
 
@@ -166,6 +170,7 @@ TEST(PlanRunner, RunsTheTwelveRunPlanToTheEnd) {
   ASSERT_TRUE(h.runner.start(h.now).ok);
   ASSERT_TRUE(h.until([&] { return h.finished(); }, 3.0 * h.runner.plannedTotalS()));
   EXPECT_EQ(h.runner.exit(), RunExit::kCompleted);
+  EXPECT_EQ(h.bench.prepares, 1);
   // The fake turns at the plan's cruise rate without ramps: a little faster than planned.
   EXPECT_GT(h.now, 0.8 * h.runner.plannedTotalS());
   EXPECT_LT(h.now, 1.2 * h.runner.plannedTotalS());

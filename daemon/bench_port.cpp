@@ -1,0 +1,90 @@
+#include "daemon/bench_port.h"
+
+namespace imubench::daemon {
+
+DriverBenchPort::DriverBenchPort(drivers::TableDriver& table, drivers::ChamberDriver* chamber)
+    : table_(table),
+      chamber_(chamber),
+      modes_(static_cast<std::size_t>(table.spec().axisCount())) {}
+
+// The controller may have been switched by someone else (its front panel, a stop): the mode
+// is set whenever we have not set it ourselves since the last stop.
+drivers::Status DriverBenchPort::positionMode(int axis) {
+  auto& mode = modes_.at(static_cast<std::size_t>(axis));
+  if (mode == drivers::AxisMode::kPosition) return {};
+  drivers::Status st = table_.setMode(axis, drivers::AxisMode::kPosition);
+  if (st.ok) mode = drivers::AxisMode::kPosition;
+  return st;
+}
+
+drivers::Status DriverBenchPort::prepare() {
+  if (table_.state() == drivers::DeviceState::kOffline) {
+    if (auto st = table_.connect(); !st.ok) return st;
+  }
+  if (chamber_ != nullptr && chamber_->state() == drivers::DeviceState::kOffline) {
+    if (auto st = chamber_->connect(); !st.ok) return st;
+  }
+  for (auto& m : modes_) m.reset();
+  return table_.interlock(drivers::InterlockCommand::kClose);
+}
+
+drivers::Status DriverBenchPort::moveTo(int axis, double angle_rad) {
+  if (auto st = positionMode(axis); !st.ok) return st;
+  return table_.moveTo(axis, angle_rad);
+}
+
+drivers::Status DriverBenchPort::rotateBy(int axis, double delta_rad) {
+  if (auto st = positionMode(axis); !st.ok) return st;
+  return table_.rotateBy(axis, delta_rad);
+}
+
+drivers::Status DriverBenchPort::stopAll() {
+  drivers::Status first;
+  for (int a = 0; a < table_.spec().axisCount(); ++a) {
+    const drivers::Status st = table_.stop(a);
+    modes_[static_cast<std::size_t>(a)].reset();
+    if (!st.ok && first.ok) first = st;  // stop every axis even when one fails
+  }
+  return first;
+}
+
+drivers::Status DriverBenchPort::emergencyStop() {
+  for (auto& m : modes_) m.reset();
+  return table_.emergencyStop();
+}
+
+drivers::Status DriverBenchPort::chamberSetpoint(double setpoint_c) {
+  if (chamber_ == nullptr) return {};
+  if (auto st = chamber_->setSetpoint(setpoint_c); !st.ok) return st;
+  return chamber_->run(true);
+}
+
+BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s) {
+  BenchObservation o;
+  o.now_s = now_s;
+  o.imu_last_frame_s = imu_last_frame_s;
+  reading_ = drivers::TableReading{};
+  const drivers::Status st = table_.read(&reading_);
+  table_error_ = st.ok ? std::string() : st.message;
+  // A controller that reports a tripped interlock, an emergency stop or a fault answered:
+  // that is a fault to raise now, not a silence to wait out.
+  const bool answered_fault = reading_.interlock_tripped || reading_.estop || reading_.fault;
+  o.table_ok = st.ok || answered_fault;
+  if (answered_fault) o.table_fault = st.ok ? "controller reports a fault" : st.message;
+  if (o.table_ok) table_last_ok_s_ = now_s;
+  o.table_last_ok_s = table_last_ok_s_;
+  for (const auto& a : reading_.axes) {
+    o.angles.push_back(a.angle);
+    o.moving = o.moving || a.moving;
+  }
+  if (chamber_ != nullptr) {
+    drivers::ChamberReading c;
+    // An alarm still fills the reading (over-temperature is the runner's to judge); a
+    // communication error does not, and then there is no temperature to report.
+    const drivers::Status cst = chamber_->read(&c);
+    if (cst.ok || c.alarms_raw != 0) o.chamber_temp_c = c.temperature_c;
+  }
+  return o;
+}
+
+}  // namespace imubench::daemon

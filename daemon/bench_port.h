@@ -1,0 +1,46 @@
+// The plan runner's BenchPort over the real drivers: the table (position mode for moves and
+// rotations, stop, emergency stop) and the optional chamber (setpoint). Also turns driver
+// readings into the runner's BenchObservation. Owns no device: the daemon does.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "daemon/plan_runner.h"
+#include "drivers/chamber.h"
+#include "drivers/table.h"
+
+namespace imubench::daemon {
+
+class DriverBenchPort : public BenchPort {
+ public:
+  // chamber may be null (a bench without a chamber); the references must outlive the port.
+  DriverBenchPort(drivers::TableDriver& table, drivers::ChamberDriver* chamber);
+
+  // Connects if needed and closes the interlock (motion needs it closed).
+  drivers::Status prepare() override;
+  drivers::Status moveTo(int axis, double angle_rad) override;
+  drivers::Status rotateBy(int axis, double delta_rad) override;
+  drivers::Status stopAll() override;
+  drivers::Status emergencyStop() override;
+  drivers::Status chamberSetpoint(double setpoint_c) override;
+
+  // Reads the table (and chamber) and fills what the runner needs. now_s: the daemon's
+  // monotonic time; imu_last_frame_s: when the IMU last delivered a sample (same clock).
+  // The last driver errors are kept for the alarm text (lastTableError()).
+  BenchObservation observe(double now_s, double imu_last_frame_s);
+  const drivers::TableReading& lastReading() const { return reading_; }
+  const std::string& lastTableError() const { return table_error_; }
+
+ private:
+  drivers::Status positionMode(int axis);
+
+  drivers::TableDriver& table_;
+  drivers::ChamberDriver* chamber_;
+  std::vector<std::optional<drivers::AxisMode>> modes_;  // what we last set, per axis
+  drivers::TableReading reading_;
+  std::string table_error_;
+  double table_last_ok_s_ = 0.0;
+};
+
+}  // namespace imubench::daemon

@@ -1,0 +1,178 @@
+// The plan runner driving the virtual table and chamber over Modbus TCP through the real
+// drivers (DriverBenchPort): the 12-run plan to the end, pause/resume in a rotation, an
+// interlock trip raised as a table fault. No IMU here (the observation says it is alive).
+#include "daemon/bench_port.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "nav/rotation.h"
+#include "plans/expand.h"
+#include "plans/plan.h"
+#include "plans/validator.h"
+#include "tests/drivers/virtual_bench_fixture.h"
+
+namespace imubench::daemon {
+namespace {
+
+namespace dt = drivers::testing;
+
+double wallNow() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::vector<RunStep> twelveRunSteps() {
+  const std::string path = std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/two_axis_12run.toml";
+  plans::Diagnostics diag(path);
+  auto plan = plans::loadPlanFile(path, diag);
+  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
+  const auto ex = plans::expand(*plan);
+  EXPECT_TRUE(ex.ok) << ex.error;
+  return runSteps(ex.motion);
+}
+
+// The virtual world runs 200x faster than the wall clock, so plan holds (plan seconds) are
+// scaled down for the runner's wall-clock timing; motions run at the controller's own speed.
+constexpr double kScale = 200.0;
+
+class RunnerOverModbus : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    table_spec_ = dt::tableSpec("imubench-ref-2axis-tcp.toml");
+    chamber_spec_ = dt::chamberSpec("watlow-f4-style.toml");
+    world_ = std::make_unique<drivers::VirtualWorld>(table_spec_, chamber_spec_, kScale);
+    table_regs_ =
+        std::make_unique<drivers::VirtualTableRegisters>(*world_, table_spec_, log_.sink());
+    chamber_regs_ =
+        std::make_unique<drivers::VirtualChamberRegisters>(*world_, chamber_spec_, log_.sink());
+    table_server_ = std::make_unique<drivers::ModbusServer>(*table_regs_, faults_, log_.sink());
+    chamber_server_ = std::make_unique<drivers::ModbusServer>(*chamber_regs_, faults_, log_.sink());
+    ASSERT_TRUE(table_server_->startTcp("127.0.0.1", 0).ok);
+    ASSERT_TRUE(chamber_server_->startTcp("127.0.0.1", 0).ok);
+    table_spec_.transport.port = table_server_->port();
+    chamber_spec_.transport.port = chamber_server_->port();
+    table_ = drivers::makeTableDriver(table_spec_, log_.sink());
+    chamber_ = drivers::makeChamberDriver(chamber_spec_, log_.sink());
+    port_ = std::make_unique<DriverBenchPort>(*table_, chamber_.get());
+    steps_ = twelveRunSteps();
+    for (auto& s : steps_) s.planned_s /= kScale;
+    RunnerOptions o;
+    o.chamber_safe_setpoint_c = 23.0;
+    o.chamber_over_temperature_c = 90.0;
+    runner_ = std::make_unique<PlanRunner>(steps_, o, *port_);
+  }
+
+  // One daemon poll: observe, tick, collect events.
+  void poll() {
+    const double now = wallNow();
+    runner_->tick(port_->observe(now, now));
+    for (auto& e : runner_->takeEvents()) events_.push_back(std::move(e));
+  }
+  bool pollUntil(const std::function<bool()>& cond, double limit_s) {
+    return dt::waitUntil(
+        [&] {
+          poll();
+          return cond();
+        },
+        limit_s);
+  }
+  std::string alarms() const {
+    std::string s;
+    for (const auto& e : events_) {
+      if (e.kind == RunnerEvent::Kind::kAlarm) s += e.message + "\n";
+    }
+    return s;
+  }
+
+  dt::EventLog log_;
+  drivers::LinkFaults faults_;
+  drivers::TableDeviceSpec table_spec_;
+  drivers::ChamberDeviceSpec chamber_spec_;
+  std::unique_ptr<drivers::VirtualWorld> world_;
+  std::unique_ptr<drivers::VirtualTableRegisters> table_regs_;
+  std::unique_ptr<drivers::VirtualChamberRegisters> chamber_regs_;
+  std::unique_ptr<drivers::ModbusServer> table_server_, chamber_server_;
+  std::unique_ptr<drivers::TableDriver> table_;
+  std::unique_ptr<drivers::ChamberDriver> chamber_;
+  std::unique_ptr<DriverBenchPort> port_;
+  std::vector<RunStep> steps_;
+  std::unique_ptr<PlanRunner> runner_;
+  std::vector<RunnerEvent> events_;
+};
+
+TEST_F(RunnerOverModbus, TwelveRunPlanToTheEnd) {
+  ASSERT_TRUE(runner_->start(wallNow()).ok);
+  ASSERT_TRUE(pollUntil([&] { return runner_->state() == RunnerState::kFinished; }, 120.0))
+      << runnerStateName(runner_->state()) << " at step " << runner_->currentStep() << "\n"
+      << alarms() << log_.all();
+  EXPECT_EQ(runner_->exit(), RunExit::kCompleted);
+  EXPECT_EQ(alarms(), "");
+  // What the virtual table executed: every rotation of the plan, in its direction.
+  const calib::Motion m = world_->withMotion([](const calib::Motion& mm, double) { return mm; });
+  for (int a = 0; a < 2; ++a) {
+    const double end = m.axes[static_cast<std::size_t>(a)].at(m.duration).angle;
+    EXPECT_NEAR(
+        std::remainder(end - steps_.back().end_angles[static_cast<std::size_t>(a)], 2.0 * kPi), 0.0,
+        1e-4)
+        << "axis " << a;
+  }
+}
+
+TEST_F(RunnerOverModbus, PauseInARotationStopsTheTableAndResumeFinishesThePlan) {
+  ASSERT_TRUE(runner_->start(wallNow()).ok);
+  ASSERT_TRUE(pollUntil(
+      [&] {
+        const int k = runner_->currentStep();
+        return k >= 0 && k < static_cast<int>(steps_.size()) &&
+               steps_[static_cast<std::size_t>(k)].kind == calib::SegmentKind::kRotate &&
+               port_->lastReading().axes.size() == 2 &&
+               (port_->lastReading().axes[0].moving || port_->lastReading().axes[1].moving);
+      },
+      60.0));
+  ASSERT_TRUE(runner_->pause(wallNow()).ok);
+  // The table comes to rest and stays there while paused.
+  ASSERT_TRUE(pollUntil(
+      [&] {
+        const auto& r = port_->lastReading();
+        return !r.axes[0].moving && !r.axes[1].moving;
+      },
+      30.0));
+  EXPECT_EQ(runner_->state(), RunnerState::kPaused);
+  ASSERT_TRUE(runner_->resume(wallNow()).ok);
+  ASSERT_TRUE(pollUntil([&] { return runner_->state() == RunnerState::kFinished; }, 120.0))
+      << alarms();
+  EXPECT_EQ(runner_->exit(), RunExit::kCompleted);
+}
+
+TEST_F(RunnerOverModbus, InterlockTripIsATableFaultThatPausesTheRun) {
+  ASSERT_TRUE(runner_->start(wallNow()).ok);
+  ASSERT_TRUE(pollUntil([&] { return runner_->currentStep() >= 2; }, 60.0));
+  world_->withTable([](drivers::VirtualTable& t, double now) { t.trip(now, "door opened"); });
+  ASSERT_TRUE(pollUntil([&] { return runner_->state() == RunnerState::kPaused; }, 30.0));
+  EXPECT_NE(alarms().find("table fault"), std::string::npos) << alarms();
+  const CommandResult r = runner_->resume(wallNow());
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("fault"), std::string::npos) << r.message;
+}
+
+TEST_F(RunnerOverModbus, TableControllerGoneStopsThePlanWithAnAlarm) {
+  ASSERT_TRUE(runner_->start(wallNow()).ok);
+  ASSERT_TRUE(pollUntil([&] { return runner_->currentStep() >= 2; }, 60.0));
+  table_server_->stop();  // the controller's process dies: connection refused from now on
+  ASSERT_TRUE(pollUntil([&] { return runner_->state() == RunnerState::kPaused; }, 60.0))
+      << runnerStateName(runner_->state());
+  // Either a command of the next step fails, naming the driver's reason, or the poll finds
+  // the table silent past the timeout: both stop the plan with the reason in the alarm.
+  const std::string a = alarms();
+  EXPECT_TRUE(a.find("Connection refused") != std::string::npos ||
+              a.find("table not answering") != std::string::npos)
+      << a;
+  EXPECT_FALSE(port_->lastTableError().empty());
+  EXPECT_FALSE(runner_->resume(wallNow()).ok);
+}
+
+}  // namespace
+}  // namespace imubench::daemon
