@@ -1044,34 +1044,28 @@ RunWriter::~RunWriter() {
   (void)flush();
 }
 
-IoStatus RunWriter::appendImu(std::span<const nav::ImuSample> samples) {
-  if (samples.empty()) return IoStatus::Ok();
-  if (auto st = checkRows("IMU sample", samples, last_imu_t_); !st.ok) {
+template <class Row>
+IoStatus RunWriter::appendRows(const char* what, std::span<const Row> rows,
+                               std::optional<double>* last_t, std::vector<Row>* buffer) {
+  if (rows.empty()) return IoStatus::Ok();
+  if (auto st = checkRows(what, rows, *last_t); !st.ok) {
     return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
   }
-  buffer_.imu.insert(buffer_.imu.end(), samples.begin(), samples.end());
-  last_imu_t_ = samples.back().t;
-  return buffered(samples.front().t, samples.back().t);
+  buffer->insert(buffer->end(), rows.begin(), rows.end());
+  *last_t = rows.back().t;
+  return buffered(rows.front().t, rows.back().t);
+}
+
+IoStatus RunWriter::appendImu(std::span<const nav::ImuSample> samples) {
+  return appendRows("IMU sample", samples, &last_imu_t_, &buffer_.imu);
 }
 
 IoStatus RunWriter::appendTable(std::span<const TableSample> samples) {
-  if (samples.empty()) return IoStatus::Ok();
-  if (auto st = checkRows("table sample", samples, last_table_t_); !st.ok) {
-    return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
-  }
-  buffer_.table.insert(buffer_.table.end(), samples.begin(), samples.end());
-  last_table_t_ = samples.back().t;
-  return buffered(samples.front().t, samples.back().t);
+  return appendRows("table sample", samples, &last_table_t_, &buffer_.table);
 }
 
 IoStatus RunWriter::appendChamber(std::span<const ChamberSample> samples) {
-  if (samples.empty()) return IoStatus::Ok();
-  if (auto st = checkRows("chamber sample", samples, last_chamber_t_); !st.ok) {
-    return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
-  }
-  buffer_.chamber.insert(buffer_.chamber.end(), samples.begin(), samples.end());
-  last_chamber_t_ = samples.back().t;
-  return buffered(samples.front().t, samples.back().t);
+  return appendRows("chamber sample", samples, &last_chamber_t_, &buffer_.chamber);
 }
 
 IoStatus RunWriter::appendSegment(const calib::Segment& segment) {

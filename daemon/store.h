@@ -232,6 +232,10 @@ class RunWriter {
 
  private:
   IoStatus buffered(double oldest_new_t, double newest_t);
+  // Checks rows of one stream (finite, time increasing past *last_t), then buffers them.
+  template <class Row>
+  IoStatus appendRows(const char* what, std::span<const Row> rows, std::optional<double>* last_t,
+                      std::vector<Row>* buffer);
 
   Store* store_;
   std::int64_t run_id_;
