@@ -274,10 +274,12 @@ void PlanRunner::beginStep(const BenchObservation& obs) {
     phase_t0_s_ = obs.now_s;
     return;
   }
-  commandStep(obs.now_s);
+  commandStep(obs);
 }
 
-void PlanRunner::commandStep(double now_s) {
+void PlanRunner::commandStep(const BenchObservation& obs) {
+  const double now_s = obs.now_s;
+  phase_plan_t0_s_ = obs.plan_time_s.value_or(obs.now_s);
   const RunStep& s = steps_[step_];
   step_interrupted_ = false;
   saw_moving_ = false;
@@ -325,7 +327,7 @@ void PlanRunner::advance(const BenchObservation& obs) {
       return;
     case Phase::kReturning:
       if (arrived(obs, s.start_angles)) {
-        commandStep(obs.now_s);
+        commandStep(obs);
       } else if (in_phase > overdue) {
         alarmAndPause(obs.now_s,
                       "step '" + s.label + "': the table did not reach the step's start");
@@ -343,10 +345,12 @@ void PlanRunner::advance(const BenchObservation& obs) {
         alarmAndPause(obs.now_s, why.str());
       }
       return;
-    case Phase::kWaiting:
-      step_elapsed_s_ = std::min(in_phase, s.planned_s);
-      if (in_phase >= s.planned_s) finishStep(obs.now_s);
+    case Phase::kWaiting: {
+      const double waited = obs.plan_time_s.value_or(obs.now_s) - phase_plan_t0_s_;
+      step_elapsed_s_ = std::clamp(waited, 0.0, s.planned_s);
+      if (waited >= s.planned_s) finishStep(obs.now_s);
       return;
+    }
   }
 }
 

@@ -68,11 +68,15 @@ class BenchPort {
 };
 
 struct BenchObservation {
-  double now_s = 0.0;             // monotonic
-  bool table_ok = false;          // the last table read succeeded (the values below are fresh)
-  double table_last_ok_s = 0.0;   // when a table read last succeeded
-  std::vector<double> angles;     // rad, as read (wrapped or not)
-  bool moving = false;            // any axis moving
+  double now_s = 0.0;            // monotonic
+  bool table_ok = false;         // the last table read succeeded (the values below are fresh)
+  double table_last_ok_s = 0.0;  // when a table read last succeeded
+  std::vector<double> angles;    // rad, as read (wrapped or not)
+  bool moving = false;           // any axis moving
+  // The clock of the plan's holds and soaks: the IMU's own sample time when the daemon has
+  // it (a virtual bench may run faster than the wall clock; the IMU's samples are what a
+  // hold is for). Unset: now_s.
+  std::optional<double> plan_time_s;
   std::string table_fault;        // non-empty: the controller reports a fault (interlock, estop)
   double imu_last_frame_s = 0.0;  // when the last IMU frame arrived
   std::optional<double> chamber_temp_c;  // measured, when there is a chamber
@@ -138,7 +142,7 @@ class PlanRunner {
   bool safetyChecks(const BenchObservation& obs);
   void advance(const BenchObservation& obs);
   void beginStep(const BenchObservation& obs);
-  void commandStep(double now_s);
+  void commandStep(const BenchObservation& obs);
   void finishStep(double now_s);
   bool arrived(const BenchObservation& obs, const std::vector<double>& target) const;
   bool issue(const drivers::Status& st, double now_s, const std::string& what);
@@ -151,8 +155,9 @@ class PlanRunner {
   RunExit exit_ = RunExit::kNone;
   int step_ = -1;
   Phase phase_ = Phase::kBegin;
-  double phase_t0_s_ = 0.0;
-  double step_elapsed_s_ = 0.0;  // planned-time progress inside the current step
+  double phase_t0_s_ = 0.0;       // now_s when the phase began
+  double phase_plan_t0_s_ = 0.0;  // plan clock when the phase began
+  double step_elapsed_s_ = 0.0;   // planned-time progress inside the current step
   bool step_interrupted_ = false;
   // The table was seen moving since the step's command: a full turn ends where it started,
   // so "in position" alone cannot tell done from not yet begun.

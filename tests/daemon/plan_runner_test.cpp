@@ -326,6 +326,26 @@ TEST(PlanRunner, FailedCommandAlarmsAndPauses) {
   EXPECT_NE(h.lastAlarm().find("injected: no reply"), std::string::npos) << h.lastAlarm();
 }
 
+TEST(PlanRunner, HoldsRunOnThePlanClockWhenGiven) {
+  RunStep hold;
+  hold.kind = calib::SegmentKind::kStatic;
+  hold.label = "hold";
+  hold.planned_s = 10.0;
+  hold.start_angles = hold.end_angles = {0.0, 0.0};
+  FakeBench bench(2);
+  PlanRunner runner({hold}, options(), bench);
+  ASSERT_TRUE(runner.start(0.0).ok);
+  double now = 0.0;
+  while (runner.state() == RunnerState::kRunning && now < 20.0) {
+    now += 0.05;
+    BenchObservation o = bench.step(now, 0.05);
+    o.plan_time_s = 100.0 + 10.0 * now;  // an IMU clock running 10x the wall clock
+    runner.tick(o);
+  }
+  EXPECT_EQ(runner.exit(), RunExit::kCompleted);
+  EXPECT_NEAR(now, 1.0, 0.11);  // 10 s of plan time
+}
+
 TEST(PlanRunner, OptionsAreChecked) {
   RunnerOptions o;
   std::string why;
