@@ -261,10 +261,13 @@ bool PlanRunner::arrived(const BenchObservation& obs, const std::vector<double>&
 
 void PlanRunner::beginStep(const BenchObservation& obs) {
   const RunStep& s = steps_[step_];
+  const bool moves = s.kind == calib::SegmentKind::kRotate || s.kind == calib::SegmentKind::kMove;
+  // After a pause or an alarm the table may still be braking: command nothing until it rests
+  // (a controller may refuse a new demand while moving, and the start angle must be exact).
+  if (moves && (obs.moving || !obs.table_ok)) return;
   emit(RunnerEvent::Kind::kStepStarted, obs.now_s,
        step_interrupted_ ? "re-run from its start" : std::string(calib::segmentKindName(s.kind)));
   step_elapsed_s_ = 0.0;
-  const bool moves = s.kind == calib::SegmentKind::kRotate || s.kind == calib::SegmentKind::kMove;
   if (moves && !arrived(obs, s.start_angles)) {
     // Interrupted (or the table is not where the previous step left it): back to the start.
     for (std::size_t a = 0; a < s.start_angles.size(); ++a) {

@@ -1,0 +1,539 @@
+#include "daemon/bench_daemon.h"
+
+#include <sys/epoll.h>
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <sstream>
+
+#include "daemon/file_io.h"
+#include "nav/rotation.h"
+#include "plans/expand.h"
+#include "plans/plan.h"
+#include "plans/validator.h"
+
+namespace imubench::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+double unixNow() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+std::chrono::nanoseconds seconds(double s) {
+  return std::chrono::nanoseconds(static_cast<std::int64_t>(s * 1e9));
+}
+
+// A plan from the request: parsed, validated, and checked against this bench (table kind,
+// limits). nullopt with the diagnostics text when refused.
+struct LoadedPlan {
+  plans::Plan plan;
+  std::string text;
+  calib::Motion motion;
+};
+
+std::optional<LoadedPlan> loadPlan(const PlanSource& source, const BenchConfig& bench,
+                                   std::string* why) {
+  LoadedPlan out;
+  const std::string name = source.kind == PlanSource::Kind::kPath ? source.text : "inline plan";
+  if (source.kind == PlanSource::Kind::kPath) {
+    if (!readWholeFile(source.text, &out.text).ok) {
+      *why = source.text + ": cannot read the plan file";
+      return std::nullopt;
+    }
+  } else {
+    out.text = source.text;
+  }
+  plans::Diagnostics diag(name);
+  auto plan = plans::parsePlan(out.text, name, diag);
+  if (!plan || !plans::validatePlan(*plan, diag)) {
+    *why = diag.str();
+    return std::nullopt;
+  }
+  if (plan->table.kind != bench.table.kind) {
+    *why = name + ": the plan is for a " + plans::tableKindName(plan->table.kind) +
+           " table, this bench has a " + plans::tableKindName(bench.table.kind) + " table";
+    return std::nullopt;
+  }
+  for (int a = 0; a < calib::axisCount(plan->table.kind); ++a) {
+    const plans::EffectiveLimits lim = plans::limitsFor(plan->table, a);
+    if (lim.max_rate.value_or(0.0) > bench.table.limits.max_rate * (1.0 + 1e-12) ||
+        lim.max_accel.value_or(0.0) > bench.table.limits.max_accel * (1.0 + 1e-12)) {
+      std::ostringstream ss;
+      ss << name << ": axis " << plans::axisNames(plan->table.kind)[static_cast<std::size_t>(a)]
+         << " asks for more than this bench allows (" << bench.table.limits.max_rate * kRadToDeg
+         << " deg/s, " << bench.table.limits.max_accel * kRadToDeg << " deg/s^2)";
+      *why = ss.str();
+      return std::nullopt;
+    }
+  }
+  if (plan->chamber && !bench.chamber) {
+    *why = name + ": the plan drives a chamber and this bench has none";
+    return std::nullopt;
+  }
+  auto ex = plans::expand(*plan);
+  if (!ex.ok) {
+    *why = name + ": " + ex.error;
+    return std::nullopt;
+  }
+  out.plan = std::move(*plan);
+  out.motion = std::move(ex.motion);
+  return out;
+}
+
+json stepJson(const RunStep& s) {
+  return {{"index", s.index}, {"label", s.label}, {"kind", calib::segmentKindName(s.kind)}};
+}
+
+}  // namespace
+
+// The run in progress: its runner, its writer, and the open segment.
+struct BenchDaemon::ActiveRun {
+  std::int64_t id = 0;
+  std::string plan_name;
+  std::unique_ptr<PlanRunner> runner;
+  std::unique_ptr<RunWriter> writer;
+  std::optional<double> segment_t0;  // IMU time the current step's command went out
+  std::optional<double> last_table_t;
+};
+
+bool DaemonOptions::IsValid(std::string* why) const {
+  if (!(table_poll_s > 0.0 && table_poll_s <= 1.0)) {
+    if (why != nullptr) *why = "table_poll_s must be in (0, 1] s";
+    return false;
+  }
+  if (!(status_period_s > 0.0)) {
+    if (why != nullptr) *why = "status_period_s must be positive";
+    return false;
+  }
+  return true;
+}
+
+BenchDaemon::BenchDaemon(BenchConfig bench, DaemonOptions options, const Logger& log)
+    : bench_(std::move(bench)), options_(std::move(options)), log_(log) {}
+
+BenchDaemon::~BenchDaemon() {
+  if (run_) closeRun();
+}
+
+double BenchDaemon::wallNow() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+}
+
+IoStatus BenchDaemon::start() {
+  std::string why;
+  if (!options_.IsValid(&why)) return IoStatus::Error("daemon options: " + why);
+  if (auto st = loop_.open(); !st.ok) return st;
+
+  const std::string db =
+      options_.storage_path.empty() ? bench_.storage_path : options_.storage_path;
+  auto opened = Store::open(db, StoreOptions{});
+  if (!opened.status.ok) return IoStatus::Error("store: " + opened.status.message);
+  store_ = std::move(opened.store);
+  const auto cut = store_->markInterruptedRuns();
+  if (cut.status.ok && cut.count > 0) {
+    log_.warning(std::to_string(cut.count) + " run(s) cut off by a crash marked interrupted");
+  }
+
+  auto sink = [this](const std::string& m) { log_.info(m); };
+  table_ = drivers::makeTableDriver(bench_.table, sink);
+  if (auto st = table_->connect(); !st.ok) return IoStatus::Error("table: " + st.message);
+  if (bench_.chamber) {
+    chamber_ = drivers::makeChamberDriver(bench_.chamber->device, sink);
+    if (auto st = chamber_->connect(); !st.ok) return IoStatus::Error("chamber: " + st.message);
+  }
+  port_ = std::make_unique<DriverBenchPort>(*table_, chamber_.get());
+
+  drivers::ImuCanReaderOptions imu_options;
+  imu_options.interface = bench_.imu.interface;
+  imu_ = std::make_unique<drivers::ImuCanReader>(bench_.imu.layout, imu_options);
+  if (auto st = imu_->open(); !st.ok) return IoStatus::Error("IMU: " + st.message);
+  if (auto st = loop_.add(imu_->socket().fd(), EPOLLIN, [this](std::uint32_t) { onImuReadable(); });
+      !st.ok) {
+    return st;
+  }
+
+  ControlServerOptions server_options;
+  server_options.socket_path =
+      options_.socket_path.empty() ? bench_.control_socket : options_.socket_path;
+  if (auto st = systemdListenFd(&server_options.listen_fd); !st.ok) return st;
+  server_ = std::make_unique<ControlServer>(
+      &loop_, server_options, [this](const Request& r, ClientId) { return handle(r); }, &log_);
+  if (auto st = server_->start(); !st.ok) return IoStatus::Error("control socket: " + st.message);
+
+  EventLoop::TimerId timer{};
+  if (auto st = loop_.addTimer(
+          seconds(options_.table_poll_s), seconds(options_.table_poll_s), [this] { onPoll(); },
+          &timer);
+      !st.ok) {
+    return st;
+  }
+  if (auto st = loop_.addTimer(
+          seconds(options_.status_period_s), seconds(options_.status_period_s),
+          [this] { onStatusTimer(); }, &timer);
+      !st.ok) {
+    return st;
+  }
+  if (auto wd = notifier_.watchdogInterval()) {
+    if (auto st = loop_.addTimer(
+            *wd / 2, *wd / 2, [this] { notifier_.watchdog(); }, &timer);
+        !st.ok) {
+      return st;
+    }
+  }
+  notifier_.ready();
+  notifier_.status("idle");
+  log_.info("bench '" + bench_.name + "' ready: control socket " + server_options.socket_path +
+            ", store " + db + ", IMU on " + bench_.imu.interface);
+  return IoStatus::Ok();
+}
+
+IoStatus BenchDaemon::run() {
+  return loop_.run();
+}
+
+void BenchDaemon::stop() {
+  loop_.post([this] {
+    if (run_ && run_->runner->state() == RunnerState::kRunning) {
+      run_->runner->abort(wallNow());
+      publish(run_->runner->takeEvents());
+    }
+    if (run_) closeRun();
+    notifier_.stopping();
+    loop_.stop();
+  });
+}
+
+// ---- IMU and table ------------------------------------------------------------------------
+
+void BenchDaemon::onImuReadable() {
+  decoded_.clear();
+  if (auto st = imu_->poll(0, &decoded_); !st.ok) {
+    log_.error("IMU: " + st.message);
+    return;
+  }
+  const auto& counters = imu_->decoder().counters();
+  if (counters.lost_samples > imu_lost_reported_) {
+    log_.warning("IMU: " + std::to_string(counters.lost_samples - imu_lost_reported_) +
+                 " sample(s) lost: " + imu_->decoder().lastProblem());
+    imu_lost_reported_ = counters.lost_samples;
+  }
+  if (decoded_.empty()) return;
+  imu_last_t_ = decoded_.back().sample.t;
+  imu_last_wall_s_ = wallNow();
+  if (!run_) return;
+  nav::ImuSamples samples;
+  samples.reserve(decoded_.size());
+  for (const auto& d : decoded_) samples.push_back(d.sample);
+  if (auto st = run_->writer->appendImu(samples); !st.ok) log_.error("store: " + st.message);
+}
+
+void BenchDaemon::onPoll() {
+  if (!run_) return;
+  BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
+  obs.plan_time_s = imu_last_t_;
+  if (imu_last_t_ && (!run_->last_table_t || *imu_last_t_ > *run_->last_table_t) && obs.table_ok) {
+    TableSample ts;
+    ts.t = *imu_last_t_;
+    for (std::size_t a = 0; a < obs.angles.size() && a < 3; ++a) {
+      ts.angles_deg[a] = obs.angles[a] * kRadToDeg;
+    }
+    if (auto st = run_->writer->appendTable(std::span(&ts, 1)); !st.ok) {
+      log_.error("store: " + st.message);
+    }
+    run_->last_table_t = ts.t;
+  }
+  run_->runner->tick(obs);
+  publish(run_->runner->takeEvents());
+  if (run_ && imu_last_t_) run_->writer->flushIfDue(*imu_last_t_);
+  if (run_ && (run_->runner->state() == RunnerState::kFinished ||
+               run_->runner->state() == RunnerState::kFaulted)) {
+    closeRun();
+  }
+}
+
+// Runner events: a segment per finished step, the run's event log, subscribers, syslog.
+void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
+  for (const RunnerEvent& e : events) {
+    json fields = {{"run", run_->id}, {"step", e.step}, {"label", e.label}};
+    const char* name = runnerEventKindName(e.kind);
+    if (e.kind == RunnerEvent::Kind::kState) fields["state"] = e.message;
+    if (e.kind == RunnerEvent::Kind::kAlarm) fields["message"] = e.message;
+    if (e.kind == RunnerEvent::Kind::kStepStarted) run_->segment_t0 = imu_last_t_;
+    if (e.kind == RunnerEvent::Kind::kStepFinished && run_->segment_t0 && imu_last_t_) {
+      const RunStep& s = run_->runner->steps()[static_cast<std::size_t>(e.step)];
+      calib::Segment seg;
+      seg.t0 = *run_->segment_t0;
+      seg.t1 = *imu_last_t_;
+      seg.kind = s.kind;
+      seg.label = s.label;
+      seg.recording = s.recording;
+      seg.axis = s.axis;
+      seg.angle = s.delta;
+      if (seg.t1 > seg.t0) {
+        if (auto st = run_->writer->appendSegment(seg); !st.ok) log_.error("store: " + st.message);
+      }
+    }
+    RunEvent stored;
+    stored.run_id = run_->id;
+    stored.wall_unix_s = unixNow();
+    stored.severity =
+        e.kind == RunnerEvent::Kind::kAlarm ? EventSeverity::kWarning : EventSeverity::kInfo;
+    stored.kind = name;
+    stored.json = fields.dump();
+    if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
+    server_->broadcast(Topic::kRun, name, fields);
+    if (e.kind == RunnerEvent::Kind::kAlarm) {
+      log_.warning("run " + std::to_string(run_->id) + ": ALARM: " + e.message);
+    } else if (e.kind == RunnerEvent::Kind::kState) {
+      log_.info("run " + std::to_string(run_->id) + ": " + e.message);
+    }
+  }
+}
+
+void BenchDaemon::closeRun() {
+  PlanRunner& r = *run_->runner;
+  if (auto st = run_->writer->flush(); !st.ok) log_.error("store: " + st.message);
+  RunState state = RunState::kFaulted;
+  std::string reason = runExitName(r.exit());
+  if (r.exit() == RunExit::kCompleted) state = RunState::kFinished;
+  if (r.exit() == RunExit::kAborted) state = RunState::kAborted;
+  if (r.state() != RunnerState::kFinished && r.state() != RunnerState::kFaulted) {
+    reason = "daemon stopped during the run";
+  }
+  if (auto st = store_->finishRun(run_->id, state, reason); !st.ok) {
+    log_.error("store: " + st.message);
+  }
+  server_->broadcast(Topic::kRun, "run_finished",
+                     {{"run", run_->id}, {"state", runStateName(state)}, {"exit", reason}});
+  log_.info("run " + std::to_string(run_->id) + " closed: " + runStateName(state));
+  run_.reset();
+  notifier_.status("idle");
+}
+
+void BenchDaemon::onStatusTimer() {
+  if (!run_) return;
+  const PlanRunner& r = *run_->runner;
+  const int k = std::clamp(r.currentStep(), 0, static_cast<int>(r.steps().size()) - 1);
+  const RunStep& s = r.steps()[static_cast<std::size_t>(k)];
+  server_->broadcast(Topic::kStatus, "progress",
+                     {{"run", run_->id},
+                      {"state", runnerStateName(r.state())},
+                      {"progress", r.progress()},
+                      {"eta_s", r.etaS()},
+                      {"step", k},
+                      {"label", s.label}});
+  std::ostringstream ss;
+  ss << run_->plan_name << ": " << runnerStateName(r.state()) << ", step " << k + 1 << "/"
+     << r.steps().size() << " (" << s.label << "), " << std::lround(100.0 * r.progress()) << " %";
+  notifier_.status(ss.str());
+}
+
+// ---- control socket ------------------------------------------------------------------------
+
+Reply BenchDaemon::handle(const Request& request) {
+  switch (request.command) {
+    case Command::kStart:
+      return startPlan(request);
+    case Command::kPause:
+    case Command::kResume:
+    case Command::kAbort:
+    case Command::kStop:
+      return runnerCommand(request);
+    case Command::kStatus:
+      return status();
+    case Command::kListPlans:
+      return listPlans();
+    case Command::kValidatePlan:
+      return validatePlan(request);
+    case Command::kResults:
+      return results(request);
+    case Command::kExport:
+      return exportRun(request);
+    case Command::kPing:
+    case Command::kSubscribe:
+    case Command::kUnsubscribe:
+      break;  // the server answers these itself
+  }
+  return errorReply(request.id, ErrorCode::kInternal, "unhandled command");
+}
+
+Reply BenchDaemon::startPlan(const Request& request) {
+  const auto& args = std::get<StartArgs>(request.args);
+  if (run_) {
+    return errorReply(request.id, ErrorCode::kBusy,
+                      "run " + std::to_string(run_->id) + " (" + run_->plan_name + ") is " +
+                          runnerStateName(run_->runner->state()) + "; one plan at a time");
+  }
+  std::string why;
+  auto loaded = loadPlan(args.plan, bench_, &why);
+  if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
+  std::vector<RunStep> steps = runSteps(loaded->motion);
+  if (args.options.dry_run) {
+    return okReply(request.id, {{"dry_run", true},
+                                {"plan", loaded->plan.name},
+                                {"steps", steps.size()},
+                                {"planned_s", loaded->motion.duration}});
+  }
+  RunStart start;
+  start.plan_name = loaded->plan.name;
+  start.plan_toml = loaded->text;
+  start.bench_name = bench_.name;
+  start.imu_serial = bench_.imu.serial;
+  start.imu_rate_hz = 1.0 / bench_.imu.layout.sample_period_s;
+  start.latitude_deg = bench_.site.latitude_rad * kRadToDeg;
+  start.height_m = bench_.site.height_m;
+  start.gravity_mps2 = bench_.site.gravity_mps2;
+  start.table_kind = bench_.table.kind;
+  if (start.table_kind == calib::TableKind::kTwoAxis) {
+    start.outer_axis_heading_deg = bench_.outer_axis_heading_rad * kRadToDeg;
+  }
+  auto begun = store_->beginRun(start);
+  if (!begun.status.ok) return errorReply(request.id, ErrorCode::kInternal, begun.status.message);
+
+  RunnerOptions ro;
+  ro.comm_timeout_s = bench_.safety.comm_timeout_s;
+  ro.imu_timeout_s = bench_.safety.imu_timeout_s;
+  if (bench_.chamber) {
+    ro.chamber_safe_setpoint_c = bench_.chamber->safe_setpoint_c;
+    ro.chamber_over_temperature_c = bench_.chamber->over_temperature_c;
+  }
+  auto run = std::make_unique<ActiveRun>();
+  run->id = begun.run_id;
+  run->plan_name = loaded->plan.name;
+  run->runner = std::make_unique<PlanRunner>(std::move(steps), ro, *port_);
+  run->writer = std::make_unique<RunWriter>(*store_, begun.run_id);
+  run_ = std::move(run);
+  const CommandResult started = run_->runner->start(wallNow());
+  publish(run_->runner->takeEvents());
+  if (!started.ok) {
+    log_.error("run " + std::to_string(run_->id) + " not started: " + started.message);
+    const auto id = run_->id;
+    closeRun();
+    return errorReply(request.id, ErrorCode::kBadState,
+                      "run " + std::to_string(id) + " not started: " + started.message);
+  }
+  log_.info("run " + std::to_string(run_->id) + " started: plan '" + run_->plan_name + "'");
+  return okReply(request.id, {{"run", run_->id},
+                              {"plan", run_->plan_name},
+                              {"steps", run_->runner->steps().size()},
+                              {"planned_s", run_->runner->plannedTotalS()}});
+}
+
+Reply BenchDaemon::runnerCommand(const Request& request) {
+  const double now = wallNow();
+  if (request.command == Command::kStop) {
+    // Emergency stop works in every state, with or without a run.
+    if (run_) {
+      run_->runner->emergencyStop(now, "operator (control socket)");
+      publish(run_->runner->takeEvents());
+      closeRun();
+    } else {
+      const drivers::Status st = port_->emergencyStop();
+      log_.warning("emergency stop (no run)" + (st.ok ? std::string() : ": " + st.message));
+    }
+    return okReply(request.id, {{"stopped", true}});
+  }
+  if (!run_) return errorReply(request.id, ErrorCode::kBadState, "no run in progress");
+  CommandResult r;
+  if (request.command == Command::kPause) r = run_->runner->pause(now);
+  if (request.command == Command::kResume) r = run_->runner->resume(now);
+  if (request.command == Command::kAbort) r = run_->runner->abort(now);
+  publish(run_->runner->takeEvents());
+  if (!r.ok) return errorReply(request.id, ErrorCode::kBadState, r.message);
+  return okReply(request.id,
+                 {{"run", run_->id}, {"state", runnerStateName(run_->runner->state())}});
+}
+
+Reply BenchDaemon::status() const {
+  json s = {{"bench", bench_.name},
+            {"state", run_ ? runnerStateName(run_->runner->state()) : "idle"}};
+  if (imu_last_t_) s["imu_time_s"] = *imu_last_t_;
+  s["imu_lost_samples"] = imu_->decoder().counters().lost_samples;
+  s["imu_bad_frames"] = imu_->decoder().counters().badFrames();
+  if (run_) {
+    const PlanRunner& r = *run_->runner;
+    s["run"] = run_->id;
+    s["plan"] = run_->plan_name;
+    s["progress"] = r.progress();
+    s["eta_s"] = r.etaS();
+    const int k = std::clamp(r.currentStep(), 0, static_cast<int>(r.steps().size()) - 1);
+    json step = stepJson(r.steps()[static_cast<std::size_t>(k)]);
+    step["count"] = r.steps().size();
+    s["step"] = step;
+  }
+  return okReply(nullptr, s);
+}
+
+Reply BenchDaemon::listPlans() const {
+  json plans_list = json::array();
+  std::error_code ec;
+  if (!bench_.plan_dir.empty()) {
+    std::vector<std::string> files;
+    for (const auto& entry : fs::directory_iterator(bench_.plan_dir, ec)) {
+      if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
+    }
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) plans_list.push_back(f);
+  }
+  return okReply(nullptr, {{"plan_dir", bench_.plan_dir}, {"plans", plans_list}});
+}
+
+Reply BenchDaemon::validatePlan(const Request& request) const {
+  std::string why;
+  const auto loaded = loadPlan(std::get<ValidatePlanArgs>(request.args).plan, bench_, &why);
+  if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
+  return okReply(request.id, {{"plan", loaded->plan.name},
+                              {"steps", loaded->motion.segments.size()},
+                              {"planned_s", loaded->motion.duration}});
+}
+
+Reply BenchDaemon::results(const Request& request) {
+  const auto& args = std::get<ResultsArgs>(request.args);
+  if (!args.run) {
+    const auto runs = store_->listRuns();
+    if (!runs.status.ok) return errorReply(request.id, ErrorCode::kInternal, runs.status.message);
+    json list = json::array();
+    for (const RunInfo& r : runs.runs) {
+      list.push_back({{"run", r.id},
+                      {"plan", r.start.plan_name},
+                      {"state", runStateName(r.state)},
+                      {"exit", r.exit_reason},
+                      {"started_unix_s", r.started_unix_s}});
+    }
+    return okReply(request.id, {{"runs", list}});
+  }
+  const auto info = store_->runInfo(*args.run);
+  if (!info.status.ok) return errorReply(request.id, ErrorCode::kNotFound, info.status.message);
+  ResultFilter filter;
+  filter.run_id = *args.run;
+  const auto stored = store_->results(filter);
+  json list = json::array();
+  for (const StoredResult& r : stored.results) {
+    list.push_back({{"kind", r.kind}, {"json", json::parse(r.json, nullptr, false)}});
+  }
+  return okReply(request.id, {{"run", *args.run},
+                              {"state", runStateName(info.run.state)},
+                              {"exit", info.run.exit_reason},
+                              {"results", list}});
+}
+
+Reply BenchDaemon::exportRun(const Request& request) {
+  const auto& args = std::get<ExportArgs>(request.args);
+  if (run_ && run_->id == args.run) run_->writer->flush();
+  auto rec = store_->loadRecording(args.run);
+  if (!rec.status.ok) return errorReply(request.id, ErrorCode::kNotFound, rec.status.message);
+  if (auto st = writeRecording(args.dir, rec.recording); !st.ok) {
+    return errorReply(request.id, ErrorCode::kInternal, st.message);
+  }
+  return okReply(request.id,
+                 {{"run", args.run}, {"dir", args.dir}, {"imu_samples", rec.recording.imu.size()}});
+}
+
+}  // namespace imubench::daemon

@@ -1,0 +1,167 @@
+#!/usr/bin/env bash
+# Runs under tools/vcan-run.sh (vcan0 exists). The whole product on one machine: the virtual
+# bench (table and chamber over Modbus TCP, IMU frames on vcan0), imubenchd with a bench file
+# pointing at it, and a client on the control socket (python3, stdlib only). Checks:
+#   a plan runs to "finished" with step events; a second start while busy is refused (busy);
+#   the stored run exports as imubench-csv/1 with the plan's segments and IMU samples without
+#   loss; pause + resume mid-plan finishes; abort ends "aborted"; emergency stop ends
+#   "faulted"; a malformed request gets an error and the daemon keeps answering.
+# Usage: daemon_vcan_e2e.sh <imubench-virtual-bench> <imubenchd> <source dir>
+set -euo pipefail
+VB=$1
+DAEMON=$2
+SRC=$3
+DEV=$SRC/drivers/devices
+W=$(mktemp -d)
+cleanup() {
+  [[ -n ${DPID:-} ]] && kill "$DPID" 2>/dev/null && wait "$DPID" 2>/dev/null
+  [[ -n ${VPID:-} ]] && kill "$VPID" 2>/dev/null && wait "$VPID" 2>/dev/null
+  rm -rf "$W"
+}
+trap cleanup EXIT
+fail() {
+  echo "FAIL: $*"
+  echo "--- virtual bench"; tail -20 "$W/vb.out" || true
+  echo "--- daemon"; tail -40 "$W/d.out" || true
+  exit 1
+}
+
+cat >"$W/bench.toml" <<TOML
+[bench]
+name = "e2e"
+storage = "$W/imubench.db"
+control_socket = "$W/control.sock"
+[site]
+latitude = "55.7558 deg"
+height = "150 m"
+[table]
+device = "$DEV/tables/imubench-ref-2axis-tcp.toml"
+port = 1502
+[chamber]
+device = "$DEV/chambers/watlow-f4-style.toml"
+port = 1503
+[imu]
+layout = "$DEV/imus/navgrade_fd.toml"
+interface = "vcan0"
+serial = "E2E-1"
+TOML
+
+"$VB" --table "$DEV/tables/imubench-ref-2axis-tcp.toml" \
+  --chamber "$DEV/chambers/watlow-f4-style.toml" --imu "$DEV/imus/navgrade_fd.toml" \
+  --can vcan0 --time-scale 10 >"$W/vb.out" 2>&1 &
+VPID=$!
+for _ in $(seq 300); do grep -q '^ready' "$W/vb.out" && break; sleep 0.1; done
+grep -q '^ready' "$W/vb.out" || fail "virtual bench not ready"
+
+"$DAEMON" --bench "$W/bench.toml" --stderr >"$W/d.out" 2>&1 &
+DPID=$!
+for _ in $(seq 300); do [[ -S $W/control.sock ]] && break; sleep 0.1; done
+[[ -S $W/control.sock ]] || fail "daemon control socket did not appear"
+
+python3 - "$W" "$SRC/tests/daemon/data/smoke_plan.toml" <<'PY' || fail "client checks"
+import csv, json, socket, sys, time
+
+work, plan = sys.argv[1], sys.argv[2]
+sock = socket.socket(socket.AF_UNIX)
+sock.connect(work + "/control.sock")
+sock.settimeout(150)  # longer than any wait below: a stall is reported by wait_event
+f = sock.makefile("rw")
+events = []
+
+def send(obj):
+    f.write((obj if isinstance(obj, str) else json.dumps(obj)) + "\n")
+    f.flush()
+
+def reply(obj):
+    send(obj)
+    while True:
+        line = json.loads(f.readline())
+        if "event" in line:
+            events.append(line)
+        else:
+            return line
+
+def wait_event(pred, what, limit=120):
+    end = time.time() + limit
+    for e in events:
+        if pred(e):
+            events.remove(e)
+            return e
+    while time.time() < end:
+        e = json.loads(f.readline())
+        if "event" not in e:
+            continue
+        if pred(e):
+            return e
+        events.append(e)
+    raise SystemExit("timed out waiting for %s; events: %s" % (what, events[-10:]))
+
+def check(cond, what):
+    if not cond:
+        raise SystemExit("check failed: " + what)
+    print("ok:", what)
+
+r = reply({"id": 1, "cmd": "subscribe", "topics": ["run"]})
+check(r["ok"], "subscribe")
+bad = reply('{"id": 2, "cmd": "start", "plan": ')
+check(not bad["ok"] and bad["error"]["code"] == "bad_json", "malformed request refused")
+start = reply({"id": 3, "cmd": "start", "plan": {"path": plan}})
+check(start["ok"], "start: " + json.dumps(start))
+run1 = start["result"]["run"]
+busy = reply({"id": 4, "cmd": "start", "plan": {"path": plan}})
+check(not busy["ok"] and busy["error"]["code"] == "busy", "second start while busy refused")
+st = reply({"id": 5, "cmd": "status"})
+check(st["ok"] and st["result"]["state"] == "running", "status running")
+fin = wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run1, "run 1 end")
+check(fin["state"] == "finished" and fin["exit"] == "completed", "run 1 completed")
+started = [e["label"] for e in events if e["event"] == "step_started"]
+check(started == ["h1", "r1", "h2"], "step events in order: %s" % started)
+
+exp = reply({"id": 6, "cmd": "export", "run": run1, "dir": work + "/export1"})
+check(exp["ok"], "export: " + json.dumps(exp))
+with open(work + "/export1/segments.csv") as fh:
+    segs = list(csv.DictReader(fh))
+check([s["kind"] for s in segs] == ["static", "rotate", "static"], "segments stored")
+hold = float(segs[0]["t1"]) - float(segs[0]["t0"])
+check(4.9 < hold < 6.0, "hold measured on the IMU clock: %.3f s of 5 s" % hold)
+with open(work + "/export1/imu.csv") as fh:
+    rows = [l for l in fh if l[0].isdigit() or l[0] == "-"]
+ts = [float(l.split(",")[0]) for l in rows]
+gaps = sum(1 for a, b in zip(ts, ts[1:]) if b - a > 0.0015)
+check(len(ts) > 10000 and gaps == 0, "%d IMU samples stored, no gaps" % len(ts))
+st = reply({"id": 7, "cmd": "status"})
+check(st["result"]["imu_lost_samples"] == 0, "no IMU samples lost")
+
+# Pause mid-plan, resume, finish.
+start = reply({"id": 8, "cmd": "start", "plan": {"path": plan}})
+run2 = start["result"]["run"]
+wait_event(lambda e: e["event"] == "step_started" and e["label"] == "r1", "r1 start")
+check(reply({"id": 9, "cmd": "pause"})["ok"], "pause")
+check(not reply({"id": 10, "cmd": "pause"})["ok"], "pause while paused refused")
+check(reply({"id": 11, "cmd": "resume"})["ok"], "resume")
+fin = wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run2, "run 2 end")
+check(fin["exit"] == "completed", "paused and resumed run completed")
+
+# Abort.
+run3 = reply({"id": 12, "cmd": "start", "plan": {"path": plan}})["result"]["run"]
+check(reply({"id": 13, "cmd": "abort"})["ok"], "abort")
+fin = wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run3, "run 3 end")
+check(fin["state"] == "aborted", "aborted run closed as aborted")
+
+# Emergency stop.
+run4 = reply({"id": 14, "cmd": "start", "plan": {"path": plan}})["result"]["run"]
+check(reply({"id": 15, "cmd": "stop"})["ok"], "emergency stop")
+fin = wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run4, "run 4 end")
+check(fin["state"] == "faulted" and fin["exit"] == "emergency_stop", "emergency stop closes faulted")
+
+hist = reply({"id": 16, "cmd": "results"})
+states = [r["state"] for r in hist["result"]["runs"]]
+check(states == ["finished", "finished", "aborted", "faulted"], "run history %s" % states)
+check(reply({"id": 17, "cmd": "ping"})["ok"], "still answering")
+PY
+if grep "ALARM" "$W/d.out" | grep -qv "emergency stop"; then fail "unexpected alarm in the daemon log"; fi
+kill "$DPID"
+wait "$DPID" || fail "daemon exit status after SIGTERM"
+DPID=
+[[ -e $W/control.sock ]] && fail "control socket left behind"
+echo "PASS"
