@@ -1,5 +1,5 @@
 // imubench calibrate DIR [--method direct|indirect|scalar] [--json] [--out FILE] [--start FILE]
-//                        [--direct DIRECT_DIR] [--truth T.json]
+//                        [--direct DIRECT_DIR] [--truth T.json] [--db PATH] [--store-result]
 // imubench calibrate FILE --format imutk --gyro GYRO_FILE [--latitude DEG --height M | --gravity G]
 // imubench calibrate FILE --format imucal [--rate HZ] [--gravity G]
 //
@@ -9,7 +9,12 @@
 //   imubench calibrate ../shared/data/real/imutk_xsens_acc.txt --format imutk
 //       --gyro ../shared/data/real/imutk_xsens_gyro.txt --latitude 45.4 --height 12
 //   imubench calibrate ../shared/data/real/imucal_example_ferraris_session.csv --format imucal
+//   imubench calibrate 12 --direct run:11 --db lab.db --store-result   (runs of the store)
 //
+// DIR and DIRECT_DIR are RUN_OR_DIR arguments (tools/cli_store.h): a recording directory, or a
+// run id (N or run:N) of the run store given by --db. --store-result stores the coefficient
+// JSON (what --out writes) as a result of kind "coefficients" of the run DIR names, with the
+// recording's IMU serial and mean temperature (IMU temperature, else the chamber's).
 // Reads an imubench-csv/1 recording (or, with --format, a third-party recording without table
 // angles: scalar calibration only) and runs one calibration method:
 //   direct    the table-based direct calibration (calib/direct_calibration.h);
@@ -39,6 +44,7 @@
 #include "daemon/truth_file.h"
 #include "nav/free_navigation.h"
 #include "tools/cli_common.h"
+#include "tools/cli_store.h"
 
 namespace imubench::tools {
 namespace {
@@ -59,7 +65,55 @@ struct CalibrateOptions {
   std::string truth;                     // compare the estimate with this truth file
   std::optional<double> gyro_range_dps;  // IMU ranges: samples at them are refused
   std::optional<double> accel_range_g;
+  std::string db;             // run store for run ids (tools/cli_store.h)
+  bool store_result = false;  // store the coefficients as a result of run `dir`
 };
+
+// Mean temperature of a recording for its stored result: the IMU's reported temperature, else
+// the chamber's measured one.
+std::optional<double> meanTemperature(const daemon::Recording& rec) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const nav::ImuSample& s : rec.imu) {
+    if (std::isfinite(s.temp_c)) {
+      sum += s.temp_c;
+      ++n;
+    }
+  }
+  if (n == 0) {
+    for (const daemon::ChamberSample& c : rec.chamber) {
+      sum += c.temp_c;
+      ++n;
+    }
+  }
+  if (n == 0) return std::nullopt;
+  return sum / static_cast<double>(n);
+}
+
+// --store-result: the input must be a stored run with a temperature. Checked before the
+// calibration so a refused option costs nothing.
+void checkStoreResult(const CalibrateOptions& o, const ResolvedRecording& src) {
+  if (!o.store_result) return;
+  if (!src.run_id) {
+    throw CommandFailed("--store-result needs a run id, not the directory '" + o.dir + "'", 2);
+  }
+  if (!meanTemperature(src.recording)) {
+    throw CommandFailed("--store-result: " + src.label +
+                        " has no temperature (no IMU temperature, no chamber samples)");
+  }
+}
+
+void storeResult(const CalibrateOptions& o, const ResolvedRecording& src,
+                 const calib::CoefficientReport& report, std::ostream& info) {
+  if (!o.store_result || !src.run_id) return;
+  const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kExisting);
+  const daemon::ResultIdResult r = store->storeResult(*src.run_id, src.recording.imu_serial,
+                                                      meanTemperature(src.recording).value_or(0.0),
+                                                      "coefficients", calib::toJson(report).dump());
+  if (!r.status.ok) throw CommandFailed(r.status.message);
+  info << "coefficients stored as result " << r.result_id << " of " << src.label << " in " << o.db
+       << "\n";
+}
 
 std::vector<calib::TableSample> tableSamples(const daemon::Recording& rec) {
   std::vector<calib::TableSample> out;
@@ -173,8 +227,9 @@ void printComparison(const calib::TruthComparison& c, const std::string& truth_p
       c.judged - c.outside, c.judged);
 }
 
-void emit(const CalibrateOptions& o, const calib::CoefficientReport& report,
-          const nlohmann::json& extra, const calib::TableGeometry& geometry, TruthFrame frame) {
+void emit(const CalibrateOptions& o, const ResolvedRecording& src,
+          const calib::CoefficientReport& report, const nlohmann::json& extra,
+          const calib::TableGeometry& geometry, TruthFrame frame) {
   std::optional<calib::TruthComparison> cmp;
   if (!o.truth.empty()) {
     cmp = calib::compareWithTruth(report, expectedTruth(loadTruthOrFail(o.truth), geometry, frame));
@@ -193,6 +248,7 @@ void emit(const CalibrateOptions& o, const calib::CoefficientReport& report,
     if (!s.ok) throw CommandFailed(s.message);
     if (!o.json) std::cout << "coefficients written to " << o.out << "\n";
   }
+  storeResult(o, src, report, o.json ? std::cerr : std::cout);
 }
 
 // Third-party recordings (no table angles): the scalar calibration only, in the source's
@@ -269,14 +325,15 @@ void printIndirect(std::ostream& info, const std::string& what, const calib::Cal
 }
 
 // Direct recording + navigation recording of the same device on the same table.
-void runPipeline(const CalibrateOptions& o, const daemon::Recording& rec,
+void runPipeline(const CalibrateOptions& o, const ResolvedRecording& src,
                  const std::vector<calib::TableSample>& table) {
   std::ostream& info = o.json ? std::cerr : std::cout;
-  const auto read = daemon::readRecording(o.direct_dir);
-  if (!read.status.ok) throw CommandFailed(read.status.message);
-  const daemon::Recording& drec = read.recording;
+  const daemon::Recording& rec = src.recording;
+  const ResolvedRecording direct = loadRunOrDir(o.direct_dir, o.db);
+  const daemon::Recording& drec = direct.recording;
+  const std::string& dlabel = direct.label;
   if (drec.table_kind != rec.table_kind) {
-    throw CommandFailed(o.direct_dir + " and " + o.dir +
+    throw CommandFailed(dlabel + " and " + src.label +
                         " were recorded on different table kinds: not the same table");
   }
   calib::BenchCalibrationInput in;
@@ -289,38 +346,42 @@ void runPipeline(const CalibrateOptions& o, const daemon::Recording& rec,
   calib::BenchCalibrationOptions bo;
   bo.direct.checks = bo.indirect.checks = checksOf(o);
   const calib::BenchCalibrationResult r = calib::calibrateBench(in, bo);
-  if (!r.ok) throw CommandFailed(o.dir + " + " + o.direct_dir + ": " + r.error);
-  info << "direct calibration of " << o.direct_dir << ": " << r.direct.statics_used << " statics, "
+  if (!r.ok) throw CommandFailed(src.label + " + " + dlabel + ": " + r.error);
+  info << "direct calibration of " << dlabel << ": " << r.direct.statics_used << " statics, "
        << r.direct.rotations_used << " rotations\n";
   if (r.passes == 2) {
     info << "table axes nonorthogonal: direct calibration repeated with the estimated "
             "nonorthogonality, refinement repeated from it\n";
   }
-  printIndirect(info, "navigation-based calibration of " + o.dir + " + " + o.direct_dir, r.refined);
+  printIndirect(info, "navigation-based calibration of " + src.label + " + " + dlabel, r.refined);
   nlohmann::json extra = indirectExtra(r.refined);
   extra["passes"] = r.passes;
-  emit(o, r.refined.coefficients, extra, in.direct.geometry, TruthFrame::kGyroReferenced);
+  emit(o, src, r.refined.coefficients, extra, in.direct.geometry, TruthFrame::kGyroReferenced);
 }
 
 void runCalibrate(const CalibrateOptions& o) {
   if (o.format != "imubench") {
+    if (o.store_result) {
+      throw CommandFailed("--store-result needs a run id, not a --format " + o.format + " file", 2);
+    }
     runCalibrateReal(o);
     return;
   }
-  const auto read = daemon::readRecording(o.dir);
-  if (!read.status.ok) throw CommandFailed(read.status.message);
-  const daemon::Recording& rec = read.recording;
+  const ResolvedRecording src = loadRunOrDir(o.dir, o.db);
+  checkStoreResult(o, src);
+  const daemon::Recording& rec = src.recording;
+  const std::string& label = src.label;
   const std::vector<calib::TableSample> table = tableSamples(rec);
   std::ostream& info = o.json ? std::cerr : std::cout;
 
   const std::string method = o.method.empty() ? "indirect" : o.method;
   if (method == "direct") {
     const calib::DirectCalibrationResult r = runDirect(rec, table, checksOf(o));
-    if (!r.ok) throw CommandFailed(o.dir + ": direct calibration failed: " + r.reason);
-    info << "direct calibration of " << o.dir << ": " << r.statics_used << " statics, "
+    if (!r.ok) throw CommandFailed(label + ": direct calibration failed: " + r.reason);
+    info << "direct calibration of " << label << ": " << r.statics_used << " statics, "
          << r.rotations_used << " rotations\n";
     for (const std::string& n : r.notes) info << "  note: " << n << "\n";
-    emit(o, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
+    emit(o, src, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
     return;
   }
   if (method == "scalar") {
@@ -337,17 +398,17 @@ void runCalibrate(const CalibrateOptions& o) {
     so.gravity_mps2 = nav::siteGravity(rec.site());
     so.gyro_scale_guess = 1.0;
     const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
-    if (!r.status.ok()) throw CommandFailed(o.dir + ": scalar calibration: " + r.status.reason);
-    info << "scalar calibration of " << o.dir << ": " << r.spans.size()
+    if (!r.status.ok()) throw CommandFailed(label + ": scalar calibration: " + r.status.reason);
+    info << "scalar calibration of " << label << ": " << r.spans.size()
          << " static spans, |a|-g RMS " << r.accel_rms_before << " -> " << r.accel_rms_after
          << " m/s^2\n";
     for (const std::string& n : r.notes) info << "  note: " << n << "\n";
-    emit(o, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
+    emit(o, src, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
     return;
   }
   if (method != "indirect") throw CommandFailed("unknown method '" + method + "'", 2);
   if (!o.direct_dir.empty()) {
-    runPipeline(o, rec, table);
+    runPipeline(o, src, table);
     return;
   }
 
@@ -385,10 +446,10 @@ void runCalibrate(const CalibrateOptions& o) {
   const calib::CalibrationResult r = calib::calibrateIndirect(in, io);
   if (!r.ok) {
     for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
-    throw CommandFailed(o.dir + ": navigation-based calibration failed: " + r.error);
+    throw CommandFailed(label + ": navigation-based calibration failed: " + r.error);
   }
-  printIndirect(info, "navigation-based calibration of " + o.dir, r);
-  emit(o, r.coefficients, indirectExtra(r), in.geometry, TruthFrame::kGyroReferenced);
+  printIndirect(info, "navigation-based calibration of " + label, r);
+  emit(o, src, r.coefficients, indirectExtra(r), in.geometry, TruthFrame::kGyroReferenced);
 }
 
 }  // namespace
@@ -397,7 +458,8 @@ void addCalibrateCommand(CLI::App& app) {
   auto opt = std::make_shared<CalibrateOptions>();
   CLI::App* sub = app.add_subcommand("calibrate", "Calibrate an IMU from a recording");
   sub->add_option("dir", opt->dir,
-                  "Recording directory (imubench-csv/1), or with --format the recording file")
+                  "Recording directory (imubench-csv/1) or run id (N or run:N, see --db); with "
+                  "--format the recording file")
       ->required();
   sub->add_option("--method", opt->method,
                   "direct | indirect (navigation-based, default) | scalar (default and only "
@@ -421,7 +483,12 @@ void addCalibrateCommand(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   sub->add_option("--direct", opt->direct_dir,
                   "indirect: the direct plan's recording of the same device and table; runs "
-                  "the full pipeline (direct, refinement over both, nonorthogonality pass)");
+                  "the full pipeline (direct, refinement over both, nonorthogonality pass); "
+                  "a directory or a run id");
+  addStoreOption(*sub, &opt->db);
+  sub->add_flag("--store-result", opt->store_result,
+                "When DIR is a run id: store the coefficient JSON as a result (kind "
+                "\"coefficients\") of that run, with its IMU serial and mean temperature");
   sub->add_option("--format", opt->format,
                   "imubench (recording directory, default) | imutk (imu_tk text pair: "
                   "accelerometer file + --gyro) | imucal (imucal Ferraris CSV)")

@@ -36,6 +36,8 @@ void addNavCommand(CLI::App& app);       // cli_nav.cpp
 void addCalibrateCommand(CLI::App& app);   // cli_calibrate.cpp
 void addExperimentCommand(CLI::App& app);  // cli_experiment.cpp
 void addObserveCommand(CLI::App& app);     // cli_observe.cpp (`imubench plan observe`)
+// The run store: `runs`, `export`, `import` (cli_runs.cpp; --db and run ids in cli_store.h).
+void addStoreCommands(CLI::App& app);
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {
