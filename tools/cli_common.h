@@ -36,6 +36,9 @@ void addNavCommand(CLI::App& app);       // cli_nav.cpp
 void addCalibrateCommand(CLI::App& app);   // cli_calibrate.cpp
 void addExperimentCommand(CLI::App& app);  // cli_experiment.cpp
 void addObserveCommand(CLI::App& app);     // cli_observe.cpp (`imubench plan observe`)
+// Operator's commands to imubenchd over its control socket: start, pause, resume, abort, stop,
+// status, results, watch.
+void addControlCommands(CLI::App& app);  // cli_control.cpp
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   addNavCommand(app);
   addCalibrateCommand(app);
   addExperimentCommand(app);
+  addControlCommands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
