@@ -263,7 +263,11 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
   for (const RunnerEvent& e : events) {
     json fields = {{"run", run_->id}, {"step", e.step}, {"label", e.label}};
     const char* name = runnerEventKindName(e.kind);
-    if (e.kind == RunnerEvent::Kind::kState) fields["state"] = e.message;
+    if (e.kind == RunnerEvent::Kind::kState) {
+      fields["state"] = e.message;
+      const RunExit exit = run_->runner->exit();
+      if (exit != RunExit::kNone) fields["exit"] = runExitName(exit);  // how a run ended
+    }
     if (e.kind == RunnerEvent::Kind::kAlarm) fields["message"] = e.message;
     if (e.kind == RunnerEvent::Kind::kStepStarted) run_->segment_t0 = imu_last_t_;
     if (e.kind == RunnerEvent::Kind::kStepFinished && run_->segment_t0 && imu_last_t_) {

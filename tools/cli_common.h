@@ -38,6 +38,9 @@ void addExperimentCommand(CLI::App& app);  // cli_experiment.cpp
 void addObserveCommand(CLI::App& app);     // cli_observe.cpp (`imubench plan observe`)
 // The run store: `runs`, `export`, `import` (cli_runs.cpp; --db and run ids in cli_store.h).
 void addStoreCommands(CLI::App& app);
+// Operator's commands to imubenchd over its control socket: start, pause, resume, abort, stop,
+// status, results, watch.
+void addControlCommands(CLI::App& app);  // cli_control.cpp
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {

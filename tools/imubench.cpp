@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   addCalibrateCommand(app);
   addExperimentCommand(app);
   addStoreCommands(app);
+  addControlCommands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,514 @@
+// imubench start | pause | resume | abort | stop | status | results | watch: the operator's
+// commands to a running imubenchd over its control socket (tools/control_client.h).
+//
+//   imubench start PLAN [--label L] [--dry-run] [--out-dir DIR] [--watch]
+//   imubench pause | resume | abort | stop          (stop = emergency stop)
+//   imubench status [--json]     imubench results [RUN] [--json]     imubench watch [--json]
+// Every command takes --socket PATH (default $IMUBENCH_SOCKET, else /run/imubench/control.sock).
+// Human output by default; --json prints the daemon's raw reply (watch: the raw event lines).
+// An ok=false reply prints "error (code): message" and exits 1; so does a daemon that cannot
+// be reached (naming the socket). watch exits 0 when the run completed, 1 otherwise.
+//
+// ASSUMED daemon fields (the protocol fixes requests and the reply/event envelope, not yet
+// what status and the run events carry). Everything is optional: what is missing is not shown.
+//   status result: {"state":"running","run":12,"plan":"name",
+//                   "step":{"index":3,"count":45,"label":"..."},"progress":0.31,"eta_s":812.5}
+//                  (a finished run may add "exit":"completed"|"aborted"|"emergency_stop", the
+//                  RunExit names of daemon/plan_runner.h; "step" may also be a bare index)
+//   start result:  {"run":12,"plan":"name"} (anything else is printed as key: value)
+//   results:       printed generically (key: value; arrays one element per line)
+//   events, topic "run":
+//     {"event":"state","state":"paused"}  (finished runs: + "exit"; states are the
+//                                            RunnerState names: idle running paused aborting
+//                                            finished faulted)
+//     {"event":"step_started","step":3,"label":"..."}   {"event":"step_finished","step":3,...}
+//     {"event":"alarm","message":"..."}
+//   events, topic "status":
+//     {"event":"progress","progress":0.31,"eta_s":812.5,"step":3,"label":"..."}
+//     {"event":"estimate","parameter":"gyro.bias.x","value":1.2e-5,"sigma":3e-7[,"unit":".."]}
+//     {"event":"status",...}  (a periodic snapshot shaped like the status result)
+// The run has ended when its state is finished (completed unless "exit" says otherwise),
+// faulted, aborted or interrupted. Without "progress" the percentage is step/count.
+#include "tools/cli_control.h"
+
+#include <sys/ioctl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "tools/cli_common.h"
+#include "tools/control_client.h"
+
+namespace imubench::tools {
+
+using nlohmann::json;
+
+namespace {
+
+std::string dumpJson(const json& j) {
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+std::optional<long long> intField(const json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || !it->is_number()) return std::nullopt;
+  if (it->is_number_float()) return static_cast<long long>(std::llround(it->get<double>()));
+  return it->get<long long>();
+}
+
+std::optional<double> numField(const json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || !it->is_number()) return std::nullopt;
+  const double v = it->get<double>();
+  return std::isfinite(v) ? std::optional<double>(v) : std::nullopt;
+}
+
+// A string field; numbers and other scalars are shown as JSON text.
+std::optional<std::string> textField(const json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || it->is_null()) return std::nullopt;
+  if (it->is_string()) return it->get<std::string>();
+  return dumpJson(*it);
+}
+
+bool isEndState(const std::string& state) {
+  return state == "finished" || state == "faulted" || state == "aborted" || state == "interrupted";
+}
+
+// The fields status results, progress and status events share.
+void applyCommon(WatchState& s, const json& j) {
+  if (!j.is_object()) return;
+  if (!s.ended()) {
+    if (auto v = textField(j, "state")) s.state = *v;
+    if (auto v = textField(j, "exit")) s.exit = *v;
+  }
+  if (auto v = intField(j, "run")) s.run = v;
+  if (auto v = textField(j, "plan")) s.plan = *v;
+  if (auto v = numField(j, "progress")) s.progress = std::clamp(*v, 0.0, 1.0);
+  if (auto v = numField(j, "eta_s")) s.eta_s = std::max(*v, 0.0);
+  if (auto v = textField(j, "label")) s.label = *v;
+  if (auto v = intField(j, "count")) s.count = v;
+  const auto step = j.find("step");
+  if (step != j.end() && step->is_object()) {
+    if (auto v = intField(*step, "index")) s.step = v;
+    if (auto v = intField(*step, "count")) s.count = v;
+    if (auto v = textField(*step, "label")) s.label = *v;
+  } else if (auto v = intField(j, "step")) {
+    s.step = v;
+  }
+}
+
+std::string formatNumber(double v) {
+  std::ostringstream o;
+  o.precision(6);
+  o << v;
+  return o.str();
+}
+
+}  // namespace
+
+bool WatchState::ended() const {
+  return isEndState(state);
+}
+
+bool WatchState::completed() const {
+  return state == "finished" && (exit.empty() || exit == "completed");
+}
+
+void applyStatus(WatchState& s, const json& result) {
+  applyCommon(s, result);
+}
+
+void applyEvent(WatchState& s, const json& event, std::vector<std::string>* notes) {
+  if (!event.is_object() || !event.contains("event") || !event["event"].is_string()) return;
+  const std::string name = event["event"].get<std::string>();
+  if (name == "state" || name == "progress" || name == "status" || name == "step_started" ||
+      name == "step_finished") {
+    applyCommon(s, event);
+    if (name == "step_finished" && !event.contains("progress") && s.step && s.count &&
+        *s.count > 0) {
+      // Without a progress field: the steps done so far (indices taken as 0-based).
+      s.progress =
+          std::clamp(static_cast<double>(*s.step + 1) / static_cast<double>(*s.count), 0.0, 1.0);
+    }
+    return;
+  }
+  if (notes == nullptr) return;
+  if (name == "alarm") {
+    std::string line = "ALARM";
+    if (auto step = intField(event, "step")) line += " at step " + std::to_string(*step);
+    line += ": " + textField(event, "message").value_or("(no message)");
+    notes->push_back(line);
+  } else if (name == "estimate") {
+    std::string line = "estimate " + textField(event, "parameter").value_or("?");
+    if (auto v = numField(event, "value")) line += " = " + formatNumber(*v);
+    if (auto sg = numField(event, "sigma")) line += " +/- " + formatNumber(*sg);
+    if (auto u = textField(event, "unit")) line += " " + *u;
+    notes->push_back(line);
+  } else if (name == "log") {
+    notes->push_back("log: " + textField(event, "message").value_or(dumpJson(event)));
+  }
+}
+
+std::string formatDuration(double seconds) {
+  const long long t = std::llround(std::max(seconds, 0.0));
+  char buf[32];
+  if (t >= 3600) {
+    std::snprintf(buf, sizeof buf, "%lld:%02lld:%02lld", t / 3600, (t / 60) % 60, t % 60);
+  } else {
+    std::snprintf(buf, sizeof buf, "%lld:%02lld", t / 60, t % 60);
+  }
+  return buf;
+}
+
+std::string formatProgressLine(const WatchState& s, int width) {
+  std::optional<double> fraction = s.progress;
+  if (!fraction && s.step && s.count && *s.count > 0) {
+    fraction = std::clamp(static_cast<double>(*s.step) / static_cast<double>(*s.count), 0.0, 1.0);
+  }
+  if (s.completed()) fraction = 1.0;
+  constexpr int kBar = 20;
+  std::string line = "[";
+  const int filled = fraction ? static_cast<int>(std::floor(*fraction * kBar + 1e-9)) : 0;
+  line += std::string(static_cast<std::size_t>(filled), '#');
+  line += std::string(static_cast<std::size_t>(kBar - filled), '.');
+  line += "] ";
+  char pct[16];
+  if (fraction) {
+    std::snprintf(pct, sizeof pct, "%3d%%", static_cast<int>(std::floor(*fraction * 100 + 1e-9)));
+  } else {
+    std::snprintf(pct, sizeof pct, " --%%");
+  }
+  line += pct;
+  if (s.eta_s && !s.ended()) line += "  ETA " + formatDuration(*s.eta_s);
+  if (s.step) {
+    line += "  step " + std::to_string(*s.step);
+    if (s.count) line += "/" + std::to_string(*s.count);
+  }
+  if (!s.label.empty()) line += (s.step ? " " : "  ") + s.label;
+  line += "  " + (s.state.empty() ? std::string("?") : s.state);
+  if (!s.exit.empty() && s.state == "finished") line += " (" + s.exit + ")";
+  if (width > 0 && line.size() > static_cast<std::size_t>(width)) {
+    std::size_t cut = static_cast<std::size_t>(width);
+    // Never cut a UTF-8 sequence in two.
+    while (cut > 0 && (static_cast<unsigned char>(line[cut]) & 0xC0) == 0x80) --cut;
+    line.resize(cut);
+  }
+  return line;
+}
+
+std::string formatEndLine(const WatchState& s) {
+  std::string line = s.run ? "run " + std::to_string(*s.run) : std::string("run");
+  if (s.completed()) return line + " completed";
+  if (s.state == "finished") return line + " finished: " + s.exit;
+  return line + " " + (s.state.empty() ? std::string("ended") : s.state);
+}
+
+namespace {
+
+struct ControlOptions {
+  std::string socket = defaultControlSocket();
+  bool json = false;
+};
+
+void addControlOptions(CLI::App& sub, ControlOptions* o, bool with_json = true) {
+  sub.add_option("--socket", o->socket, "imubenchd's control socket ($IMUBENCH_SOCKET overrides)")
+      ->capture_default_str();
+  if (with_json) sub.add_flag("--json", o->json, "print the daemon's raw reply (JSON)");
+}
+
+// Runs fn with a client connected to o.socket; client failures become CommandFailed.
+template <typename F>
+void withClient(const ControlOptions& o, F fn) {
+  try {
+    ControlClient c;
+    c.connect(o.socket);
+    fn(c);
+  } catch (const ControlError& e) {
+    throw CommandFailed(e.what());
+  }
+}
+
+// One request; prints the raw reply with --json; an ok=false reply fails the command.
+json exchange(const ControlOptions& o, ControlClient& c, json req) {
+  const json reply = c.request(std::move(req));
+  if (o.json) std::cout << dumpJson(reply) << "\n" << std::flush;
+  if (!reply["ok"].get<bool>()) {
+    const json& e = reply["error"];
+    const std::string code = e.value("code", std::string("?"));
+    const std::string message = e.value("message", dumpJson(e));
+    throw CommandFailed("error (" + code + "): " + message);
+  }
+  return reply.contains("result") ? reply["result"] : json::object();
+}
+
+// A result the CLI has no special layout for: "key: value" lines; arrays one element a line.
+void printGeneric(const json& j, const std::string& indent = "") {
+  if (!j.is_object()) {
+    std::cout << indent << dumpJson(j) << "\n";
+    return;
+  }
+  for (const auto& [key, value] : j.items()) {
+    if (value.is_array()) {
+      std::cout << indent << key << ": " << (value.empty() ? "(none)" : "") << "\n";
+      for (const json& el : value) {
+        std::string row;
+        if (el.is_object()) {
+          for (const auto& [k, v] : el.items()) {
+            row += (row.empty() ? "" : "  ") + k + "=" +
+                   (v.is_string() ? v.get<std::string>() : dumpJson(v));
+          }
+        } else {
+          row = el.is_string() ? el.get<std::string>() : dumpJson(el);
+        }
+        std::cout << indent << "  " << row << "\n";
+      }
+    } else if (value.is_object()) {
+      std::cout << indent << key << ":\n";
+      printGeneric(value, indent + "  ");
+    } else {
+      std::cout << indent << key << ": "
+                << (value.is_string() ? value.get<std::string>() : dumpJson(value)) << "\n";
+    }
+  }
+}
+
+void printStatus(const json& r) {
+  WatchState s;
+  applyStatus(s, r);
+  std::cout << "state: " << (s.state.empty() ? "?" : s.state);
+  if (!s.exit.empty()) std::cout << " (" << s.exit << ")";
+  std::cout << "\n";
+  if (s.run || !s.plan.empty()) {
+    std::cout << (s.run ? "run " + std::to_string(*s.run) : std::string("run"));
+    if (!s.plan.empty()) std::cout << ", plan " << s.plan;
+    std::cout << "\n";
+  }
+  if (s.step) {
+    std::cout << "step " << *s.step;
+    if (s.count) std::cout << "/" << *s.count;
+    if (!s.label.empty()) std::cout << ": " << s.label;
+    std::cout << "\n";
+  }
+  if (s.progress || s.eta_s) {
+    std::cout << formatProgressLine(s, 0) << "\n";
+  }
+  // What this CLI does not know yet is still shown.
+  json rest = r.is_object() ? r : json::object();
+  for (const char* k : {"state", "exit", "run", "plan", "step", "progress", "eta_s", "label"}) {
+    rest.erase(k);
+  }
+  printGeneric(rest);
+}
+
+int terminalWidth() {
+  winsize ws{};
+  if (::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0) return ws.ws_col;
+  return 80;
+}
+
+// Follows the run until it ends (events of the subscribed connection c, s seeded from a status
+// reply). TTY: the bar redrawn in place, notes above it; otherwise one line per event.
+void followRun(ControlClient& c, WatchState s, bool json_out) {
+  const bool tty = !json_out && ::isatty(STDOUT_FILENO) == 1;
+  const int width = tty ? terminalWidth() - 1 : 0;
+  auto draw = [&] {
+    if (json_out) return;
+    if (tty) {
+      std::cout << "\r\x1b[K" << formatProgressLine(s, width) << std::flush;
+    } else {
+      std::cout << formatProgressLine(s, 0) << "\n" << std::flush;
+    }
+  };
+  if (!json_out && s.state == "idle") std::cout << "idle: waiting for a run to start\n";
+  draw();
+  while (!s.ended()) {
+    std::optional<json> ev;
+    try {
+      ev = c.nextEvent(-1);
+    } catch (const ControlError& e) {
+      if (tty) std::cout << "\n";
+      throw CommandFailed(std::string("watch: ") + e.what());
+    }
+    if (!ev) continue;
+    if (json_out) std::cout << dumpJson(*ev) << "\n" << std::flush;
+    std::vector<std::string> notes;
+    applyEvent(s, *ev, &notes);
+    if (json_out) continue;
+    for (const std::string& n : notes) std::cout << (tty ? "\r\x1b[K" : "") << n << "\n";
+    if (notes.empty() || tty) draw();
+  }
+  if (tty) std::cout << "\n";
+  if (!json_out) std::cout << formatEndLine(s) << "\n" << std::flush;
+  if (!s.completed()) throw CommandFailed(formatEndLine(s) + " (not completed)");
+}
+
+void subscribeForWatch(ControlClient& c, const ControlOptions& o) {
+  ControlOptions quiet = o;
+  quiet.json = false;
+  exchange(quiet, c, {{"cmd", "subscribe"}, {"topics", {"run", "status"}}});
+}
+
+// ---- start ----
+struct StartOptions {
+  ControlOptions ctl;
+  std::string plan;
+  std::string label;
+  std::string out_dir;
+  bool dry_run = false;
+  bool watch = false;
+};
+
+void runStart(const StartOptions& o) {
+  std::error_code ec;
+  const std::filesystem::path plan = std::filesystem::absolute(o.plan, ec);
+  if (ec || !std::filesystem::is_regular_file(plan, ec)) {
+    throw CommandFailed(o.plan + ": no such plan file");
+  }
+  json req = {{"cmd", "start"}, {"plan", {{"path", plan.lexically_normal().string()}}}};
+  json options = json::object();
+  if (o.dry_run) options["dry_run"] = true;
+  if (!o.label.empty()) options["label"] = o.label;
+  if (!o.out_dir.empty()) {
+    options["out_dir"] = std::filesystem::absolute(o.out_dir).lexically_normal().string();
+  }
+  if (!options.empty()) req["options"] = options;
+  withClient(o.ctl, [&](ControlClient& c) {
+    if (o.watch) subscribeForWatch(c, o.ctl);  // before start: no event of the run is missed
+    const json r = exchange(o.ctl, c, req);
+    if (!o.ctl.json) {
+      WatchState s;
+      applyStatus(s, r);
+      if (o.dry_run) {
+        std::cout << "dry run: " << plan.string() << " accepted\n";
+      } else {
+        std::cout << "started " << (s.run ? "run " + std::to_string(*s.run) : std::string("run"));
+        if (!s.plan.empty()) std::cout << " (plan " << s.plan << ")";
+        if (!o.label.empty()) std::cout << " label \"" << o.label << "\"";
+        std::cout << "\n";
+      }
+      json rest = r;
+      for (const char* k : {"run", "plan"}) rest.erase(k);
+      printGeneric(rest, "  ");
+    }
+    if (!o.watch) return;
+    WatchState s;
+    applyStatus(s, r);
+    applyStatus(s, exchange(ControlOptions{o.ctl.socket, false}, c, {{"cmd", "status"}}));
+    followRun(c, s, o.ctl.json);
+  });
+}
+
+// ---- pause / resume / abort / stop ----
+void runSimple(const ControlOptions& o, const std::string& cmd, const std::string& done) {
+  withClient(o, [&](ControlClient& c) {
+    const json r = exchange(o, c, {{"cmd", cmd}});
+    if (o.json) return;
+    std::cout << done;
+    if (auto st = textField(r, "state")) std::cout << " (state " << *st << ")";
+    std::cout << "\n";
+  });
+}
+
+// ---- results ----
+struct ResultsOptions {
+  ControlOptions ctl;
+  std::optional<long long> run;
+};
+
+void runResults(const ResultsOptions& o) {
+  json req = {{"cmd", "results"}};
+  if (o.run) req["run"] = *o.run;
+  withClient(o.ctl, [&](ControlClient& c) {
+    const json r = exchange(o.ctl, c, req);
+    if (o.ctl.json) return;
+    if (r.empty()) {
+      std::cout << (o.run ? "run " + std::to_string(*o.run) + ": no results\n" : "no runs\n");
+      return;
+    }
+    printGeneric(r);
+  });
+}
+
+}  // namespace
+
+void addControlCommands(CLI::App& app) {
+  const std::string group = "Daemon control";
+  {
+    auto o = std::make_shared<StartOptions>();
+    CLI::App* sub = app.add_subcommand("start", "start a plan on the bench (imubenchd)");
+    sub->group(group);
+    sub->add_option("PLAN", o->plan, "plan file (TOML), sent as an absolute path")->required();
+    sub->add_option("--label", o->label, "free text stored with the run");
+    sub->add_option("--out-dir", o->out_dir, "where the daemon writes the recording");
+    CLI::Option* dry = sub->add_flag("--dry-run", o->dry_run, "validate and expand, move nothing");
+    sub->add_flag("--watch", o->watch, "follow the run until it ends (as `imubench watch`)")
+        ->excludes(dry);
+    addControlOptions(*sub, &o->ctl);
+    sub->callback([o] { runStart(*o); });
+  }
+  struct Simple {
+    const char* name;
+    const char* help;
+    const char* done;
+  };
+  for (const Simple& s :
+       {Simple{"pause", "hold the run at the next safe point", "pause requested"},
+        Simple{"resume", "continue a paused run", "resumed"},
+        Simple{"abort", "stop the run in an orderly way", "abort requested"},
+        Simple{"stop", "EMERGENCY STOP: halt all motion now", "emergency stop sent"}}) {
+    auto o = std::make_shared<ControlOptions>();
+    CLI::App* sub = app.add_subcommand(s.name, s.help);
+    sub->group(group);
+    addControlOptions(*sub, o.get());
+    const std::string cmd = s.name;
+    const std::string done = s.done;
+    sub->callback([o, cmd, done] { runSimple(*o, cmd, done); });
+  }
+  {
+    auto o = std::make_shared<ControlOptions>();
+    CLI::App* sub = app.add_subcommand("status", "the daemon's current state and run");
+    sub->group(group);
+    addControlOptions(*sub, o.get());
+    sub->callback([o] {
+      withClient(*o, [&](ControlClient& c) {
+        const json r = exchange(*o, c, {{"cmd", "status"}});
+        if (!o->json) printStatus(r);
+      });
+    });
+  }
+  {
+    auto o = std::make_shared<ResultsOptions>();
+    CLI::App* sub = app.add_subcommand("results", "the run history, or one run's results");
+    sub->group(group);
+    sub->add_option("RUN", o->run, "run id (default: the history)")->check(CLI::PositiveNumber);
+    addControlOptions(*sub, &o->ctl);
+    sub->callback([o] { runResults(*o); });
+  }
+  {
+    auto o = std::make_shared<ControlOptions>();
+    CLI::App* sub = app.add_subcommand(
+        "watch", "follow the run: progress, ETA, step and state; exit 0 when it completed");
+    sub->group(group);
+    sub->add_option("--socket", o->socket,
+                    "imubenchd's control socket ($IMUBENCH_SOCKET overrides)")
+        ->capture_default_str();
+    sub->add_flag("--json", o->json, "print the status reply and every event as raw JSON lines");
+    sub->callback([o] {
+      withClient(*o, [&](ControlClient& c) {
+        subscribeForWatch(c, *o);
+        WatchState s;
+        applyStatus(s, exchange(*o, c, {{"cmd", "status"}}));
+        followRun(c, s, o->json);
+      });
+    });
+  }
+}
+
+}  // namespace imubench::tools
