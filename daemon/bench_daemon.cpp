@@ -385,6 +385,11 @@ Reply BenchDaemon::startPlan(const Request& request) {
                                 {"steps", steps.size()},
                                 {"planned_s", loaded->motion.duration}});
   }
+  // A bench that cannot move (controller unreachable, emergency stop not cleared) gets no run
+  // record: nothing was attempted.
+  if (const drivers::Status ready = port_->prepare(); !ready.ok) {
+    return errorReply(request.id, ErrorCode::kBadState, "the bench is not ready: " + ready.message);
+  }
   RunStart start;
   start.plan_name = loaded->plan.name;
   start.plan_toml = loaded->text;

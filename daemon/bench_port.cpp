@@ -25,7 +25,17 @@ drivers::Status DriverBenchPort::prepare() {
     if (auto st = chamber_->connect(); !st.ok) return st;
   }
   for (auto& m : modes_) m.reset();
-  return table_.interlock(drivers::InterlockCommand::kClose);
+  if (auto st = table_.interlock(drivers::InterlockCommand::kClose); !st.ok) return st;
+  // An emergency stop or a trip stays until someone resets it at the bench on purpose: a
+  // plan does not start on a table that is not cleared.
+  drivers::TableReading r;
+  const drivers::Status st = table_.read(&r);
+  if (r.estop || r.interlock_tripped || r.fault) {
+    return drivers::Status::Error("the table reports " +
+                                  (st.ok ? std::string("a fault") : st.message) +
+                                  ": clear it at the controller before starting");
+  }
+  return st;
 }
 
 drivers::Status DriverBenchPort::moveTo(int axis, double angle_rad) {

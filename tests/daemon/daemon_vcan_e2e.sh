@@ -6,11 +6,14 @@
 #   the stored run exports as imubench-csv/1 with the plan's segments and IMU samples without
 #   loss; pause + resume mid-plan finishes; abort ends "aborted"; emergency stop ends
 #   "faulted"; a malformed request gets an error and the daemon keeps answering.
-# Usage: daemon_vcan_e2e.sh <imubench-virtual-bench> <imubenchd> <source dir>
+# Then the operator's CLI against the same daemon: `imubench start PLAN --watch` follows a run
+# to completion (exit 0), `imubench status` answers, `imubench export` of the stored run works.
+# Usage: daemon_vcan_e2e.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
 VB=$1
 DAEMON=$2
-SRC=$3
+CLI=$3
+SRC=$4
 DEV=$SRC/drivers/devices
 W=$(mktemp -d)
 cleanup() {
@@ -48,7 +51,7 @@ TOML
 
 "$VB" --table "$DEV/tables/imubench-ref-2axis-tcp.toml" \
   --chamber "$DEV/chambers/watlow-f4-style.toml" --imu "$DEV/imus/navgrade_fd.toml" \
-  --can vcan0 --time-scale 10 >"$W/vb.out" 2>&1 &
+  --can vcan0 --time-scale 5 >"$W/vb.out" 2>&1 &
 VPID=$!
 for _ in $(seq 300); do grep -q '^ready' "$W/vb.out" && break; sleep 0.1; done
 grep -q '^ready' "$W/vb.out" || fail "virtual bench not ready"
@@ -57,6 +60,15 @@ grep -q '^ready' "$W/vb.out" || fail "virtual bench not ready"
 DPID=$!
 for _ in $(seq 300); do [[ -S $W/control.sock ]] && break; sleep 0.1; done
 [[ -S $W/control.sock ]] || fail "daemon control socket did not appear"
+
+export IMUBENCH_SOCKET=$W/control.sock
+"$CLI" start "$SRC/tests/daemon/data/smoke_plan.toml" --label cli --watch >"$W/watch.out" 2>&1 ||
+  { cat "$W/watch.out"; fail "imubench start --watch did not end in a completed run"; }
+tail -3 "$W/watch.out"
+"$CLI" status || fail "imubench status"
+"$CLI" export 1 --csv "$W/export0" --db "$W/imubench.db" || fail "imubench export of run 1"
+[[ -s $W/export0/imu.csv && -s $W/export0/segments.csv ]] || fail "exported run 1 is incomplete"
+echo "ok: the imubench CLI started, watched and exported a run"
 
 python3 - "$W" "$SRC/tests/daemon/data/smoke_plan.toml" <<'PY' || fail "client checks"
 import csv, json, socket, sys, time
@@ -116,6 +128,7 @@ fin = wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run1, "r
 check(fin["state"] == "finished" and fin["exit"] == "completed", "run 1 completed")
 started = [e["label"] for e in events if e["event"] == "step_started"]
 check(started == ["h1", "r1", "h2"], "step events in order: %s" % started)
+events.clear()
 
 exp = reply({"id": 6, "cmd": "export", "run": run1, "dir": work + "/export1"})
 check(exp["ok"], "export: " + json.dumps(exp))
@@ -156,7 +169,11 @@ check(fin["state"] == "faulted" and fin["exit"] == "emergency_stop", "emergency 
 
 hist = reply({"id": 16, "cmd": "results"})
 states = [r["state"] for r in hist["result"]["runs"]]
-check(states == ["finished", "finished", "aborted", "faulted"], "run history %s" % states)
+check(states == ["finished", "finished", "finished", "aborted", "faulted"], "run history %s" % states)
+bad = reply({"id": 18, "cmd": "start", "plan": {"path": plan}})
+check(not bad["ok"] and "emergency stop" in bad["error"]["message"] and
+      len(reply({"id": 19, "cmd": "results"})["result"]["runs"]) == 5,
+      "no start on a table still in emergency stop: " + bad["error"]["message"])
 check(reply({"id": 17, "cmd": "ping"})["ok"], "still answering")
 PY
 if grep "ALARM" "$W/d.out" | grep -qv "emergency stop"; then fail "unexpected alarm in the daemon log"; fi
