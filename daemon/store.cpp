@@ -333,6 +333,8 @@ struct Store::Impl {
   IoStatus insertSegments(std::int64_t run_id, std::span<const calib::Segment> rows);
   IoStatus readRun(Bound& q, RunInfo* run);
   IoStatus loadSamples(std::int64_t run_id, Recording* rec);
+  template <class RowFn>
+  IoStatus forEachRunRow(const char* sql, std::int64_t run_id, const char* what, RowFn&& row);
   IoStatus loadSegments(std::int64_t run_id, Recording* rec);
 };
 
@@ -588,73 +590,68 @@ IoStatus Store::Impl::readRun(Bound& q, RunInfo* run) {
   return IoStatus::Ok();
 }
 
-IoStatus Store::Impl::loadSamples(std::int64_t run_id, Recording* rec) {
+// Runs a "... WHERE run_id = ?1 ..." query and hands every row to row(q), which may refuse it.
+template <class RowFn>
+IoStatus Store::Impl::forEachRunRow(const char* sql, std::int64_t run_id, const char* what,
+                                    RowFn&& row) {
   IoStatus st;
-  {
-    Bound q =
-        use("SELECT t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c FROM imu_samples "
-            "WHERE run_id = ?1 ORDER BY t",
-            &st);
-    if (!q) return st;
-    q.bind(1, run_id);
-    int rc;
-    while ((rc = q.step()) == SQLITE_ROW) {
-      nav::ImuSample& s = rec->imu.emplace_back();
-      s.t = q.real(0);
-      s.dtheta = Vec3(q.real(1), q.real(2), q.real(3));
-      s.dvel = Vec3(q.real(4), q.real(5), q.real(6));
-      s.temp_c = q.realOrNaN(7);
-    }
-    if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read IMU samples");
-  }
-  {
-    Bound q =
-        use("SELECT t, angle0_deg, angle1_deg, angle2_deg FROM table_samples "
-            "WHERE run_id = ?1 ORDER BY t",
-            &st);
-    if (!q) return st;
-    q.bind(1, run_id);
-    int rc;
-    while ((rc = q.step()) == SQLITE_ROW) {
-      rec->table.push_back(TableSample{q.real(0), {q.real(1), q.real(2), q.real(3)}});
-    }
-    if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read table samples");
-  }
-  Bound q =
-      use("SELECT t, setpoint_c, temp_c FROM chamber_samples WHERE run_id = ?1 ORDER BY t", &st);
+  Bound q = use(sql, &st);
   if (!q) return st;
   q.bind(1, run_id);
   int rc;
   while ((rc = q.step()) == SQLITE_ROW) {
-    rec->chamber.push_back(ChamberSample{q.real(0), q.real(1), q.real(2)});
+    if (IoStatus r = row(q); !r.ok) return r;
   }
-  if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read chamber samples");
+  if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read " + what);
   return IoStatus::Ok();
 }
 
+IoStatus Store::Impl::loadSamples(std::int64_t run_id, Recording* rec) {
+  IoStatus st = forEachRunRow(
+      "SELECT t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c FROM imu_samples "
+      "WHERE run_id = ?1 ORDER BY t",
+      run_id, "IMU samples", [rec](Bound& q) {
+        nav::ImuSample& s = rec->imu.emplace_back();
+        s.t = q.real(0);
+        s.dtheta = Vec3(q.real(1), q.real(2), q.real(3));
+        s.dvel = Vec3(q.real(4), q.real(5), q.real(6));
+        s.temp_c = q.realOrNaN(7);
+        return IoStatus::Ok();
+      });
+  if (!st.ok) return st;
+  st = forEachRunRow(
+      "SELECT t, angle0_deg, angle1_deg, angle2_deg FROM table_samples "
+      "WHERE run_id = ?1 ORDER BY t",
+      run_id, "table samples", [rec](Bound& q) {
+        rec->table.push_back(TableSample{q.real(0), {q.real(1), q.real(2), q.real(3)}});
+        return IoStatus::Ok();
+      });
+  if (!st.ok) return st;
+  return forEachRunRow(
+      "SELECT t, setpoint_c, temp_c FROM chamber_samples WHERE run_id = ?1 ORDER BY t", run_id,
+      "chamber samples", [rec](Bound& q) {
+        rec->chamber.push_back(ChamberSample{q.real(0), q.real(1), q.real(2)});
+        return IoStatus::Ok();
+      });
+}
+
 IoStatus Store::Impl::loadSegments(std::int64_t run_id, Recording* rec) {
-  IoStatus st;
-  Bound q =
-      use("SELECT t0, t1, kind, label, recording, axis, angle_rad FROM segments "
-          "WHERE run_id = ?1 ORDER BY idx",
-          &st);
-  if (!q) return st;
-  q.bind(1, run_id);
-  int rc;
-  while ((rc = q.step()) == SQLITE_ROW) {
-    calib::Segment& s = rec->segments.emplace_back();
-    s.t0 = q.real(0);
-    s.t1 = q.real(1);
-    const auto kind = segmentKindFromName(q.text(2));
-    if (!kind) return error(runLabel(run_id) + ": unknown segment kind '" + q.text(2) + "'");
-    s.kind = *kind;
-    s.label = q.text(3);
-    s.recording = q.integer(4) != 0;
-    s.axis = static_cast<int>(q.integer(5));
-    s.angle = q.real(6);
-  }
-  if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read segments");
-  return IoStatus::Ok();
+  return forEachRunRow(
+      "SELECT t0, t1, kind, label, recording, axis, angle_rad FROM segments "
+      "WHERE run_id = ?1 ORDER BY idx",
+      run_id, "segments", [this, run_id, rec](Bound& q) {
+        calib::Segment& s = rec->segments.emplace_back();
+        s.t0 = q.real(0);
+        s.t1 = q.real(1);
+        const auto kind = segmentKindFromName(q.text(2));
+        if (!kind) return error(runLabel(run_id) + ": unknown segment kind '" + q.text(2) + "'");
+        s.kind = *kind;
+        s.label = q.text(3);
+        s.recording = q.integer(4) != 0;
+        s.axis = static_cast<int>(q.integer(5));
+        s.angle = q.real(6);
+        return IoStatus::Ok();
+      });
 }
 
 // ---------------------------------------------------------------------------------------

@@ -10,9 +10,7 @@
 #include <string>
 
 #include "nav/rotation.h"
-#include "plans/expand.h"
-#include "plans/plan.h"
-#include "plans/validator.h"
+#include "tests/daemon/library_plan_steps.h"
 #include "tests/drivers/virtual_bench_fixture.h"
 
 namespace imubench::daemon {
@@ -25,13 +23,7 @@ double wallNow() {
 }
 
 std::vector<RunStep> twelveRunSteps() {
-  const std::string path = std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/two_axis_12run.toml";
-  plans::Diagnostics diag(path);
-  auto plan = plans::loadPlanFile(path, diag);
-  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
-  const auto ex = plans::expand(*plan);
-  EXPECT_TRUE(ex.ok) << ex.error;
-  return runSteps(ex.motion);
+  return testing::libraryPlanSteps("two_axis_12run.toml");
 }
 
 // The virtual world runs 200x faster than the wall clock, so plan holds (plan seconds) are

@@ -8,9 +8,7 @@
 #include <vector>
 
 #include "nav/rotation.h"
-#include "plans/expand.h"
-#include "plans/plan.h"
-#include "plans/validator.h"
+#include "tests/daemon/library_plan_steps.h"
 
 namespace imubench::daemon {
 namespace {
@@ -89,13 +87,7 @@ class FakeBench : public BenchPort {
 };
 
 std::vector<RunStep> twelveRunSteps() {
-  const std::string path = std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/two_axis_12run.toml";
-  plans::Diagnostics diag(path);
-  auto plan = plans::loadPlanFile(path, diag);
-  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
-  const auto ex = plans::expand(*plan);
-  EXPECT_TRUE(ex.ok) << ex.error;
-  return runSteps(ex.motion);
+  return testing::libraryPlanSteps("two_axis_12run.toml");
 }
 
 RunnerOptions options() {
