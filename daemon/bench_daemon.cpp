@@ -228,10 +228,9 @@ void BenchDaemon::onImuReadable() {
   imu_last_t_ = decoded_.back().sample.t;
   imu_last_wall_s_ = wallNow();
   if (!run_) return;
-  nav::ImuSamples samples;
-  samples.reserve(decoded_.size());
-  for (const auto& d : decoded_) samples.push_back(d.sample);
-  if (auto st = run_->writer->appendImu(samples); !st.ok) log_.error("store: " + st.message);
+  samples_.clear();
+  for (const auto& d : decoded_) samples_.push_back(d.sample);
+  if (auto st = run_->writer->appendImu(samples_); !st.ok) log_.error("store: " + st.message);
 }
 
 void BenchDaemon::onPoll() {
@@ -324,8 +323,8 @@ void BenchDaemon::closeRun() {
 void BenchDaemon::onStatusTimer() {
   if (!run_) return;
   const PlanRunner& r = *run_->runner;
-  const int k = std::clamp(r.currentStep(), 0, static_cast<int>(r.steps().size()) - 1);
-  const RunStep& s = r.steps()[static_cast<std::size_t>(k)];
+  const RunStep& s = r.displayedStep();
+  const int k = s.index;
   server_->broadcast(Topic::kStatus, "progress",
                      {{"run", run_->id},
                       {"state", runnerStateName(r.state())},
@@ -385,10 +384,19 @@ Reply BenchDaemon::startPlan(const Request& request) {
                                 {"steps", steps.size()},
                                 {"planned_s", loaded->motion.duration}});
   }
-  // A bench that cannot move (controller unreachable, emergency stop not cleared) gets no run
-  // record: nothing was attempted.
-  if (const drivers::Status ready = port_->prepare(); !ready.ok) {
-    return errorReply(request.id, ErrorCode::kBadState, "the bench is not ready: " + ready.message);
+  RunnerOptions ro;
+  ro.comm_timeout_s = bench_.safety.comm_timeout_s;
+  ro.imu_timeout_s = bench_.safety.imu_timeout_s;
+  if (bench_.chamber) {
+    ro.chamber_safe_setpoint_c = bench_.chamber->safe_setpoint_c;
+    ro.chamber_over_temperature_c = bench_.chamber->over_temperature_c;
+  }
+  auto runner = std::make_unique<PlanRunner>(std::move(steps), ro, *port_);
+  // Started before the run is recorded: a bench that cannot move (controller unreachable,
+  // emergency stop not cleared) gets no run record, nothing was attempted. The runner's
+  // first events wait in its queue until the run has an id.
+  if (const CommandResult started = runner->start(wallNow()); !started.ok) {
+    return errorReply(request.id, ErrorCode::kBadState, started.message);
   }
   RunStart start;
   start.plan_name = loaded->plan.name;
@@ -405,29 +413,13 @@ Reply BenchDaemon::startPlan(const Request& request) {
   }
   auto begun = store_->beginRun(start);
   if (!begun.status.ok) return errorReply(request.id, ErrorCode::kInternal, begun.status.message);
-
-  RunnerOptions ro;
-  ro.comm_timeout_s = bench_.safety.comm_timeout_s;
-  ro.imu_timeout_s = bench_.safety.imu_timeout_s;
-  if (bench_.chamber) {
-    ro.chamber_safe_setpoint_c = bench_.chamber->safe_setpoint_c;
-    ro.chamber_over_temperature_c = bench_.chamber->over_temperature_c;
-  }
   auto run = std::make_unique<ActiveRun>();
   run->id = begun.run_id;
   run->plan_name = loaded->plan.name;
-  run->runner = std::make_unique<PlanRunner>(std::move(steps), ro, *port_);
+  run->runner = std::move(runner);
   run->writer = std::make_unique<RunWriter>(*store_, begun.run_id);
   run_ = std::move(run);
-  const CommandResult started = run_->runner->start(wallNow());
   publish(run_->runner->takeEvents());
-  if (!started.ok) {
-    log_.error("run " + std::to_string(run_->id) + " not started: " + started.message);
-    const auto id = run_->id;
-    closeRun();
-    return errorReply(request.id, ErrorCode::kBadState,
-                      "run " + std::to_string(id) + " not started: " + started.message);
-  }
   log_.info("run " + std::to_string(run_->id) + " started: plan '" + run_->plan_name + "'");
   return okReply(request.id, {{"run", run_->id},
                               {"plan", run_->plan_name},
@@ -472,8 +464,7 @@ Reply BenchDaemon::status() const {
     s["plan"] = run_->plan_name;
     s["progress"] = r.progress();
     s["eta_s"] = r.etaS();
-    const int k = std::clamp(r.currentStep(), 0, static_cast<int>(r.steps().size()) - 1);
-    json step = stepJson(r.steps()[static_cast<std::size_t>(k)]);
+    json step = stepJson(r.displayedStep());
     step["count"] = r.steps().size();
     s["step"] = step;
   }

@@ -88,7 +88,8 @@ class BenchDaemon {
   std::unique_ptr<ControlServer> server_;
   SystemdNotifier notifier_;
   std::unique_ptr<ActiveRun> run_;
-  std::vector<drivers::DecodedImuSample> decoded_;
+  std::vector<drivers::DecodedImuSample> decoded_;  // per-wake buffers, reused (hot path)
+  nav::ImuSamples samples_;
   std::optional<double> imu_last_t_;     // newest IMU sample time (the recording's clock)
   double imu_last_wall_s_ = 0.0;         // when it arrived (wall, monotonic)
   std::uint64_t imu_lost_reported_ = 0;  // lost-sample count already logged

@@ -119,6 +119,18 @@ void PlanRunner::setState(RunnerState s, double now_s) {
   emit(RunnerEvent::Kind::kState, now_s, runnerStateName(s));
 }
 
+void PlanRunner::interruptStep(double now_s) {
+  step_interrupted_ = true;
+  phase_ = Phase::kBegin;
+  step_elapsed_s_ = 0.0;
+  setState(RunnerState::kPaused, now_s);
+}
+
+const RunStep& PlanRunner::displayedStep() const {
+  const int last = static_cast<int>(steps_.size()) - 1;
+  return steps_[static_cast<std::size_t>(std::clamp(step_, 0, last))];
+}
+
 std::vector<RunnerEvent> PlanRunner::takeEvents() {
   return std::exchange(events_, {});
 }
@@ -143,10 +155,7 @@ CommandResult PlanRunner::pause(double now_s) {
     return {false, std::string("nothing to pause: the runner is ") + runnerStateName(state_)};
   }
   issue(port_.stopAll(), now_s, "stop");
-  step_interrupted_ = true;
-  phase_ = Phase::kBegin;
-  step_elapsed_s_ = 0.0;
-  setState(RunnerState::kPaused, now_s);
+  interruptStep(now_s);
   return {};
 }
 
@@ -191,11 +200,7 @@ void PlanRunner::emergencyStop(double now_s, const std::string& who) {
 bool PlanRunner::issue(const drivers::Status& st, double now_s, const std::string& what) {
   if (st.ok) return true;
   emit(RunnerEvent::Kind::kAlarm, now_s, what + " failed: " + st.message);
-  if (state_ == RunnerState::kRunning) {
-    step_interrupted_ = true;
-    phase_ = Phase::kBegin;
-    setState(RunnerState::kPaused, now_s);
-  }
+  if (state_ == RunnerState::kRunning) interruptStep(now_s);
   return false;
 }
 
@@ -203,10 +208,7 @@ void PlanRunner::alarmAndPause(double now_s, const std::string& why) {
   emit(RunnerEvent::Kind::kAlarm, now_s, why);
   if (state_ == RunnerState::kRunning) {
     port_.stopAll();  // best effort: the alarm already says what is wrong
-    step_interrupted_ = true;
-    phase_ = Phase::kBegin;
-    step_elapsed_s_ = 0.0;
-    setState(RunnerState::kPaused, now_s);
+    interruptStep(now_s);
   }
 }
 
@@ -265,8 +267,6 @@ void PlanRunner::beginStep(const BenchObservation& obs) {
   // After a pause or an alarm the table may still be braking: command nothing until it rests
   // (a controller may refuse a new demand while moving, and the start angle must be exact).
   if (moves && (obs.moving || !obs.table_ok)) return;
-  emit(RunnerEvent::Kind::kStepStarted, obs.now_s,
-       step_interrupted_ ? "re-run from its start" : std::string(calib::segmentKindName(s.kind)));
   step_elapsed_s_ = 0.0;
   if (moves && !arrived(obs, s.start_angles)) {
     // Interrupted (or the table is not where the previous step left it): back to the start.
@@ -284,6 +284,10 @@ void PlanRunner::commandStep(const BenchObservation& obs) {
   const double now_s = obs.now_s;
   phase_plan_t0_s_ = obs.plan_time_s.value_or(obs.now_s);
   const RunStep& s = steps_[step_];
+  // step_started marks the step's own command (after any return to its start): the daemon's
+  // segment for this step begins here.
+  emit(RunnerEvent::Kind::kStepStarted, now_s,
+       step_interrupted_ ? "re-run from its start" : std::string(calib::segmentKindName(s.kind)));
   step_interrupted_ = false;
   saw_moving_ = false;
   phase_t0_s_ = now_s;

@@ -129,6 +129,9 @@ class PlanRunner {
   RunExit exit() const { return exit_; }
   int currentStep() const { return step_; }  // -1 before the first, size() when done
   const std::vector<RunStep>& steps() const { return steps_; }
+  // The step to show an operator: the current one, the first before start, the last after
+  // the end. Requires a non-empty plan (start() refuses an empty one).
+  const RunStep& displayedStep() const;
   double plannedTotalS() const;
   double progress() const;  // 0..1 by planned time
   double etaS() const;      // remaining planned time (the interrupted step counted whole)
@@ -138,6 +141,8 @@ class PlanRunner {
   enum class Phase { kBegin, kReturning, kMoving, kWaiting };
 
   void setState(RunnerState s, double now_s);
+  // Stops the current step where it is: it re-runs from its start on resume.
+  void interruptStep(double now_s);
   void alarmAndPause(double now_s, const std::string& why);
   bool safetyChecks(const BenchObservation& obs);
   void advance(const BenchObservation& obs);
