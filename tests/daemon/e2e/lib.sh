@@ -1,0 +1,115 @@
+#!/usr/bin/env bash
+# Shared harness of the daemon's end-to-end tests (sourced, run under tools/vcan-run.sh so
+# vcan0 exists): a scratch directory, the virtual bench, imubenchd with a bench file pointing
+# at it, and cleanup. Every process it starts is stopped on exit.
+#
+#   source "$SRC/tests/daemon/e2e/lib.sh"
+#   e2e_init VB DAEMON CLI SRC         # sets W (scratch dir), DEV (device files), trap cleanup
+#   e2e_bench_file [EXTRA_TOML]        # writes $W/bench.toml (2-axis TCP table, chamber, IMU)
+#   e2e_start_vb [ARGS...]             # virtual bench with the same devices; waits for "ready"
+#   e2e_start_daemon                   # imubenchd on $W/bench.toml; waits for the socket
+#   e2e_stop_daemon                    # SIGTERM, checks the exit status
+#   e2e_py SCRIPT [ARGS...]            # python3 with tests/daemon/e2e on the path (e2e_client)
+#   fail MESSAGE                       # prints the tails of the logs and exits 1
+# The bench file uses limits the bundled virtual bench has (30 deg/s, 10 deg/s^2), so the
+# e2e plans must stay within them.
+
+e2e_init() {
+  VB=$1
+  DAEMON=$2
+  CLI=$3
+  SRC=$4
+  DEV=$SRC/drivers/devices
+  W=$(mktemp -d)
+  export IMUBENCH_SOCKET=$W/control.sock
+  trap e2e_cleanup EXIT
+}
+
+e2e_cleanup() {
+  [[ -n ${DPID:-} ]] && kill "$DPID" 2>/dev/null && wait "$DPID" 2>/dev/null
+  [[ -n ${VPID:-} ]] && kill "$VPID" 2>/dev/null && wait "$VPID" 2>/dev/null
+  rm -rf "$W"
+}
+
+fail() {
+  echo "FAIL: $*"
+  echo "--- virtual bench"
+  tail -20 "$W/vb.out" 2>/dev/null || true
+  echo "--- daemon"
+  tail -40 "$W/d.out" 2>/dev/null || true
+  exit 1
+}
+
+E2E_TABLE_DEVICE=${E2E_TABLE_DEVICE:-}
+E2E_CHAMBER_DEVICE=${E2E_CHAMBER_DEVICE:-}
+E2E_IMU_LAYOUT=${E2E_IMU_LAYOUT:-}
+
+e2e_bench_file() {
+  : "${E2E_TABLE_DEVICE:=$DEV/tables/imubench-ref-2axis-tcp.toml}"
+  : "${E2E_CHAMBER_DEVICE:=$DEV/chambers/watlow-f4-style.toml}"
+  : "${E2E_IMU_LAYOUT:=$DEV/imus/navgrade_fd.toml}"
+  cat >"$W/bench.toml" <<TOML
+[bench]
+name = "e2e"
+storage = "$W/imubench.db"
+control_socket = "$W/control.sock"
+[site]
+latitude = "55.7558 deg"
+height = "150 m"
+[table]
+device = "$E2E_TABLE_DEVICE"
+port = 1502
+max_rate = "30 deg/s"
+max_accel = "10 deg/s^2"
+[chamber]
+device = "$E2E_CHAMBER_DEVICE"
+port = 1503
+safe_setpoint = "23 degC"
+over_temperature = "90 degC"
+[imu]
+layout = "$E2E_IMU_LAYOUT"
+interface = "vcan0"
+serial = "E2E-1"
+${1:-}
+TOML
+}
+
+e2e_start_vb() {
+  : "${E2E_TABLE_DEVICE:=$DEV/tables/imubench-ref-2axis-tcp.toml}"
+  : "${E2E_CHAMBER_DEVICE:=$DEV/chambers/watlow-f4-style.toml}"
+  : "${E2E_IMU_LAYOUT:=$DEV/imus/navgrade_fd.toml}"
+  : >"$W/vb.out"
+  "$VB" --table "$E2E_TABLE_DEVICE" --chamber "$E2E_CHAMBER_DEVICE" --imu "$E2E_IMU_LAYOUT" \
+    --can vcan0 "$@" >>"$W/vb.out" 2>&1 &
+  VPID=$!
+  local _
+  for _ in $(seq 300); do grep -q '^ready' "$W/vb.out" && return 0; sleep 0.1; done
+  fail "virtual bench not ready"
+}
+
+e2e_stop_vb() {
+  [[ -n ${VPID:-} ]] || return 0
+  kill "$VPID" 2>/dev/null
+  wait "$VPID" 2>/dev/null
+  VPID=
+}
+
+e2e_start_daemon() {
+  "$DAEMON" --bench "$W/bench.toml" --stderr "$@" >"$W/d.out" 2>&1 &
+  DPID=$!
+  local _
+  for _ in $(seq 300); do [[ -S $W/control.sock ]] && return 0; sleep 0.1; done
+  fail "daemon control socket did not appear"
+}
+
+e2e_stop_daemon() {
+  kill "$DPID"
+  wait "$DPID" || fail "daemon exit status after SIGTERM"
+  DPID=
+  [[ -e $W/control.sock ]] && fail "control socket left behind"
+  return 0
+}
+
+e2e_py() {
+  PYTHONPATH="$SRC/tests/daemon/e2e${PYTHONPATH:+:$PYTHONPATH}" python3 - "$W" "$@"
+}
