@@ -77,43 +77,78 @@ double medianStep(const std::vector<double>& t) {
   return median(std::move(dt));
 }
 
-// Centred moving-window total variance (sum over axes) of a vector series.
+// Centred moving-window total variance (sum over axes) of a vector series, half-width `half`.
+// The sums are taken block by block about a reference inside the block (its first sample), so
+// their rounding is at the scale of the data within a few windows, not of the whole series:
+// identical readings give exactly 0 and a static window far from motion is never swamped by
+// the rounding of large sums (the running sums of a whole recording are not).
 std::vector<double> windowVariance(const std::vector<Vec3>& v, std::size_t half) {
   const std::size_t n = v.size();
-  std::vector<Vec3> s1(n + 1, Vec3::Zero());
-  std::vector<double> s2(n + 1, 0.0);
-  // Subtract the first value so the sums do not lose precision on offset raw counts.
-  const Vec3 ref = n > 0 ? v[0] : Vec3::Zero();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Vec3 x = v[i] - ref;
-    s1[i + 1] = s1[i] + x;
-    s2[i + 1] = s2[i] + x.squaredNorm();
-  }
   std::vector<double> out(n, 0.0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t a = i >= half ? i - half : 0;
-    const std::size_t b = std::min(n, i + half + 1);
-    const double m = static_cast<double>(b - a);
-    const Vec3 mean = (s1[b] - s1[a]) / m;
-    out[i] = std::max(0.0, (s2[b] - s2[a]) / m - mean.squaredNorm());
+  const std::size_t block = std::max<std::size_t>(half, 1);
+  std::vector<Vec3> s1;
+  std::vector<double> s2;
+  for (std::size_t c0 = 0; c0 < n; c0 += block) {
+    const std::size_t c1 = std::min(n, c0 + block);  // centres [c0, c1)
+    const std::size_t lo = c0 >= half ? c0 - half : 0;
+    const std::size_t hi = std::min(n, c1 + half);  // samples [lo, hi)
+    const Vec3 ref = v[c0];
+    s1.assign(hi - lo + 1, Vec3::Zero());
+    s2.assign(hi - lo + 1, 0.0);
+    for (std::size_t i = lo; i < hi; ++i) {
+      const Vec3 x = v[i] - ref;
+      s1[i - lo + 1] = s1[i - lo] + x;
+      s2[i - lo + 1] = s2[i - lo] + x.squaredNorm();
+    }
+    for (std::size_t i = c0; i < c1; ++i) {
+      const std::size_t a = (i >= half ? i - half : 0) - lo;
+      const std::size_t b = std::min(n, i + half + 1) - lo;
+      const double m = static_cast<double>(b - a);
+      const Vec3 mean = (s1[b] - s1[a]) / m;
+      out[i] = std::max(0.0, (s2[b] - s2[a]) / m - mean.squaredNorm());
+    }
   }
   return out;
 }
 
-double quietLevel(const std::vector<double>& var, double q) {
+// The reading step of axis k when the readings lie on a grid (raw counts, fixed-point
+// exports): the smallest non-zero change between consecutive readings, accepted when nearly
+// every reading is a whole number of steps from the first. 0 for unquantised data.
+double quantisationStep(const std::vector<Vec3>& v, int k) {
+  double step = 0.0;
+  for (std::size_t i = 1; i < v.size(); ++i) {
+    const double d = std::abs(v[i][k] - v[i - 1][k]);
+    if (d > 0.0 && (step == 0.0 || d < step)) step = d;
+  }
+  if (step == 0.0) return 0.0;
+  std::size_t on_grid = 0;
+  for (const Vec3& x : v) {
+    const double units = (x[k] - v.front()[k]) / step;
+    if (std::abs(units - std::round(units)) < 1e-3) ++on_grid;
+  }
+  return on_grid >= v.size() - v.size() / 100 ? step : 0.0;
+}
+
+// The least quiet level the data can show (total over axes): the variance of their
+// quantisation (q^2/12 per axis for a reading step q), and the rounding of the window sums
+// (1e-12 of the largest squared deviation: far above double rounding, far below any sensor's
+// noise). Noise-free or coarsely quantised statics then count as quiet, not as motion.
+double quietFloor(const std::vector<Vec3>& v) {
+  double floor = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double q = quantisationStep(v, k);
+    floor += q * q / 12.0;
+  }
+  double max_dev2 = 0.0;
+  for (const Vec3& x : v) max_dev2 = std::max(max_dev2, (x - v.front()).squaredNorm());
+  return std::max(floor, 1e-12 * max_dev2);
+}
+
+double quietLevel(const std::vector<double>& var, double q, double floor) {
   std::vector<double> sorted = var;
   const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(sorted.size() - 1));
   std::nth_element(sorted.begin(), sorted.begin() + k, sorted.end());
-  double level = sorted[static_cast<std::size_t>(k)];
-  if (level <= 0.0) {
-    // Quantised data can have windows of identical readings: use the smallest non-zero
-    // variance so the threshold is not zero.
-    double smallest = 0.0;
-    for (double x : var)
-      if (x > 0.0 && (smallest == 0.0 || x < smallest)) smallest = x;
-    level = smallest;
-  }
-  return level;
+  return std::max(sorted[static_cast<std::size_t>(k)], floor);
 }
 
 }  // namespace
@@ -246,16 +281,16 @@ StaticDetectionResult detectStaticSpans(const RawImuData& d, const StaticDetecti
   const double step = medianStep(d.t);
   const auto half = static_cast<std::size_t>(std::max(1.0, std::round(0.5 * o.window_s / step)));
   const std::vector<double> va = windowVariance(d.accel, half);
-  r.accel_quiet_variance = quietLevel(va, o.quiet_quantile);
+  r.accel_quiet_variance = quietLevel(va, o.quiet_quantile, quietFloor(d.accel));
   r.accel_threshold = o.threshold_factor * r.accel_quiet_variance;
   std::vector<double> vg;
   double gyro_threshold = 0.0;
   if (o.use_gyro) {
     vg = windowVariance(d.gyro, half);
-    gyro_threshold = o.threshold_factor * quietLevel(vg, o.quiet_quantile);
+    gyro_threshold = o.threshold_factor * quietLevel(vg, o.quiet_quantile, quietFloor(d.gyro));
   }
   auto isStatic = [&](std::size_t i) {
-    return va[i] < r.accel_threshold && (!o.use_gyro || vg[i] < gyro_threshold);
+    return va[i] <= r.accel_threshold && (!o.use_gyro || vg[i] <= gyro_threshold);
   };
   std::size_t i = 0;
   const std::size_t n = d.t.size();

@@ -84,6 +84,30 @@ TEST(StaticDetection, FindsEveryPoseOfASyntheticSession) {
   for (std::size_t k = 1; k < r.spans.size(); ++k) EXPECT_GT(r.spans[k].duration(), 2.5);
 }
 
+// Noise-free readings: every static window has zero variance. Running sums over the whole
+// recording turned them into rounding noise (even negative) and no hold was found.
+TEST(StaticDetection, FindsEveryPoseOfANoiseFreeSession) {
+  const Session s = makeSession(truthModel(), 15, 10.0, 4.0, 2.0, 0.0, 0.0, 7);
+  const StaticDetectionResult r = detectStaticSpans(s.data);
+  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_EQ(static_cast<int>(r.spans.size()), s.poses);
+  for (std::size_t k = 1; k < r.spans.size(); ++k) EXPECT_GT(r.spans[k].duration(), 2.5);
+}
+
+// Finely and coarsely quantised readings (raw counts): statics flip between a few values.
+TEST(StaticDetection, FindsEveryPoseOfAQuantisedSession) {
+  for (const double lsb : {1e-4, 1e-3, 2e-2}) {
+    Session s = makeSession(truthModel(), 15, 10.0, 4.0, 2.0, 0.05 * lsb, 0.05 * lsb, 11);
+    for (auto* series : {&s.data.accel, &s.data.gyro}) {
+      for (Vec3& x : *series) x = (x / lsb).array().round().matrix() * lsb;
+    }
+    const StaticDetectionResult r = detectStaticSpans(s.data);
+    ASSERT_TRUE(r.status.ok()) << "lsb " << lsb << ": " << r.status.reason;
+    EXPECT_EQ(static_cast<int>(r.spans.size()), s.poses) << "lsb " << lsb;
+    for (std::size_t k = 1; k < r.spans.size(); ++k) EXPECT_GT(r.spans[k].duration(), 2.5);
+  }
+}
+
 TEST(RecordingCheck, RefusesNaNWithTheSample) {
   Session s = makeSession(truthModel(), 6, 5.0, 3.0, 1.0, 0.01, 0.05, 1);
   s.data.gyro[123].y() = std::nan("");
