@@ -55,11 +55,13 @@ enum class FrameVerdict {
 const char* frameVerdictName(FrameVerdict v);
 
 struct ImuDecoderOptions {
-  // How many times faster than the receive clock the IMU's clock may run. A real IMU runs at
-  // the receive clock's rate (ppm apart); the virtual bench runs its IMU --time-scale times
-  // faster. 100 covers every scale the tests use and still tells a 32-bit counter's restart
-  // (a 2^32-sample jump) from its wrap for silences up to hours.
-  double max_clock_ratio = 100.0;
+  // How many times faster than the receive clock the IMU's clock may run over a silence. A
+  // real IMU runs at the receive clock's rate (ppm apart); 2 leaves room for a slewed
+  // receive clock and still tells a restart after a silence of S seconds from a wrap unless
+  // the counter or time stamp was within 2 S + max_jitter_s of its wrap. (The virtual bench
+  // runs its IMU --time-scale times faster: a silence of its IMU that kept counting would be
+  // taken for a restart, and re-based to the receive time.)
+  double max_clock_ratio = 2.0;
   // Receive-time slack on top: a sender's batching and scheduling, kernel time stamp jitter.
   double max_jitter_s = 0.5;
   bool IsValid(std::string* why) const;
