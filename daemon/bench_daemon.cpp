@@ -186,7 +186,9 @@ IoStatus BenchDaemon::start() {
   }
   if (bench_.chamber) {
     const auto period = seconds(bench_.chamber->poll_period_s);
-    if (auto st = loop_.addTimer(period, period, [this] { onChamberPoll(); }, &timer); !st.ok) {
+    if (auto st = loop_.addTimer(
+            period, period, [this] { onChamberPoll(); }, &timer);
+        !st.ok) {
       return st;
     }
   }

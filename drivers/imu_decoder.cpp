@@ -1,9 +1,9 @@
 #include "drivers/imu_decoder.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <cstdio>
-#include <algorithm>
 #include <limits>
 #include <optional>
 
@@ -189,8 +189,7 @@ ImuDecoder::DeviceStamp ImuDecoder::peekStamp() const {
 
 // A forward step of the sequence and the time stamp that the elapsed receive time explains
 // (rx_elapsed: nullopt when the frames carry no receive time: then any step is taken).
-bool ImuDecoder::plausibleStep(const DeviceStamp& next,
-                               std::optional<double> rx_elapsed) const {
+bool ImuDecoder::plausibleStep(const DeviceStamp& next, std::optional<double> rx_elapsed) const {
   if (!rx_elapsed || (seq_quantity_ < 0 && !has_time_)) return true;
   const double limit =
       options_.max_clock_ratio * std::max(*rx_elapsed, 0.0) + options_.max_jitter_s;

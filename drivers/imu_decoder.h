@@ -134,10 +134,10 @@ class ImuDecoder {
   int seq_quantity_ = -1;  // kCounter, kTime, or -1
   double seq_step_ = 1.0;  // raw units per sample
   bool have_last_ = false;
-  DeviceStamp last_;             // the last delivered sample's device stamp
-  double last_rx_ = 0.0;         // and its receive time
-  std::int64_t seq_base_ = 0;    // re-basing after restarts: sequence = device + seq_base_
-  double time_base_ = 0.0;       // time = device + time_base_
+  DeviceStamp last_;           // the last delivered sample's device stamp
+  double last_rx_ = 0.0;       // and its receive time
+  std::int64_t seq_base_ = 0;  // re-basing after restarts: sequence = device + seq_base_
+  double time_base_ = 0.0;     // time = device + time_base_
   Unwrapper counter_unwrap_;
   Unwrapper time_unwrap_;
   bool time_is_integer_ = false;

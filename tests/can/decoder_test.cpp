@@ -379,7 +379,7 @@ TEST(VirtualImuCan, RestartFaultAndWrapStart) {
   VirtualImuOptions options;
   options.interface = "unused";
   options.wrap_at_s = 1.5;
-  options.faults.restart_at_s = 2.9995;     // sample 2999 (3.000 s) is the first not sent
+  options.faults.restart_at_s = 2.9995;       // sample 2999 (3.000 s) is the first not sent
   options.faults.restart_silence_s = 0.1995;  // ... and 3199 (3.200 s) the first after it
   VirtualImuCan v(layout, options);
   std::vector<CanFrame> frames;

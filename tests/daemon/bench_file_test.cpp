@@ -90,10 +90,9 @@ TEST(BenchFile, EveryFieldReadAndPathsResolvedAgainstTheBenchFile) {
 
 TEST(BenchFile, ChamberPollPeriod) {
   plans::Diagnostics diag("bench.toml");
-  const auto b =
-      parse(replaced("safe_setpoint = \"25 degC\"",
-                     "safe_setpoint = \"25 degC\"\npoll_period = \"250 ms\""),
-            diag);
+  const auto b = parse(replaced("safe_setpoint = \"25 degC\"",
+                                "safe_setpoint = \"25 degC\"\npoll_period = \"250 ms\""),
+                       diag);
   ASSERT_TRUE(b.has_value()) << diag.str();
   EXPECT_DOUBLE_EQ(b->chamber->poll_period_s, 0.25);
 }
@@ -151,9 +150,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"safe_setpoint_range", replaced("\"25 degC\"", "\"500 degC\""),
                 "safe_setpoint is outside", 0},
         BadCase{"poll_period_range",
-                 replaced("safe_setpoint = \"25 degC\"",
-                          "safe_setpoint = \"25 degC\"\npoll_period = \"0 s\""),
-                 "poll_period must be in [0.01, 60] s", 20},
+                replaced("safe_setpoint = \"25 degC\"",
+                         "safe_setpoint = \"25 degC\"\npoll_period = \"0 s\""),
+                "poll_period must be in [0.01, 60] s", 20},
         BadCase{"timeout_range", replaced("\"0.2 s\"", "\"0 s\""), "imu_timeout must be", 0},
         BadCase{"wrong_type", replaced("\"lab2-a\"", "3"), "\"name\" must be a string", 2}),
     [](const ::testing::TestParamInfo<BadCase>& tc) { return std::string(tc.param.name); });

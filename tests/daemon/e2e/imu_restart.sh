@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Issue 17, defect 4, through the real imubenchd on vcan: the virtual IMU's counter and time
-# stamp start so that both wrap 40 s (simulated) in, a plan runs across the wrap, and the IMU
+# stamp start so that both wrap 80 s (simulated) in, a plan runs across the wrap, and the IMU
 # restarts mid-run (SIGRTMIN+1: 0.2 s silent, then counter and time stamp from 0). Checks:
 # the wrap stays a wrap and the restart is a restart: an "imu_restart" event on topic "run",
 # status imu_restarts 1 and no lost samples, the restart in the daemon's log at warning; the
@@ -29,7 +29,7 @@ type = "hold"
 duration = "60 s"
 label = "h2"
 TOML
-e2e_start_vb --time-scale 5 --imu-wrap-at 40
+e2e_start_vb --time-scale 5 --imu-wrap-at 80
 e2e_start_daemon
 
 e2e_py "$VPID" <<'PY' || fail "client checks"
