@@ -101,6 +101,7 @@ struct BenchDaemon::ActiveRun {
   std::unique_ptr<RunWriter> writer;
   std::optional<double> segment_t0;  // IMU time the current step's command went out
   std::optional<double> last_table_t;
+  std::optional<double> last_chamber_t;
 };
 
 bool DaemonOptions::IsValid(std::string* why) const {
@@ -112,11 +113,15 @@ bool DaemonOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "status_period_s must be positive";
     return false;
   }
-  return true;
+  return log_limits.IsValid(why);
 }
 
 BenchDaemon::BenchDaemon(BenchConfig bench, DaemonOptions options, const Logger& log)
-    : bench_(std::move(bench)), options_(std::move(options)), log_(log) {}
+    : bench_(std::move(bench)),
+      options_(std::move(options)),
+      log_(log),
+      limited_([this](LogLevel level, const std::string& line) { log_.log(level, line); },
+               options_.log_limits) {}
 
 BenchDaemon::~BenchDaemon() {
   if (run_) closeRun();
@@ -141,11 +146,16 @@ IoStatus BenchDaemon::start() {
     log_.warning(std::to_string(cut.count) + " run(s) cut off by a crash marked interrupted");
   }
 
-  auto sink = [this](const std::string& m) { log_.info(m); };
-  table_ = drivers::makeTableDriver(bench_.table, sink);
+  // The drivers report every retry and fault: on a dead link that is every poll.
+  const auto sink = [this](const char* topic) {
+    return [this, topic](const std::string& m) {
+      limited_.report(topic, LogLevel::kWarning, m, wallNow());
+    };
+  };
+  table_ = drivers::makeTableDriver(bench_.table, sink("table"));
   if (auto st = table_->connect(); !st.ok) return IoStatus::Error("table: " + st.message);
   if (bench_.chamber) {
-    chamber_ = drivers::makeChamberDriver(bench_.chamber->device, sink);
+    chamber_ = drivers::makeChamberDriver(bench_.chamber->device, sink("chamber"));
     if (auto st = chamber_->connect(); !st.ok) return IoStatus::Error("chamber: " + st.message);
   }
   port_ = std::make_unique<DriverBenchPort>(*table_, chamber_.get());
@@ -173,6 +183,14 @@ IoStatus BenchDaemon::start() {
           &timer);
       !st.ok) {
     return st;
+  }
+  if (bench_.chamber) {
+    const auto period = seconds(bench_.chamber->poll_period_s);
+    if (auto st = loop_.addTimer(
+            period, period, [this] { onChamberPoll(); }, &timer);
+        !st.ok) {
+      return st;
+    }
   }
   if (auto st = loop_.addTimer(
           seconds(options_.status_period_s), seconds(options_.status_period_s),
@@ -215,15 +233,10 @@ void BenchDaemon::stop() {
 void BenchDaemon::onImuReadable() {
   decoded_.clear();
   if (auto st = imu_->poll(0, &decoded_); !st.ok) {
-    log_.error("IMU: " + st.message);
+    limited_.report("IMU", LogLevel::kError, "IMU: " + st.message, wallNow());
     return;
   }
-  const auto& counters = imu_->decoder().counters();
-  if (counters.lost_samples > imu_lost_reported_) {
-    log_.warning("IMU: " + std::to_string(counters.lost_samples - imu_lost_reported_) +
-                 " sample(s) lost: " + imu_->decoder().lastProblem());
-    imu_lost_reported_ = counters.lost_samples;
-  }
+  reportImuProblems();
   if (decoded_.empty()) return;
   imu_last_t_ = decoded_.back().sample.t;
   imu_last_wall_s_ = wallNow();
@@ -231,6 +244,34 @@ void BenchDaemon::onImuReadable() {
   samples_.clear();
   for (const auto& d : decoded_) samples_.push_back(d.sample);
   if (auto st = run_->writer->appendImu(samples_); !st.ok) log_.error("store: " + st.message);
+}
+
+// Lost samples go to the log; a restart also to the run's event log and the socket.
+void BenchDaemon::reportImuProblems() {
+  const drivers::ImuDecoder& decoder = imu_->decoder();
+  const auto& counters = decoder.counters();
+  if (counters.lost_samples > imu_lost_reported_) {
+    limited_.report("IMU lost samples", LogLevel::kWarning,
+                    "IMU: " + std::to_string(counters.lost_samples - imu_lost_reported_) +
+                        " sample(s) lost: " + decoder.lastProblem(),
+                    wallNow());
+    imu_lost_reported_ = counters.lost_samples;
+  }
+  if (counters.restarts == imu_restarts_reported_) return;
+  imu_restarts_reported_ = counters.restarts;
+  limited_.report("IMU restart", LogLevel::kWarning, decoder.lastRestart(), wallNow());
+  json fields = {{"restarts", counters.restarts}, {"message", decoder.lastRestart()}};
+  if (run_) {
+    fields["run"] = run_->id;
+    RunEvent stored;
+    stored.run_id = run_->id;
+    stored.wall_unix_s = unixNow();
+    stored.severity = EventSeverity::kWarning;
+    stored.kind = "imu_restart";
+    stored.json = fields.dump();
+    if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
+  }
+  server_->broadcast(Topic::kRun, "imu_restart", fields);
 }
 
 void BenchDaemon::onPoll() {
@@ -293,11 +334,29 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
     if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
     server_->broadcast(Topic::kRun, name, fields);
     if (e.kind == RunnerEvent::Kind::kAlarm) {
-      log_.warning("run " + std::to_string(run_->id) + ": ALARM: " + e.message);
+      limited_.report("run alarms", LogLevel::kWarning,
+                      "run " + std::to_string(run_->id) + ": ALARM: " + e.message, wallNow());
     } else if (e.kind == RunnerEvent::Kind::kState) {
       log_.info("run " + std::to_string(run_->id) + ": " + e.message);
     }
   }
+}
+
+// The chamber on its own timer: its reading for the runner's next ticks, and a chamber
+// sample of the run stamped with the newest IMU time.
+void BenchDaemon::onChamberPoll() {
+  if (!run_ || !chamber_) return;
+  drivers::ChamberReading c;
+  if (!port_->readChamber(&c) || !imu_last_t_) return;
+  if (run_->last_chamber_t && !(*imu_last_t_ > *run_->last_chamber_t)) return;
+  ChamberSample cs;
+  cs.t = *imu_last_t_;
+  cs.setpoint_c = c.setpoint_c;
+  cs.temp_c = c.temperature_c;
+  if (auto st = run_->writer->appendChamber(std::span(&cs, 1)); !st.ok) {
+    log_.error("store: " + st.message);
+  }
+  run_->last_chamber_t = cs.t;
 }
 
 void BenchDaemon::closeRun() {
@@ -321,6 +380,7 @@ void BenchDaemon::closeRun() {
 }
 
 void BenchDaemon::onStatusTimer() {
+  limited_.tick(wallNow());
   if (!run_) return;
   const PlanRunner& r = *run_->runner;
   const RunStep& s = r.displayedStep();
@@ -458,6 +518,7 @@ Reply BenchDaemon::status() const {
   if (imu_last_t_) s["imu_time_s"] = *imu_last_t_;
   s["imu_lost_samples"] = imu_->decoder().counters().lost_samples;
   s["imu_bad_frames"] = imu_->decoder().counters().badFrames();
+  s["imu_restarts"] = imu_->decoder().counters().restarts;
   if (run_) {
     const PlanRunner& r = *run_->runner;
     s["run"] = run_->id;

@@ -3,14 +3,20 @@
 // run's writer. Everything happens on the loop's thread:
 //
 //   IMU socket readable  -> decode -> the run's IMU samples (RunWriter, committed twice a second)
-//   table poll timer     -> read table/chamber -> runner.tick -> commands, events, segments
+//   table poll timer     -> read table -> runner.tick -> commands, events, segments
+//   chamber poll timer   -> read chamber (its own, slower period) -> the run's chamber samples
 //   runner events        -> store events, control-socket broadcast (topic "run"), syslog
 //   status timer         -> topic "status" (progress, ETA, step), sd_notify STATUS, watchdog
 //   control socket       -> start/pause/resume/abort/stop/status/list_plans/validate_plan/
 //                           results/export
 //
-// Time: the IMU's sample time is the recording's clock; table samples and segment bounds are
-// stamped with the newest IMU sample time when they are taken.
+// Time: the IMU's sample time is the recording's clock; table and chamber samples and segment
+// bounds are stamped with the newest IMU sample time when they are taken. An IMU restart does
+// not break it: the decoder re-bases the time axis, the daemon reports the restart (event
+// "imu_restart" on topic "run", the run's event log, status "imu_restarts", the log).
+//
+// Logging: the drivers' retries and faults, the runner's alarms and the IMU's losses go
+// through a LogLimiter: a problem repeated on every poll is logged once, then summarised.
 #pragma once
 
 #include <chrono>
@@ -24,6 +30,7 @@
 #include "daemon/bench_port.h"
 #include "daemon/control_server.h"
 #include "daemon/event_loop.h"
+#include "daemon/log_limiter.h"
 #include "daemon/logging.h"
 #include "daemon/plan_runner.h"
 #include "daemon/sd_notify.h"
@@ -39,6 +46,7 @@ struct DaemonOptions {
   // reaction time. 20 ms keeps a 300 deg/s axis below 6 deg between two readings.
   double table_poll_s = 0.02;
   double status_period_s = 1.0;  // status events and sd_notify STATUS
+  LogLimiterOptions log_limits;  // repeated problems: one line, then a summary per period
   bool IsValid(std::string* why) const;
 };
 
@@ -71,6 +79,8 @@ class BenchDaemon {
 
   void onImuReadable();
   void onPoll();
+  void onChamberPoll();
+  void reportImuProblems();
   void onStatusTimer();
   void publish(const std::vector<RunnerEvent>& events);
   void closeRun();
@@ -79,6 +89,7 @@ class BenchDaemon {
   BenchConfig bench_;
   DaemonOptions options_;
   const Logger& log_;
+  LogLimiter limited_;  // log_ for repeated problems
   EventLoop loop_;
   std::unique_ptr<Store> store_;
   std::unique_ptr<drivers::TableDriver> table_;
@@ -93,6 +104,7 @@ class BenchDaemon {
   std::optional<double> imu_last_t_;     // newest IMU sample time (the recording's clock)
   double imu_last_wall_s_ = 0.0;         // when it arrived (wall, monotonic)
   std::uint64_t imu_lost_reported_ = 0;  // lost-sample count already logged
+  std::uint64_t imu_restarts_reported_ = 0;
   std::chrono::steady_clock::time_point t0_ = std::chrono::steady_clock::now();
 };
 

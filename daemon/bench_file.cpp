@@ -119,7 +119,8 @@ void parseChamber(const toml::table& root, const std::string& base_dir, BenchCon
                   Diagnostics& diag) {
   const toml::table* t = subTable(root, "chamber", diag, false);
   if (t == nullptr) return;
-  checkKeys(*t, {"device", "host", "port", "path", "safe_setpoint", "over_temperature"},
+  checkKeys(*t,
+            {"device", "host", "port", "path", "safe_setpoint", "over_temperature", "poll_period"},
             "[chamber]", diag);
   const auto device = strField(*t, "device", diag, true);
   if (!device) return;
@@ -134,6 +135,13 @@ void parseChamber(const toml::table& root, const std::string& base_dir, BenchCon
   }
   if (auto v = quantityField(*t, "over_temperature", Dimension::kTemperature, diag, false)) {
     c.over_temperature_c = *v;
+  }
+  if (auto v = quantityField(*t, "poll_period", Dimension::kTime, diag, false)) {
+    if (*v >= 0.01 && *v <= 60.0) {
+      c.poll_period_s = *v;
+    } else {
+      diag.error(t->get("poll_period")->source(), "poll_period must be in [0.01, 60] s");
+    }
   }
   if (c.safe_setpoint_c < c.device.temp_min_c || c.safe_setpoint_c > c.device.temp_max_c) {
     diag.error(t->source(), "safe_setpoint is outside the chamber's range");

@@ -31,6 +31,7 @@
 //   port = 502
 //   safe_setpoint = "23 degC"                    # where abort and faults leave it
 //   over_temperature = "90 degC"                 # measured above this -> safe state + alarm
+//   poll_period = "1 s"                          # how often it is read and stored in a run
 //
 //   [imu]
 //   layout = "devices/imus/navgrade_fd.toml"     # required: the CAN frame layout
@@ -65,6 +66,10 @@ struct BenchChamber {
   drivers::ChamberDeviceSpec device;
   double safe_setpoint_c = 23.0;     // lab ambient: safe for the IMU and the operator
   double over_temperature_c = 90.0;  // above any plan's setpoint, below damage
+  // Chamber reads (and stored chamber samples) during a run: a chamber changes over minutes
+  // (time constants of minutes, ramps of a few degC/min), so 1 s resolves it and keeps the
+  // controller's Modbus traffic far below the table's 50 reads a second.
+  double poll_period_s = 1.0;
 };
 
 struct BenchImu {

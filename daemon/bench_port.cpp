@@ -87,14 +87,19 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
     o.angles.push_back(a.angle);
     o.moving = o.moving || a.moving;
   }
-  if (chamber_ != nullptr) {
-    drivers::ChamberReading c;
-    // An alarm still fills the reading (over-temperature is the runner's to judge); a
-    // communication error does not, and then there is no temperature to report.
-    const drivers::Status cst = chamber_->read(&c);
-    if (cst.ok || c.alarms_raw != 0) o.chamber_temp_c = c.temperature_c;
-  }
+  o.chamber_temp_c = chamber_temp_c_;
   return o;
+}
+
+bool DriverBenchPort::readChamber(drivers::ChamberReading* out) {
+  chamber_temp_c_.reset();
+  if (chamber_ == nullptr) return false;
+  *out = drivers::ChamberReading{};
+  // An alarm still fills the reading; a communication error does not.
+  const drivers::Status st = chamber_->read(out);
+  if (!st.ok && out->alarms_raw == 0) return false;
+  chamber_temp_c_ = out->temperature_c;
+  return true;
 }
 
 }  // namespace imubench::daemon

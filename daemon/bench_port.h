@@ -25,10 +25,15 @@ class DriverBenchPort : public BenchPort {
   drivers::Status emergencyStop() override;
   drivers::Status chamberSetpoint(double setpoint_c) override;
 
-  // Reads the table (and chamber) and fills what the runner needs. now_s: the daemon's
-  // monotonic time; imu_last_frame_s: when the IMU last delivered a sample (same clock).
-  // The last driver errors are kept for the alarm text (lastTableError()).
+  // Reads the table and fills what the runner needs, with the chamber temperature of the
+  // last readChamber(). now_s: the daemon's monotonic time; imu_last_frame_s: when the IMU
+  // last delivered a sample (same clock). The last driver errors are kept for the alarm text
+  // (lastTableError()).
   BenchObservation observe(double now_s, double imu_last_frame_s);
+  // Reads the chamber (the daemon does on the chamber's own, slower timer). True when *out
+  // holds a temperature: also with an active alarm (over-temperature is the runner's to
+  // judge), not after a communication error (the driver's sink has it). No chamber: false.
+  bool readChamber(drivers::ChamberReading* out);
   const drivers::TableReading& lastReading() const { return reading_; }
   const std::string& lastTableError() const { return table_error_; }
 
@@ -41,6 +46,7 @@ class DriverBenchPort : public BenchPort {
   drivers::TableReading reading_;
   std::string table_error_;
   double table_last_ok_s_ = 0.0;
+  std::optional<double> chamber_temp_c_;  // the last chamber read's, none after a failed one
 };
 
 }  // namespace imubench::daemon

@@ -11,11 +11,11 @@ bool ImuCanReaderOptions::IsValid(std::string* why) const {
     if (why) *why = "batch must be >= 1";
     return false;
   }
-  return socket.IsValid(why);
+  return decoder.IsValid(why) && socket.IsValid(why);
 }
 
 ImuCanReader::ImuCanReader(ImuLayout layout, ImuCanReaderOptions options)
-    : decoder_(std::move(layout)), options_(std::move(options)) {
+    : decoder_(std::move(layout), options.decoder), options_(std::move(options)) {
   buffer_.resize(options_.batch);
 }
 

@@ -15,6 +15,7 @@ struct ImuCanReaderOptions {
   std::string interface = "vcan0";  // SocketCAN interface name
   CanSocketOptions socket;          // defaults: FD on, 16 MiB receive buffer, kernel stamps
   std::size_t batch = 256;          // frames per recvmmsg call
+  ImuDecoderOptions decoder;        // restart detection (defaults: see ImuDecoderOptions)
   bool IsValid(std::string* why) const;
 };
 

@@ -1,9 +1,11 @@
 #include "drivers/imu_decoder.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 
 namespace imubench::drivers {
 namespace {
@@ -44,9 +46,23 @@ const char* frameVerdictName(FrameVerdict v) {
   return "?";
 }
 
-ImuDecoder::ImuDecoder(ImuLayout layout) : layout_(std::move(layout)) {
+bool ImuDecoderOptions::IsValid(std::string* why) const {
+  if (!(max_clock_ratio >= 1.0)) {
+    if (why) *why = "max_clock_ratio must be >= 1";
+    return false;
+  }
+  if (!(max_jitter_s > 0.0)) {
+    if (why) *why = "max_jitter_s must be positive";
+    return false;
+  }
+  return true;
+}
+
+ImuDecoder::ImuDecoder(ImuLayout layout, ImuDecoderOptions options)
+    : layout_(std::move(layout)), options_(options) {
   [[maybe_unused]] std::string why;
   assert(layout_.IsValid(&why));
+  assert(options_.IsValid(&why));
   for (std::size_t i = 0; i < layout_.messages.size(); ++i) {
     const ImuMessage& m = layout_.messages[i];
     Message dm{keyOf(m.id, m.extended), m.length, {}};
@@ -71,12 +87,22 @@ ImuDecoder::ImuDecoder(ImuLayout layout) : layout_(std::move(layout)) {
   pending_.fill(std::numeric_limits<double>::quiet_NaN());
 }
 
-std::uint64_t ImuDecoder::Unwrapper::operator()(std::uint64_t raw) {
+std::uint64_t ImuDecoder::Unwrapper::peek(std::uint64_t raw) const {
   if (bits >= 64) return raw;
+  const std::uint64_t e = have && raw < last ? epoch + 1 : epoch;
+  return (e << bits) + raw;
+}
+
+void ImuDecoder::Unwrapper::take(std::uint64_t raw) {
   if (have && raw < last) ++epoch;
   have = true;
   last = raw;
-  return (epoch << bits) + raw;
+}
+
+void ImuDecoder::Unwrapper::restart(std::uint64_t raw) {
+  have = true;
+  last = raw;
+  epoch = 0;
 }
 
 void ImuDecoder::problem(std::string what) {
@@ -145,38 +171,100 @@ FrameVerdict ImuDecoder::feed(const CanFrame& frame, std::vector<DecodedImuSampl
   return verdict == FrameVerdict::kIncomplete ? verdict : done;
 }
 
+// The pending sample's stamp as the device counts it, unwrapped past the last one.
+ImuDecoder::DeviceStamp ImuDecoder::peekStamp() const {
+  DeviceStamp d;
+  const std::uint64_t time_unwrapped = time_is_integer_ ? time_unwrap_.peek(pending_time_raw_) : 0;
+  if (seq_quantity_ == q(ImuQuantity::kCounter)) d.seq = counter_unwrap_.peek(pending_counter_raw_);
+  if (seq_quantity_ == q(ImuQuantity::kTime)) d.seq = time_unwrapped;
+  if (has_time_) {
+    d.t = time_is_integer_
+              ? static_cast<double>(time_unwrapped) * time_coding_.factor + time_coding_.offset
+              : pending_[static_cast<std::size_t>(q(ImuQuantity::kTime))];
+  } else {
+    d.t = static_cast<double>(d.seq) * layout_.sample_period_s;
+  }
+  return d;
+}
+
+// A forward step of the sequence and the time stamp that the elapsed receive time explains
+// (rx_elapsed: nullopt when the frames carry no receive time: then any step is taken).
+bool ImuDecoder::plausibleStep(const DeviceStamp& next, std::optional<double> rx_elapsed) const {
+  if (!rx_elapsed || (seq_quantity_ < 0 && !has_time_)) return true;
+  const double limit =
+      options_.max_clock_ratio * std::max(*rx_elapsed, 0.0) + options_.max_jitter_s;
+  if (seq_quantity_ >= 0) {
+    if (next.seq <= last_.seq) return false;
+    const double step_s =
+        static_cast<double>(next.seq - last_.seq) / seq_step_ * layout_.sample_period_s;
+    if (step_s > limit) return false;
+  }
+  const double dt = next.t - last_.t;
+  return dt > 0.0 && dt <= limit;
+}
+
+// The IMU restarted: its counts start anew, and the time axis continues from the last
+// sample's time plus the elapsed receive time in whole sample periods (at least one).
+void ImuDecoder::restart(std::optional<double> rx_elapsed) {
+  const DeviceStamp before = last_;
+  const std::uint64_t counter_before = counter_unwrap_.last;
+  const double period = layout_.sample_period_s;
+  const double elapsed = std::max(rx_elapsed.value_or(0.0), 0.0);
+  const double n = std::max(1.0, std::nearbyint(elapsed / period));
+  const std::int64_t last_seq = static_cast<std::int64_t>(before.seq) + seq_base_;
+  const double last_t = before.t + time_base_;
+  counter_unwrap_.restart(pending_counter_raw_);
+  time_unwrap_.restart(pending_time_raw_);
+  const DeviceStamp fresh = peekStamp();
+  seq_base_ = last_seq + std::llround(n * seq_step_) - static_cast<std::int64_t>(fresh.seq);
+  time_base_ = last_t + n * period - fresh.t;
+  ++counters_.restarts;
+  std::string what = "IMU restarted: ";
+  if (seq_quantity_ == q(ImuQuantity::kCounter)) {
+    what += "counter " + std::to_string(counter_before) + " -> " +
+            std::to_string(pending_counter_raw_) + ", ";
+  }
+  char buf[160];
+  std::snprintf(buf, sizeof buf,
+                "time %.6f s -> %.6f s after %.3f s of receive time; the time axis continues at "
+                "%.6f s",
+                before.t, fresh.t, elapsed, last_t + n * period);
+  last_restart_ = what + buf;
+  problem(last_restart_);
+}
+
 FrameVerdict ImuDecoder::finish(double rx_time, std::vector<DecodedImuSample>* out) {
   const auto at = [this](ImuQuantity x) { return pending_[static_cast<std::size_t>(q(x))]; };
   DecodedImuSample d;
   d.rx_time_s = rx_time;
-  // Sequence: unwrap, count gaps.
-  std::uint64_t time_unwrapped = 0;
-  if (time_is_integer_) time_unwrapped = time_unwrap_(pending_time_raw_);
-  if (seq_quantity_ >= 0) {
-    const std::uint64_t seq = seq_quantity_ == q(ImuQuantity::kCounter)
-                                  ? counter_unwrap_(pending_counter_raw_)
-                                  : time_unwrapped;
-    if (have_last_) {
-      const double steps = std::nearbyint(static_cast<double>(seq - last_seq_) / seq_step_);
-      if (seq > last_seq_ && steps > 1.0) {
+  // Sequence and time: unwrap, judge the step, count gaps or re-base after a restart.
+  DeviceStamp next = peekStamp();
+  if (have_last_) {
+    std::optional<double> rx_elapsed;
+    if (rx_time > 0.0 && last_rx_ > 0.0) rx_elapsed = rx_time - last_rx_;
+    if (!plausibleStep(next, rx_elapsed)) {
+      restart(rx_elapsed);
+      next = peekStamp();
+    } else if (seq_quantity_ >= 0) {
+      const double steps = std::nearbyint(static_cast<double>(next.seq - last_.seq) / seq_step_);
+      if (steps > 1.0) {
         const auto lost = static_cast<std::uint64_t>(steps - 1.0);
         counters_.lost_samples += lost;
-        problem(std::to_string(lost) + " sample(s) lost before sequence " + std::to_string(seq));
+        problem(std::to_string(lost) + " sample(s) lost before sequence " +
+                std::to_string(next.seq));
       }
     }
-    have_last_ = true;
-    last_seq_ = seq;
-    d.sequence = static_cast<std::uint64_t>(std::nearbyint(static_cast<double>(seq) / seq_step_));
   }
-  if (has_time_) {
-    d.sample.t = time_is_integer_ ? static_cast<double>(time_unwrapped) * time_coding_.factor +
-                                        time_coding_.offset
-                                  : at(ImuQuantity::kTime);
-  } else if (seq_quantity_ == q(ImuQuantity::kCounter)) {
-    d.sample.t = static_cast<double>(last_seq_) * layout_.sample_period_s;
-  } else {
-    d.sample.t = rx_time;
+  counter_unwrap_.take(pending_counter_raw_);
+  time_unwrap_.take(pending_time_raw_);
+  have_last_ = true;
+  last_ = next;
+  last_rx_ = rx_time;
+  if (seq_quantity_ >= 0) {
+    const double seq = static_cast<double>(static_cast<std::int64_t>(next.seq) + seq_base_);
+    d.sequence = static_cast<std::uint64_t>(std::nearbyint(seq / seq_step_));
   }
+  d.sample.t = has_time_ || seq_quantity_ >= 0 ? next.t + time_base_ : rx_time;
   const double dt = layout_.sample_period_s;
   for (int axis = 0; axis < 3; ++axis) {
     const double th = pending_[static_cast<std::size_t>(q(ImuQuantity::kDthetaX) + axis)];

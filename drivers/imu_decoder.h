@@ -1,10 +1,20 @@
 // Pure decoder: CAN frames in, IMU samples out, following an ImuLayout (imu_layout.h) and its
 // assembly rule. No sockets, clocks or printing: the reader (imu_can_reader.h) feeds it frames
 // from SocketCAN, tests and benchmarks feed it raw frames directly.
+//
+// Time axis: the counter and an integer time stamp are unwrapped at their width. Each step is
+// judged against the frames' receive times: a forward step the receive clock can explain is
+// the IMU's (a wrap, or lost samples); anything else (a backward jump, or a forward jump far
+// beyond the elapsed receive time) is a restart of the IMU. A restart is counted and
+// described, and the decoder re-bases: the sample time and sequence continue from the last
+// sample's plus the elapsed receive time, in whole sample periods. Frames without a receive
+// time (rx_time_s == 0: not from a socket) cannot be judged; every step is then taken as
+// forward.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -30,6 +40,7 @@ struct ImuDecoderCounters {
   std::uint64_t unknown_id = 0;    // id not in the layout
   std::uint64_t bad_status = 0;    // complete samples rejected by their status bits
   std::uint64_t incomplete = 0;    // partial samples dropped by the assembly rule
+  std::uint64_t restarts = 0;      // IMU restarts (counter / time stamp jumped, re-based)
   std::uint64_t badFrames() const { return bad_length + unknown_id; }
 };
 
@@ -43,10 +54,24 @@ enum class FrameVerdict {
 };
 const char* frameVerdictName(FrameVerdict v);
 
+struct ImuDecoderOptions {
+  // How many times faster than the receive clock the IMU's clock may run over a silence. A
+  // real IMU runs at the receive clock's rate (ppm apart); 2 leaves room for a slewed
+  // receive clock and still tells a restart after a silence of S seconds from a wrap unless
+  // the counter or time stamp was within 2 S + max_jitter_s of its wrap. (The virtual bench
+  // runs its IMU --time-scale times faster: a silence of its IMU that kept counting would be
+  // taken for a restart, and re-based to the receive time.)
+  double max_clock_ratio = 2.0;
+  // Receive-time slack on top: a sender's batching and scheduling, kernel time stamp jitter.
+  double max_jitter_s = 0.5;
+  bool IsValid(std::string* why) const;
+};
+
 class ImuDecoder {
  public:
-  // layout must satisfy layout.IsValid() (checked by the loaders); asserted.
-  explicit ImuDecoder(ImuLayout layout);
+  // layout must satisfy layout.IsValid() (checked by the loaders) and options
+  // options.IsValid(); both asserted.
+  explicit ImuDecoder(ImuLayout layout, ImuDecoderOptions options = {});
 
   // Feeds one frame; a completed sample is appended to *out.
   FrameVerdict feed(const CanFrame& frame, std::vector<DecodedImuSample>* out);
@@ -58,6 +83,9 @@ class ImuDecoder {
   // e.g. "frame 0x120: length 2, expected 8"; empty while there has been none. For logging.
   const std::string& lastProblem() const { return last_problem_; }
   std::uint64_t problemCount() const { return problem_count_; }
+  // The most recent restart in words (counter and time before and after, the silence, where
+  // the time axis continues); empty while there has been none.
+  const std::string& lastRestart() const { return last_restart_; }
   const ImuLayout& layout() const { return layout_; }
 
  private:
@@ -70,19 +98,31 @@ class ImuDecoder {
     int length;
     std::vector<Slot> slots;
   };
-  void problem(std::string what);
-  FrameVerdict finish(double rx_time, std::vector<DecodedImuSample>* out);
-
   // Unwraps a rolling integer (counter, time stamp) into a monotonic 64-bit value.
   struct Unwrapper {
     int bits = 64;
     bool have = false;
     std::uint64_t last = 0;
     std::uint64_t epoch = 0;
-    std::uint64_t operator()(std::uint64_t raw);
+    // The unwrapped value raw would get (a raw value below the last one is one wrap on).
+    std::uint64_t peek(std::uint64_t raw) const;
+    void take(std::uint64_t raw);     // raw is the next value
+    void restart(std::uint64_t raw);  // raw starts a new count (no wraps yet)
+  };
+  // One sample's sequence and time as the device counts them (unwrapped, not re-based).
+  struct DeviceStamp {
+    std::uint64_t seq = 0;  // raw units (counter, or integer time stamp)
+    double t = 0.0;         // s
   };
 
+  void problem(std::string what);
+  FrameVerdict finish(double rx_time, std::vector<DecodedImuSample>* out);
+  DeviceStamp peekStamp() const;
+  bool plausibleStep(const DeviceStamp& next, std::optional<double> rx_elapsed) const;
+  void restart(std::optional<double> rx_elapsed);
+
   ImuLayout layout_;
+  ImuDecoderOptions options_;
   std::vector<Message> messages_;
   std::uint32_t all_mask_ = 0;
   std::array<double, kImuQuantityCount> pending_{};
@@ -94,7 +134,10 @@ class ImuDecoder {
   int seq_quantity_ = -1;  // kCounter, kTime, or -1
   double seq_step_ = 1.0;  // raw units per sample
   bool have_last_ = false;
-  std::uint64_t last_seq_ = 0;
+  DeviceStamp last_;           // the last delivered sample's device stamp
+  double last_rx_ = 0.0;       // and its receive time
+  std::int64_t seq_base_ = 0;  // re-basing after restarts: sequence = device + seq_base_
+  double time_base_ = 0.0;     // time = device + time_base_
   Unwrapper counter_unwrap_;
   Unwrapper time_unwrap_;
   bool time_is_integer_ = false;
@@ -102,6 +145,7 @@ class ImuDecoder {
   SignalCoding time_coding_;
   ImuDecoderCounters counters_;
   std::string last_problem_;
+  std::string last_restart_;
   std::uint64_t problem_count_ = 0;
 };
 

@@ -7,7 +7,8 @@
 //   IMU     - CAN frames on a SocketCAN interface (vcan) in the device file's layout.
 // Time runs --time-scale times faster than the wall clock. Faults can be injected from the
 // command line, or while running by signal: SIGUSR1 drops every Modbus TCP connection,
-// SIGUSR2 trips the table interlock. Announcements go to stdout (one line each, for scripts);
+// SIGUSR2 trips the table interlock, SIGRTMIN+1 restarts the IMU (silent, then its counter and
+// time stamp from 0). Announcements go to stdout (one line each, for scripts);
 // events to syslog and stderr. Stops on SIGINT/SIGTERM.
 #include <signal.h>
 
@@ -59,6 +60,9 @@ struct Args {
   std::string trip_reason = "injected interlock trip (virtual bench)";
   int imu_drop_every = 0, imu_corrupt_every = 0;
   std::int64_t imu_stop_after = -1;
+  double imu_restart_after_s = -1.0;
+  double imu_restart_silence_s = 0.2;
+  double imu_wrap_at_s = -1.0;
 };
 
 void announce(const std::string& line) {
@@ -76,6 +80,8 @@ class ImuStreamer {
   void start() {
     thread_ = std::thread([this] { run(); });
   }
+  // Restarts the IMU at its next sample (thread-safe).
+  void requestRestart() { can_->requestRestart(); }
   void stop() {
     if (!thread_.joinable()) return;
     {
@@ -202,6 +208,9 @@ int run(const Args& a) {
     io.faults.drop_frame_every = a.imu_drop_every;
     io.faults.corrupt_frame_every = a.imu_corrupt_every;
     io.faults.stop_after = a.imu_stop_after;
+    io.faults.restart_at_s = a.imu_restart_after_s;
+    io.faults.restart_silence_s = a.imu_restart_silence_s;
+    io.wrap_at_s = a.imu_wrap_at_s;
     if (!io.IsValid(&why)) return fail("IMU: " + why);
     auto can = std::make_unique<VirtualImuCan>(*layout, io);
     if (Status s = can->open(); !s.ok) return fail("IMU on " + a.can_interface + ": " + s.message);
@@ -220,6 +229,7 @@ int run(const Args& a) {
   sigaddset(&set, SIGTERM);
   sigaddset(&set, SIGUSR1);
   sigaddset(&set, SIGUSR2);
+  sigaddset(&set, SIGRTMIN + 1);
   auto trip = [&] {
     world.withTable([&](VirtualTable& t, double now) {
       t.trip(now, a.trip_reason);
@@ -243,6 +253,10 @@ int run(const Args& a) {
       chamber_tcp.dropConnections();
     }
     if (sig == SIGUSR2) trip();
+    if (sig == SIGRTMIN + 1 && imu) {
+      log.warning("fault injection: IMU restart (silent, then counter and time stamp from 0)");
+      imu->requestRestart();
+    }
     if (!tripped && world.now() >= a.trip_after_s) {
       trip();
       tripped = true;
@@ -297,6 +311,15 @@ int main(int argc, char** argv) {
   app.add_option("--fault-imu-corrupt-every", a.imu_corrupt_every,
                  "corrupt a frame of every Nth sample");
   app.add_option("--fault-imu-stop-after", a.imu_stop_after, "the IMU stops after N samples");
+  app.add_option("--fault-imu-restart-after", a.imu_restart_after_s,
+                 "the IMU restarts at this simulated time, s (also SIGRTMIN+1 at any time)");
+  app.add_option("--fault-imu-restart-silence", a.imu_restart_silence_s,
+                 "how long a restarting IMU is silent, simulated s (default 0.2)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--imu-wrap-at", a.imu_wrap_at_s,
+                 "start the IMU counter and time stamp so that both wrap at this simulated "
+                 "time, s")
+      ->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
   // Signals are taken synchronously by the main thread (sigtimedwait): block them before any
   // server thread starts so every thread inherits the mask.
@@ -306,6 +329,7 @@ int main(int argc, char** argv) {
   sigaddset(&set, SIGTERM);
   sigaddset(&set, SIGUSR1);
   sigaddset(&set, SIGUSR2);
+  sigaddset(&set, SIGRTMIN + 1);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   signal(SIGPIPE, SIG_IGN);
   return run(a);

@@ -260,6 +260,150 @@ TEST(ImuDecoder, CounterAndTimeWrapAround) {
   EXPECT_EQ(out[5].sequence, 0x100000002ULL);
 }
 
+// Frames of samples[k] with counter counter0 + k (wrapping at the counter's width) and a
+// receive time rx0 + k x rx_period: a stream as a socket delivers it.
+void appendStream(const ImuLayout& layout, const nav::ImuSamples& samples, std::uint64_t counter0,
+                  double rx0, double rx_period, std::vector<CanFrame>* frames) {
+  ImuEncoder enc(layout);
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const std::size_t first = frames->size();
+    enc.encode(samples[k], counter0 + k, enc.goodStatus(), frames);
+    for (std::size_t i = first; i < frames->size(); ++i) {
+      (*frames)[i].rx_time_s = rx0 + static_cast<double>(k) * rx_period;
+    }
+  }
+}
+
+constexpr double kRx0 = 1.7e9;  // a CLOCK_REALTIME receive time
+
+// Issue 17, defect 4: an IMU that restarts (counter and time from 0) mid-run is a restart,
+// not a 2^32 wrap: counted, described, and the time axis continues after the silence.
+TEST(ImuDecoder, RestartReBasesTheTimeAxis) {
+  const ImuLayout layout = loadShipped("navgrade_fd.toml");
+  const double p = layout.sample_period_s;
+  std::vector<CanFrame> frames;
+  appendStream(layout, makeSamples(2000, p), 0, kRx0, p, &frames);
+  // 200 ms of silence, then the IMU counts anew: counter 0, time stamp one period.
+  const double rx_restart = kRx0 + 1999 * p + 0.2;
+  appendStream(layout, makeSamples(1000, p, 9), 0, rx_restart, p, &frames);
+  ImuDecoder dec(layout);
+  std::vector<DecodedImuSample> out;
+  dec.feed(frames, &out);
+  ASSERT_EQ(out.size(), 3000U);
+  EXPECT_EQ(dec.counters().restarts, 1U);
+  EXPECT_EQ(dec.counters().lost_samples, 0U);
+  EXPECT_NE(dec.lastRestart().find("counter 1999 -> 0"), std::string::npos) << dec.lastRestart();
+  // The step across the restart is the silence (200 periods), every other step one period.
+  EXPECT_NEAR(out[2000].sample.t - out[1999].sample.t, 0.2, 1.5e-6);
+  EXPECT_EQ(out[2000].sequence - out[1999].sequence, 200U);
+  for (std::size_t k = 1; k < out.size(); ++k) {
+    if (k == 2000) continue;
+    ASSERT_NEAR(out[k].sample.t - out[k - 1].sample.t, p, 1.5e-6) << k;
+    ASSERT_EQ(out[k].sequence - out[k - 1].sequence, 1U) << k;
+  }
+}
+
+// A layout without a counter: the time stamp alone going backwards is the restart.
+TEST(ImuDecoder, RestartSeenFromTheTimeStampAlone) {
+  const ImuLayout layout = loadShipped("sbg_ecan.toml");
+  const double p = layout.sample_period_s;
+  std::vector<CanFrame> frames;
+  appendStream(layout, makeSamples(500, p, 7, 100.0), 0, kRx0, p, &frames);
+  appendStream(layout, makeSamples(100, p), 0, kRx0 + 499 * p + 1.0, p, &frames);
+  ImuDecoder dec(layout);
+  std::vector<DecodedImuSample> out;
+  dec.feed(frames, &out);
+  ASSERT_EQ(out.size(), 600U);
+  EXPECT_EQ(dec.counters().restarts, 1U);
+  EXPECT_EQ(dec.counters().lost_samples, 0U);
+  EXPECT_NEAR(out[500].sample.t - out[499].sample.t, 1.0, 1.5e-6);
+  EXPECT_NEAR(out[599].sample.t - out[500].sample.t, 99 * p, 1.5e-6);
+}
+
+// A true wrap of the 32-bit counter and the 2^32 us time stamp, judged against the receive
+// clock, stays a wrap, also with the IMU's clock running 5x faster (the virtual bench's
+// --time-scale) and the sender batching 25 samples per receive time.
+TEST(ImuDecoder, WrapConsistentWithTheReceiveClockStaysAWrap) {
+  const ImuLayout layout = loadShipped("navgrade_fd.toml");
+  const double p = layout.sample_period_s;
+  const double t0 = 4294.967296 - 3000 * p;
+  const auto samples = makeSamples(6000, p, 7, t0 - p);
+  std::vector<CanFrame> frames;
+  appendStream(layout, samples, 0xFFFFFFFFULL - 2999, kRx0, 0.0, &frames);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    frames[i].rx_time_s = kRx0 + 0.005 * static_cast<double>(i / 25);
+  }
+  ImuDecoder dec(layout);
+  std::vector<DecodedImuSample> out;
+  dec.feed(frames, &out);
+  ASSERT_EQ(out.size(), 6000U);
+  EXPECT_EQ(dec.counters().restarts, 0U);
+  EXPECT_EQ(dec.counters().lost_samples, 0U);
+  for (std::size_t k = 1; k < out.size(); ++k) {
+    ASSERT_NEAR(out[k].sample.t - out[k - 1].sample.t, p, 1.5e-6) << k;
+  }
+  EXPECT_EQ(out[3000].sequence, 0x100000000ULL);
+}
+
+// Long silence with the counter running on (a cable pulled for 10 s): lost samples, no
+// restart. A forward jump the receive clock cannot explain (1e6 samples within one period)
+// is a restart, not a million lost samples.
+TEST(ImuDecoder, ForwardStepsJudgedAgainstTheReceiveClock) {
+  const ImuLayout layout = loadShipped("navgrade_fd.toml");
+  const double p = layout.sample_period_s;
+  std::vector<CanFrame> frames;
+  appendStream(layout, makeSamples(100, p), 0, kRx0, p, &frames);
+  appendStream(layout, makeSamples(100, p, 7, 10.1), 10100, kRx0 + 10.1, p, &frames);
+  ImuDecoder dec(layout);
+  std::vector<DecodedImuSample> out;
+  dec.feed(frames, &out);
+  EXPECT_EQ(dec.counters().restarts, 0U);
+  EXPECT_EQ(dec.counters().lost_samples, 10000U);
+  frames.clear();
+  appendStream(layout, makeSamples(100, p, 7, 1000.2), 1000200, kRx0 + 10.2, p, &frames);
+  out.clear();
+  dec.feed(frames, &out);
+  EXPECT_EQ(dec.counters().restarts, 1U);
+  EXPECT_EQ(dec.counters().lost_samples, 10000U);
+  ASSERT_EQ(out.size(), 100U);
+  EXPECT_NEAR(out[0].sample.t, 10.201, 1e-5);  // 10.2 s + 1 ms of receive time
+}
+
+// The virtual IMU's restart fault and wrap start, decoded with receive times equal to the
+// sample times: the wrap (at 1.5 s) stays a wrap, the restart (at 3 s, 200 samples silent) is one
+// restart, and the decoded time axis has one 0.201 s step and no other irregularity.
+TEST(VirtualImuCan, RestartFaultAndWrapStart) {
+  const ImuLayout layout = loadShipped("navgrade_fd.toml");
+  const double p = layout.sample_period_s;
+  const auto samples = makeSamples(5000, p);
+  VirtualImuOptions options;
+  options.interface = "unused";
+  options.wrap_at_s = 1.5;
+  options.faults.restart_at_s = 2.9995;       // sample 2999 (3.000 s) is the first not sent
+  options.faults.restart_silence_s = 0.1995;  // ... and 3199 (3.200 s) the first after it
+  VirtualImuCan v(layout, options);
+  std::vector<CanFrame> frames;
+  v.encodeSamples(samples, &frames);
+  EXPECT_EQ(v.restarts(), 1U);
+  ASSERT_EQ(frames.size(), 5000U - 200U);
+  // Counter 2^32 - 1 at 1.499 s, 0 at 1.5 s (sample 1499); counter 0 again after the restart.
+  EXPECT_EQ(extractRaw(layout.messages[0].signals[0].coding, frames[1498].data), 0xFFFFFFFFULL);
+  EXPECT_EQ(extractRaw(layout.messages[0].signals[0].coding, frames[1499].data), 0U);
+  EXPECT_EQ(extractRaw(layout.messages[0].signals[0].coding, frames[2999].data), 0U);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    frames[i].rx_time_s = kRx0 + static_cast<double>(i < 2999 ? i : i + 200) * p;
+  }
+  ImuDecoder dec(layout);
+  std::vector<DecodedImuSample> out;
+  dec.feed(frames, &out);
+  ASSERT_EQ(out.size(), frames.size());
+  EXPECT_EQ(dec.counters().restarts, 1U);
+  EXPECT_EQ(dec.counters().lost_samples, 0U);
+  for (std::size_t k = 1; k < out.size(); ++k) {
+    ASSERT_NEAR(out[k].sample.t - out[k - 1].sample.t, k == 2999 ? 0.201 : p, 1.5e-6) << k;
+  }
+}
+
 TEST(ImuDecoder, BadFramesCountedNotFatal) {
   const ImuLayout layout = loadShipped("sbg_ecan.toml");
   const auto samples = makeSamples(100, layout.sample_period_s);

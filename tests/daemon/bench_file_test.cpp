@@ -82,9 +82,19 @@ TEST(BenchFile, EveryFieldReadAndPathsResolvedAgainstTheBenchFile) {
   EXPECT_NEAR(b->outer_axis_heading_rad * kRadToDeg, 90.0, 1e-12);
   EXPECT_DOUBLE_EQ(b->chamber->safe_setpoint_c, 25.0);
   EXPECT_DOUBLE_EQ(b->chamber->over_temperature_c, 90.0);
+  EXPECT_DOUBLE_EQ(b->chamber->poll_period_s, 1.0);  // the default
   EXPECT_EQ(b->imu.interface, "can1");
   EXPECT_DOUBLE_EQ(b->safety.imu_timeout_s, 0.2);
   EXPECT_DOUBLE_EQ(b->safety.comm_timeout_s, 1.0);
+}
+
+TEST(BenchFile, ChamberPollPeriod) {
+  plans::Diagnostics diag("bench.toml");
+  const auto b = parse(replaced("safe_setpoint = \"25 degC\"",
+                                "safe_setpoint = \"25 degC\"\npoll_period = \"250 ms\""),
+                       diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_DOUBLE_EQ(b->chamber->poll_period_s, 0.25);
 }
 
 TEST(BenchFile, ChamberIsOptional) {
@@ -139,6 +149,10 @@ INSTANTIATE_TEST_SUITE_P(
                 "missing required table [imu]", 0},
         BadCase{"safe_setpoint_range", replaced("\"25 degC\"", "\"500 degC\""),
                 "safe_setpoint is outside", 0},
+        BadCase{"poll_period_range",
+                replaced("safe_setpoint = \"25 degC\"",
+                         "safe_setpoint = \"25 degC\"\npoll_period = \"0 s\""),
+                "poll_period must be in [0.01, 60] s", 20},
         BadCase{"timeout_range", replaced("\"0.2 s\"", "\"0 s\""), "imu_timeout must be", 0},
         BadCase{"wrong_type", replaced("\"lab2-a\"", "3"), "\"name\" must be a string", 2}),
     [](const ::testing::TestParamInfo<BadCase>& tc) { return std::string(tc.param.name); });

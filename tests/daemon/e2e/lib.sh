@@ -5,7 +5,8 @@
 #
 #   source "$SRC/tests/daemon/e2e/lib.sh"
 #   e2e_init VB DAEMON CLI SRC         # sets W (scratch dir), DEV (device files), trap cleanup
-#   e2e_bench_file [EXTRA_TOML]        # writes $W/bench.toml (2-axis TCP table, chamber, IMU)
+#   e2e_bench_file [EXTRA_TOML]        # writes $W/bench.toml (2-axis TCP table, chamber, IMU);
+#                                      #   $E2E_CHAMBER_EXTRA: more lines for [chamber]
 #   e2e_start_vb [ARGS...]             # virtual bench with the same devices; waits for "ready"
 #   e2e_start_daemon                   # imubenchd on $W/bench.toml; waits for the socket
 #   e2e_stop_daemon                    # SIGTERM, checks the exit status
@@ -66,6 +67,7 @@ device = "$E2E_CHAMBER_DEVICE"
 port = 1503
 safe_setpoint = "23 degC"
 over_temperature = "90 degC"
+${E2E_CHAMBER_EXTRA:-}
 [imu]
 layout = "$E2E_IMU_LAYOUT"
 interface = "vcan0"
