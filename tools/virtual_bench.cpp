@@ -7,7 +7,8 @@
 //   IMU     - CAN frames on a SocketCAN interface (vcan) in the device file's layout.
 // Time runs --time-scale times faster than the wall clock. Faults can be injected from the
 // command line, or while running by signal: SIGUSR1 drops every Modbus TCP connection,
-// SIGUSR2 trips the table interlock. Announcements go to stdout (one line each, for scripts);
+// SIGUSR2 trips the table interlock, SIGRTMIN restarts the table controller (connections
+// dropped, axes braked, modes off, interlock open; see VirtualTable::restart). Announcements go to stdout (one line each, for scripts);
 // events to syslog and stderr. Stops on SIGINT/SIGTERM.
 #include <signal.h>
 
@@ -220,6 +221,7 @@ int run(const Args& a) {
   sigaddset(&set, SIGTERM);
   sigaddset(&set, SIGUSR1);
   sigaddset(&set, SIGUSR2);
+  sigaddset(&set, SIGRTMIN);
   auto trip = [&] {
     world.withTable([&](VirtualTable& t, double now) {
       t.trip(now, a.trip_reason);
@@ -243,6 +245,14 @@ int run(const Args& a) {
       chamber_tcp.dropConnections();
     }
     if (sig == SIGUSR2) trip();
+    if (sig == SIGRTMIN) {
+      log.warning("fault injection: table controller restart");
+      world.withTable([](VirtualTable& t, double now) {
+        t.restart(now);
+        return 0;
+      });
+      table_tcp.dropConnections();
+    }
     if (!tripped && world.now() >= a.trip_after_s) {
       trip();
       tripped = true;
@@ -306,6 +316,7 @@ int main(int argc, char** argv) {
   sigaddset(&set, SIGTERM);
   sigaddset(&set, SIGUSR1);
   sigaddset(&set, SIGUSR2);
+  sigaddset(&set, SIGRTMIN);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   signal(SIGPIPE, SIG_IGN);
   return run(a);
