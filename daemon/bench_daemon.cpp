@@ -409,6 +409,8 @@ Reply BenchDaemon::handle(const Request& request) {
     case Command::kAbort:
     case Command::kStop:
       return runnerCommand(request);
+    case Command::kRearm:
+      return rearm(request);
     case Command::kStatus:
       return status();
     case Command::kListPlans:
@@ -512,6 +514,48 @@ Reply BenchDaemon::runnerCommand(const Request& request) {
                  {{"run", run_->id}, {"state", runnerStateName(run_->runner->state())}});
 }
 
+// After a controller restart (interlock open, modes lost) the run stays paused until the
+// operator re-arms: the same preparation as a start (connect, interlock closed, refused on an
+// emergency stop or trip, which are cleared at the controller). Never while the table moves.
+Reply BenchDaemon::rearm(const Request& request) {
+  if (run_ && run_->runner->state() != RunnerState::kPaused) {
+    return errorReply(request.id, ErrorCode::kBadState,
+                      std::string("re-arm only with no run or a paused one; the run is ") +
+                          runnerStateName(run_->runner->state()) + " (pause it first)");
+  }
+  const drivers::Status st = port_->prepare();
+  const std::string who = run_ ? "run " + std::to_string(run_->id) + ": " : std::string();
+  if (!st.ok) {
+    log_.warning(who + "re-arm refused: " + st.message);
+    return errorReply(request.id, ErrorCode::kBadState, "re-arm refused: " + st.message);
+  }
+  log_.info(who + "bench re-armed by the operator (interlock closed)");
+  if (run_) {
+    RunEvent stored;
+    stored.run_id = run_->id;
+    stored.wall_unix_s = unixNow();
+    stored.severity = EventSeverity::kInfo;
+    stored.kind = "rearmed";
+    stored.json = json({{"run", run_->id}}).dump();
+    if (auto added = store_->addEvent(stored); !added.ok) log_.error("store: " + added.message);
+    server_->broadcast(Topic::kRun, "rearmed", {{"run", run_->id}});
+    onPoll();  // a fresh observation, so a resume right after sees the closed interlock
+  }
+  return okReply(request.id, {{"table", tableJson()}});
+}
+
+// The table as last read: what the operator needs to see to re-arm or clear it.
+json BenchDaemon::tableJson() const {
+  const drivers::TableReading& r = port_->lastReading();
+  const char* interlock = r.interlock_tripped ? "tripped" : r.interlock_closed ? "closed" : "open";
+  json t = {{"interlock", interlock},
+            {"estop", r.estop},
+            {"fault", r.fault},
+            {"state", drivers::deviceStateName(table_->state())}};
+  if (!port_->lastTableError().empty()) t["error"] = port_->lastTableError();
+  return t;
+}
+
 Reply BenchDaemon::status() const {
   json s = {{"bench", bench_.name},
             {"state", run_ ? runnerStateName(run_->runner->state()) : "idle"}};
@@ -519,6 +563,7 @@ Reply BenchDaemon::status() const {
   s["imu_lost_samples"] = imu_->decoder().counters().lost_samples;
   s["imu_bad_frames"] = imu_->decoder().counters().badFrames();
   s["imu_restarts"] = imu_->decoder().counters().restarts;
+  s["table"] = tableJson();
   if (run_) {
     const PlanRunner& r = *run_->runner;
     s["run"] = run_->id;

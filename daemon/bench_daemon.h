@@ -7,8 +7,8 @@
 //   chamber poll timer   -> read chamber (its own, slower period) -> the run's chamber samples
 //   runner events        -> store events, control-socket broadcast (topic "run"), syslog
 //   status timer         -> topic "status" (progress, ETA, step), sd_notify STATUS, watchdog
-//   control socket       -> start/pause/resume/abort/stop/status/list_plans/validate_plan/
-//                           results/export
+//   control socket       -> start/pause/resume/abort/stop/rearm/status/list_plans/
+//                           validate_plan/results/export
 //
 // Time: the IMU's sample time is the recording's clock; table and chamber samples and segment
 // bounds are stamped with the newest IMU sample time when they are taken. An IMU restart does
@@ -76,6 +76,8 @@ class BenchDaemon {
   Reply results(const Request& request);
   Reply exportRun(const Request& request);
   Reply runnerCommand(const Request& request);
+  Reply rearm(const Request& request);
+  nlohmann::json tableJson() const;
 
   void onImuReadable();
   void onPoll();

@@ -28,8 +28,10 @@ drivers::Status DriverBenchPort::prepare() {
   if (auto st = table_.interlock(drivers::InterlockCommand::kClose); !st.ok) return st;
   // An emergency stop or a trip stays until someone resets it at the bench on purpose: a
   // plan does not start on a table that is not cleared.
-  drivers::TableReading r;
+  drivers::TableReading& r = reading_;
+  r = drivers::TableReading{};
   const drivers::Status st = table_.read(&r);
+  table_error_ = st.ok ? std::string() : st.message;
   if (r.estop || r.interlock_tripped || r.fault) {
     return drivers::Status::Error("the table reports " +
                                   (st.ok ? std::string("a fault") : st.message) +
@@ -81,6 +83,7 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
   const bool answered_fault = reading_.interlock_tripped || reading_.estop || reading_.fault;
   o.table_ok = st.ok || answered_fault;
   if (answered_fault) o.table_fault = st.ok ? "controller reports a fault" : st.message;
+  if (st.ok) o.interlock_closed = reading_.interlock_closed;
   if (o.table_ok) table_last_ok_s_ = now_s;
   o.table_last_ok_s = table_last_ok_s_;
   for (const auto& a : reading_.axes) {

@@ -17,7 +17,9 @@ class DriverBenchPort : public BenchPort {
   // chamber may be null (a bench without a chamber); the references must outlive the port.
   DriverBenchPort(drivers::TableDriver& table, drivers::ChamberDriver* chamber);
 
-  // Connects if needed and closes the interlock (motion needs it closed).
+  // Connects if needed and closes the interlock (motion needs it closed); refuses a table in
+  // emergency stop, tripped or faulted (cleared at the controller on purpose, never by us).
+  // Also the operator's re-arm after a controller restart. Updates lastReading().
   drivers::Status prepare() override;
   drivers::Status moveTo(int axis, double angle_rad) override;
   drivers::Status rotateBy(int axis, double delta_rad) override;

@@ -12,12 +12,13 @@ using nlohmann::json;
 
 namespace {
 
-constexpr std::array<std::pair<Command, std::string_view>, 13> kCommands{{
+constexpr std::array<std::pair<Command, std::string_view>, 14> kCommands{{
     {Command::kStart, "start"},
     {Command::kPause, "pause"},
     {Command::kResume, "resume"},
     {Command::kAbort, "abort"},
     {Command::kStop, "stop"},
+    {Command::kRearm, "rearm"},
     {Command::kStatus, "status"},
     {Command::kSubscribe, "subscribe"},
     {Command::kUnsubscribe, "unsubscribe"},
@@ -346,6 +347,8 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //    "options":{"dry_run":true,"label":"unit 42","out_dir":"/var/lib/imubench/runs/42"}}
 //   {"id":3,"cmd":"pause"}      {"id":4,"cmd":"resume"}     {"id":5,"cmd":"abort"}
 //   {"id":6,"cmd":"stop"}       (emergency stop)            {"id":7,"cmd":"status"}
+//   {"id":15,"cmd":"rearm"}     (close the table's interlock again after a controller
+//                                restart; no run, or a paused one; then "resume")
 //   {"id":8,"cmd":"subscribe","topics":["run","status","log"]}
 //   {"id":9,"cmd":"unsubscribe"}                     (all topics; or "topics":[...])
 //   {"id":10,"cmd":"list_plans"}

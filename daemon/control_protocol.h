@@ -25,6 +25,7 @@ enum class Command {
   kResume,        // continue a paused run
   kAbort,         // stop the run in an orderly way (table to rest, recording closed)
   kStop,          // emergency stop: halt all motion now
+  kRearm,         // close the table's interlock again (after a controller restart)
   kStatus,        // current state
   kSubscribe,     // receive events of topics on this connection
   kUnsubscribe,   // stop receiving events

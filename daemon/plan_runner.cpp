@@ -8,6 +8,13 @@
 #include "nav/rotation.h"
 
 namespace imubench::daemon {
+namespace {
+
+// What opens an interlock without a fault bit, as the operator reads it.
+constexpr const char* kInterlockOpenCause =
+    "the controller restarted, or it was opened at the bench";
+
+}  // namespace
 
 const char* runnerStateName(RunnerState s) {
   switch (s) {
@@ -169,6 +176,10 @@ CommandResult PlanRunner::resume(double now_s) {
   if (last_ && !last_->table_fault.empty()) {
     return {false, "the table reports a fault (" + last_->table_fault + "): clear it first"};
   }
+  if (last_ && !last_->interlock_closed) {
+    return {false, std::string("the table's interlock is open (") + kInterlockOpenCause +
+                       "): re-arm the bench (imubench rearm), then resume"};
+  }
   if (last_ && now_s - last_->imu_last_frame_s > options_.imu_timeout_s) {
     return {false, "the IMU is silent: resume when its frames arrive again"};
   }
@@ -219,6 +230,9 @@ bool PlanRunner::safetyChecks(const BenchObservation& obs) {
   const double imu_silent = obs.now_s - obs.imu_last_frame_s;
   if (!obs.table_fault.empty()) {
     why << "table fault: " << obs.table_fault << ": plan paused";
+  } else if (!obs.interlock_closed && obs.table_ok) {
+    why << "table interlock open (" << kInterlockOpenCause
+        << "): motion stopped, plan paused; re-arm the bench (imubench rearm), then resume";
   } else if (table_silent > options_.comm_timeout_s) {
     why << "table not answering for " << table_silent << " s (timeout " << options_.comm_timeout_s
         << " s): motion stopped, plan paused";

@@ -230,6 +230,15 @@ void VirtualTable::trip(double t, std::string reason) {
   brakeAll(t);
 }
 
+void VirtualTable::restart(double t) {
+  brakeAll(t);
+  for (Axis& a : axes_) a.mode = AxisMode::kOff;
+  interlock_closed_ = false;
+  tripped_ = false;
+  estop_ = false;
+  trip_reason_.clear();
+}
+
 VirtualAxisStatus VirtualTable::axis(double t, int i) {
   const calib::AxisState s = stateAt(t, i);
   const auto& ax = axes_[static_cast<size_t>(i)];

@@ -44,6 +44,10 @@ class VirtualTable {
   void interlockReset(double t);
   // Fault injection: the safety chain opens by itself (door switch, over-speed...).
   void trip(double t, std::string reason);
+  // Fault injection: the controller reboots (brown-out, watchdog). Every axis brakes to rest,
+  // modes go off, the interlock comes up open and the trip/emergency-stop latches are gone;
+  // the angles stay (absolute encoders). Motion needs the interlock closed again (re-arm).
+  void restart(double t);
 
   VirtualAxisStatus axis(double t, int i);
   uint32_t statusWord(double t);  // global bits per spec().bits

@@ -462,7 +462,11 @@ void addControlCommands(CLI::App& app) {
        {Simple{"pause", "hold the run at the next safe point", "pause requested"},
         Simple{"resume", "continue a paused run", "resumed"},
         Simple{"abort", "stop the run in an orderly way", "abort requested"},
-        Simple{"stop", "EMERGENCY STOP: halt all motion now", "emergency stop sent"}}) {
+        Simple{"stop", "EMERGENCY STOP: halt all motion now", "emergency stop sent"},
+        Simple{"rearm",
+               "close the table's interlock again after a controller restart (no run or a "
+               "paused one; then resume)",
+               "re-armed"}}) {
     auto o = std::make_shared<ControlOptions>();
     CLI::App* sub = app.add_subcommand(s.name, s.help);
     sub->group(group);

@@ -7,8 +7,10 @@
 //   IMU     - CAN frames on a SocketCAN interface (vcan) in the device file's layout.
 // Time runs --time-scale times faster than the wall clock. Faults can be injected from the
 // command line, or while running by signal: SIGUSR1 drops every Modbus TCP connection,
-// SIGUSR2 trips the table interlock, SIGRTMIN+1 restarts the IMU (silent, then its counter and
-// time stamp from 0). Announcements go to stdout (one line each, for scripts);
+// SIGUSR2 trips the table interlock, SIGRTMIN restarts the table controller (connections
+// dropped, axes braked, modes off, interlock open; see VirtualTable::restart), SIGRTMIN+1
+// restarts the IMU (silent, then its counter and time stamp from 0). Announcements go to
+// stdout (one line each, for scripts);
 // events to syslog and stderr. Stops on SIGINT/SIGTERM.
 #include <signal.h>
 
@@ -230,6 +232,7 @@ int run(const Args& a) {
   sigaddset(&set, SIGUSR1);
   sigaddset(&set, SIGUSR2);
   sigaddset(&set, SIGRTMIN + 1);
+  sigaddset(&set, SIGRTMIN);
   auto trip = [&] {
     world.withTable([&](VirtualTable& t, double now) {
       t.trip(now, a.trip_reason);
@@ -256,6 +259,14 @@ int run(const Args& a) {
     if (sig == SIGRTMIN + 1 && imu) {
       log.warning("fault injection: IMU restart (silent, then counter and time stamp from 0)");
       imu->requestRestart();
+    }
+    if (sig == SIGRTMIN) {
+      log.warning("fault injection: table controller restart");
+      world.withTable([](VirtualTable& t, double now) {
+        t.restart(now);
+        return 0;
+      });
+      table_tcp.dropConnections();
     }
     if (!tripped && world.now() >= a.trip_after_s) {
       trip();
@@ -330,6 +341,7 @@ int main(int argc, char** argv) {
   sigaddset(&set, SIGUSR1);
   sigaddset(&set, SIGUSR2);
   sigaddset(&set, SIGRTMIN + 1);
+  sigaddset(&set, SIGRTMIN);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   signal(SIGPIPE, SIG_IGN);
   return run(a);

@@ -31,7 +31,7 @@ TEST(ControlProtocol, CommandsWithoutArguments) {
   const std::pair<const char*, Command> cases[] = {
       {"pause", Command::kPause}, {"resume", Command::kResume}, {"abort", Command::kAbort},
       {"stop", Command::kStop},   {"status", Command::kStatus}, {"list_plans", Command::kListPlans},
-      {"ping", Command::kPing}};
+      {"ping", Command::kPing},   {"rearm", Command::kRearm}};
   for (const auto& [name, cmd] : cases) {
     const Request r = parseOk(std::string("{\"id\":3,\"cmd\":\"") + name + "\"}");
     EXPECT_EQ(r.command, cmd);

@@ -70,12 +70,14 @@ class FakeBench : public BenchPort {
     for (double a : angle_) o.angles.push_back(std::remainder(a, 2.0 * kPi));
     o.moving = moving;
     o.chamber_temp_c = chamber_temp;
+    o.interlock_closed = !interlock_open;
     return o;
   }
   double angle(int axis) const { return angle_[axis]; }
 
   double rate = 20.0 * kDegToRad;  // rad/s
   bool table_silent = false, imu_silent = false, stuck = false, fail_commands = false;
+  bool interlock_open = false;  // the controller restarted: interlock open, no fault bit
   double table_last_ok = 0.0, imu_last = 0.0;
   double chamber_temp = 22.0;
   int stops = 0, estops = 0, prepares = 0;
@@ -308,6 +310,30 @@ TEST(PlanRunner, ChamberOverTemperatureGoesToTheSafeSetpointAndPauses) {
   ASSERT_FALSE(h.bench.setpoints.empty());
   EXPECT_EQ(h.bench.setpoints.back(), 23.0);
   EXPECT_NE(h.lastAlarm().find("over temperature"), std::string::npos) << h.lastAlarm();
+}
+
+// A controller restart opens the interlock without a fault: the run pauses with an alarm that
+// says how to go on, resume is refused until the interlock is closed again (the daemon's
+// rearm), and then the interrupted step re-runs and the plan completes.
+TEST(PlanRunner, InterlockOpenedByAControllerRestartPausesUntilRearmed) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  h.until([] { return false; }, 70.0);
+  ASSERT_EQ(h.runner.state(), RunnerState::kRunning);
+  h.bench.interlock_open = true;
+  h.tick();
+  EXPECT_EQ(h.runner.state(), RunnerState::kPaused);
+  EXPECT_NE(h.lastAlarm().find("interlock open"), std::string::npos) << h.lastAlarm();
+  EXPECT_NE(h.lastAlarm().find("imubench rearm"), std::string::npos) << h.lastAlarm();
+  h.tick();
+  const CommandResult refused = h.runner.resume(h.now);
+  EXPECT_FALSE(refused.ok);
+  EXPECT_NE(refused.message.find("re-arm"), std::string::npos) << refused.message;
+  h.bench.interlock_open = false;  // re-armed
+  h.tick();
+  ASSERT_TRUE(h.runner.resume(h.now).ok);
+  ASSERT_TRUE(h.until([&] { return h.runner.state() == RunnerState::kFinished; }, 4000.0));
+  EXPECT_EQ(h.runner.exit(), RunExit::kCompleted);
 }
 
 TEST(PlanRunner, FailedCommandAlarmsAndPauses) {

@@ -312,6 +312,10 @@ class Client:
         """Emergency stop: halt all motion now."""
         return self.call("stop")
 
+    def rearm(self):
+        """Close the table's interlock again after a controller restart (then resume)."""
+        return self.call("rearm")
+
     def status(self):
         return self.call("status")
 
