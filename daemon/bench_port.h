@@ -1,5 +1,5 @@
 // The plan runner's BenchPort over the real drivers: the table (position mode for moves and
-// rotations, stop, emergency stop) and the optional chamber (setpoint). Also turns driver
+// rotations at the step's rate/acceleration profile, stop, emergency stop) and the optional chamber (setpoint). Also turns driver
 // readings into the runner's BenchObservation. Owns no device: the daemon does.
 #pragma once
 
@@ -19,8 +19,10 @@ class DriverBenchPort : public BenchPort {
 
   // Connects if needed and closes the interlock (motion needs it closed).
   drivers::Status prepare() override;
-  drivers::Status moveTo(int axis, double angle_rad) override;
-  drivers::Status rotateBy(int axis, double delta_rad) override;
+  // Each motion sets the axis' profile first (the controller keeps the last one it was given).
+  drivers::Status moveTo(int axis, double angle_rad, const drivers::MotionLimits& limits) override;
+  drivers::Status rotateBy(int axis, double delta_rad,
+                           const drivers::MotionLimits& limits) override;
   drivers::Status stopAll() override;
   drivers::Status emergencyStop() override;
   drivers::Status chamberSetpoint(double setpoint_c) override;

@@ -60,8 +60,11 @@ VirtualTableScpi::VirtualTableScpi(VirtualWorld& world, const TableDeviceSpec& s
       {Op::kIlClose, &c.interlock_close},
       {Op::kIlOpen, &c.interlock_open},
       {Op::kIlReset, &c.interlock_reset},
+      {Op::kSetRateLimit, &c.set_rate_limit},
+      {Op::kSetAccelLimit, &c.set_accel_limit},
   };
   for (const auto& [op, cmd] : all) {
+    if (cmd->text.empty()) continue;  // an optional command the device file does not give
     patterns_.push_back({op, templateRegex(cmd->text),
                          cmd->text.find("{axis}") != std::string::npos,
                          cmd->text.find("{value}") != std::string::npos});
@@ -159,6 +162,12 @@ std::string VirtualTableScpi::handle(const std::string& line) {
           break;
         case Op::kIlReset:
           table.interlockReset(t);
+          break;
+        case Op::kSetRateLimit:
+          ok = table.setRateLimit(axis, value * c.rate_unit, &why);
+          break;
+        case Op::kSetAccelLimit:
+          ok = table.setAccelLimit(axis, value * c.accel_unit, &why);
           break;
       }
       return 0;

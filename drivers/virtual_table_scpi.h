@@ -45,7 +45,9 @@ class VirtualTableScpi {
     kReadAxisStatus,
     kIlClose,
     kIlOpen,
-    kIlReset
+    kIlReset,
+    kSetRateLimit,
+    kSetAccelLimit
   };
   struct Pattern {
     Op op;
