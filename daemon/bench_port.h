@@ -1,6 +1,7 @@
 // The plan runner's BenchPort over the real drivers: the table (position mode for moves and
-// rotations at the step's rate/acceleration profile, stop, emergency stop) and the optional chamber (setpoint). Also turns driver
-// readings into the runner's BenchObservation. Owns no device: the daemon does.
+// rotations at the step's rate/acceleration profile, stop, emergency stop) and the optional chamber
+// (setpoint). Also turns driver readings into the runner's BenchObservation. Owns no device: the
+// daemon does.
 #pragma once
 
 #include <optional>

@@ -68,11 +68,12 @@ class BenchPort {
   virtual ~BenchPort() = default;
   // Before the first step: the table ready to move (interlock closed). Refusal = no start.
   virtual drivers::Status prepare() = 0;
-  // Position-mode motion at the given rate and acceleration profile.
+  // Position-mode motion at the step's rate and acceleration profile: moveTo takes the
+  // shortest way, rotateBy's sign is the direction.
   virtual drivers::Status moveTo(int axis, double angle_rad,
-                                 const drivers::MotionLimits& limits) = 0;  // shortest way
+                                 const drivers::MotionLimits& limits) = 0;
   virtual drivers::Status rotateBy(int axis, double delta_rad,
-                                   const drivers::MotionLimits& limits) = 0;  // sign = direction
+                                   const drivers::MotionLimits& limits) = 0;
   virtual drivers::Status stopAll() = 0;                           // controlled stop
   virtual drivers::Status emergencyStop() = 0;                     // table and chamber
   virtual drivers::Status chamberSetpoint(double setpoint_c) = 0;  // no chamber: Ok

@@ -306,8 +306,7 @@ void parseTableRegisters(const toml::table& root, TableDeviceSpec& s, Diagnostic
     parseRegister(*a, {"rate", true, Dimension::kRate}, ax.rate, true, diag);
     parseRegister(*a, {"status", false, Dimension::kAngle}, ax.status, true, diag);
     parseRegister(*a, {"rate_limit", true, Dimension::kRate}, ax.rate_limit, false, diag);
-    parseRegister(*a, {"accel_limit", true, Dimension::kAngularAccel}, ax.accel_limit, false,
-                  diag);
+    parseRegister(*a, {"accel_limit", true, Dimension::kAngularAccel}, ax.accel_limit, false, diag);
     if ((a->get("rate_limit") != nullptr) != (a->get("accel_limit") != nullptr)) {
       diag.error(a->source(),
                  "give both \"rate_limit\" and \"accel_limit\" (the motion profile) or neither");
@@ -352,6 +351,34 @@ void parseCommand(const toml::table& t, std::string_view key, SerialCommand& c, 
   if (c.text.empty()) diag.error(n->source(), "command \"" + std::string(key) + "\" is empty");
 }
 
+// A command set's unit ("deg", "deg/s"): the SI value of 1.0 in its commands.
+void readUnit(const toml::table& c, std::string_view key, Dimension dim, bool required, double& out,
+              Diagnostics& diag) {
+  const auto u = strField(c, key, diag, required);
+  if (!u) return;
+  std::string why;
+  if (auto v = plans::parseQuantity("1 " + *u, dim, &why)) {
+    out = *v;
+  } else {
+    diag.error(c.get(key)->source(), why);
+  }
+}
+
+// The motion profile commands come together, and set_accel_limit needs accel_unit.
+void checkProfileCommands(const toml::table& c, Diagnostics& diag) {
+  const toml::node* rate_cmd = c.get("set_rate_limit");
+  const toml::node* accel_cmd = c.get("set_accel_limit");
+  if ((rate_cmd != nullptr) != (accel_cmd != nullptr)) {
+    diag.error((rate_cmd != nullptr ? rate_cmd : accel_cmd)->source(),
+               "give both \"set_rate_limit\" and \"set_accel_limit\" (the motion profile) or "
+               "neither");
+  }
+  if (accel_cmd != nullptr && c.get("accel_unit") == nullptr) {
+    diag.error(accel_cmd->source(),
+               "\"set_accel_limit\" needs \"accel_unit\" (e.g. \"deg/s^2\") in [commands]");
+  }
+}
+
 void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics& diag) {
   const toml::table* c = subTable(root, "commands", diag, true);
   if (!c) return;
@@ -382,28 +409,9 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
              "set_accel_limit"},
             "[commands]", diag);
   readInt(*c, "axis_base", cs.axis_base, diag, 0, 9);
-  std::string why;
-  if (auto u = strField(*c, "angle_unit", diag, true)) {
-    auto v = plans::parseQuantity("1 " + *u, Dimension::kAngle, &why);
-    if (v)
-      cs.angle_unit = *v;
-    else
-      diag.error(c->get("angle_unit")->source(), why);
-  }
-  if (auto u = strField(*c, "rate_unit", diag, true)) {
-    auto v = plans::parseQuantity("1 " + *u, Dimension::kRate, &why);
-    if (v)
-      cs.rate_unit = *v;
-    else
-      diag.error(c->get("rate_unit")->source(), why);
-  }
-  if (auto u = strField(*c, "accel_unit", diag, false)) {
-    auto v = plans::parseQuantity("1 " + *u, Dimension::kAngularAccel, &why);
-    if (v)
-      cs.accel_unit = *v;
-    else
-      diag.error(c->get("accel_unit")->source(), why);
-  }
+  readUnit(*c, "angle_unit", Dimension::kAngle, true, cs.angle_unit, diag);
+  readUnit(*c, "rate_unit", Dimension::kRate, true, cs.rate_unit, diag);
+  readUnit(*c, "accel_unit", Dimension::kAngularAccel, false, cs.accel_unit, diag);
   if (auto a = strField(*c, "ack", diag, false)) cs.ack = *a;
   if (auto e = strField(*c, "error_prefix", diag, false)) cs.error_prefix = *e;
   struct Entry {
@@ -449,17 +457,7 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
                      (e.value ? "\" must contain {value}" : "\" must not contain {value}"));
     }
   }
-  const toml::node* rate_cmd = c->get("set_rate_limit");
-  const toml::node* accel_cmd = c->get("set_accel_limit");
-  if ((rate_cmd != nullptr) != (accel_cmd != nullptr)) {
-    diag.error((rate_cmd != nullptr ? rate_cmd : accel_cmd)->source(),
-               "give both \"set_rate_limit\" and \"set_accel_limit\" (the motion profile) or "
-               "neither");
-  }
-  if (accel_cmd != nullptr && c->get("accel_unit") == nullptr) {
-    diag.error(accel_cmd->source(),
-               "\"set_accel_limit\" needs \"accel_unit\" (e.g. \"deg/s^2\") in [commands]");
-  }
+  checkProfileCommands(*c, diag);
 }
 
 void parseStatusBits(const toml::table& root, TableStatusBits& b, Diagnostics& diag) {

@@ -54,9 +54,9 @@ VirtualTableRegisters::VirtualTableRegisters(VirtualWorld& world, const TableDev
   grow(r.status, &holding_, &input_);
   grow(r.control, &holding_, &input_);
   for (const auto& a : r.axes) {
-    for (const RegisterField* f : {&a.mode, &a.position_demand, &a.rate_demand, &a.rotate_by,
-                                   &a.command, &a.position, &a.rate, &a.status, &a.rate_limit,
-                                   &a.accel_limit}) {
+    for (const RegisterField* f :
+         {&a.mode, &a.position_demand, &a.rate_demand, &a.rotate_by, &a.command, &a.position,
+          &a.rate, &a.status, &a.rate_limit, &a.accel_limit}) {
       grow(*f, &holding_, &input_);
     }
   }

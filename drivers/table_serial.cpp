@@ -143,8 +143,8 @@ Status SerialTable::setProfile(int axis, const MotionLimits& limits) {
   if (Status s = checkTableAxis(spec_, axis); !s.ok) return s;
   if (Status s = checkTableProfile(spec_, limits); !s.ok) return s;
   const auto& c = spec_.commands;
-  if (Status s = exchange(c.set_rate_limit, axis, limits.rate / c.rate_unit, "set rate limit",
-                          nullptr);
+  if (Status s =
+          exchange(c.set_rate_limit, axis, limits.rate / c.rate_unit, "set rate limit", nullptr);
       !s.ok) {
     return s;
   }

@@ -76,9 +76,8 @@ bool VirtualTable::setAccelLimit(int i, double accel, std::string* why) {
   return true;
 }
 
-void VirtualTable::planRate(double t, int i, double r) {
+void VirtualTable::planRate(double t, int i, double r, double a) {
   const calib::AxisState s = stateAt(t, i);
-  const double a = accelLimit(i);
   const double dv = r - s.rate;
   std::vector<calib::AxisPhase> ph;
   if (std::abs(dv) < kRestRate) {
@@ -152,7 +151,7 @@ bool VirtualTable::setMode(double t, int i, AxisMode mode, std::string* why) {
   }
   auto& ax = axes_[static_cast<size_t>(i)];
   if (ax.mode != mode) {
-    planRate(t, i, 0.0);  // a mode change brakes the axis first
+    planRate(t, i, 0.0, accelLimit(i));  // a mode change brakes the axis first
     ax.has_target = false;
   }
   ax.mode = mode;
@@ -211,18 +210,22 @@ bool VirtualTable::setRate(double t, int i, double rate, std::string* why) {
     *why = "rate above the limit";
     return false;
   }
-  planRate(t, i, rate);
+  planRate(t, i, rate, accelLimit(i));
   return true;
 }
 
 void VirtualTable::stop(double t, int i) {
   if (i < 0 || i >= spec_.axisCount()) return;
   axes_[static_cast<size_t>(i)].has_target = false;
-  planRate(t, i, 0.0);
+  planRate(t, i, 0.0, accelLimit(i));
 }
 
+// Emergency stop and the safety chain brake as hard as the device can, whatever the profile.
 void VirtualTable::brakeAll(double t) {
-  for (int i = 0; i < spec_.axisCount(); ++i) stop(t, i);
+  for (int i = 0; i < spec_.axisCount(); ++i) {
+    axes_[static_cast<size_t>(i)].has_target = false;
+    planRate(t, i, 0.0, spec_.limits.max_accel);
+  }
 }
 
 void VirtualTable::emergencyStop(double t) {

@@ -67,7 +67,7 @@ class VirtualTable {
     AxisMode mode = AxisMode::kOff;
     std::vector<calib::AxisPhase> pending;  // planned, t0 > committed time
     bool has_target = false;
-    double target = 0.0;  // continuous angle of the position target
+    double target = 0.0;       // continuous angle of the position target
     double rate_limit = 0.0;   // commanded profile, rad/s (0: the device's limit)
     double accel_limit = 0.0;  // rad/s^2 (0: the device's limit)
   };
@@ -78,8 +78,8 @@ class VirtualTable {
   void replan(double t, int i, std::vector<calib::AxisPhase> phases);
   // Rest-to-rest (from any current state) move to continuous angle x1, limited rate/accel.
   void planMove(double t, int i, double x1);
-  // Change to a constant rate r with the acceleration limit.
-  void planRate(double t, int i, double r);
+  // Change to a constant rate r with acceleration a.
+  void planRate(double t, int i, double r, double a);
   bool motionAllowed(std::string* why) const;
   void brakeAll(double t);
 

@@ -3,8 +3,6 @@
 // plan is meant for every bundled bench with its table kind, and each bench file's comment
 // names the plans meant for it. Also the check's refusals: a plan or a step asking more than
 // the bench allows, and a table whose device file cannot set a motion's profile.
-#include "daemon/plan_check.h"
-
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -13,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/plan_check.h"
 #include "nav/rotation.h"
 #include "plans/expand.h"
 #include "plans/validator.h"
