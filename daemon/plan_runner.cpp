@@ -74,6 +74,13 @@ drivers::MotionLimits phaseLimits(const calib::AxisTrajectory& axis, double t0, 
   return m;
 }
 
+// A step's planned profile of one axis (none for a step built without limits: the bench then
+// refuses the command instead of guessing one).
+drivers::MotionLimits stepLimits(const RunStep& s, int axis) {
+  const auto a = static_cast<std::size_t>(axis);
+  return a < s.limits.size() ? s.limits[a] : drivers::MotionLimits{};
+}
+
 }  // namespace
 
 std::vector<RunStep> runSteps(const calib::Motion& motion) {
@@ -331,15 +338,6 @@ void PlanRunner::beginStep(const BenchObservation& obs) {
   }
   commandStep(obs);
 }
-
-namespace {
-// A step's planned profile of one axis (none for a step built without limits: the bench then
-// refuses the command instead of guessing one).
-drivers::MotionLimits stepLimits(const RunStep& s, int axis) {
-  const auto a = static_cast<std::size_t>(axis);
-  return a < s.limits.size() ? s.limits[a] : drivers::MotionLimits{};
-}
-}  // namespace
 
 void PlanRunner::commandStep(const BenchObservation& obs) {
   const double now_s = obs.now_s;

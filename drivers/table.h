@@ -76,7 +76,7 @@ std::unique_ptr<TableDriver> makeTableDriver(const TableDeviceSpec& spec, EventS
 Status checkTableAxis(const TableDeviceSpec& spec, int axis);
 Status checkTableRate(const TableDeviceSpec& spec, double rate);
 Status checkTableTarget(const TableDeviceSpec& spec, double angle);
-// A profile the device file can set (tableProfileSettable) within the spec's limits.
+// A profile the device file can set (TableDeviceSpec::profileSettable) within the spec's limits.
 Status checkTableProfile(const TableDeviceSpec& spec, const MotionLimits& limits);
 // Fills the global flags of r from the status word; returns the reason when it is a fault.
 std::string decodeTableStatus(const TableStatusBits& bits, uint32_t raw, TableReading* r);
