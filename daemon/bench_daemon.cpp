@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "daemon/file_io.h"
+#include "daemon/plan_check.h"
 #include "nav/rotation.h"
 #include "plans/expand.h"
 #include "plans/plan.h"
@@ -56,30 +57,13 @@ std::optional<LoadedPlan> loadPlan(const PlanSource& source, const BenchConfig& 
     *why = diag.str();
     return std::nullopt;
   }
-  if (plan->table.kind != bench.table.kind) {
-    *why = name + ": the plan is for a " + plans::tableKindName(plan->table.kind) +
-           " table, this bench has a " + plans::tableKindName(bench.table.kind) + " table";
-    return std::nullopt;
-  }
-  for (int a = 0; a < calib::axisCount(plan->table.kind); ++a) {
-    const plans::EffectiveLimits lim = plans::limitsFor(plan->table, a);
-    if (lim.max_rate.value_or(0.0) > bench.table.limits.max_rate * (1.0 + 1e-12) ||
-        lim.max_accel.value_or(0.0) > bench.table.limits.max_accel * (1.0 + 1e-12)) {
-      std::ostringstream ss;
-      ss << name << ": axis " << plans::axisNames(plan->table.kind)[static_cast<std::size_t>(a)]
-         << " asks for more than this bench allows (" << bench.table.limits.max_rate * kRadToDeg
-         << " deg/s, " << bench.table.limits.max_accel * kRadToDeg << " deg/s^2)";
-      *why = ss.str();
-      return std::nullopt;
-    }
-  }
-  if (plan->chamber && !bench.chamber) {
-    *why = name + ": the plan drives a chamber and this bench has none";
-    return std::nullopt;
-  }
   auto ex = plans::expand(*plan);
   if (!ex.ok) {
     *why = name + ": " + ex.error;
+    return std::nullopt;
+  }
+  if (const PlanFit fit = checkPlanForBench(*plan, ex.motion, bench); !fit.ok) {
+    *why = fit.message;
     return std::nullopt;
   }
   out.plan = std::move(*plan);

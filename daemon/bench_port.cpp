@@ -40,13 +40,17 @@ drivers::Status DriverBenchPort::prepare() {
   return st;
 }
 
-drivers::Status DriverBenchPort::moveTo(int axis, double angle_rad) {
+drivers::Status DriverBenchPort::moveTo(int axis, double angle_rad,
+                                        const drivers::MotionLimits& limits) {
   if (auto st = positionMode(axis); !st.ok) return st;
+  if (auto st = table_.setProfile(axis, limits); !st.ok) return st;
   return table_.moveTo(axis, angle_rad);
 }
 
-drivers::Status DriverBenchPort::rotateBy(int axis, double delta_rad) {
+drivers::Status DriverBenchPort::rotateBy(int axis, double delta_rad,
+                                          const drivers::MotionLimits& limits) {
   if (auto st = positionMode(axis); !st.ok) return st;
+  if (auto st = table_.setProfile(axis, limits); !st.ok) return st;
   return table_.rotateBy(axis, delta_rad);
 }
 

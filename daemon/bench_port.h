@@ -1,6 +1,7 @@
 // The plan runner's BenchPort over the real drivers: the table (position mode for moves and
-// rotations, stop, emergency stop) and the optional chamber (setpoint). Also turns driver
-// readings into the runner's BenchObservation. Owns no device: the daemon does.
+// rotations at the step's rate/acceleration profile, stop, emergency stop) and the optional chamber
+// (setpoint). Also turns driver readings into the runner's BenchObservation. Owns no device: the
+// daemon does.
 #pragma once
 
 #include <optional>
@@ -21,8 +22,10 @@ class DriverBenchPort : public BenchPort {
   // emergency stop, tripped or faulted (cleared at the controller on purpose, never by us).
   // Also the operator's re-arm after a controller restart. Updates lastReading().
   drivers::Status prepare() override;
-  drivers::Status moveTo(int axis, double angle_rad) override;
-  drivers::Status rotateBy(int axis, double delta_rad) override;
+  // Each motion sets the axis' profile first (the controller keeps the last one it was given).
+  drivers::Status moveTo(int axis, double angle_rad, const drivers::MotionLimits& limits) override;
+  drivers::Status rotateBy(int axis, double delta_rad,
+                           const drivers::MotionLimits& limits) override;
   drivers::Status stopAll() override;
   drivers::Status emergencyStop() override;
   drivers::Status chamberSetpoint(double setpoint_c) override;

@@ -62,6 +62,34 @@ const char* runnerEventKindName(RunnerEvent::Kind k) {
   return "?";
 }
 
+namespace {
+
+// The largest |rate| and |accel| of an axis' phases inside [t0, t1): exactly what the
+// expander computed for the step (a triangle profile's peak, a trapezoid's cruise rate).
+drivers::MotionLimits phaseLimits(const calib::AxisTrajectory& axis, double t0, double t1) {
+  drivers::MotionLimits m;
+  const std::vector<calib::AxisPhase>& ph = axis.phases();
+  for (std::size_t k = 0; k < ph.size(); ++k) {
+    const double begin = std::max(ph[k].t0, t0);
+    const double end = std::min(k + 1 < ph.size() ? ph[k + 1].t0 : t1, t1);
+    if (!(end > begin)) continue;
+    const double rate_begin = ph[k].rate0 + ph[k].accel * (begin - ph[k].t0);
+    const double rate_end = ph[k].rate0 + ph[k].accel * (end - ph[k].t0);
+    m.rate = std::max({m.rate, std::abs(rate_begin), std::abs(rate_end)});
+    m.accel = std::max(m.accel, std::abs(ph[k].accel));
+  }
+  return m;
+}
+
+// A step's planned profile of one axis (none for a step built without limits: the bench then
+// refuses the command instead of guessing one).
+drivers::MotionLimits stepLimits(const RunStep& s, int axis) {
+  const auto a = static_cast<std::size_t>(axis);
+  return a < s.limits.size() ? s.limits[a] : drivers::MotionLimits{};
+}
+
+}  // namespace
+
 std::vector<RunStep> runSteps(const calib::Motion& motion) {
   std::vector<RunStep> out;
   out.reserve(motion.segments.size());
@@ -75,6 +103,7 @@ std::vector<RunStep> runSteps(const calib::Motion& motion) {
     for (const calib::AxisTrajectory& a : motion.axes) {
       s.start_angles.push_back(a.at(seg.t0).angle);
       s.end_angles.push_back(a.at(seg.t1).angle);
+      s.limits.push_back(phaseLimits(a, seg.t0, seg.t1));
     }
     if (seg.kind == calib::SegmentKind::kRotate) {
       s.axis = seg.axis;
@@ -83,6 +112,18 @@ std::vector<RunStep> runSteps(const calib::Motion& motion) {
     s.setpoint_c = motion.temperatureAt(seg.t1);
     s.recording = seg.recording;
     out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps) {
+  std::vector<drivers::MotionLimits> out;
+  for (const RunStep& s : steps) {
+    if (out.size() < s.limits.size()) out.resize(s.limits.size());
+    for (std::size_t a = 0; a < s.limits.size(); ++a) {
+      out[a].rate = std::max(out[a].rate, s.limits[a].rate);
+      out[a].accel = std::max(out[a].accel, s.limits[a].accel);
+    }
   }
   return out;
 }
@@ -108,7 +149,22 @@ bool RunnerOptions::IsValid(std::string* why) const {
 }
 
 PlanRunner::PlanRunner(std::vector<RunStep> steps, RunnerOptions options, BenchPort& port)
-    : steps_(std::move(steps)), options_(std::move(options)), port_(port) {}
+    : steps_(std::move(steps)),
+      plan_limits_(planLimits(steps_)),
+      options_(std::move(options)),
+      port_(port) {}
+
+drivers::MotionLimits PlanRunner::returnLimits(int axis) const {
+  const auto a = static_cast<std::size_t>(axis);
+  if (a < plan_limits_.size() && plan_limits_[a].rate > 0.0 && plan_limits_[a].accel > 0.0) {
+    return plan_limits_[a];
+  }
+  drivers::MotionLimits fastest;
+  for (const drivers::MotionLimits& m : plan_limits_) {
+    if (m.rate > fastest.rate) fastest = m;
+  }
+  return fastest;
+}
 
 void PlanRunner::emit(RunnerEvent::Kind kind, double now_s, std::string message) {
   RunnerEvent e;
@@ -285,7 +341,10 @@ void PlanRunner::beginStep(const BenchObservation& obs) {
   if (moves && !arrived(obs, s.start_angles)) {
     // Interrupted (or the table is not where the previous step left it): back to the start.
     for (std::size_t a = 0; a < s.start_angles.size(); ++a) {
-      if (!issue(port_.moveTo(static_cast<int>(a), s.start_angles[a]), obs.now_s, "move")) return;
+      const int axis = static_cast<int>(a);
+      if (!issue(port_.moveTo(axis, s.start_angles[a], returnLimits(axis)), obs.now_s, "move")) {
+        return;
+      }
     }
     phase_ = Phase::kReturning;
     phase_t0_s_ = obs.now_s;
@@ -307,13 +366,16 @@ void PlanRunner::commandStep(const BenchObservation& obs) {
   phase_t0_s_ = now_s;
   switch (s.kind) {
     case calib::SegmentKind::kRotate:
-      if (!issue(port_.rotateBy(s.axis, s.delta), now_s, "rotate")) return;
+      if (!issue(port_.rotateBy(s.axis, s.delta, stepLimits(s, s.axis)), now_s, "rotate")) return;
       phase_ = Phase::kMoving;
       return;
     case calib::SegmentKind::kMove:
       for (std::size_t a = 0; a < s.end_angles.size(); ++a) {
         if (std::abs(s.end_angles[a] - s.start_angles[a]) < options_.angle_tolerance_rad) continue;
-        if (!issue(port_.moveTo(static_cast<int>(a), s.end_angles[a]), now_s, "move")) return;
+        const int axis = static_cast<int>(a);
+        if (!issue(port_.moveTo(axis, s.end_angles[a], stepLimits(s, axis)), now_s, "move")) {
+          return;
+        }
       }
       phase_ = Phase::kMoving;
       return;

@@ -26,6 +26,7 @@
 
 #include "calib/motion.h"
 #include "drivers/device_errors.h"
+#include "drivers/table.h"
 
 namespace imubench::daemon {
 
@@ -48,10 +49,17 @@ struct RunStep {
   double delta = 0.0;                // kRotate: signed turn (direction explicit), rad
   double setpoint_c = 0.0;           // kSoak: chamber setpoint at the end
   bool recording = true;
+  // Per axis: the largest |rate| and |accel| the expansion planned inside this step (zero
+  // where the axis rests). Sent with the step's motion commands, so the table follows the
+  // plan's profile instead of its controller's maximum.
+  std::vector<drivers::MotionLimits> limits;
 };
 
 // The plan's steps from its expansion. Pure.
 std::vector<RunStep> runSteps(const calib::Motion& motion);
+
+// Per axis, the largest rate and acceleration of any step (zero for an axis that never moves).
+std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps);
 
 // What the runner commands. The daemon implements it over the table and chamber drivers; a
 // command returns at once (the motion is observed through BenchObservation).
@@ -60,11 +68,15 @@ class BenchPort {
   virtual ~BenchPort() = default;
   // Before the first step: the table ready to move (interlock closed). Refusal = no start.
   virtual drivers::Status prepare() = 0;
-  virtual drivers::Status moveTo(int axis, double angle_rad) = 0;    // shortest way
-  virtual drivers::Status rotateBy(int axis, double delta_rad) = 0;  // sign = direction
-  virtual drivers::Status stopAll() = 0;                             // controlled stop
-  virtual drivers::Status emergencyStop() = 0;                       // table and chamber
-  virtual drivers::Status chamberSetpoint(double setpoint_c) = 0;    // no chamber: Ok
+  // Position-mode motion at the step's rate and acceleration profile: moveTo takes the
+  // shortest way, rotateBy's sign is the direction.
+  virtual drivers::Status moveTo(int axis, double angle_rad,
+                                 const drivers::MotionLimits& limits) = 0;
+  virtual drivers::Status rotateBy(int axis, double delta_rad,
+                                   const drivers::MotionLimits& limits) = 0;
+  virtual drivers::Status stopAll() = 0;                           // controlled stop
+  virtual drivers::Status emergencyStop() = 0;                     // table and chamber
+  virtual drivers::Status chamberSetpoint(double setpoint_c) = 0;  // no chamber: Ok
 };
 
 struct BenchObservation {
@@ -155,9 +167,13 @@ class PlanRunner {
   void finishStep(double now_s);
   bool arrived(const BenchObservation& obs, const std::vector<double>& target) const;
   bool issue(const drivers::Status& st, double now_s, const std::string& what);
+  // The profile of a return to a step's start (not a planned motion): the axis' own fastest
+  // planned profile, else the fastest of the plan's, so no return outruns the plan.
+  drivers::MotionLimits returnLimits(int axis) const;
   void emit(RunnerEvent::Kind kind, double now_s, std::string message);
 
   std::vector<RunStep> steps_;
+  std::vector<drivers::MotionLimits> plan_limits_;  // planLimits(steps_)
   RunnerOptions options_;
   BenchPort& port_;
   RunnerState state_ = RunnerState::kIdle;

@@ -294,7 +294,7 @@ void parseTableRegisters(const toml::table& root, TableDeviceSpec& s, Diagnostic
     }
     checkKeys(*a,
               {"mode", "position_demand", "rate_demand", "rotate_by", "command", "position", "rate",
-               "status"},
+               "status", "rate_limit", "accel_limit"},
               "[[registers.axis]]", diag);
     auto& ax = s.registers.axes[i];
     parseRegister(*a, {"mode", false, Dimension::kAngle}, ax.mode, true, diag);
@@ -305,6 +305,12 @@ void parseTableRegisters(const toml::table& root, TableDeviceSpec& s, Diagnostic
     parseRegister(*a, {"position", true, Dimension::kAngle}, ax.position, true, diag);
     parseRegister(*a, {"rate", true, Dimension::kRate}, ax.rate, true, diag);
     parseRegister(*a, {"status", false, Dimension::kAngle}, ax.status, true, diag);
+    parseRegister(*a, {"rate_limit", true, Dimension::kRate}, ax.rate_limit, false, diag);
+    parseRegister(*a, {"accel_limit", true, Dimension::kAngularAccel}, ax.accel_limit, false, diag);
+    if ((a->get("rate_limit") != nullptr) != (a->get("accel_limit") != nullptr)) {
+      diag.error(a->source(),
+                 "give both \"rate_limit\" and \"accel_limit\" (the motion profile) or neither");
+    }
     const std::string p = "axis[" + std::to_string(i) + "].";
     for (auto [name, f] : {std::pair{"mode", &ax.mode},
                            {"position_demand", &ax.position_demand},
@@ -313,17 +319,20 @@ void parseTableRegisters(const toml::table& root, TableDeviceSpec& s, Diagnostic
                            {"command", &ax.command},
                            {"position", &ax.position},
                            {"rate", &ax.rate},
-                           {"status", &ax.status}}) {
+                           {"status", &ax.status},
+                           {"rate_limit", &ax.rate_limit},
+                           {"accel_limit", &ax.accel_limit}}) {
       claimed.push_back({p + name, f});
     }
   }
   checkOverlaps(claimed, *r, diag);
 }
 
-void parseCommand(const toml::table& t, std::string_view key, SerialCommand& c, Diagnostics& diag) {
+void parseCommand(const toml::table& t, std::string_view key, SerialCommand& c, Diagnostics& diag,
+                  bool required = true) {
   const toml::node* n = t.get(key);
   if (!n) {
-    diag.error(t.source(), "missing required command \"" + std::string(key) + "\"");
+    if (required) diag.error(t.source(), "missing required command \"" + std::string(key) + "\"");
     return;
   }
   if (n->is_string()) {
@@ -342,6 +351,34 @@ void parseCommand(const toml::table& t, std::string_view key, SerialCommand& c, 
   if (c.text.empty()) diag.error(n->source(), "command \"" + std::string(key) + "\" is empty");
 }
 
+// A command set's unit ("deg", "deg/s"): the SI value of 1.0 in its commands.
+void readUnit(const toml::table& c, std::string_view key, Dimension dim, bool required, double& out,
+              Diagnostics& diag) {
+  const auto u = strField(c, key, diag, required);
+  if (!u) return;
+  std::string why;
+  if (auto v = plans::parseQuantity("1 " + *u, dim, &why)) {
+    out = *v;
+  } else {
+    diag.error(c.get(key)->source(), why);
+  }
+}
+
+// The motion profile commands come together, and set_accel_limit needs accel_unit.
+void checkProfileCommands(const toml::table& c, Diagnostics& diag) {
+  const toml::node* rate_cmd = c.get("set_rate_limit");
+  const toml::node* accel_cmd = c.get("set_accel_limit");
+  if ((rate_cmd != nullptr) != (accel_cmd != nullptr)) {
+    diag.error((rate_cmd != nullptr ? rate_cmd : accel_cmd)->source(),
+               "give both \"set_rate_limit\" and \"set_accel_limit\" (the motion profile) or "
+               "neither");
+  }
+  if (accel_cmd != nullptr && c.get("accel_unit") == nullptr) {
+    diag.error(accel_cmd->source(),
+               "\"set_accel_limit\" needs \"accel_unit\" (e.g. \"deg/s^2\") in [commands]");
+  }
+}
+
 void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics& diag) {
   const toml::table* c = subTable(root, "commands", diag, true);
   if (!c) return;
@@ -350,6 +387,7 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
             {"axis_base",
              "angle_unit",
              "rate_unit",
+             "accel_unit",
              "ack",
              "error_prefix",
              "mode_off",
@@ -366,24 +404,14 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
              "read_axis_status",
              "interlock_close",
              "interlock_open",
-             "interlock_reset"},
+             "interlock_reset",
+             "set_rate_limit",
+             "set_accel_limit"},
             "[commands]", diag);
   readInt(*c, "axis_base", cs.axis_base, diag, 0, 9);
-  std::string why;
-  if (auto u = strField(*c, "angle_unit", diag, true)) {
-    auto v = plans::parseQuantity("1 " + *u, Dimension::kAngle, &why);
-    if (v)
-      cs.angle_unit = *v;
-    else
-      diag.error(c->get("angle_unit")->source(), why);
-  }
-  if (auto u = strField(*c, "rate_unit", diag, true)) {
-    auto v = plans::parseQuantity("1 " + *u, Dimension::kRate, &why);
-    if (v)
-      cs.rate_unit = *v;
-    else
-      diag.error(c->get("rate_unit")->source(), why);
-  }
+  readUnit(*c, "angle_unit", Dimension::kAngle, true, cs.angle_unit, diag);
+  readUnit(*c, "rate_unit", Dimension::kRate, true, cs.rate_unit, diag);
+  readUnit(*c, "accel_unit", Dimension::kAngularAccel, false, cs.accel_unit, diag);
   if (auto a = strField(*c, "ack", diag, false)) cs.ack = *a;
   if (auto e = strField(*c, "error_prefix", diag, false)) cs.error_prefix = *e;
   struct Entry {
@@ -391,6 +419,7 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
     SerialCommand* cmd;
     bool axis;   // must contain {axis}
     bool value;  // must contain {value}
+    bool required = true;
   };
   const Entry entries[] = {
       {"mode_off", &cs.mode_off, true, false},
@@ -408,9 +437,11 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
       {"interlock_close", &cs.interlock_close, false, false},
       {"interlock_open", &cs.interlock_open, false, false},
       {"interlock_reset", &cs.interlock_reset, false, false},
+      {"set_rate_limit", &cs.set_rate_limit, true, true, false},
+      {"set_accel_limit", &cs.set_accel_limit, true, true, false},
   };
   for (const auto& e : entries) {
-    parseCommand(*c, e.key, *e.cmd, diag);
+    parseCommand(*c, e.key, *e.cmd, diag, e.required);
     if (e.cmd->text.empty()) continue;
     const bool has_axis = e.cmd->text.find("{axis}") != std::string::npos;
     const bool has_value = e.cmd->text.find("{value}") != std::string::npos;
@@ -426,6 +457,7 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
                      (e.value ? "\" must contain {value}" : "\" must not contain {value}"));
     }
   }
+  checkProfileCommands(*c, diag);
 }
 
 void parseStatusBits(const toml::table& root, TableStatusBits& b, Diagnostics& diag) {
@@ -500,6 +532,17 @@ void parseDeviceHeader(const toml::table& root, std::string_view kind, std::stri
 }
 
 }  // namespace
+
+bool TableDeviceSpec::profileSettable() const {
+  if (transport.kind == TransportKind::kSerialScpi) {
+    return !commands.set_rate_limit.text.empty() && !commands.set_accel_limit.text.empty();
+  }
+  if (registers.axes.empty()) return false;
+  for (const TableAxisRegisters& a : registers.axes) {
+    if (!a.rate_limit.present || !a.accel_limit.present) return false;
+  }
+  return true;
+}
 
 std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, Diagnostics& diag) {
   auto root = plans::parseToml(text, diag);

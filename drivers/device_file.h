@@ -75,6 +75,9 @@ struct TableAxisRegisters {
   RegisterField position;         // read: current angle
   RegisterField rate;             // read: current rate
   RegisterField status;           // read: axis status bits
+  // Optional (both or neither): the profile of the following position-mode commands.
+  RegisterField rate_limit;   // written: rate of moves and rotations
+  RegisterField accel_limit;  // written: their acceleration and braking
 };
 
 // Integer codes written to mode/command/control registers (and, for the serial command set,
@@ -115,11 +118,15 @@ struct TableCommandSet {
   int axis_base = 1;        // number of the first axis in commands
   double angle_unit = 0.0;  // SI value of 1.0 in commands (deg -> pi/180)
   double rate_unit = 0.0;
+  double accel_unit = 0.0;   // SI value of 1.0 in set_accel_limit (when given)
   std::string ack;           // reply to a setting command ("" = none expected)
   std::string error_prefix;  // a reply starting with this is a device-reported error
   SerialCommand mode_off, mode_position, mode_rate, demand_position, demand_rate, rotate, stop,
       estop, read_position, read_rate, read_status, read_axis_status, interlock_close,
       interlock_open, interlock_reset;
+  // Optional (both or neither, text empty when absent): the profile of the following
+  // position-mode commands, "{value}" in rate_unit / accel_unit.
+  SerialCommand set_rate_limit, set_accel_limit;
 };
 
 // ---- Tables ---------------------------------------------------------------------------
@@ -144,6 +151,9 @@ struct TableDeviceSpec {
   TableCommandSet commands;    // serial transport
   int axisCount() const { return calib::axisCount(kind); }
   std::string name() const { return vendor + " " + model; }
+  // The device file says how to set each axis' rate and acceleration profile (else the
+  // controller moves at its own fixed profile, whatever a plan asks).
+  bool profileSettable() const;
 };
 
 // ---- Thermal chambers -----------------------------------------------------------------

@@ -54,8 +54,9 @@ VirtualTableRegisters::VirtualTableRegisters(VirtualWorld& world, const TableDev
   grow(r.status, &holding_, &input_);
   grow(r.control, &holding_, &input_);
   for (const auto& a : r.axes) {
-    for (const RegisterField* f : {&a.mode, &a.position_demand, &a.rate_demand, &a.rotate_by,
-                                   &a.command, &a.position, &a.rate, &a.status}) {
+    for (const RegisterField* f :
+         {&a.mode, &a.position_demand, &a.rate_demand, &a.rotate_by, &a.command, &a.position,
+          &a.rate, &a.status, &a.rate_limit, &a.accel_limit}) {
       grow(*f, &holding_, &input_);
     }
   }
@@ -108,6 +109,15 @@ void VirtualTableRegisters::written(modbus_mapping_t* m, int address, int count)
                               : k == c.mode_rate   ? AxisMode::kRate
                                                    : AxisMode::kOff;
         if (!table.setMode(t, i, mode, &why)) refuse("mode");
+      }
+      // The profile first: a client writing it and the command in one request means both.
+      if (hit(a.rate_limit, address, count) &&
+          !table.setRateLimit(i, get(m, a.rate_limit, r.word_order), &why)) {
+        refuse("rate limit");
+      }
+      if (hit(a.accel_limit, address, count) &&
+          !table.setAccelLimit(i, get(m, a.accel_limit, r.word_order), &why)) {
+        refuse("acceleration limit");
       }
       if (hit(a.command, address, count)) {
         const int k = code(m, a.command);

@@ -54,6 +54,29 @@ Status checkTableTarget(const TableDeviceSpec& spec, double angle) {
   return Status::Ok();
 }
 
+Status checkTableProfile(const TableDeviceSpec& spec, const MotionLimits& limits) {
+  if (!spec.profileSettable()) {
+    return Status::Error(spec.name() + ": the device file gives no way to set the rate and " +
+                         "acceleration of a motion (rate_limit/accel_limit registers or " +
+                         "set_rate_limit/set_accel_limit commands): the controller would move " +
+                         "at its own fixed profile, not the plan's");
+  }
+  if (!(std::isfinite(limits.rate) && limits.rate > 0.0) ||
+      !(std::isfinite(limits.accel) && limits.accel > 0.0)) {
+    return Status::Error(spec.name() + ": a motion profile needs a positive rate and " +
+                         "acceleration");
+  }
+  if (limits.rate > spec.limits.max_rate * (1.0 + 1e-9) ||
+      limits.accel > spec.limits.max_accel * (1.0 + 1e-9)) {
+    return Status::Error(spec.name() + ": profile " + std::to_string(limits.rate * kRadToDeg) +
+                         " deg/s, " + std::to_string(limits.accel * kRadToDeg) +
+                         " deg/s^2 exceeds the limits " +
+                         std::to_string(spec.limits.max_rate * kRadToDeg) + " deg/s, " +
+                         std::to_string(spec.limits.max_accel * kRadToDeg) + " deg/s^2");
+  }
+  return Status::Ok();
+}
+
 std::string decodeTableStatus(const TableStatusBits& bits, uint32_t raw, TableReading* r) {
   auto bit = [raw](int b) { return ((raw >> b) & 1u) != 0; };
   r->status_raw = raw;

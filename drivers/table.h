@@ -27,6 +27,14 @@ struct TableAxisReading {
   bool in_position = false;
 };
 
+// The motion profile of one position-mode command: the controller accelerates at `accel` up
+// to `rate` and brakes at `accel` (rad/s, rad/s^2, both > 0). The plan's expansion computed
+// the step's profile with exactly these values, so the table does what the plan says.
+struct MotionLimits {
+  double rate = 0.0;
+  double accel = 0.0;
+};
+
 struct TableReading {
   std::vector<TableAxisReading> axes;
   uint32_t status_raw = 0;
@@ -41,6 +49,10 @@ class TableDriver {
   virtual ~TableDriver() = default;
   virtual Status connect() = 0;
   virtual Status setMode(int axis, AxisMode mode) = 0;
+  // The rate and acceleration of the axis' following moveTo/rotateBy (and its braking). A
+  // device file without the registers/commands to set them cannot obey: an error, never a
+  // silently faster motion. Limits above the spec's limits are refused.
+  virtual Status setProfile(int axis, const MotionLimits& limits) = 0;
   // Position mode: go to `angle`; the controller takes the shortest way.
   virtual Status moveTo(int axis, double angle) = 0;
   // Position mode: turn by `delta` (its sign is the direction; +pi and -pi differ).
@@ -64,6 +76,8 @@ std::unique_ptr<TableDriver> makeTableDriver(const TableDeviceSpec& spec, EventS
 Status checkTableAxis(const TableDeviceSpec& spec, int axis);
 Status checkTableRate(const TableDeviceSpec& spec, double rate);
 Status checkTableTarget(const TableDeviceSpec& spec, double angle);
+// A profile the device file can set (TableDeviceSpec::profileSettable) within the spec's limits.
+Status checkTableProfile(const TableDeviceSpec& spec, const MotionLimits& limits);
 // Fills the global flags of r from the status word; returns the reason when it is a fault.
 std::string decodeTableStatus(const TableStatusBits& bits, uint32_t raw, TableReading* r);
 

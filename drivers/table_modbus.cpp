@@ -48,6 +48,16 @@ Status ModbusTable::setMode(int axis, AxisMode mode) {
   return link_.writeCode(spec_.registers.axes[axis].mode, what("set mode", axis), code);
 }
 
+Status ModbusTable::setProfile(int axis, const MotionLimits& limits) {
+  if (Status s = checkTableAxis(spec_, axis); !s.ok) return s;
+  if (Status s = checkTableProfile(spec_, limits); !s.ok) return s;
+  const auto& ax = spec_.registers.axes[axis];
+  if (Status s = link_.write(ax.rate_limit, what("write rate limit", axis), limits.rate); !s.ok) {
+    return s;
+  }
+  return link_.write(ax.accel_limit, what("write acceleration limit", axis), limits.accel);
+}
+
 Status ModbusTable::moveTo(int axis, double angle) {
   if (Status s = checkTableAxis(spec_, axis); !s.ok) return s;
   if (Status s = checkTableTarget(spec_, angle); !s.ok) return s;

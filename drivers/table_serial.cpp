@@ -139,6 +139,19 @@ Status SerialTable::setMode(int axis, AxisMode mode) {
   return exchange(cmd, axis, 0.0, "set mode", nullptr);
 }
 
+Status SerialTable::setProfile(int axis, const MotionLimits& limits) {
+  if (Status s = checkTableAxis(spec_, axis); !s.ok) return s;
+  if (Status s = checkTableProfile(spec_, limits); !s.ok) return s;
+  const auto& c = spec_.commands;
+  if (Status s =
+          exchange(c.set_rate_limit, axis, limits.rate / c.rate_unit, "set rate limit", nullptr);
+      !s.ok) {
+    return s;
+  }
+  return exchange(c.set_accel_limit, axis, limits.accel / c.accel_unit, "set acceleration limit",
+                  nullptr);
+}
+
 Status SerialTable::moveTo(int axis, double angle) {
   if (Status s = checkTableAxis(spec_, axis); !s.ok) return s;
   if (Status s = checkTableTarget(spec_, angle); !s.ok) return s;

@@ -16,6 +16,7 @@ class SerialTable final : public TableDriver {
   SerialTable(TableDeviceSpec spec, EventSink sink);
   Status connect() override;
   Status setMode(int axis, AxisMode mode) override;
+  Status setProfile(int axis, const MotionLimits& limits) override;
   Status moveTo(int axis, double angle) override;
   Status rotateBy(int axis, double delta) override;
   Status setRate(int axis, double rate) override;

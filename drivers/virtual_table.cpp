@@ -48,9 +48,36 @@ void VirtualTable::replan(double t, int i, std::vector<calib::AxisPhase> phases)
   ax.pending.assign(phases.begin() + 1, phases.end());
 }
 
-void VirtualTable::planRate(double t, int i, double r) {
+double VirtualTable::rateLimit(int i) const {
+  const double r = axes_[static_cast<size_t>(i)].rate_limit;
+  return r > 0.0 ? std::min(r, spec_.limits.max_rate) : spec_.limits.max_rate;
+}
+
+double VirtualTable::accelLimit(int i) const {
+  const double a = axes_[static_cast<size_t>(i)].accel_limit;
+  return a > 0.0 ? std::min(a, spec_.limits.max_accel) : spec_.limits.max_accel;
+}
+
+bool VirtualTable::setRateLimit(int i, double rate, std::string* why) {
+  if (i < 0 || i >= spec_.axisCount() || !std::isfinite(rate) || !(rate > 0.0)) {
+    *why = "rate limit must be positive";
+    return false;
+  }
+  axes_[static_cast<size_t>(i)].rate_limit = rate;
+  return true;
+}
+
+bool VirtualTable::setAccelLimit(int i, double accel, std::string* why) {
+  if (i < 0 || i >= spec_.axisCount() || !std::isfinite(accel) || !(accel > 0.0)) {
+    *why = "acceleration limit must be positive";
+    return false;
+  }
+  axes_[static_cast<size_t>(i)].accel_limit = accel;
+  return true;
+}
+
+void VirtualTable::planRate(double t, int i, double r, double a) {
   const calib::AxisState s = stateAt(t, i);
-  const double a = spec_.limits.max_accel;
   const double dv = r - s.rate;
   std::vector<calib::AxisPhase> ph;
   if (std::abs(dv) < kRestRate) {
@@ -66,8 +93,8 @@ void VirtualTable::planRate(double t, int i, double r) {
 
 void VirtualTable::planMove(double t, int i, double x1) {
   const calib::AxisState s = stateAt(t, i);
-  const double a = spec_.limits.max_accel;
-  const double vmax = spec_.limits.max_rate;
+  const double a = accelLimit(i);
+  const double vmax = rateLimit(i);
   const double x0 = s.angle, v0 = s.rate;
   const double d = x1 - x0;
   const double stop_dist = v0 * std::abs(v0) / (2.0 * a);
@@ -124,7 +151,7 @@ bool VirtualTable::setMode(double t, int i, AxisMode mode, std::string* why) {
   }
   auto& ax = axes_[static_cast<size_t>(i)];
   if (ax.mode != mode) {
-    planRate(t, i, 0.0);  // a mode change brakes the axis first
+    planRate(t, i, 0.0, accelLimit(i));  // a mode change brakes the axis first
     ax.has_target = false;
   }
   ax.mode = mode;
@@ -183,18 +210,22 @@ bool VirtualTable::setRate(double t, int i, double rate, std::string* why) {
     *why = "rate above the limit";
     return false;
   }
-  planRate(t, i, rate);
+  planRate(t, i, rate, accelLimit(i));
   return true;
 }
 
 void VirtualTable::stop(double t, int i) {
   if (i < 0 || i >= spec_.axisCount()) return;
   axes_[static_cast<size_t>(i)].has_target = false;
-  planRate(t, i, 0.0);
+  planRate(t, i, 0.0, accelLimit(i));
 }
 
+// Emergency stop and the safety chain brake as hard as the device can, whatever the profile.
 void VirtualTable::brakeAll(double t) {
-  for (int i = 0; i < spec_.axisCount(); ++i) stop(t, i);
+  for (int i = 0; i < spec_.axisCount(); ++i) {
+    axes_[static_cast<size_t>(i)].has_target = false;
+    planRate(t, i, 0.0, spec_.limits.max_accel);
+  }
 }
 
 void VirtualTable::emergencyStop(double t) {

@@ -37,6 +37,10 @@ class VirtualTable {
   bool moveTo(double t, int axis, double angle, std::string* why);
   bool rotateBy(double t, int axis, double delta, std::string* why);
   bool setRate(double t, int axis, double rate, std::string* why);
+  // The profile of the axis' next commands (moves, rotations, rate changes, braking): rate
+  // and acceleration, used as min(commanded, device file's limits). Not positive: refused.
+  bool setRateLimit(int axis, double rate, std::string* why);
+  bool setAccelLimit(int axis, double accel, std::string* why);
   void stop(double t, int axis);
   void emergencyStop(double t);
   void interlockClose(double t, std::string* why);
@@ -67,15 +71,19 @@ class VirtualTable {
     AxisMode mode = AxisMode::kOff;
     std::vector<calib::AxisPhase> pending;  // planned, t0 > committed time
     bool has_target = false;
-    double target = 0.0;  // continuous angle of the position target
+    double target = 0.0;       // continuous angle of the position target
+    double rate_limit = 0.0;   // commanded profile, rad/s (0: the device's limit)
+    double accel_limit = 0.0;  // rad/s^2 (0: the device's limit)
   };
+  double rateLimit(int i) const;   // min(commanded, device)
+  double accelLimit(int i) const;  // min(commanded, device)
   void commit(double t);
   calib::AxisState stateAt(double t, int i);
   void replan(double t, int i, std::vector<calib::AxisPhase> phases);
   // Rest-to-rest (from any current state) move to continuous angle x1, limited rate/accel.
   void planMove(double t, int i, double x1);
-  // Change to a constant rate r with the acceleration limit.
-  void planRate(double t, int i, double r);
+  // Change to a constant rate r with acceleration a.
+  void planRate(double t, int i, double r, double a);
   bool motionAllowed(std::string* why) const;
   void brakeAll(double t);
 

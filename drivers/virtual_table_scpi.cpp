@@ -60,8 +60,11 @@ VirtualTableScpi::VirtualTableScpi(VirtualWorld& world, const TableDeviceSpec& s
       {Op::kIlClose, &c.interlock_close},
       {Op::kIlOpen, &c.interlock_open},
       {Op::kIlReset, &c.interlock_reset},
+      {Op::kSetRateLimit, &c.set_rate_limit},
+      {Op::kSetAccelLimit, &c.set_accel_limit},
   };
   for (const auto& [op, cmd] : all) {
+    if (cmd->text.empty()) continue;  // an optional command the device file does not give
     patterns_.push_back({op, templateRegex(cmd->text),
                          cmd->text.find("{axis}") != std::string::npos,
                          cmd->text.find("{value}") != std::string::npos});
@@ -95,6 +98,58 @@ void VirtualTableScpi::stop() {
   pty_.close();
 }
 
+// One recognised command on the table at time t; *reply is the ack unless a query fills it.
+bool VirtualTableScpi::execute(Op op, VirtualTable& table, double t, int axis, double value,
+                               std::string* reply, std::string* why) {
+  const auto& c = spec_.commands;
+  switch (op) {
+    case Op::kModeOff:
+      return table.setMode(t, axis, AxisMode::kOff, why);
+    case Op::kModePos:
+      return table.setMode(t, axis, AxisMode::kPosition, why);
+    case Op::kModeRate:
+      return table.setMode(t, axis, AxisMode::kRate, why);
+    case Op::kDemandPos:
+      return table.moveTo(t, axis, value * c.angle_unit, why);
+    case Op::kDemandRate:
+      return table.setRate(t, axis, value * c.rate_unit, why);
+    case Op::kRotate:
+      return table.rotateBy(t, axis, value * c.angle_unit, why);
+    case Op::kStop:
+      table.stop(t, axis);
+      break;
+    case Op::kEstop:
+      table.emergencyStop(t);
+      break;
+    case Op::kReadPos:
+      *reply = number(table.axis(t, axis).reported_angle / c.angle_unit);
+      break;
+    case Op::kReadRate:
+      *reply = number(table.axis(t, axis).rate / c.rate_unit);
+      break;
+    case Op::kReadStatus:
+      *reply = std::to_string(table.statusWord(t));
+      break;
+    case Op::kReadAxisStatus:
+      *reply = std::to_string(table.axisStatusWord(t, axis));
+      break;
+    case Op::kIlClose:
+      table.interlockClose(t, why);
+      return why->empty();
+    case Op::kIlOpen:
+      table.interlockOpen(t);
+      break;
+    case Op::kIlReset:
+      table.interlockReset(t);
+      break;
+    case Op::kSetRateLimit:
+      return table.setRateLimit(axis, value * c.rate_unit, why);
+    case Op::kSetAccelLimit:
+      return table.setAccelLimit(axis, value * c.accel_unit, why);
+  }
+  return true;
+}
+
 std::string VirtualTableScpi::handle(const std::string& line) {
   const auto& c = spec_.commands;
   const std::string err = c.error_prefix.empty() ? "ERR" : c.error_prefix;
@@ -113,54 +168,7 @@ std::string VirtualTableScpi::handle(const std::string& line) {
     bool ok = true;
     std::string reply = c.ack;
     world_.withTable([&](VirtualTable& table, double t) {
-      switch (p.op) {
-        case Op::kModeOff:
-          ok = table.setMode(t, axis, AxisMode::kOff, &why);
-          break;
-        case Op::kModePos:
-          ok = table.setMode(t, axis, AxisMode::kPosition, &why);
-          break;
-        case Op::kModeRate:
-          ok = table.setMode(t, axis, AxisMode::kRate, &why);
-          break;
-        case Op::kDemandPos:
-          ok = table.moveTo(t, axis, value * c.angle_unit, &why);
-          break;
-        case Op::kDemandRate:
-          ok = table.setRate(t, axis, value * c.rate_unit, &why);
-          break;
-        case Op::kRotate:
-          ok = table.rotateBy(t, axis, value * c.angle_unit, &why);
-          break;
-        case Op::kStop:
-          table.stop(t, axis);
-          break;
-        case Op::kEstop:
-          table.emergencyStop(t);
-          break;
-        case Op::kReadPos:
-          reply = number(table.axis(t, axis).reported_angle / c.angle_unit);
-          break;
-        case Op::kReadRate:
-          reply = number(table.axis(t, axis).rate / c.rate_unit);
-          break;
-        case Op::kReadStatus:
-          reply = std::to_string(table.statusWord(t));
-          break;
-        case Op::kReadAxisStatus:
-          reply = std::to_string(table.axisStatusWord(t, axis));
-          break;
-        case Op::kIlClose:
-          table.interlockClose(t, &why);
-          ok = why.empty();
-          break;
-        case Op::kIlOpen:
-          table.interlockOpen(t);
-          break;
-        case Op::kIlReset:
-          table.interlockReset(t);
-          break;
-      }
+      ok = execute(p.op, table, t, axis, value, &reply, &why);
       return 0;
     });
     if (!ok) {

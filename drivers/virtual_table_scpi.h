@@ -45,7 +45,9 @@ class VirtualTableScpi {
     kReadAxisStatus,
     kIlClose,
     kIlOpen,
-    kIlReset
+    kIlReset,
+    kSetRateLimit,
+    kSetAccelLimit
   };
   struct Pattern {
     Op op;
@@ -53,6 +55,9 @@ class VirtualTableScpi {
     bool axis, value;
   };
   void run();
+  // Applies one recognised command; false + *why when the controller refuses it.
+  bool execute(Op op, VirtualTable& table, double t, int axis, double value, std::string* reply,
+               std::string* why);
 
   VirtualWorld& world_;
   TableDeviceSpec spec_;

@@ -113,6 +113,29 @@ TEST_F(RunnerOverModbus, TwelveRunPlanToTheEnd) {
   }
 }
 
+// The table turns at the plan's rate and acceleration, not its controller's maximum: what the
+// virtual table executed for run01_x_p1 (180 deg at 10 deg/s, 5 deg/s^2: 2 s ramps, 20 s).
+TEST_F(RunnerOverModbus, RotationRunsAtThePlansRateAndAcceleration) {
+  std::size_t run01 = 0;
+  while (run01 < steps_.size() && steps_[run01].label != "run01_x_p1") ++run01;
+  ASSERT_LT(run01, steps_.size());
+  ASSERT_TRUE(runner_->start(wallNow()).ok);
+  ASSERT_TRUE(pollUntil([&] { return runner_->currentStep() > static_cast<int>(run01); }, 60.0))
+      << alarms();
+  const calib::Motion m = world_->withMotion([](const calib::Motion& mm, double) { return mm; });
+  double rate = 0.0, accel = 0.0, t_start = -1.0, t_end = -1.0;
+  for (const calib::AxisPhase& p : m.axes[0].phases()) {
+    rate = std::max(rate, std::abs(p.rate0));
+    accel = std::max(accel, std::abs(p.accel));
+    if (t_start < 0.0 && p.accel != 0.0) t_start = p.t0;
+    if (t_start >= 0.0 && p.rate0 == 0.0 && p.accel == 0.0 && t_end < 0.0) t_end = p.t0;
+  }
+  EXPECT_NEAR(rate * kRadToDeg, 10.0, 1e-3);
+  EXPECT_NEAR(accel * kRadToDeg, 5.0, 1e-3);
+  EXPECT_NEAR(t_end - t_start, 20.0, 1e-3);
+  EXPECT_EQ(alarms(), "");
+}
+
 TEST_F(RunnerOverModbus, PauseInARotationStopsTheTableAndResumeFinishesThePlan) {
   ASSERT_TRUE(runner_->start(wallNow()).ok);
   ASSERT_TRUE(pollUntil(

@@ -23,14 +23,16 @@ class FakeBench : public BenchPort {
     ++prepares;
     return {};
   }
-  drivers::Status moveTo(int axis, double angle) override {
+  drivers::Status moveTo(int axis, double angle, const drivers::MotionLimits& l) override {
     log.push_back("move " + std::to_string(axis));
+    profiles.push_back(l);
     if (fail_commands) return drivers::Status::Error("injected: no reply");
     target_[axis] = angle_[axis] + std::remainder(angle - angle_[axis], 2.0 * kPi);
     return {};
   }
-  drivers::Status rotateBy(int axis, double delta) override {
+  drivers::Status rotateBy(int axis, double delta, const drivers::MotionLimits& l) override {
     log.push_back("rotate " + std::to_string(axis));
+    profiles.push_back(l);
     rotated.push_back(delta);
     if (fail_commands) return drivers::Status::Error("injected: no reply");
     if (!stuck) target_[axis] = angle_[axis] + delta;
@@ -83,6 +85,7 @@ class FakeBench : public BenchPort {
   int stops = 0, estops = 0, prepares = 0;
   std::vector<std::string> log;
   std::vector<double> rotated, setpoints;
+  std::vector<drivers::MotionLimits> profiles;  // with every moveTo/rotateBy, in order
 
  private:
   std::vector<double> angle_, target_;
@@ -362,6 +365,68 @@ TEST(PlanRunner, HoldsRunOnThePlanClockWhenGiven) {
   }
   EXPECT_EQ(runner.exit(), RunExit::kCompleted);
   EXPECT_NEAR(now, 1.0, 0.11);  // 10 s of plan time
+}
+
+// Each step carries the rate and acceleration its expansion planned, per axis: a rotate step's
+// own, a rate step's own, a move's axis limits; nothing for an axis at rest.
+TEST(PlanRunner, StepsCarryThePlannedProfile) {
+  const auto find = [](const std::vector<RunStep>& steps, const std::string& label) {
+    for (const auto& s : steps) {
+      if (s.label == label) return s;
+    }
+    ADD_FAILURE() << "no step " << label;
+    return RunStep{};
+  };
+  const auto twelve = twelveRunSteps();
+  const RunStep run01 = find(twelve, "run01_x_p1");  // outer, 180 deg at 10 deg/s, 5 deg/s^2
+  ASSERT_EQ(run01.limits.size(), 2u);
+  EXPECT_NEAR(run01.limits[0].rate * kRadToDeg, 10.0, 1e-9);
+  EXPECT_NEAR(run01.limits[0].accel * kRadToDeg, 5.0, 1e-9);
+  EXPECT_EQ(run01.limits[1].rate, 0.0);
+  EXPECT_EQ(run01.limits[1].accel, 0.0);
+  const RunStep place = find(twelve, "place_z_p1");  // a 90-degree outer move: [table] limits
+  EXPECT_NEAR(place.limits[0].rate * kRadToDeg, 20.0, 1e-9);
+  EXPECT_NEAR(place.limits[0].accel * kRadToDeg, 10.0, 1e-9);
+  const auto direct = testing::libraryPlanSteps("direct_two_axis.toml");
+  const RunStep rate = find(direct, "rate_z_up_pos");  // rate step, inner, 30 deg/s, 10 deg/s^2
+  EXPECT_EQ(rate.kind, calib::SegmentKind::kRotate);
+  EXPECT_NEAR(rate.limits[1].rate * kRadToDeg, 30.0, 1e-9);
+  EXPECT_NEAR(rate.limits[1].accel * kRadToDeg, 10.0, 1e-9);
+  EXPECT_EQ(rate.limits[0].rate, 0.0);
+  const auto plan = planLimits(twelve);
+  ASSERT_EQ(plan.size(), 2u);
+  EXPECT_NEAR(plan[1].rate * kRadToDeg, 20.0, 1e-9);
+}
+
+// The runner sends every motion with its step's profile, and a return to a step's start
+// (after a pause) with the axis' fastest planned profile, never more.
+TEST(PlanRunner, MotionCommandsCarryTheStepsProfile) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  const int k = h.midRotation();
+  ASSERT_GE(k, 0);
+  ASSERT_TRUE(h.runner.pause(h.now).ok);
+  ASSERT_TRUE(h.runner.resume(h.now).ok);
+  ASSERT_TRUE(h.until([&] { return h.finished(); }, 3.0 * h.runner.plannedTotalS()));
+  ASSERT_EQ(h.bench.profiles.size(), h.bench.log.size());
+  const auto plan = planLimits(h.steps);
+  std::size_t rotations = 0, moves = 0;
+  for (std::size_t c = 0; c < h.bench.log.size(); ++c) {
+    const int axis = std::stoi(h.bench.log[c].substr(h.bench.log[c].find(' ') + 1));
+    const drivers::MotionLimits& got = h.bench.profiles[c];
+    if (h.bench.log[c].rfind("rotate", 0) == 0) {
+      ++rotations;
+      EXPECT_NEAR(got.rate * kRadToDeg, 10.0, 1e-9) << c;
+      EXPECT_NEAR(got.accel * kRadToDeg, 5.0, 1e-9) << c;
+    } else {
+      ++moves;
+      EXPECT_GT(got.rate, 0.0) << c;
+      EXPECT_LE(got.rate, plan[static_cast<std::size_t>(axis)].rate) << c;
+      EXPECT_LE(got.accel, plan[static_cast<std::size_t>(axis)].accel) << c;
+    }
+  }
+  EXPECT_EQ(rotations, 13u);  // 12 runs and the interrupted one again
+  EXPECT_GT(moves, 0u);
 }
 
 TEST(PlanRunner, OptionsAreChecked) {

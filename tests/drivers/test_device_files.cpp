@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "drivers/device_file.h"
 #include "nav/rotation.h"
@@ -147,6 +149,92 @@ TEST(DeviceFiles, BrokenTableFilesAreRefusedWithLineAndReason) {
     EXPECT_EQ(d.line, lineOf(text, c.to)) << c.to << " -> " << d.str();
     EXPECT_NE(d.message.find(c.reason), std::string::npos) << c.to << " -> " << d.str();
     EXPECT_EQ(d.str().rfind("broken.toml:" + std::to_string(d.line) + ":", 0), 0u) << d.str();
+  }
+}
+
+// Every shipped table file says where the driver puts a motion's rate and acceleration: a
+// table without it would run a plan at its controller's own (fastest) profile.
+TEST(DeviceFiles, EveryShippedTableFileCanSetTheMotionProfile) {
+  for (const auto& e : fs::directory_iterator(deviceDir() + "/tables")) {
+    if (e.path().extension() != ".toml") continue;
+    plans::Diagnostics diag(e.path().string());
+    auto s = loadTableDevice(e.path().string(), diag);
+    ASSERT_TRUE(s.has_value()) << diag.str();
+    EXPECT_TRUE(s->profileSettable()) << e.path();
+  }
+  const auto ref = testing::tableSpec("imubench-ref-2axis-tcp.toml");
+  EXPECT_EQ(ref.registers.axes[1].rate_limit.address, 44);
+  EXPECT_NEAR(ref.registers.axes[1].accel_limit.lsb, kDegToRad, 1e-15);  // f32 in deg/s^2
+  const auto serial = testing::tableSpec("scpi-2axis-serial.toml");
+  EXPECT_NEAR(serial.commands.accel_unit, kDegToRad, 1e-15);
+  EXPECT_EQ(serial.commands.set_accel_limit.text, "AXIS{axis}:ACC {value}");
+}
+
+TEST(DeviceFiles, MotionProfileCommandsAreBothOrNeitherWithLineAndReason) {
+  const std::string with = std::string(kGood) +
+                           "accel_unit = \"deg/s^2\"\n"
+                           "set_rate_limit = \"A{axis}:VEL {value}\"\n"
+                           "set_accel_limit = \"A{axis}:ACC {value}\"\n";
+  {
+    plans::Diagnostics diag("good.toml");
+    auto s = parseTableDevice(with, diag);
+    ASSERT_TRUE(s.has_value()) << diag.str();
+    EXPECT_TRUE(s->profileSettable());
+    plans::Diagnostics diag2("without.toml");
+    auto without = parseTableDevice(kGood, diag2);
+    ASSERT_TRUE(without.has_value());
+    EXPECT_FALSE(without->profileSettable());  // loads, but cannot follow a plan's profile
+  }
+  const BrokenCase cases[] = {
+      {"set_accel_limit = \"A{axis}:ACC {value}\"\n", "", "give both"},
+      {"set_rate_limit = \"A{axis}:VEL {value}\"", "set_rate_limit = \"A{axis}:VEL\"",
+       "must contain {value}"},
+      {"set_accel_limit = \"A{axis}:ACC {value}\"", "set_accel_limit = \"ACC {value}\"",
+       "must contain {axis}"},
+      {"accel_unit = \"deg/s^2\"", "accel_unit = \"deg/s\"", "unit"},
+  };
+  for (const auto& c : cases) {
+    const std::string text = replaceLine(with, c.from, c.to);
+    plans::Diagnostics diag("broken.toml");
+    EXPECT_FALSE(parseTableDevice(text, diag).has_value()) << c.to;
+    ASSERT_FALSE(diag.ok()) << c.to;
+    const auto& d = diag.items().front();
+    const std::string at = *c.to != '\0' ? c.to : "set_rate_limit";
+    EXPECT_EQ(d.line, lineOf(text, at)) << c.to << " -> " << d.str();
+    EXPECT_NE(d.str().find(c.reason), std::string::npos) << c.to << " -> " << d.str();
+  }
+  // accel_unit is required with set_accel_limit.
+  plans::Diagnostics diag("no-unit.toml");
+  const std::string no_unit = replaceLine(with, "accel_unit = \"deg/s^2\"\n", "");
+  EXPECT_FALSE(parseTableDevice(no_unit, diag).has_value());
+  EXPECT_NE(diag.str().find("needs \"accel_unit\""), std::string::npos) << diag.str();
+  EXPECT_NE(diag.str().find("no-unit.toml:" + std::to_string(lineOf(no_unit, "set_accel_limit"))),
+            std::string::npos)
+      << diag.str();
+}
+
+TEST(DeviceFiles, MotionProfileRegistersAreBothOrNeither) {
+  const std::string path = deviceDir() + "/tables/imubench-ref-2axis-tcp.toml";
+  std::string ref;
+  {
+    std::ifstream in(path);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    ref = ss.str();
+  }
+  const std::string accel1 = "accel_limit = { address = 46, type = \"f32\", unit = \"deg/s^2\" }";
+  const BrokenCase cases[] = {
+      {accel1.c_str(), "", "give both \"rate_limit\" and \"accel_limit\""},
+      {accel1.c_str(), "accel_limit = { address = 46, type = \"f32\", unit = \"deg/s\" }",
+       "wrong unit"},
+      {accel1.c_str(), "accel_limit = { address = 43, type = \"f32\", unit = \"deg/s^2\" }",
+       "overlap"},
+  };
+  for (const auto& c : cases) {
+    plans::Diagnostics diag("broken-map.toml");
+    EXPECT_FALSE(parseTableDevice(replaceLine(ref, c.from, c.to), diag).has_value()) << c.to;
+    EXPECT_NE(diag.str().find(c.reason), std::string::npos) << c.to << " -> " << diag.str();
+    EXPECT_NE(diag.str().find("broken-map.toml:"), std::string::npos) << diag.str();
   }
 }
 

@@ -142,6 +142,78 @@ TEST_F(TableOverProtocols, DriverRefusesBeyondDeviceLimits) {
   EXPECT_FALSE(drv->moveTo(5, 0.0).ok);
 }
 
+// setProfile reaches the controller over every protocol: a rotation then runs at exactly the
+// commanded rate and acceleration (the old drivers sent only the angle: the device maximum).
+TEST_F(TableOverProtocols, ProfileReachesTheTableOverEveryProtocol) {
+  const MotionLimits profile{12 * kDegToRad, 6 * kDegToRad};
+  auto check = [&](VirtualWorld& world, TableDriver& drv) {
+    ASSERT_TRUE(drv.connect().ok);
+    ASSERT_TRUE(drv.interlock(InterlockCommand::kClose).ok);
+    const int last = drv.spec().axisCount() - 1;
+    ASSERT_TRUE(drv.setMode(last, AxisMode::kPosition).ok);
+    Status s = drv.setProfile(last, profile);
+    ASSERT_TRUE(s.ok) << s.message;
+    s = drv.rotateBy(last, -kPi / 2);
+    ASSERT_TRUE(s.ok) << s.message;
+    settle(drv, last);
+    const calib::Motion m = world.motionSnapshot();
+    double rate = 0, accel = 0;
+    for (const auto& p : m.axes[static_cast<size_t>(last)].phases()) {
+      rate = std::max(rate, std::abs(p.rate0));
+      accel = std::max(accel, std::abs(p.accel));
+    }
+    EXPECT_NEAR(rate, profile.rate, 1e-3 * profile.rate) << drv.spec().name();
+    EXPECT_NEAR(accel, profile.accel, 1e-3 * profile.accel) << drv.spec().name();
+    EXPECT_NEAR(m.axes[static_cast<size_t>(last)].at(m.duration).angle, -kPi / 2, 1e-6);
+  };
+  const auto chamber = testing::chamberSpec("generic-float-chamber.toml");
+  {
+    auto spec = testing::tableSpec("imubench-ref-2axis-tcp.toml");
+    VirtualWorld world(spec, chamber, testing::kTestTimeScale);
+    VirtualTableRegisters regs(world, spec, log_.sink());
+    ModbusServer server(regs, faults_, log_.sink());
+    ASSERT_TRUE(server.startTcp("127.0.0.1", 0).ok);
+    spec.transport.port = server.port();
+    check(world, *makeTableDriver(spec, log_.sink()));
+  }
+  {
+    auto spec = testing::tableSpec("generic-3axis-rtu.toml");
+    VirtualWorld world(spec, chamber, testing::kTestTimeScale);
+    VirtualTableRegisters regs(world, spec, log_.sink());
+    ModbusServer server(regs, faults_, log_.sink());
+    ASSERT_TRUE(server.startRtu(spec.transport.unit_id).ok);
+    spec.transport.device = server.ptyPath();
+    check(world, *makeTableDriver(spec, log_.sink()));
+  }
+  {
+    auto spec = testing::tableSpec("scpi-2axis-serial.toml");
+    VirtualWorld world(spec, chamber, testing::kTestTimeScale);
+    VirtualTableScpi server(world, spec, faults_, log_.sink());
+    ASSERT_TRUE(server.start().ok);
+    spec.transport.device = server.ptyPath();
+    check(world, *makeTableDriver(spec, log_.sink()));
+  }
+}
+
+// A device file without profile registers/commands: the driver refuses to set a profile
+// (before any I/O) instead of letting the controller run at its own maximum; a profile
+// beyond the spec's limits is refused too.
+TEST_F(TableOverProtocols, ProfileRefusedWithoutRegistersOrBeyondLimits) {
+  auto spec = testing::tableSpec("imubench-ref-2axis-tcp.toml");
+  auto drv = makeTableDriver(spec, log_.sink());
+  Status s = drv->setProfile(0, {400 * kDegToRad, 10 * kDegToRad});
+  EXPECT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("exceeds the limits"), std::string::npos) << s.message;
+  EXPECT_FALSE(drv->setProfile(0, {0.0, 10 * kDegToRad}).ok);
+  for (auto& a : spec.registers.axes) a.rate_limit = a.accel_limit = RegisterField{};
+  EXPECT_FALSE(spec.profileSettable());
+  drv = makeTableDriver(spec, log_.sink());
+  s = drv->setProfile(0, {10 * kDegToRad, 5 * kDegToRad});
+  EXPECT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("gives no way to set the rate and acceleration"), std::string::npos)
+      << s.message;
+}
+
 class ChamberOverProtocols : public ::testing::Test {
  protected:
   void exercise(VirtualWorld& world, ChamberDriver& drv, double tol) {

@@ -53,6 +53,35 @@ TEST_F(VirtualTableTest, RestToRestMoveRespectsRateAndAccelLimits) {
   EXPECT_LE(ac, spec_.limits.max_accel + 1e-12);
 }
 
+// The commanded profile (the driver's setProfile) shapes moves and rotations; the device
+// file's limits still cap it.
+TEST_F(VirtualTableTest, CommandedProfileShapesMovesAndRotations) {
+  std::string why;
+  ASSERT_TRUE(table_.setRateLimit(0, 10 * kDegToRad, &why)) << why;
+  ASSERT_TRUE(table_.setAccelLimit(0, 5 * kDegToRad, &why)) << why;
+  ASSERT_TRUE(table_.rotateBy(0.0, 0, kPi, &why)) << why;
+  // 180 deg at 10 deg/s, 5 deg/s^2: 2 s ramps (10 deg each), 16 s cruise: 20 s.
+  EXPECT_NEAR(table_.axis(1.0, 0).rate, 5 * kDegToRad, 1e-12);
+  EXPECT_NEAR(table_.axis(10.0, 0).rate, 10 * kDegToRad, 1e-12);
+  EXPECT_TRUE(table_.axis(19.9, 0).moving);
+  EXPECT_NEAR(table_.axis(20.0 + 1e-6, 0).angle, kPi, 1e-9);
+  EXPECT_FALSE(table_.axis(20.0 + 1e-6, 0).moving);
+  double vr, ac;
+  limitsUsed(0, 30.0, &vr, &ac);
+  EXPECT_NEAR(vr, 10 * kDegToRad, 1e-12);
+  EXPECT_NEAR(ac, 5 * kDegToRad, 1e-12);
+  // Above the device's 300 deg/s, 100 deg/s^2: the device's limits apply.
+  ASSERT_TRUE(table_.setRateLimit(0, 1000 * kDegToRad, &why)) << why;
+  ASSERT_TRUE(table_.setAccelLimit(0, 1000 * kDegToRad, &why)) << why;
+  ASSERT_TRUE(table_.rotateBy(30.0, 0, 8 * kPi, &why)) << why;
+  limitsUsed(0, 100.0, &vr, &ac);
+  EXPECT_NEAR(vr, spec_.limits.max_rate, 1e-12);
+  EXPECT_NEAR(ac, spec_.limits.max_accel, 1e-12);
+  EXPECT_FALSE(table_.setRateLimit(0, 0.0, &why));
+  EXPECT_FALSE(table_.setAccelLimit(0, -1.0, &why));
+  EXPECT_FALSE(table_.setRateLimit(7, 1.0, &why));
+}
+
 TEST_F(VirtualTableTest, LongMoveCruisesAtMaxRate) {
   std::string why;
   // Four turns: long enough (1440 deg > v^2/a = 900 deg) to reach the rate limit.
