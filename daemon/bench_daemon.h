@@ -8,6 +8,8 @@
 //   status timer         -> topic "status" (progress, ETA, step), sd_notify STATUS, watchdog
 //   control socket       -> start/pause/resume/abort/stop/status/list_plans/validate_plan/
 //                           results/export
+//   plan library reads   -> a worker thread per read (daemon/plan_library.h); the reply is
+//                           sent from the loop when the file is in (no file read on the loop)
 //
 // Time: the IMU's sample time is the recording's clock; table samples and segment bounds are
 // stamped with the newest IMU sample time when they are taken.
@@ -15,6 +17,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -25,6 +28,7 @@
 #include "daemon/control_server.h"
 #include "daemon/event_loop.h"
 #include "daemon/logging.h"
+#include "daemon/plan_library.h"
 #include "daemon/plan_runner.h"
 #include "daemon/sd_notify.h"
 #include "daemon/store.h"
@@ -60,11 +64,19 @@ class BenchDaemon {
  private:
   struct ActiveRun;
 
-  Reply handle(const Request& request);
-  Reply startPlan(const Request& request);
+  // What a request does with its plan's text; name is what diagnostics call the plan.
+  using PlanUse = std::function<Reply(const std::string& name, const std::string& text)>;
+
+  // nullopt: the reply follows through the server (a plan read from the plan library).
+  std::optional<Reply> handle(const Request& request, ClientId client);
+  std::optional<Reply> withPlanText(const Request& request, ClientId client,
+                                    const PlanSource& source, const PlanUse& use);
+  std::optional<Reply> startPlan(const Request& request, ClientId client);
+  Reply startLoaded(const Request& request, const std::string& name, const std::string& text);
+  Reply busyReply(const Request& request) const;
   Reply status() const;
   Reply listPlans() const;
-  Reply validatePlan(const Request& request) const;
+  std::optional<Reply> validatePlan(const Request& request, ClientId client);
   Reply results(const Request& request);
   Reply exportRun(const Request& request);
   Reply runnerCommand(const Request& request);
@@ -86,6 +98,8 @@ class BenchDaemon {
   std::unique_ptr<DriverBenchPort> port_;
   std::unique_ptr<drivers::ImuCanReader> imu_;
   std::unique_ptr<ControlServer> server_;
+  std::unique_ptr<PlanLibrary> plans_;  // after server_: gone first, so no late reply is posted
+  std::string db_path_;                 // the store's file; exports go next to it
   SystemdNotifier notifier_;
   std::unique_ptr<ActiveRun> run_;
   std::vector<drivers::DecodedImuSample> decoded_;  // per-wake buffers, reused (hot path)
