@@ -199,8 +199,7 @@ IoStatus BenchDaemon::start() {
   server_options.idle_timeout_s = bench_.control.idle_timeout_s;
   if (auto st = systemdListenFd(&server_options.listen_fd); !st.ok) return st;
   server_ = std::make_unique<ControlServer>(
-      &loop_, server_options, [this](const Request& r, ClientId c) { return handle(r, c); },
-      &log_);
+      &loop_, server_options, [this](const Request& r, ClientId c) { return handle(r, c); }, &log_);
   PlanLibraryOptions library;
   std::error_code ec;
   if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
@@ -421,8 +420,8 @@ std::optional<Reply> BenchDaemon::withPlanText(const Request& request, ClientId 
       log_.info("plan " + path + " read for a client that has gone; dropped");
       return;
     }
-    Reply r = file.ok ? use(path, file.text)
-                      : errorReply(request.id, ErrorCode::kBadPlan, file.error);
+    Reply r =
+        file.ok ? use(path, file.text) : errorReply(request.id, ErrorCode::kBadPlan, file.error);
     r.id = request.id;
     server_->sendReply(client, r);
   };
@@ -561,16 +560,15 @@ Reply BenchDaemon::listPlans() const {
 }
 
 std::optional<Reply> BenchDaemon::validatePlan(const Request& request, ClientId client) {
-  return withPlanText(
-      request, client, std::get<ValidatePlanArgs>(request.args).plan,
-      [this, request](const std::string& name, const std::string& text) {
-        std::string why;
-        const auto loaded = loadPlan(name, text, bench_, &why);
-        if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
-        return okReply(request.id, {{"plan", loaded->plan.name},
-                                    {"steps", loaded->motion.segments.size()},
-                                    {"planned_s", loaded->motion.duration}});
-      });
+  return withPlanText(request, client, std::get<ValidatePlanArgs>(request.args).plan,
+                      [this, request](const std::string& name, const std::string& text) {
+                        std::string why;
+                        const auto loaded = loadPlan(name, text, bench_, &why);
+                        if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
+                        return okReply(request.id, {{"plan", loaded->plan.name},
+                                                    {"steps", loaded->motion.segments.size()},
+                                                    {"planned_s", loaded->motion.duration}});
+                      });
 }
 
 Reply BenchDaemon::results(const Request& request) {

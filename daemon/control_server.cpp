@@ -134,10 +134,11 @@ IoStatus ControlServer::start() {
   const IoStatus s = options_.listen_fd >= 0 ? adoptListenFd() : listenOnPath();
   if (!s.ok) return s;
   if (options_.idle_timeout_s > 0.0) {
-    const double period = std::clamp(options_.idle_timeout_s / kIdleChecksPerTimeout,
-                                     kMinIdleCheckS, kMaxIdleCheckS);
+    const double period =
+        std::clamp(options_.idle_timeout_s / kIdleChecksPerTimeout, kMinIdleCheckS, kMaxIdleCheckS);
     const auto ns = std::chrono::nanoseconds(static_cast<std::int64_t>(period * 1e9));
-    const IoStatus t = loop_->addTimer(ns, ns, [this] { closeIdleClients(); }, &idle_timer_);
+    const IoStatus t = loop_->addTimer(
+        ns, ns, [this] { closeIdleClients(); }, &idle_timer_);
     if (!t.ok) return t;
   }
   return loop_->add(listen_fd_, EPOLLIN, [this](std::uint32_t) { onListenReadable(); });

@@ -53,8 +53,8 @@ PlanFile readOpen(int fd, const std::string& path, std::size_t max_bytes) {
     if (n < 0) return failed(path, std::string("read: ") + std::strerror(errno));
     f.text.append(buf, static_cast<std::size_t>(n));
     if (f.text.size() > max_bytes)
-      return failed(path, "longer than the " + std::to_string(max_bytes) +
-                              " bytes a plan may have");
+      return failed(path,
+                    "longer than the " + std::to_string(max_bytes) + " bytes a plan may have");
   }
   f.ok = true;
   return f;
@@ -62,8 +62,7 @@ PlanFile readOpen(int fd, const std::string& path, std::size_t max_bytes) {
 
 }  // namespace
 
-std::optional<std::string> refuseLibraryPath(const std::string& path,
-                                             const std::string& plan_dir) {
+std::optional<std::string> refuseLibraryPath(const std::string& path, const std::string& plan_dir) {
   if (plan_dir.empty())
     return path + ": this bench has no plan library (plan_dir), the daemon reads no plan " +
            "files for clients; " + kSendText;
@@ -90,7 +89,8 @@ PlanFile readLibraryFile(const std::string& path, const PlanLibraryOptions& opti
     return failed(path, std::string("cannot open: ") + std::strerror(errno));
   }
   struct stat st {};
-  if (::fstat(file.fd, &st) != 0) return failed(path, std::string("fstat: ") + std::strerror(errno));
+  if (::fstat(file.fd, &st) != 0)
+    return failed(path, std::string("fstat: ") + std::strerror(errno));
   if (!S_ISREG(st.st_mode)) return failed(path, "not a regular file");
   if (static_cast<std::size_t>(st.st_size) > options.max_bytes)
     return failed(path, std::to_string(st.st_size) + " bytes, more than the " +

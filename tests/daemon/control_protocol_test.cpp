@@ -77,10 +77,10 @@ TEST(ControlProtocol, StartWithPathOrInlinePlanAndOptions) {
   // The client's file name for diagnostics travels with the text; a path names itself.
   r = parseOk(R"({"cmd":"validate_plan","plan":{"toml":"x","name":"/home/op/p.toml"}})");
   EXPECT_EQ(std::get<ValidatePlanArgs>(r.args).plan.name, "/home/op/p.toml");
-  EXPECT_NE(parseErr(R"({"cmd":"start","plan":{"path":"/p.toml","name":"x"}})",
-                     ErrorCode::kBadArgument)
-                .message.find("plan.name: only with \"toml\""),
-            std::string::npos);
+  EXPECT_NE(
+      parseErr(R"({"cmd":"start","plan":{"path":"/p.toml","name":"x"}})", ErrorCode::kBadArgument)
+          .message.find("plan.name: only with \"toml\""),
+      std::string::npos);
   EXPECT_NE(parseErr(R"({"cmd":"start","plan":{"toml":"x","name":3}})", ErrorCode::kBadArgument)
                 .message.find("plan.name: must be a string"),
             std::string::npos);

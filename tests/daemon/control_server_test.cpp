@@ -207,10 +207,12 @@ TEST_F(ControlServerTest, ReservedSlotTakesStopStatusAndPing) {
     ASSERT_TRUE(readJson(*c)["ok"]);
   }
   Conn r(path_);
-  ASSERT_TRUE(r.send("{\"id\":1,\"cmd\":\"stop\"}\n{\"id\":2,\"cmd\":\"status\"}\n"
-                     "{\"id\":3,\"cmd\":\"ping\"}\n{\"id\":4,\"cmd\":\"pause\"}\n"
-                     "{\"id\":5,\"cmd\":\"subscribe\",\"topics\":[\"run\"]}\n"));
-  EXPECT_EQ(readJson(r), json({{"id", 1}, {"ok", true}, {"result", {{"cmd", "stop"}, {"client", 3}}}}));
+  ASSERT_TRUE(
+      r.send("{\"id\":1,\"cmd\":\"stop\"}\n{\"id\":2,\"cmd\":\"status\"}\n"
+             "{\"id\":3,\"cmd\":\"ping\"}\n{\"id\":4,\"cmd\":\"pause\"}\n"
+             "{\"id\":5,\"cmd\":\"subscribe\",\"topics\":[\"run\"]}\n"));
+  EXPECT_EQ(readJson(r),
+            json({{"id", 1}, {"ok", true}, {"result", {{"cmd", "stop"}, {"client", 3}}}}));
   EXPECT_EQ(readJson(r)["result"]["cmd"], "status");
   EXPECT_EQ(readJson(r)["result"]["pong"], true);
   for (int id : {4, 5}) {
@@ -281,12 +283,12 @@ TEST_F(ControlServerTest, DeferredReplyArrivesThroughSendReply) {
                  });
   ASSERT_TRUE(s.startStatus().ok);
   Conn c(path_);
-  ASSERT_TRUE(c.send("{\"id\":1,\"cmd\":\"validate_plan\",\"plan\":{\"toml\":\"x\"}}\n"
-                     "{\"id\":2,\"cmd\":\"ping\"}\n"));
+  ASSERT_TRUE(
+      c.send("{\"id\":1,\"cmd\":\"validate_plan\",\"plan\":{\"toml\":\"x\"}}\n"
+             "{\"id\":2,\"cmd\":\"ping\"}\n"));
   EXPECT_EQ(readJson(c)["id"], 2);  // nothing for request 1 yet; the ping is answered
-  EXPECT_TRUE(s.onLoop([&s, &pending] {
-    return pending && s.server().sendReply(pending->first, pending->second);
-  }));
+  EXPECT_TRUE(s.onLoop(
+      [&s, &pending] { return pending && s.server().sendReply(pending->first, pending->second); }));
   EXPECT_EQ(readJson(c), json({{"id", 1}, {"ok", true}, {"result", {{"deferred", true}}}}));
   EXPECT_FALSE(s.onLoop([&s] { return s.server().sendReply(999, okReply(nullptr)); }));
 }
