@@ -24,6 +24,9 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+// Exports in progress at once: each holds a whole run in memory while it writes it.
+constexpr std::size_t kMaxPendingExports = 2;
+
 double unixNow() {
   timespec ts{};
   clock_gettime(CLOCK_REALTIME, &ts);
@@ -85,23 +88,26 @@ std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& t
 }
 
 // The database and its WAL companions are the daemon's: owner and group (the operators'
-// imubench group, as the systemd unit sets it) read them, nobody else. A missing database is
-// created with that mode; an existing one (and its -wal/-shm) is tightened to it. SQLite gives
-// the -wal/-shm it creates the database file's mode.
-IoStatus restrictDatabaseMode(const std::string& db) {
-  constexpr mode_t kDatabaseMode = 0640;
-  const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, kDatabaseMode);
-  if (fd < 0) return IoStatus::Error(db + ": cannot open: " + std::strerror(errno));
-  const bool ok = ::fchmod(fd, kDatabaseMode) == 0;
-  const int err = errno;
-  ::close(fd);
-  if (!ok) return IoStatus::Error(db + ": chmod 0640: " + std::strerror(err));
-  for (const char* suffix : {"-wal", "-shm"}) {
-    const std::string companion = db + suffix;
-    if (::chmod(companion.c_str(), kDatabaseMode) != 0 && errno != ENOENT)
-      return IoStatus::Error(companion + ": chmod 0640: " + std::strerror(errno));
+// imubench group, as the systemd unit sets it) read them, nobody else. Before the store opens
+// it: a missing database is created with that mode, an existing one (and its -wal/-shm) is
+// tightened to it. SQLite gives the -wal/-shm it creates the database file's mode; after the
+// store is open they are chmod-ed by path only (closing any descriptor of the database file
+// would drop the process's SQLite locks on it).
+constexpr mode_t kDatabaseMode = 0640;
+
+IoStatus chmodDatabaseFiles(const std::string& db) {
+  for (const std::string& f : {db, db + "-wal", db + "-shm"}) {
+    if (::chmod(f.c_str(), kDatabaseMode) != 0 && errno != ENOENT)
+      return IoStatus::Error(f + ": chmod 0640: " + std::strerror(errno));
   }
   return IoStatus::Ok();
+}
+
+IoStatus createDatabaseFile(const std::string& db) {
+  const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, kDatabaseMode);
+  if (fd < 0) return IoStatus::Error(db + ": cannot open: " + std::strerror(errno));
+  ::close(fd);
+  return chmodDatabaseFiles(db);
 }
 
 // The directory exports go to (exports/ next to the database), created 0750 when missing.
@@ -116,6 +122,29 @@ IoStatus exportRoot(const std::string& db, std::string* root) {
   if (::lstat(root->c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
     return IoStatus::Error(*root + ": not a directory");
   return IoStatus::Ok();
+}
+
+// Writes run `run` of the store at db to exports/<name> next to it (runs off the loop: its own
+// store connection). The reply to the export request with id `id`.
+Reply exportToStateDir(const std::string& db, std::int64_t run, const std::string& name,
+                       const json& id) {
+  std::string root;
+  if (auto st = exportRoot(db, &root); !st.ok)
+    return errorReply(id, ErrorCode::kInternal, st.message);
+  auto opened = Store::open(db, StoreOptions{});
+  if (!opened.status.ok) return errorReply(id, ErrorCode::kInternal, opened.status.message);
+  auto rec = opened.store->loadRecording(run);
+  if (!rec.status.ok) return errorReply(id, ErrorCode::kNotFound, rec.status.message);
+  const std::string dir = root + "/" + name;
+  if (::mkdir(dir.c_str(), 0750) != 0) {
+    const bool exists = errno == EEXIST;
+    return errorReply(id, exists ? ErrorCode::kBadArgument : ErrorCode::kInternal,
+                      dir + (exists ? ": exists already; name another export directory (dir)"
+                                    : ": cannot create: " + std::string(std::strerror(errno))));
+  }
+  if (auto st = writeRecording(dir, rec.recording); !st.ok)
+    return errorReply(id, ErrorCode::kInternal, st.message);
+  return okReply(id, {{"run", run}, {"dir", dir}, {"imu_samples", rec.recording.imu.size()}});
 }
 
 json stepJson(const RunStep& s) {
@@ -164,11 +193,11 @@ IoStatus BenchDaemon::start() {
 
   const std::string db =
       options_.storage_path.empty() ? bench_.storage_path : options_.storage_path;
-  if (auto st = restrictDatabaseMode(db); !st.ok) return IoStatus::Error("store: " + st.message);
+  if (auto st = createDatabaseFile(db); !st.ok) return IoStatus::Error("store: " + st.message);
   auto opened = Store::open(db, StoreOptions{});
   if (!opened.status.ok) return IoStatus::Error("store: " + opened.status.message);
   store_ = std::move(opened.store);
-  if (auto st = restrictDatabaseMode(db); !st.ok) return IoStatus::Error("store: " + st.message);
+  if (auto st = chmodDatabaseFiles(db); !st.ok) return IoStatus::Error("store: " + st.message);
   db_path_ = db;
   const auto cut = store_->markInterruptedRuns();
   if (cut.status.ok && cut.count > 0) {
@@ -205,6 +234,7 @@ IoStatus BenchDaemon::start() {
   if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
   if (ec) return IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
   plans_ = std::make_unique<PlanLibrary>(&loop_, library);
+  exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
   if (auto st = server_->start(); !st.ok) return IoStatus::Error("control socket: " + st.message);
 
   EventLoop::TimerId timer{};
@@ -398,7 +428,7 @@ std::optional<Reply> BenchDaemon::handle(const Request& request, ClientId client
     case Command::kResults:
       return results(request);
     case Command::kExport:
-      return exportRun(request);
+      return exportRun(request, client);
     case Command::kPing:
     case Command::kSubscribe:
     case Command::kUnsubscribe:
@@ -602,28 +632,24 @@ Reply BenchDaemon::results(const Request& request) {
 }
 
 // Exports go only to a new directory under exports/ next to the database (the client names
-// it, one path component): the daemon never writes where a client points it.
-Reply BenchDaemon::exportRun(const Request& request) {
+// it, one path component): the daemon never writes where a client points it. Loading a whole
+// run and writing it out takes long: it runs off the loop on a second store connection (WAL
+// readers do not block the run's writer), and the reply follows.
+std::optional<Reply> BenchDaemon::exportRun(const Request& request, ClientId client) {
   const auto& args = std::get<ExportArgs>(request.args);
-  if (run_ && run_->id == args.run) run_->writer->flush();
-  auto rec = store_->loadRecording(args.run);
-  if (!rec.status.ok) return errorReply(request.id, ErrorCode::kNotFound, rec.status.message);
-  std::string root;
-  if (auto st = exportRoot(db_path_, &root); !st.ok)
-    return errorReply(request.id, ErrorCode::kInternal, st.message);
-  const std::string dir =
-      root + "/" + (args.dir.empty() ? "run-" + std::to_string(args.run) : args.dir);
-  if (::mkdir(dir.c_str(), 0750) != 0) {
-    const bool exists = errno == EEXIST;
-    return errorReply(request.id, exists ? ErrorCode::kBadArgument : ErrorCode::kInternal,
-                      dir + (exists ? ": exists already; name another export directory (dir)"
-                                    : ": cannot create: " + std::string(std::strerror(errno))));
-  }
-  if (auto st = writeRecording(dir, rec.recording); !st.ok) {
-    return errorReply(request.id, ErrorCode::kInternal, st.message);
-  }
-  return okReply(request.id,
-                 {{"run", args.run}, {"dir", dir}, {"imu_samples", rec.recording.imu.size()}});
+  if (run_ && run_->id == args.run) run_->writer->flush();  // the export sees what is recorded
+  const std::string name = args.dir.empty() ? "run-" + std::to_string(args.run) : args.dir;
+  auto job = [this, client, db = db_path_, run = args.run, name,
+              id = request.id]() -> std::function<void()> {
+    Reply r = exportToStateDir(db, run, name, id);
+    return [this, client, r] { server_->sendReply(client, r); };
+  };
+  auto failed = [this, client, id = request.id](const std::string& what) {
+    server_->sendReply(client, errorReply(id, ErrorCode::kInternal, "export failed: " + what));
+  };
+  std::string why;
+  if (!exports_->run(job, failed, &why)) return errorReply(request.id, ErrorCode::kBusy, why);
+  return std::nullopt;
 }
 
 }  // namespace imubench::daemon

@@ -8,8 +8,8 @@
 //   status timer         -> topic "status" (progress, ETA, step), sd_notify STATUS, watchdog
 //   control socket       -> start/pause/resume/abort/stop/status/list_plans/validate_plan/
 //                           results/export
-//   plan library reads   -> a worker thread per read (daemon/plan_library.h); the reply is
-//                           sent from the loop when the file is in (no file read on the loop)
+//   plan library reads,  -> a worker thread each (daemon/off_loop.h); the reply is sent from
+//   exports                 the loop when the work is done (no file read or write on the loop)
 //
 // Time: the IMU's sample time is the recording's clock; table samples and segment bounds are
 // stamped with the newest IMU sample time when they are taken.
@@ -28,6 +28,7 @@
 #include "daemon/control_server.h"
 #include "daemon/event_loop.h"
 #include "daemon/logging.h"
+#include "daemon/off_loop.h"
 #include "daemon/plan_library.h"
 #include "daemon/plan_runner.h"
 #include "daemon/sd_notify.h"
@@ -78,7 +79,7 @@ class BenchDaemon {
   Reply listPlans() const;
   std::optional<Reply> validatePlan(const Request& request, ClientId client);
   Reply results(const Request& request);
-  Reply exportRun(const Request& request);
+  std::optional<Reply> exportRun(const Request& request, ClientId client);
   Reply runnerCommand(const Request& request);
 
   void onImuReadable();
@@ -98,8 +99,10 @@ class BenchDaemon {
   std::unique_ptr<DriverBenchPort> port_;
   std::unique_ptr<drivers::ImuCanReader> imu_;
   std::unique_ptr<ControlServer> server_;
-  std::unique_ptr<PlanLibrary> plans_;  // after server_: gone first, so no late reply is posted
-  std::string db_path_;                 // the store's file; exports go next to it
+  // After server_ (destroyed first): no late reply is posted once they are gone.
+  std::unique_ptr<PlanLibrary> plans_;
+  std::unique_ptr<OffLoop> exports_;  // export jobs: a whole run read and written off the loop
+  std::string db_path_;               // the store's file; exports go next to it
   SystemdNotifier notifier_;
   std::unique_ptr<ActiveRun> run_;
   std::vector<drivers::DecodedImuSample> decoded_;  // per-wake buffers, reused (hot path)

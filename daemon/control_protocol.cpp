@@ -395,6 +395,10 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //        "dir":"/var/lib/imubench/exports/unit42"}}  (the daemon writes only under exports/
 //        next to its database; "dir" is optional, default "run-42"; an existing one is refused)
 //
+// Replies carry the request's id. Work that may block (a library plan read, an export) runs
+// off the daemon's event loop and is answered when done: a client that sends several requests
+// without waiting may get those replies after later ones, and matches them by id.
+//
 // Connections: max_clients take every command; a few more (reserved slots) only stop, status
 // and ping, so the emergency stop gets through a full server (others: busy). A connection that
 // sends nothing for the idle timeout (the bench file's [control] idle_timeout) is closed, unless

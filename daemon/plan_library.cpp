@@ -7,9 +7,6 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <mutex>
-#include <system_error>
-#include <thread>
 #include <utility>
 
 namespace imubench::daemon {
@@ -96,58 +93,32 @@ PlanFile readLibraryFile(const std::string& path, const PlanLibraryOptions& opti
     return failed(path, std::to_string(st.st_size) + " bytes, more than the " +
                             std::to_string(options.max_bytes) + " bytes a plan may have");
   // The file actually opened (symlinks resolved) must be inside the library too.
-  std::error_code ec;
-  const fs::path real = fs::read_symlink("/proc/self/fd/" + std::to_string(file.fd), ec);
-  const fs::path real_dir = fs::canonical(options.plan_dir, ec);
-  if (ec || !inside(real, real_dir))
+  std::error_code ec_file;
+  std::error_code ec_dir;
+  const fs::path real = fs::read_symlink("/proc/self/fd/" + std::to_string(file.fd), ec_file);
+  const fs::path real_dir = fs::canonical(options.plan_dir, ec_dir);
+  if (ec_file || ec_dir || !inside(real, real_dir))
     return failed(path, "resolves outside this bench's plan library (" + options.plan_dir + ")");
   return readOpen(file.fd, path, options.max_bytes);
 }
 
-struct PlanLibrary::Shared {
-  std::mutex mutex;
-  EventLoop* loop = nullptr;  // null once the library is gone: results are dropped
-  std::size_t pending = 0;
-};
-
 PlanLibrary::PlanLibrary(EventLoop* loop, PlanLibraryOptions options)
-    : options_(std::move(options)), shared_(std::make_shared<Shared>()) {
-  shared_->loop = loop;
-}
-
-PlanLibrary::~PlanLibrary() {
-  const std::lock_guard<std::mutex> lock(shared_->mutex);
-  shared_->loop = nullptr;
-}
+    : options_(std::move(options)), jobs_(loop, options_.max_pending) {}
 
 bool PlanLibrary::read(const std::string& path, std::function<void(PlanFile)> done,
                        std::string* why) {
-  {
-    const std::lock_guard<std::mutex> lock(shared_->mutex);
-    if (shared_->pending >= options_.max_pending) {
-      *why = path + ": busy: " + std::to_string(shared_->pending) +
-             " plan file reads are in flight (is the plan library's file system hanging?); "
-             "try again later";
-      return false;
-    }
-    ++shared_->pending;
-  }
-  try {
-    std::thread([shared = shared_, path, options = options_, done = std::move(done)]() mutable {
-      PlanFile file = readLibraryFile(path, options);
-      const std::lock_guard<std::mutex> lock(shared->mutex);
-      --shared->pending;
-      if (shared->loop == nullptr) return;
-      shared->loop->post(
-          [done = std::move(done), file = std::move(file)]() mutable { done(std::move(file)); });
-    }).detach();
-  } catch (const std::system_error& e) {
-    const std::lock_guard<std::mutex> lock(shared_->mutex);
-    --shared_->pending;
-    *why = path + ": cannot start a reader thread: " + e.what();
-    return false;
-  }
-  return true;
+  auto job = [path, options = options_, done]() -> std::function<void()> {
+    PlanFile file = readLibraryFile(path, options);
+    return [done, file = std::move(file)] { done(file); };
+  };
+  auto failed = [path, done](const std::string& what) {
+    PlanFile file;
+    file.error = path + ": " + what;
+    done(file);
+  };
+  if (jobs_.run(job, failed, why)) return true;
+  *why = path + ": " + *why;
+  return false;
 }
 
 }  // namespace imubench::daemon

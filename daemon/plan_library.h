@@ -5,17 +5,17 @@
 // answered on the event loop's thread): absolute, normalized, inside plan_dir. Only then is the
 // file read, on a worker thread, never on the loop: opened O_NONBLOCK (a FIFO or a leased file
 // does not block the open), regular files only, at most max_bytes, and its real path (symlinks
-// resolved) still inside plan_dir. The result comes back on the loop's thread through
-// EventLoop::post. A file system that hangs pins one worker; at most max_pending are in flight.
+// resolved) still inside plan_dir. The result comes back on the loop's thread (OffLoop). A file
+// system that hangs pins one worker; at most max_pending are in flight.
 #pragma once
 
 #include <cstddef>
 #include <functional>
-#include <memory>
 #include <optional>
 #include <string>
 
 #include "daemon/event_loop.h"
+#include "daemon/off_loop.h"
 
 namespace imubench::daemon {
 
@@ -46,7 +46,7 @@ class PlanLibrary {
   // loop must outlive the library.
   PlanLibrary(EventLoop* loop, PlanLibraryOptions options);
   // Reads still in flight are abandoned: their threads finish without calling back.
-  ~PlanLibrary();
+  ~PlanLibrary() = default;
   PlanLibrary(const PlanLibrary&) = delete;
   PlanLibrary& operator=(const PlanLibrary&) = delete;
 
@@ -58,9 +58,8 @@ class PlanLibrary {
   bool read(const std::string& path, std::function<void(PlanFile)> done, std::string* why);
 
  private:
-  struct Shared;
   PlanLibraryOptions options_;
-  std::shared_ptr<Shared> shared_;
+  OffLoop jobs_;
 };
 
 }  // namespace imubench::daemon

@@ -10,8 +10,10 @@
 #   a 100 MB plan file.
 # validate_plan of each while a plan runs, then start of each with the bench idle: every
 # request is refused with its reason, and a second client's `status`, sent back to back all
-# along, is answered within 100 ms every time (wall clock). The run is exported afterwards and
-# its imu.csv time axis has no gap. A library plan given by path is validated and started.
+# along, is answered within 100 ms every time (wall clock, less stalls of the whole machine
+# that the test process sees itself). The run is exported afterwards and its imu.csv time axis
+# has no gap. A library plan given by path is validated and started; a run exported while it
+# records has no gap either.
 # Usage: blocking_reads.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
@@ -57,7 +59,7 @@ grep -q leased "$W/lease.out" || fail "lease holder: $(cat "$W/lease.out")"
 
 e2e_bench_file
 sed -i "s|^control_socket = .*|&\nplan_dir = \"$W/plans\"|" "$W/bench.toml"
-e2e_start_vb --time-scale 5
+e2e_start_vb --time-scale 2
 e2e_start_daemon
 
 e2e_py <<'PY' || fail "blocking read checks"
@@ -68,31 +70,58 @@ work = sys.argv[1]
 sock = work + "/control.sock"
 
 
+class StallProbe(threading.Thread):
+    """The test's own scheduling: sleeps 5 ms at a time and records how late it woke. When the
+    whole machine (the user-mode-linux VM on a loaded host) is descheduled, this sees it too;
+    a daemon whose loop blocks does not stall this process."""
+
+    def __init__(self):
+        super().__init__(daemon=True)
+        self.lags = []  # (woke at, lag s)
+        self.running = True
+
+    def run(self):
+        while self.running:
+            t = time.monotonic()
+            time.sleep(0.005)
+            now = time.monotonic()
+            self.lags.append((now, now - t - 0.005))
+
+    def stalled(self, t0, t1):
+        """The longest stall of this process seen between t0 and t1."""
+        return max([lag for at, lag in self.lags if t0 <= at <= t1 + 0.05] + [0.0])
+
+
 class StatusProbe(threading.Thread):
     """Sends status back to back on its own connection; records every round trip (wall)."""
 
     def __init__(self):
         super().__init__(daemon=True)
         self.c = Client(sock, timeout=30)
-        self.rtts = []
+        self.trips = []  # (sent at, round trip s)
         self.running = True
+        self.stalls = StallProbe()
 
     def run(self):
-        while self.running:
+        self.stalls.start()
+        while self.running or len(self.trips) < 5:  # at least 5, however quick the rest was
             t = time.monotonic()
             r = self.c.reply({"cmd": "status"})
-            self.rtts.append(time.monotonic() - t)
-            if not r["ok"]:
-                self.rtts.append(float("inf"))
+            self.trips.append((t, time.monotonic() - t if r["ok"] else float("inf")))
 
     def finish(self, what):
         self.running = False
         self.join(35)
+        self.stalls.running = False
+        self.stalls.join(5)
         check(not self.is_alive(), "status prober ended")
-        worst = max(self.rtts)
-        check(len(self.rtts) >= 5 and worst < 0.1,
-              "%s: %d status round trips, the slowest %.1f ms (< 100 ms)"
-              % (what, len(self.rtts), 1e3 * worst))
+        # A round trip counts less the time the whole machine stood still meanwhile (seen by
+        # this process's own sleeps), which is no fault of the daemon's loop.
+        worst = max(self.trips, key=lambda p: p[1])
+        net = [rtt - self.stalls.stalled(t, t + rtt) for t, rtt in self.trips]
+        check(len(self.trips) >= 5 and max(net) < 0.1,
+              "%s: %d status round trips, the slowest %.1f ms, %.1f ms less machine stalls "
+              "(< 100 ms)" % (what, len(self.trips), 1e3 * worst[1], 1e3 * max(net)))
 
 
 BAD = [("fifo.toml", "not a regular file"),
@@ -123,6 +152,17 @@ def bad_requests(c, cmd):
                 check("send the plan's text" in r["error"]["message"], "the reply says what to do")
 
 
+def check_no_gap(run, name):
+    exp = c.reply({"cmd": "export", "run": run, "dir": name})
+    check(exp["ok"], "export: %s" % exp)
+    ts = [float(r["t"]) for r in read_csv(exp["result"]["dir"] + "/imu.csv")]
+    dts = [b - a for a, b in zip(ts, ts[1:])]
+    period = statistics.median(dts)
+    check(len(ts) > 2000 and max(dts) < 1.5 * period,
+          "run %d: %d IMU samples stored, largest step %.2f ms (period %.2f ms): no gap"
+          % (run, len(ts), 1e3 * max(dts), 1e3 * period))
+
+
 c = Client(sock)
 c.subscribe("run")
 ok = c.reply({"cmd": "validate_plan", "plan": {"path": work + "/plans/good.toml"}})
@@ -143,20 +183,18 @@ probe.start()
 bad_requests(c, "start")
 probe.finish("start of bad files")
 check(len(c.reply({"cmd": "results"})["result"]["runs"]) == 1, "no run recorded for them")
-
-exp = c.reply({"cmd": "export", "run": run, "dir": "run1"})
-check(exp["ok"], "export: %s" % exp)
-ts = [float(r["t"]) for r in read_csv(exp["result"]["dir"] + "/imu.csv")]
-dts = [b - a for a, b in zip(ts, ts[1:])]
-period = statistics.median(dts)
-check(len(ts) > 5000 and max(dts) < 1.5 * period,
-      "%d IMU samples stored, largest step %.2f ms (period %.2f ms): no gap"
-      % (len(ts), 1e3 * max(dts), 1e3 * period))
+check_no_gap(run, "run1")
 
 lib = c.reply({"cmd": "start", "plan": {"path": work + "/plans/good.toml"}})
 check(lib["ok"] and lib["result"]["plan"] == "smoke", "a library plan starts by path: %s" % lib)
+# An export reads a whole run and writes it out: off the loop too, while this run records
+# (run 2's IMU time axis is checked after it).
+c.wait_event(lambda e: e["event"] == "step_started" and e["label"] == "r1" and
+             e["run"] == lib["result"]["run"], "rotation")
+check_no_gap(run, "run1-during-run2")
 check(c.reply({"cmd": "abort"})["ok"], "abort it")
 c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == lib["result"]["run"], "end")
+check_no_gap(lib["result"]["run"], "run2")
 PY
 if grep "ALARM" "$W/d.out" | grep -qv "abort"; then fail "an alarm in the daemon log"; fi
 e2e_stop_daemon
