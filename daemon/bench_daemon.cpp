@@ -422,7 +422,7 @@ std::optional<Reply> BenchDaemon::handle(const Request& request, ClientId client
     case Command::kStatus:
       return status();
     case Command::kListPlans:
-      return listPlans();
+      return listPlans(request, client);
     case Command::kValidatePlan:
       return validatePlan(request, client);
     case Command::kResults:
@@ -575,18 +575,14 @@ Reply BenchDaemon::status() const {
   return okReply(nullptr, s);
 }
 
-Reply BenchDaemon::listPlans() const {
-  json plans_list = json::array();
-  std::error_code ec;
-  if (!bench_.plan_dir.empty()) {
-    std::vector<std::string> files;
-    for (const auto& entry : fs::directory_iterator(bench_.plan_dir, ec)) {
-      if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
-    }
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files) plans_list.push_back(f);
-  }
-  return okReply(nullptr, {{"plan_dir", bench_.plan_dir}, {"plans", plans_list}});
+// The plan library's directory is read off the loop too (it may sit on a network share).
+std::optional<Reply> BenchDaemon::listPlans(const Request& request, ClientId client) {
+  auto done = [this, client, id = request.id](std::vector<std::string> files) {
+    server_->sendReply(client, okReply(id, {{"plan_dir", bench_.plan_dir}, {"plans", files}}));
+  };
+  std::string why;
+  if (!plans_->list(done, &why)) return errorReply(request.id, ErrorCode::kBusy, why);
+  return std::nullopt;
 }
 
 std::optional<Reply> BenchDaemon::validatePlan(const Request& request, ClientId client) {

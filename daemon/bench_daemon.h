@@ -76,7 +76,7 @@ class BenchDaemon {
   Reply startLoaded(const Request& request, const std::string& name, const std::string& text);
   Reply busyReply(const Request& request) const;
   Reply status() const;
-  Reply listPlans() const;
+  std::optional<Reply> listPlans(const Request& request, ClientId client);
   std::optional<Reply> validatePlan(const Request& request, ClientId client);
   Reply results(const Request& request);
   std::optional<Reply> exportRun(const Request& request, ClientId client);

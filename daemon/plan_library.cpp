@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -102,6 +103,19 @@ PlanFile readLibraryFile(const std::string& path, const PlanLibraryOptions& opti
   return readOpen(file.fd, path, options.max_bytes);
 }
 
+std::vector<std::string> listLibraryFiles(const std::string& plan_dir) {
+  std::vector<std::string> files;
+  if (plan_dir.empty()) return files;
+  std::error_code ec;
+  for (fs::directory_iterator it(plan_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code type_ec;
+    if (it->path().extension() == ".toml" && it->is_regular_file(type_ec))
+      files.push_back(it->path().string());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 PlanLibrary::PlanLibrary(EventLoop* loop, PlanLibraryOptions options)
     : options_(std::move(options)), jobs_(loop, options_.max_pending) {}
 
@@ -119,6 +133,15 @@ bool PlanLibrary::read(const std::string& path, std::function<void(PlanFile)> do
   if (jobs_.run(job, failed, why)) return true;
   *why = path + ": " + *why;
   return false;
+}
+
+bool PlanLibrary::list(std::function<void(std::vector<std::string>)> done, std::string* why) {
+  auto job = [dir = options_.plan_dir, done]() -> std::function<void()> {
+    std::vector<std::string> files = listLibraryFiles(dir);
+    return [done, files = std::move(files)] { done(files); };
+  };
+  return jobs_.run(
+      job, [done](const std::string&) { done({}); }, why);
 }
 
 }  // namespace imubench::daemon

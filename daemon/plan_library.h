@@ -13,6 +13,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "daemon/event_loop.h"
 #include "daemon/off_loop.h"
@@ -41,6 +42,11 @@ std::optional<std::string> refuseLibraryPath(const std::string& path, const std:
 // Reads one library file (blocking: call it off the loop). Checks as described above.
 PlanFile readLibraryFile(const std::string& path, const PlanLibraryOptions& options);
 
+// The library's plans: the regular *.toml files directly in plan_dir (symlinks followed),
+// sorted (blocking: off the loop).
+// Empty without a plan_dir or when it cannot be read.
+std::vector<std::string> listLibraryFiles(const std::string& plan_dir);
+
 class PlanLibrary {
  public:
   // loop must outlive the library.
@@ -56,6 +62,8 @@ class PlanLibrary {
   // on the loop's thread with the result. false with *why when max_pending reads are in
   // flight or no thread can be started (done is then never called).
   bool read(const std::string& path, std::function<void(PlanFile)> done, std::string* why);
+  // Lists the library on a worker thread (listLibraryFiles); done as for read.
+  bool list(std::function<void(std::vector<std::string>)> done, std::string* why);
 
  private:
   PlanLibraryOptions options_;

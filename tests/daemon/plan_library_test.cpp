@@ -10,6 +10,7 @@
 #include <chrono>
 #include <fstream>
 #include <thread>
+#include <vector>
 
 #include "tests/daemon/control_test_util.h"
 
@@ -78,6 +79,14 @@ TEST_F(PlanLibraryFiles, ReadsRegularFilesAndRefusesTheRest) {
   EXPECT_FALSE(outside.ok);
   EXPECT_TRUE(has(outside.error, "not in this bench's plan library")) << outside.error;
   EXPECT_FALSE(readLibraryFile(lib_ + "/none.toml", options_).ok);
+
+  // The listing: regular *.toml files (and symlinks to them), sorted; no FIFO.
+  std::ofstream(lib_ + "/notes.txt") << "x";
+  EXPECT_EQ(
+      listLibraryFiles(lib_),
+      (std::vector<std::string>{lib_ + "/big.toml", lib_ + "/good.toml", lib_ + "/link.toml"}));
+  EXPECT_TRUE(listLibraryFiles("").empty());
+  EXPECT_TRUE(listLibraryFiles(dir_.file("none")).empty());
 }
 
 TEST_F(PlanLibraryFiles, ResultComesBackOnTheLoopThread) {

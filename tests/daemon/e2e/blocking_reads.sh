@@ -167,6 +167,9 @@ c = Client(sock)
 c.subscribe("run")
 ok = c.reply({"cmd": "validate_plan", "plan": {"path": work + "/plans/good.toml"}})
 check(ok["ok"] and ok["result"]["plan"] == "smoke", "a library plan validates by path: %s" % ok)
+listed = c.reply({"cmd": "list_plans"})["result"]["plans"]
+check(listed == [work + "/plans/" + n for n in ("big.toml", "good.toml", "leased.toml")],
+      "list_plans shows the library's regular files: %s" % listed)
 start = c.reply({"cmd": "start", "plan": {"toml": open(work + "/plans/good.toml").read()}})
 check(start["ok"], "a plan runs meanwhile")
 run = start["result"]["run"]
