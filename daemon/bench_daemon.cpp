@@ -1,14 +1,18 @@
 #include "daemon/bench_daemon.h"
 
+#include <fcntl.h>
 #include <sys/epoll.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <sstream>
 
-#include "daemon/file_io.h"
 #include "daemon/plan_check.h"
 #include "nav/rotation.h"
 #include "plans/expand.h"
@@ -21,6 +25,9 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+// Exports in progress at once: each holds a whole run in memory while it writes it.
+constexpr std::size_t kMaxPendingExports = 2;
+
 double unixNow() {
   timespec ts{};
   clock_gettime(CLOCK_REALTIME, &ts);
@@ -31,26 +38,19 @@ std::chrono::nanoseconds seconds(double s) {
   return std::chrono::nanoseconds(static_cast<std::int64_t>(s * 1e9));
 }
 
-// A plan from the request: parsed, validated, and checked against this bench (table kind,
-// limits). nullopt with the diagnostics text when refused.
+// A plan's text (sent by the client, or read from the plan library) parsed, validated, and
+// checked against this bench (table kind, limits). name is what diagnostics call it. nullopt
+// with the diagnostics text when refused.
 struct LoadedPlan {
   plans::Plan plan;
   std::string text;
   calib::Motion motion;
 };
 
-std::optional<LoadedPlan> loadPlan(const PlanSource& source, const BenchConfig& bench,
-                                   std::string* why) {
+std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& text,
+                                   const BenchConfig& bench, std::string* why) {
   LoadedPlan out;
-  const std::string name = source.kind == PlanSource::Kind::kPath ? source.text : "inline plan";
-  if (source.kind == PlanSource::Kind::kPath) {
-    if (!readWholeFile(source.text, &out.text).ok) {
-      *why = source.text + ": cannot read the plan file";
-      return std::nullopt;
-    }
-  } else {
-    out.text = source.text;
-  }
+  out.text = text;
   plans::Diagnostics diag(name);
   auto plan = plans::parsePlan(out.text, name, diag);
   if (!plan || !plans::validatePlan(*plan, diag)) {
@@ -69,6 +69,66 @@ std::optional<LoadedPlan> loadPlan(const PlanSource& source, const BenchConfig& 
   out.plan = std::move(*plan);
   out.motion = std::move(ex.motion);
   return out;
+}
+
+// The database and its WAL companions are the daemon's: owner and group (the operators'
+// imubench group, as the systemd unit sets it) read them, nobody else. Before the store opens
+// it: a missing database is created with that mode, an existing one (and its -wal/-shm) is
+// tightened to it. SQLite gives the -wal/-shm it creates the database file's mode; after the
+// store is open they are chmod-ed by path only (closing any descriptor of the database file
+// would drop the process's SQLite locks on it).
+constexpr mode_t kDatabaseMode = 0640;
+
+IoStatus chmodDatabaseFiles(const std::string& db) {
+  for (const std::string& f : {db, db + "-wal", db + "-shm"}) {
+    if (::chmod(f.c_str(), kDatabaseMode) != 0 && errno != ENOENT)
+      return IoStatus::Error(f + ": chmod 0640: " + std::strerror(errno));
+  }
+  return IoStatus::Ok();
+}
+
+IoStatus createDatabaseFile(const std::string& db) {
+  const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, kDatabaseMode);
+  if (fd < 0) return IoStatus::Error(db + ": cannot open: " + std::strerror(errno));
+  ::close(fd);
+  return chmodDatabaseFiles(db);
+}
+
+// The directory exports go to (exports/ next to the database), created 0750 when missing.
+// Refused when it is anything but a real directory (e.g. a symlink planted there).
+IoStatus exportRoot(const std::string& db, std::string* root) {
+  std::error_code ec;
+  *root = (fs::absolute(fs::path(db), ec).parent_path() / "exports").string();
+  if (ec) return IoStatus::Error(db + ": " + ec.message());
+  if (::mkdir(root->c_str(), 0750) != 0 && errno != EEXIST)
+    return IoStatus::Error(*root + ": cannot create: " + std::strerror(errno));
+  struct stat st {};
+  if (::lstat(root->c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    return IoStatus::Error(*root + ": not a directory");
+  return IoStatus::Ok();
+}
+
+// Writes run `run` of the store at db to exports/<name> next to it (runs off the loop: its own
+// store connection). The reply to the export request with id `id`.
+Reply exportToStateDir(const std::string& db, std::int64_t run, const std::string& name,
+                       const json& id) {
+  std::string root;
+  if (auto st = exportRoot(db, &root); !st.ok)
+    return errorReply(id, ErrorCode::kInternal, st.message);
+  auto opened = Store::open(db, StoreOptions{});
+  if (!opened.status.ok) return errorReply(id, ErrorCode::kInternal, opened.status.message);
+  auto rec = opened.store->loadRecording(run);
+  if (!rec.status.ok) return errorReply(id, ErrorCode::kNotFound, rec.status.message);
+  const std::string dir = root + "/" + name;
+  if (::mkdir(dir.c_str(), 0750) != 0) {
+    const bool exists = errno == EEXIST;
+    return errorReply(id, exists ? ErrorCode::kBadArgument : ErrorCode::kInternal,
+                      dir + (exists ? ": exists already; name another export directory (dir)"
+                                    : ": cannot create: " + std::string(std::strerror(errno))));
+  }
+  if (auto st = writeRecording(dir, rec.recording); !st.ok)
+    return errorReply(id, ErrorCode::kInternal, st.message);
+  return okReply(id, {{"run", run}, {"dir", dir}, {"imu_samples", rec.recording.imu.size()}});
 }
 
 json stepJson(const RunStep& s) {
@@ -122,9 +182,12 @@ IoStatus BenchDaemon::start() {
 
   const std::string db =
       options_.storage_path.empty() ? bench_.storage_path : options_.storage_path;
+  if (auto st = createDatabaseFile(db); !st.ok) return IoStatus::Error("store: " + st.message);
   auto opened = Store::open(db, StoreOptions{});
   if (!opened.status.ok) return IoStatus::Error("store: " + opened.status.message);
   store_ = std::move(opened.store);
+  if (auto st = chmodDatabaseFiles(db); !st.ok) return IoStatus::Error("store: " + st.message);
+  db_path_ = db;
   const auto cut = store_->markInterruptedRuns();
   if (cut.status.ok && cut.count > 0) {
     log_.warning(std::to_string(cut.count) + " run(s) cut off by a crash marked interrupted");
@@ -156,9 +219,16 @@ IoStatus BenchDaemon::start() {
   ControlServerOptions server_options;
   server_options.socket_path =
       options_.socket_path.empty() ? bench_.control_socket : options_.socket_path;
+  server_options.idle_timeout_s = bench_.control.idle_timeout_s;
   if (auto st = systemdListenFd(&server_options.listen_fd); !st.ok) return st;
   server_ = std::make_unique<ControlServer>(
-      &loop_, server_options, [this](const Request& r, ClientId) { return handle(r); }, &log_);
+      &loop_, server_options, [this](const Request& r, ClientId c) { return handle(r, c); }, &log_);
+  PlanLibraryOptions library;
+  std::error_code ec;
+  if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
+  if (ec) return IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
+  plans_ = std::make_unique<PlanLibrary>(&loop_, library);
+  exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
   if (auto st = server_->start(); !st.ok) return IoStatus::Error("control socket: " + st.message);
 
   EventLoop::TimerId timer{};
@@ -384,10 +454,10 @@ void BenchDaemon::onStatusTimer() {
 
 // ---- control socket ------------------------------------------------------------------------
 
-Reply BenchDaemon::handle(const Request& request) {
+std::optional<Reply> BenchDaemon::handle(const Request& request, ClientId client) {
   switch (request.command) {
     case Command::kStart:
-      return startPlan(request);
+      return startPlan(request, client);
     case Command::kPause:
     case Command::kResume:
     case Command::kAbort:
@@ -398,13 +468,13 @@ Reply BenchDaemon::handle(const Request& request) {
     case Command::kStatus:
       return status();
     case Command::kListPlans:
-      return listPlans();
+      return listPlans(request, client);
     case Command::kValidatePlan:
-      return validatePlan(request);
+      return validatePlan(request, client);
     case Command::kResults:
       return results(request);
     case Command::kExport:
-      return exportRun(request);
+      return exportRun(request, client);
     case Command::kPing:
     case Command::kSubscribe:
     case Command::kUnsubscribe:
@@ -413,15 +483,49 @@ Reply BenchDaemon::handle(const Request& request) {
   return errorReply(request.id, ErrorCode::kInternal, "unhandled command");
 }
 
-Reply BenchDaemon::startPlan(const Request& request) {
-  const auto& args = std::get<StartArgs>(request.args);
-  if (run_) {
-    return errorReply(request.id, ErrorCode::kBusy,
-                      "run " + std::to_string(run_->id) + " (" + run_->plan_name + ") is " +
-                          runnerStateName(run_->runner->state()) + "; one plan at a time");
-  }
+// The plan's text: inline now, or read from the plan library off the loop and then answered
+// through the server (nullopt now). Paths outside the library are refused untouched.
+std::optional<Reply> BenchDaemon::withPlanText(const Request& request, ClientId client,
+                                               const PlanSource& source, const PlanUse& use) {
+  if (source.kind == PlanSource::Kind::kInline)
+    return use(source.name.empty() ? "inline plan" : source.name, source.text);
+  if (auto why = refuseLibraryPath(source.text, plans_->options().plan_dir))
+    return errorReply(request.id, ErrorCode::kBadArgument, "plan.path: " + *why);
+  auto done = [this, request, client, path = source.text, use](PlanFile file) {
+    if (!server_->connected(client)) {
+      log_.info("plan " + path + " read for a client that has gone; dropped");
+      return;
+    }
+    Reply r =
+        file.ok ? use(path, file.text) : errorReply(request.id, ErrorCode::kBadPlan, file.error);
+    r.id = request.id;
+    server_->sendReply(client, r);
+  };
   std::string why;
-  auto loaded = loadPlan(args.plan, bench_, &why);
+  if (!plans_->read(source.text, done, &why)) return errorReply(request.id, ErrorCode::kBusy, why);
+  return std::nullopt;
+}
+
+std::optional<Reply> BenchDaemon::startPlan(const Request& request, ClientId client) {
+  if (run_) return busyReply(request);
+  return withPlanText(request, client, std::get<StartArgs>(request.args).plan,
+                      [this, request](const std::string& name, const std::string& text) {
+                        return startLoaded(request, name, text);
+                      });
+}
+
+Reply BenchDaemon::busyReply(const Request& request) const {
+  return errorReply(request.id, ErrorCode::kBusy,
+                    "run " + std::to_string(run_->id) + " (" + run_->plan_name + ") is " +
+                        runnerStateName(run_->runner->state()) + "; one plan at a time");
+}
+
+Reply BenchDaemon::startLoaded(const Request& request, const std::string& name,
+                               const std::string& text) {
+  const auto& args = std::get<StartArgs>(request.args);
+  if (run_) return busyReply(request);  // another start won while the plan was read
+  std::string why;
+  auto loaded = loadPlan(name, text, bench_, &why);
   if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
   std::vector<RunStep> steps = runSteps(loaded->motion);
   if (args.options.dry_run) {
@@ -561,27 +665,26 @@ Reply BenchDaemon::status() const {
   return okReply(nullptr, s);
 }
 
-Reply BenchDaemon::listPlans() const {
-  json plans_list = json::array();
-  std::error_code ec;
-  if (!bench_.plan_dir.empty()) {
-    std::vector<std::string> files;
-    for (const auto& entry : fs::directory_iterator(bench_.plan_dir, ec)) {
-      if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
-    }
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files) plans_list.push_back(f);
-  }
-  return okReply(nullptr, {{"plan_dir", bench_.plan_dir}, {"plans", plans_list}});
+// The plan library's directory is read off the loop too (it may sit on a network share).
+std::optional<Reply> BenchDaemon::listPlans(const Request& request, ClientId client) {
+  auto done = [this, client, id = request.id](std::vector<std::string> files) {
+    server_->sendReply(client, okReply(id, {{"plan_dir", bench_.plan_dir}, {"plans", files}}));
+  };
+  std::string why;
+  if (!plans_->list(done, &why)) return errorReply(request.id, ErrorCode::kBusy, why);
+  return std::nullopt;
 }
 
-Reply BenchDaemon::validatePlan(const Request& request) const {
-  std::string why;
-  const auto loaded = loadPlan(std::get<ValidatePlanArgs>(request.args).plan, bench_, &why);
-  if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
-  return okReply(request.id, {{"plan", loaded->plan.name},
-                              {"steps", loaded->motion.segments.size()},
-                              {"planned_s", loaded->motion.duration}});
+std::optional<Reply> BenchDaemon::validatePlan(const Request& request, ClientId client) {
+  return withPlanText(request, client, std::get<ValidatePlanArgs>(request.args).plan,
+                      [this, request](const std::string& name, const std::string& text) {
+                        std::string why;
+                        const auto loaded = loadPlan(name, text, bench_, &why);
+                        if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
+                        return okReply(request.id, {{"plan", loaded->plan.name},
+                                                    {"steps", loaded->motion.segments.size()},
+                                                    {"planned_s", loaded->motion.duration}});
+                      });
 }
 
 Reply BenchDaemon::results(const Request& request) {
@@ -614,16 +717,25 @@ Reply BenchDaemon::results(const Request& request) {
                               {"results", list}});
 }
 
-Reply BenchDaemon::exportRun(const Request& request) {
+// Exports go only to a new directory under exports/ next to the database (the client names
+// it, one path component): the daemon never writes where a client points it. Loading a whole
+// run and writing it out takes long: it runs off the loop on a second store connection (WAL
+// readers do not block the run's writer), and the reply follows.
+std::optional<Reply> BenchDaemon::exportRun(const Request& request, ClientId client) {
   const auto& args = std::get<ExportArgs>(request.args);
-  if (run_ && run_->id == args.run) run_->writer->flush();
-  auto rec = store_->loadRecording(args.run);
-  if (!rec.status.ok) return errorReply(request.id, ErrorCode::kNotFound, rec.status.message);
-  if (auto st = writeRecording(args.dir, rec.recording); !st.ok) {
-    return errorReply(request.id, ErrorCode::kInternal, st.message);
-  }
-  return okReply(request.id,
-                 {{"run", args.run}, {"dir", args.dir}, {"imu_samples", rec.recording.imu.size()}});
+  if (run_ && run_->id == args.run) run_->writer->flush();  // the export sees what is recorded
+  const std::string name = args.dir.empty() ? "run-" + std::to_string(args.run) : args.dir;
+  auto job = [this, client, db = db_path_, run = args.run, name,
+              id = request.id]() -> std::function<void()> {
+    Reply r = exportToStateDir(db, run, name, id);
+    return [this, client, r] { server_->sendReply(client, r); };
+  };
+  auto failed = [this, client, id = request.id](const std::string& what) {
+    server_->sendReply(client, errorReply(id, ErrorCode::kInternal, "export failed: " + what));
+  };
+  std::string why;
+  if (!exports_->run(job, failed, &why)) return errorReply(request.id, ErrorCode::kBusy, why);
+  return std::nullopt;
 }
 
 }  // namespace imubench::daemon

@@ -9,6 +9,8 @@
 //   status timer         -> topic "status" (progress, ETA, step), sd_notify STATUS, watchdog
 //   control socket       -> start/pause/resume/abort/stop/rearm/status/list_plans/
 //                           validate_plan/results/export
+//   plan library reads,  -> a worker thread each (daemon/off_loop.h); the reply is sent from
+//   exports                 the loop when the work is done (no file read or write on the loop)
 //
 // Time: the IMU's sample time is the recording's clock; table and chamber samples and segment
 // bounds are stamped with the newest IMU sample time when they are taken. An IMU restart does
@@ -21,6 +23,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -32,6 +35,8 @@
 #include "daemon/event_loop.h"
 #include "daemon/log_limiter.h"
 #include "daemon/logging.h"
+#include "daemon/off_loop.h"
+#include "daemon/plan_library.h"
 #include "daemon/plan_runner.h"
 #include "daemon/sd_notify.h"
 #include "daemon/store.h"
@@ -68,13 +73,21 @@ class BenchDaemon {
  private:
   struct ActiveRun;
 
-  Reply handle(const Request& request);
-  Reply startPlan(const Request& request);
+  // What a request does with its plan's text; name is what diagnostics call the plan.
+  using PlanUse = std::function<Reply(const std::string& name, const std::string& text)>;
+
+  // nullopt: the reply follows through the server (a plan read from the plan library).
+  std::optional<Reply> handle(const Request& request, ClientId client);
+  std::optional<Reply> withPlanText(const Request& request, ClientId client,
+                                    const PlanSource& source, const PlanUse& use);
+  std::optional<Reply> startPlan(const Request& request, ClientId client);
+  Reply startLoaded(const Request& request, const std::string& name, const std::string& text);
+  Reply busyReply(const Request& request) const;
   Reply status() const;
-  Reply listPlans() const;
-  Reply validatePlan(const Request& request) const;
+  std::optional<Reply> listPlans(const Request& request, ClientId client);
+  std::optional<Reply> validatePlan(const Request& request, ClientId client);
   Reply results(const Request& request);
-  Reply exportRun(const Request& request);
+  std::optional<Reply> exportRun(const Request& request, ClientId client);
   Reply runnerCommand(const Request& request);
   Reply rearm(const Request& request);
   nlohmann::json tableJson() const;
@@ -99,6 +112,10 @@ class BenchDaemon {
   std::unique_ptr<DriverBenchPort> port_;
   std::unique_ptr<drivers::ImuCanReader> imu_;
   std::unique_ptr<ControlServer> server_;
+  // After server_ (destroyed first): no late reply is posted once they are gone.
+  std::unique_ptr<PlanLibrary> plans_;
+  std::unique_ptr<OffLoop> exports_;  // export jobs: a whole run read and written off the loop
+  std::string db_path_;               // the store's file; exports go next to it
   SystemdNotifier notifier_;
   std::unique_ptr<ActiveRun> run_;
   std::vector<drivers::DecodedImuSample> decoded_;  // per-wake buffers, reused (hot path)

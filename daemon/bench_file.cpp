@@ -185,6 +185,21 @@ void parseSafety(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
   }
 }
 
+// The control socket's connection policy (daemon/control_server.h).
+void parseControl(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
+  const toml::table* t = subTable(root, "control", diag, false);
+  if (t == nullptr) return;
+  checkKeys(*t, {"idle_timeout"}, "[control]", diag);
+  if (auto v = quantityField(*t, "idle_timeout", Dimension::kTime, diag, false)) {
+    if (*v >= 0.0 && *v <= kMaxIdleTimeoutS) {
+      b.control.idle_timeout_s = *v;
+    } else {
+      diag.error(t->get("idle_timeout")->source(),
+                 "idle_timeout must be in [0, " + fmt(kMaxIdleTimeoutS) + "] s (0: none)");
+    }
+  }
+}
+
 }  // namespace
 
 std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_view file_name,
@@ -193,13 +208,15 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
   if (!root) return std::nullopt;
   BenchConfig b;
   b.file = std::string(file_name);
-  checkKeys(*root, {"bench", "site", "table", "chamber", "imu", "safety"}, "the top level", diag);
+  checkKeys(*root, {"bench", "site", "table", "chamber", "imu", "safety", "control"},
+            "the top level", diag);
   parseBenchTable(*root, base_dir, b, diag);
   parseSite(*root, b, diag);
   parseTable(*root, base_dir, b, diag);
   parseChamber(*root, base_dir, b, diag);
   parseImu(*root, base_dir, b, diag);
   parseSafety(*root, b, diag);
+  parseControl(*root, b, diag);
   if (!diag.ok()) return std::nullopt;
   return b;
 }

@@ -9,7 +9,8 @@
 //   name = "lab2-bench-a"                        # required; shown in status and stored per run
 //   storage = "/var/lib/imubench/imubench.db"    # SQLite database (WAL)
 //   control_socket = "/run/imubench/control.sock"  # unused when systemd passes the socket
-//   plan_dir = "plans"                           # optional: what list_plans shows
+//   plan_dir = "plans"                           # optional: the plan library: what list_plans
+//                                                #   shows, the only plans started by path
 //
 //   [site]
 //   latitude = "55.7558 deg"                     # required
@@ -42,6 +43,10 @@
 //   comm_timeout = "1 s"      # table or chamber silent longer -> stop motion, pause, alarm
 //   imu_timeout = "0.5 s"     # no IMU frame for longer -> pause, alarm (recording goes on)
 //
+//   [control]                 # optional: the control socket's connections
+//   idle_timeout = "600 s"    # a connection without a request this long is closed, unless it
+//                             #   is subscribed and reads its events; "0 s": never
+//
 // Loading never throws: every problem is a diagnostic "file:line:column: reason", including
 // problems inside the referenced device files, and the bench is refused (nullopt).
 #pragma once
@@ -72,6 +77,15 @@ struct BenchChamber {
   double poll_period_s = 1.0;
 };
 
+// Ten days: any longer is "never", which "0 s" says.
+inline constexpr double kMaxIdleTimeoutS = 864000.0;
+
+struct BenchControl {
+  // ControlServerOptions::idle_timeout_s: leaked connections free their slots; ten minutes
+  // outlasts an operator pausing at a prompt.
+  double idle_timeout_s = 600.0;
+};
+
 struct BenchImu {
   drivers::ImuLayout layout;
   std::string layout_file;
@@ -84,7 +98,7 @@ struct BenchConfig {
   std::string name;
   std::string storage_path;
   std::string control_socket;
-  std::string plan_dir;  // empty: none
+  std::string plan_dir;  // empty: none (clients send every plan as text)
   nav::Site site;
   double outer_axis_heading_rad = 0.5 * 3.141592653589793;  // East
   // The table's device spec with the bench's endpoint overrides applied and its limits
@@ -93,6 +107,7 @@ struct BenchConfig {
   std::optional<BenchChamber> chamber;
   BenchImu imu;
   BenchSafety safety;
+  BenchControl control;
 };
 
 // Parses bench text; device files are resolved against base_dir. file_name names the text in

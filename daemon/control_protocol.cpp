@@ -37,6 +37,10 @@ constexpr std::array<std::pair<Topic, std::string_view>, kTopicCount> kTopics{{
 
 // Labels end up in the run history and in every status reply: bounded so they stay readable.
 constexpr std::size_t kMaxLabelBytes = 200;
+// A plan's diagnostic name (its file path on the client) and an export's directory name:
+// bounded like a path component or a path, so they stay readable in replies and logs.
+constexpr std::size_t kMaxPlanNameBytes = 4096;
+constexpr std::size_t kMaxExportNameBytes = 255;
 
 std::string quote(std::string_view s) {
   return "\"" + std::string(s) + "\"";
@@ -153,13 +157,43 @@ bool readPlan(const json& obj, PlanSource* out, ProtocolError* err) {
     return fail(err, ErrorCode::kBadArgument,
                 std::string("plan: must be an object {\"path\":...} or {\"toml\":...}, got ") +
                     it->type_name());
-  if (!refuseUnknownFields(*it, {"path", "toml"}, "plan", "plan", err)) return false;
+  if (!refuseUnknownFields(*it, {"path", "toml", "name"}, "plan", "plan", err)) return false;
   const bool has_path = it->contains("path");
   if (has_path == it->contains("toml"))
     return fail(err, ErrorCode::kBadArgument, "plan: needs exactly one of \"path\" or \"toml\"");
   out->kind = has_path ? PlanSource::Kind::kPath : PlanSource::Kind::kInline;
-  if (has_path) return readAbsolutePath(*it, "path", "plan", true, &out->text, err);
+  if (has_path) {
+    if (it->contains("name"))
+      return fail(err, ErrorCode::kBadArgument,
+                  "plan.name: only with \"toml\" (a path names the plan itself)");
+    return readAbsolutePath(*it, "path", "plan", true, &out->text, err);
+  }
+  if (!readNonEmptyString(*it, "name", "plan", false, &out->name, err)) return false;
+  if (out->name.size() > kMaxPlanNameBytes)
+    return fail(err, ErrorCode::kBadArgument,
+                "plan.name: longer than " + std::to_string(kMaxPlanNameBytes) + " bytes");
   return readNonEmptyString(*it, "toml", "plan", true, &out->text, err);
+}
+
+// An export's directory name: one path component the daemon creates under its export
+// directory, so no client-named path is ever written.
+bool readExportName(const json& obj, std::string* out, ProtocolError* err) {
+  if (!readNonEmptyString(obj, "dir", "", false, out, err)) return false;
+  const auto bad = [out, err](const std::string& why) {
+    return fail(err, ErrorCode::kBadArgument,
+                "dir: " + why + ", got " + quote(*out) +
+                    " (a directory name under the daemon's export directory; the reply "
+                    "says where it went)");
+  };
+  if (out->size() > kMaxExportNameBytes)
+    return bad("longer than " + std::to_string(kMaxExportNameBytes) + " bytes");
+  if (!out->empty() && out->front() == '.') return bad("must not start with '.'");
+  for (const char ch : *out) {
+    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') ||
+                    (ch >= '0' && ch <= '9') || ch == '.' || ch == '_' || ch == '-';
+    if (!ok) return bad("must be a single name of letters, digits, '.', '_' and '-'");
+  }
+  return true;
 }
 
 bool readStartOptions(const json& obj, StartOptions* out, ProtocolError* err) {
@@ -273,7 +307,7 @@ bool readArgs(const json& obj, Command c, RequestArgs* out, ProtocolError* err) 
       std::optional<std::int64_t> run;
       ExportArgs a;
       if (!readRunId(obj, "run", true, &run, err)) return false;
-      if (!readAbsolutePath(obj, "dir", "", true, &a.dir, err)) return false;
+      if (!readExportName(obj, &a.dir, err)) return false;
       a.run = *run;
       *out = std::move(a);
       return true;
@@ -341,9 +375,15 @@ std::optional<Topic> topicFromName(std::string_view name) {
 // are ignored). Every request may carry "id" (string or integer), echoed in its reply. Fields
 // not listed are refused with bad_argument naming them. Paths are absolute.
 //
+// Plans: a client sends the plan's text ("toml"), read from its file with the client's own
+// rights; "name" (optional, e.g. that file's path) is what the diagnostics call it. A "path"
+// is honoured only inside the bench's plan library (plan_dir, as list_plans reports it): the
+// daemon reads it off its event loop (regular files up to 1 MiB) and answers when done;
+// any other path is refused (bad_argument, "send the plan's text") without being touched.
+//
 //   {"cmd":"ping"}                                   -> {"id":null,"ok":true,"result":{}}
 //   {"id":1,"cmd":"start","plan":{"path":"/etc/imubench/plans/two_axis_12run.toml"}}
-//   {"id":2,"cmd":"start","plan":{"toml":"[plan]\nname = \"x\"\n..."},
+//   {"id":2,"cmd":"start","plan":{"toml":"[plan]\nname = \"x\"\n...","name":"/home/op/x.toml"},
 //    "options":{"dry_run":true,"label":"unit 42","out_dir":"/var/lib/imubench/runs/42"}}
 //   {"id":3,"cmd":"pause"}      {"id":4,"cmd":"resume"}     {"id":5,"cmd":"abort"}
 //   {"id":6,"cmd":"stop"}       (emergency stop)            {"id":7,"cmd":"status"}
@@ -352,15 +392,27 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //   {"id":8,"cmd":"subscribe","topics":["run","status","log"]}
 //   {"id":9,"cmd":"unsubscribe"}                     (all topics; or "topics":[...])
 //   {"id":10,"cmd":"list_plans"}
-//   {"id":11,"cmd":"validate_plan","plan":{"path":"/tmp/p.toml"}}
+//   {"id":11,"cmd":"validate_plan","plan":{"toml":"...","name":"/home/op/p.toml"}}
 //   {"id":12,"cmd":"results"}   {"id":13,"cmd":"results","run":42}
-//   {"id":14,"cmd":"export","run":42,"dir":"/srv/export/42"}
+//   {"id":14,"cmd":"export","run":42,"dir":"unit42"}  -> {"result":{"run":42,"imu_samples":..,
+//        "dir":"/var/lib/imubench/exports/unit42"}}  (the daemon writes only under exports/
+//        next to its database; "dir" is optional, default "run-42"; an existing one is refused)
+//
+// Replies carry the request's id. Work that may block (a library plan read, an export) runs
+// off the daemon's event loop and is answered when done: a client that sends several requests
+// without waiting may get those replies after later ones, and matches them by id.
+//
+// Connections: max_clients take every command; a few more (reserved slots) only stop, status
+// and ping, so the emergency stop gets through a full server (others: busy). A connection that
+// sends nothing for the idle timeout (the bench file's [control] idle_timeout) is closed, unless
+// it is subscribed and reads its events (a watcher).
 //
 // Errors (the id is echoed when it could be read):
 //   {"cmd":"ping"                -> bad_json     "byte 14: syntax error while parsing object ..."
 //   {"cmd":"fly"}                -> unknown_command "cmd: unknown command \"fly\" (known: ...)"
 //   {"cmd":"pause","force":1}    -> bad_argument "force: unknown field of command \"pause\" ..."
 //   {"cmd":"results","run":1.5}  -> bad_argument "run: must be an integer run id, got 1.5"
+//   {"cmd":"export","run":1,"dir":"/tmp/x"} -> bad_argument "dir: must be a single name ..."
 //   a line over the size limit   -> too_large (sent by the server; the line is discarded)
 ParseResult parseRequest(std::string_view line) {
   ParseResult r;

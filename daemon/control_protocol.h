@@ -32,7 +32,7 @@ enum class Command {
   kListPlans,     // plans the daemon knows
   kValidatePlan,  // check a plan without running it
   kResults,       // run history or one run's results
-  kExport,        // write a run's recording/results to a directory
+  kExport,        // write a run's recording to a directory under the daemon's state directory
   kPing,          // liveness check of the event loop
 };
 // The wire name ("start", "list_plans", ...).
@@ -61,11 +61,14 @@ inline constexpr int kTopicCount = 3;
 std::string_view topicName(Topic t);
 std::optional<Topic> topicFromName(std::string_view name);
 
-// A plan given by the client: a file path the daemon reads, or the TOML text itself.
+// A plan given by the client: the TOML text itself (the client reads its file with its own
+// rights), or the path of a plan in the bench's plan library (plan_dir, see list_plans; the
+// daemon refuses paths anywhere else without touching them).
 struct PlanSource {
   enum class Kind { kPath, kInline };
   Kind kind = Kind::kPath;
   std::string text;  // the path, or the TOML text
+  std::string name;  // inline only: what diagnostics call the plan (its file); empty: none
 };
 
 struct StartOptions {
@@ -93,7 +96,9 @@ struct ResultsArgs {
 };
 struct ExportArgs {
   std::int64_t run = 0;
-  std::string dir;  // absolute path
+  // The export's directory name under the daemon's export directory (exports/ next to the
+  // database): one name of [A-Za-z0-9._-], not starting with '.'. Empty: "run-<id>".
+  std::string dir;
 };
 using RequestArgs = std::variant<NoArgs, StartArgs, SubscribeArgs, UnsubscribeArgs,
                                  ValidatePlanArgs, ResultsArgs, ExportArgs>;

@@ -6,9 +6,11 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <utility>
 #include <vector>
@@ -25,6 +27,9 @@ struct ControlServer::Client {
   std::size_t out_sent = 0;
   std::uint32_t interest = EPOLLIN;  // the events registered with the loop
   std::bitset<kTopicCount> topics;
+  bool reserved = false;  // in a reserved slot: stop, status and ping only
+  // The last request received, or output written: what the idle timeout measures from.
+  std::chrono::steady_clock::time_point last_active = std::chrono::steady_clock::now();
 };
 
 namespace {
@@ -37,6 +42,16 @@ constexpr int kAcceptsPerTurn = 16;
 // When accept fails for lack of fds or memory, the listening socket stays readable: pausing
 // keeps the loop from spinning on it.
 constexpr auto kAcceptPause = std::chrono::milliseconds(100);
+// The idle check runs four times per idle_timeout_s (a client goes within 1.25 timeouts),
+// bounded so a short timeout does not spin and a long one is still checked every minute.
+constexpr double kIdleChecksPerTimeout = 4.0;
+constexpr double kMinIdleCheckS = 0.05;
+constexpr double kMaxIdleCheckS = 60.0;
+
+// What a client in a reserved slot may send: enough to stop the bench and see that it stopped.
+bool reservedCommand(Command c) {
+  return c == Command::kStop || c == Command::kStatus || c == Command::kPing;
+}
 
 std::string errnoText(const std::string& what) {
   return what + ": " + std::strerror(errno);
@@ -89,6 +104,8 @@ bool ControlServerOptions::IsValid(std::string* why) const {
   if ((socket_mode & ~mode_t{0777}) != 0) return fail("socket_mode: only permission bits 0777");
   if (max_line_bytes < 256) return fail("max_line_bytes: must be >= 256");
   if (max_clients < 1) return fail("max_clients: must be >= 1");
+  if (!(idle_timeout_s >= 0.0 && idle_timeout_s <= 1e6))
+    return fail("idle_timeout_s: must be in [0, 1e6] s (0: no timeout)");
   if (max_output_bytes < max_line_bytes)
     return fail("max_output_bytes: must be >= max_line_bytes (a reply may quote a request)");
   return true;
@@ -101,6 +118,7 @@ ControlServer::ControlServer(EventLoop* loop, ControlServerOptions options, Hand
 ControlServer::~ControlServer() {
   while (!clients_.empty()) closeClient(clients_.begin()->first, "server shutting down");
   loop_->cancelTimer(accept_pause_timer_);
+  loop_->cancelTimer(idle_timer_);
   if (listen_fd_ >= 0) {
     loop_->remove(listen_fd_);
     ::close(listen_fd_);
@@ -115,6 +133,14 @@ IoStatus ControlServer::start() {
   if (!options_.IsValid(&why)) return IoStatus::Error("control server options: " + why);
   const IoStatus s = options_.listen_fd >= 0 ? adoptListenFd() : listenOnPath();
   if (!s.ok) return s;
+  if (options_.idle_timeout_s > 0.0) {
+    const double period =
+        std::clamp(options_.idle_timeout_s / kIdleChecksPerTimeout, kMinIdleCheckS, kMaxIdleCheckS);
+    const auto ns = std::chrono::nanoseconds(static_cast<std::int64_t>(period * 1e9));
+    const IoStatus t = loop_->addTimer(
+        ns, ns, [this] { closeIdleClients(); }, &idle_timer_);
+    if (!t.ok) return t;
+  }
   return loop_->add(listen_fd_, EPOLLIN, [this](std::uint32_t) { onListenReadable(); });
 }
 
@@ -187,20 +213,30 @@ void ControlServer::pauseAccepting() {
   if (!s.ok) (void)loop_->modify(listen_fd_, EPOLLIN);  // better spinning than deaf
 }
 
+void ControlServer::refuseBusy(int fd) {
+  ++stats_.refused_busy;
+  const std::string line = serializeReply(errorReply(
+      nullptr, ErrorCode::kBusy,
+      "too many clients (max_clients " + std::to_string(options_.max_clients) + ", " +
+          std::to_string(options_.reserved_clients) + " reserved for stop/status/ping)"));
+  // Best effort: a fresh socket's buffer takes one line; if not, the close says enough.
+  [[maybe_unused]] const ssize_t n = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
+  ::close(fd);
+}
+
 void ControlServer::acceptOne(int fd) {
-  if (clients_.size() >= options_.max_clients) {
-    ++stats_.refused_busy;
-    const std::string line = serializeReply(
-        errorReply(nullptr, ErrorCode::kBusy,
-                   "too many clients (max_clients " + std::to_string(options_.max_clients) + ")"));
-    // Best effort: a fresh socket's buffer takes one line; if not, the close says enough.
-    [[maybe_unused]] const ssize_t n = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
-    ::close(fd);
+  std::size_t regular = 0;
+  for (const auto& [id, client] : clients_)
+    if (!client->reserved) ++regular;
+  const bool reserved = regular >= options_.max_clients;
+  if (reserved && clients_.size() - regular >= options_.reserved_clients) {
+    refuseBusy(fd);
     return;
   }
   auto c = std::make_unique<Client>();
   c->id = next_id_++;
   c->fd = fd;
+  c->reserved = reserved;
   const ClientId id = c->id;
   const IoStatus s =
       loop_->add(fd, EPOLLIN, [this, id](std::uint32_t events) { onClientEvent(id, events); });
@@ -215,9 +251,27 @@ void ControlServer::acceptOne(int fd) {
   log(LogLevel::kInfo, "client " + std::to_string(id) + " connected" +
                            (have_cred ? " (uid " + std::to_string(cred.uid) + ", pid " +
                                             std::to_string(cred.pid) + ")"
-                                      : ""));
+                                      : "") +
+                           (reserved ? " into a reserved slot (stop, status, ping)" : ""));
   clients_.emplace(id, std::move(c));
   ++stats_.accepted;
+  if (reserved) ++stats_.reserved_accepted;
+}
+
+// Closes the clients idle for idle_timeout_s: no request that long, and either no topic or
+// output waiting that long unread (a subscriber that reads its events is never idle).
+void ControlServer::closeIdleClients() {
+  const auto now = std::chrono::steady_clock::now();
+  const auto limit = std::chrono::duration<double>(options_.idle_timeout_s);
+  std::vector<ClientId> idle;
+  for (const auto& [id, c] : clients_) {
+    const bool listening = c->topics.any() && c->out_sent == c->out.size();
+    if (!listening && now - c->last_active >= limit) idle.push_back(id);
+  }
+  for (const ClientId id : idle) {
+    ++stats_.idle_disconnects;
+    closeClient(id, "idle for " + std::to_string(std::lround(options_.idle_timeout_s)) + " s");
+  }
 }
 
 void ControlServer::onClientEvent(ClientId id, std::uint32_t events) {
@@ -308,12 +362,19 @@ void ControlServer::handleLine(ClientId id, std::string_view line) {
   }
   const auto it = clients_.find(id);
   if (it == clients_.end()) return;
-  Reply r = answer(*it->second, parsed.request);
-  r.id = parsed.request.id;
-  reply(id, r);
+  it->second->last_active = std::chrono::steady_clock::now();
+  std::optional<Reply> r = answer(*it->second, parsed.request);
+  if (!r) return;  // deferred: the handler answers through sendReply
+  r->id = parsed.request.id;
+  reply(id, *r);
 }
 
-Reply ControlServer::answer(Client& c, const Request& request) {
+std::optional<Reply> ControlServer::answer(Client& c, const Request& request) {
+  if (c.reserved && !reservedCommand(request.command))
+    return errorReply(request.id, ErrorCode::kBusy,
+                      "all " + std::to_string(options_.max_clients) +
+                          " client slots are taken; this connection is in a reserved slot and "
+                          "takes only stop, status and ping");
   switch (request.command) {
     case Command::kPing:
       return okReply(request.id, {{"pong", true}});
@@ -346,6 +407,12 @@ void ControlServer::reply(ClientId id, const Reply& r) {
   ++stats_.requests;
   if (!r.ok) ++stats_.errors;
   send(id, serializeReply(r));
+}
+
+bool ControlServer::sendReply(ClientId client, const Reply& r) {
+  if (!connected(client)) return false;
+  reply(client, r);
+  return connected(client);
 }
 
 bool ControlServer::send(ClientId client, std::string_view line) {
@@ -390,6 +457,7 @@ bool ControlServer::flush(Client& c) {
                              MSG_NOSIGNAL | MSG_DONTWAIT);
     if (n > 0) {
       c.out_sent += static_cast<std::size_t>(n);
+      c.last_active = std::chrono::steady_clock::now();
       continue;
     }
     if (n < 0 && errno == EINTR) continue;

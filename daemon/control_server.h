@@ -4,18 +4,28 @@
 // The server owns the connections: line framing with a size limit, per-client output queues
 // with a bound, subscriptions and event broadcast. It answers ping, subscribe and unsubscribe
 // itself (they are about the connection) and hands every other request to the handler, which
-// decides the reply: the server knows nothing of plans or benches. A client that does not read
-// its replies is disconnected when its queue overflows; the loop never blocks on a client.
+// decides the reply (now, or later through sendReply): the server knows nothing of plans or
+// benches. A client that does not read its replies is disconnected when its queue overflows;
+// the loop never blocks on a client.
+//
+// Slots: max_clients connections take every command. Beyond them, reserved_clients more are
+// accepted for the emergency: they take only stop, status and ping (anything else: busy), so a
+// bench whose slots are all held can still be stopped. A connection is idle when it has sent no
+// request for idle_timeout_s and either listens to no topic or has had output waiting unread
+// that long; idle connections are closed. A subscribed watcher that keeps reading its events is
+// never idle, however long the bench is quiet.
 #pragma once
 
 #include <sys/types.h>
 
 #include <bitset>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -41,6 +51,13 @@ struct ControlServerOptions {
   std::size_t max_line_bytes = 64 * 1024;
   // A bench has a handful of operator tools attached; more is a leak or abuse.
   std::size_t max_clients = 16;
+  // Connections beyond max_clients that take only stop, status and ping: the emergency stop
+  // gets through when every regular slot is held. Two: an operator and a safety script.
+  std::size_t reserved_clients = 2;
+  // A connection without a request for this long (and not a reading subscriber, see above) is
+  // closed: leaked connections free their slots. Ten minutes outlasts an operator pausing at a
+  // socat prompt; 0 disables the timeout.
+  double idle_timeout_s = 600.0;
   // Replies and events queued for a client that does not read; past this it is disconnected,
   // so one stuck client costs bounded memory and never stalls the loop.
   std::size_t max_output_bytes = 1024 * 1024;
@@ -49,7 +66,9 @@ struct ControlServerOptions {
 
 struct ControlServerStats {
   std::uint64_t accepted = 0;              // connections taken
-  std::uint64_t refused_busy = 0;          // connections refused at max_clients
+  std::uint64_t refused_busy = 0;          // connections refused (regular and reserved full)
+  std::uint64_t reserved_accepted = 0;     // connections taken into a reserved slot
+  std::uint64_t idle_disconnects = 0;      // clients closed after idle_timeout_s
   std::uint64_t overflow_disconnects = 0;  // clients dropped because their queue overflowed
   std::uint64_t requests = 0;              // lines answered (valid or not)
   std::uint64_t errors = 0;                // of which error replies
@@ -59,7 +78,8 @@ class ControlServer {
  public:
   // Decides the reply to a request (not ping/subscribe/unsubscribe). Runs on the loop's
   // thread; the server sets the reply's id to the request's. May call broadcast()/send().
-  using Handler = std::function<Reply(const Request&, ClientId)>;
+  // nullopt: the reply comes later (work off the loop thread), through sendReply().
+  using Handler = std::function<std::optional<Reply>(const Request&, ClientId)>;
 
   // loop and logger (nullable: no logging) must outlive the server.
   ControlServer(EventLoop* loop, ControlServerOptions options, Handler handler,
@@ -76,6 +96,10 @@ class ControlServer {
   // Queues a complete line (newline-terminated) for one client, e.g. a late reply. false when
   // the client is gone or was disconnected because its queue overflowed.
   bool send(ClientId client, std::string_view line);
+  // A reply the handler deferred (its id set by the caller); false when the client is gone.
+  bool sendReply(ClientId client, const Reply& r);
+  // Whether the client is still connected (a deferred reply still has someone to go to).
+  bool connected(ClientId client) const { return clients_.count(client) != 0; }
 
   std::size_t clientCount() const { return clients_.size(); }
   const ControlServerStats& stats() const { return stats_; }
@@ -87,11 +111,13 @@ class ControlServer {
   void onListenReadable();
   void pauseAccepting();
   void acceptOne(int fd);
+  void refuseBusy(int fd);
+  void closeIdleClients();
   void onClientEvent(ClientId id, std::uint32_t events);
   void readFrom(ClientId id);
   void feed(ClientId id, std::string_view data);
   void handleLine(ClientId id, std::string_view line);
-  Reply answer(Client& c, const Request& request);
+  std::optional<Reply> answer(Client& c, const Request& request);
   void reply(ClientId id, const Reply& r);
   bool enqueue(Client& c, std::string_view data);
   bool flush(Client& c);
@@ -108,6 +134,7 @@ class ControlServer {
   bool bound_path_ = false;  // we created socket_path (and remove it at the end)
   ino_t bound_inode_ = 0;    // ...unless someone replaced it since
   EventLoop::TimerId accept_pause_timer_ = -1;
+  EventLoop::TimerId idle_timer_ = -1;
   ClientId next_id_ = 1;
   std::map<ClientId, std::unique_ptr<Client>> clients_;
   ControlServerStats stats_;

@@ -2,6 +2,8 @@
 // commands to a running imubenchd over its control socket (tools/control_client.h).
 //
 //   imubench start PLAN [--label L] [--dry-run] [--out-dir DIR] [--watch]
+//     PLAN is read here, with the operator's rights, and its text sent (the daemon reads no
+//     client-named files); diagnostics name PLAN by its path.
 //   imubench pause | resume | abort | stop          (stop = emergency stop)
 //   imubench status [--json]     imubench results [RUN] [--json]     imubench watch [--json]
 // Every command takes --socket PATH (default $IMUBENCH_SOCKET, else /run/imubench/control.sock).
@@ -31,12 +33,16 @@
 // faulted, aborted or interrupted. Without "progress" the percentage is step/count.
 #include "tools/cli_control.h"
 
+#include <fcntl.h>
 #include <sys/ioctl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -356,6 +362,39 @@ void subscribeForWatch(ControlClient& c, const ControlOptions& o) {
 }
 
 // ---- start ----
+// The daemon's default max_line_bytes (daemon/control_server.h): a longer request is refused.
+constexpr std::size_t kMaxRequestBytes = 64 * 1024;
+
+// The plan file's text, read with the operator's rights: regular files only (a FIFO or device
+// would hang the command), bounded by what one request can carry.
+std::string readPlanText(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0 && errno == ENOENT) throw CommandFailed(path + ": no such plan file");
+  if (fd < 0) throw CommandFailed(path + ": cannot read the plan: " + std::strerror(errno));
+  struct stat st {};
+  std::string text;
+  std::string why;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    why = "not a regular file";
+  } else if (static_cast<std::size_t>(st.st_size) > kMaxRequestBytes) {
+    why = std::to_string(st.st_size) + " bytes, more than a control request carries (" +
+          std::to_string(kMaxRequestBytes) + ")";
+  } else {
+    char buf[16 * 1024];
+    for (ssize_t n; (n = ::read(fd, buf, sizeof buf)) != 0;) {
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) {
+        why = std::string("read: ") + std::strerror(errno);
+        break;
+      }
+      text.append(buf, static_cast<std::size_t>(n));
+    }
+  }
+  ::close(fd);
+  if (!why.empty()) throw CommandFailed(path + ": " + why);
+  return text;
+}
+
 struct StartOptions {
   ControlOptions ctl;
   std::string plan;
@@ -367,11 +406,10 @@ struct StartOptions {
 
 void runStart(const StartOptions& o) {
   std::error_code ec;
-  const std::filesystem::path plan = std::filesystem::absolute(o.plan, ec);
-  if (ec || !std::filesystem::is_regular_file(plan, ec)) {
-    throw CommandFailed(o.plan + ": no such plan file");
-  }
-  json req = {{"cmd", "start"}, {"plan", {{"path", plan.lexically_normal().string()}}}};
+  const std::filesystem::path plan = std::filesystem::absolute(o.plan, ec).lexically_normal();
+  if (ec) throw CommandFailed(o.plan + ": " + ec.message());
+  json req = {{"cmd", "start"},
+              {"plan", {{"toml", readPlanText(plan.string())}, {"name", plan.string()}}}};
   json options = json::object();
   if (o.dry_run) options["dry_run"] = true;
   if (!o.label.empty()) options["label"] = o.label;
@@ -444,7 +482,7 @@ void addControlCommands(CLI::App& app) {
     auto o = std::make_shared<StartOptions>();
     CLI::App* sub = app.add_subcommand("start", "start a plan on the bench (imubenchd)");
     sub->group(group);
-    sub->add_option("PLAN", o->plan, "plan file (TOML), sent as an absolute path")->required();
+    sub->add_option("PLAN", o->plan, "plan file (TOML), read here and sent as text")->required();
     sub->add_option("--label", o->label, "free text stored with the run");
     sub->add_option("--out-dir", o->out_dir, "where the daemon writes the recording");
     CLI::Option* dry = sub->add_flag("--dry-run", o->dry_run, "validate and expand, move nothing");

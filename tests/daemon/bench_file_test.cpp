@@ -86,6 +86,23 @@ TEST(BenchFile, EveryFieldReadAndPathsResolvedAgainstTheBenchFile) {
   EXPECT_EQ(b->imu.interface, "can1");
   EXPECT_DOUBLE_EQ(b->safety.imu_timeout_s, 0.2);
   EXPECT_DOUBLE_EQ(b->safety.comm_timeout_s, 1.0);
+  EXPECT_DOUBLE_EQ(b->control.idle_timeout_s, 600.0);  // [control] absent: the default
+}
+
+TEST(BenchFile, ControlIdleTimeout) {
+  plans::Diagnostics diag("bench.toml");
+  auto b = parse(kGood + "\n[control]\nidle_timeout = \"2.5 s\"\n", diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_DOUBLE_EQ(b->control.idle_timeout_s, 2.5);
+  b = parse(kGood + "\n[control]\nidle_timeout = \"0 s\"\n", diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_DOUBLE_EQ(b->control.idle_timeout_s, 0.0);
+  plans::Diagnostics bad("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[control]\nidle_timeout = \"-1 s\"\n", bad).has_value());
+  EXPECT_NE(bad.str().find("idle_timeout must be in [0, "), std::string::npos) << bad.str();
+  plans::Diagnostics typo("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[control]\nidle = \"1 s\"\n", typo).has_value());
+  EXPECT_NE(typo.str().find("unknown key \"idle\" in [control]"), std::string::npos) << typo.str();
 }
 
 TEST(BenchFile, ChamberPollPeriod) {

@@ -72,6 +72,18 @@ TEST(ControlProtocol, StartWithPathOrInlinePlanAndOptions) {
   EXPECT_TRUE(b.options.dry_run);
   EXPECT_EQ(b.options.label, "unit 42");
   EXPECT_EQ(b.options.out_dir, "/srv/runs");
+  EXPECT_EQ(b.plan.name, "");
+
+  // The client's file name for diagnostics travels with the text; a path names itself.
+  r = parseOk(R"({"cmd":"validate_plan","plan":{"toml":"x","name":"/home/op/p.toml"}})");
+  EXPECT_EQ(std::get<ValidatePlanArgs>(r.args).plan.name, "/home/op/p.toml");
+  EXPECT_NE(
+      parseErr(R"({"cmd":"start","plan":{"path":"/p.toml","name":"x"}})", ErrorCode::kBadArgument)
+          .message.find("plan.name: only with \"toml\""),
+      std::string::npos);
+  EXPECT_NE(parseErr(R"({"cmd":"start","plan":{"toml":"x","name":3}})", ErrorCode::kBadArgument)
+                .message.find("plan.name: must be a string"),
+            std::string::npos);
 }
 
 TEST(ControlProtocol, StartArgumentErrorsNameTheField) {
@@ -134,9 +146,11 @@ TEST(ControlProtocol, ValidatePlanResultsExport) {
   EXPECT_EQ(std::get<ValidatePlanArgs>(r.args).plan.kind, PlanSource::Kind::kInline);
   EXPECT_FALSE(std::get<ResultsArgs>(parseOk(R"({"cmd":"results"})").args).run.has_value());
   EXPECT_EQ(std::get<ResultsArgs>(parseOk(R"({"cmd":"results","run":42})").args).run, 42);
-  r = parseOk(R"({"cmd":"export","run":7,"dir":"/srv/x"})");
+  // Issue 17: an export names a directory under the daemon's export directory, not a path.
+  r = parseOk(R"({"cmd":"export","run":7,"dir":"unit-42_b.1"})");
   EXPECT_EQ(std::get<ExportArgs>(r.args).run, 7);
-  EXPECT_EQ(std::get<ExportArgs>(r.args).dir, "/srv/x");
+  EXPECT_EQ(std::get<ExportArgs>(r.args).dir, "unit-42_b.1");
+  EXPECT_EQ(std::get<ExportArgs>(parseOk(R"({"cmd":"export","run":7})").args).dir, "");
   const std::pair<const char*, const char*> cases[] = {
       {R"({"cmd":"validate_plan"})", "plan: missing"},
       {R"({"cmd":"results","run":1.0})", "run: must be an integer run id, got 1.0"},
@@ -144,9 +158,11 @@ TEST(ControlProtocol, ValidatePlanResultsExport) {
       {R"({"cmd":"results","run":0})", "run: must be >= 1"},
       {R"({"cmd":"results","run":18446744073709551615})", "run: out of range"},
       {R"({"cmd":"export","dir":"/x"})", "run: missing"},
-      {R"({"cmd":"export","run":1})", "dir: missing"},
-      {R"({"cmd":"export","run":1,"dir":"out"})", "dir: must be an absolute path"},
-      {R"({"cmd":"export","run":1,"dir":"/x","format":"csv"})", "format: unknown field"},
+      {R"({"cmd":"export","run":1,"dir":"/srv/x"})", "dir: must be a single name"},
+      {R"({"cmd":"export","run":1,"dir":"a/b"})", "dir: must be a single name"},
+      {R"({"cmd":"export","run":1,"dir":".."})", "dir: must not start with '.'"},
+      {R"({"cmd":"export","run":1,"dir":""})", "dir: must not be empty"},
+      {R"({"cmd":"export","run":1,"dir":"x","format":"csv"})", "format: unknown field"},
   };
   for (const auto& [line, want] : cases) {
     const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
@@ -201,7 +217,7 @@ TEST(ControlProtocol, RandomAndMutatedLinesNeverThrow) {
   const std::string valid[] = {
       R"({"id":1,"cmd":"start","plan":{"path":"/p.toml"},"options":{"dry_run":true}})",
       R"({"id":"q","cmd":"subscribe","topics":["run","status"]})",
-      R"({"cmd":"export","run":3,"dir":"/srv/e"})", R"({"cmd":"results","run":1})"};
+      R"({"cmd":"export","run":3,"dir":"e"})", R"({"cmd":"results","run":1})"};
   int accepted = 0;
   for (int i = 0; i < 20000; ++i) {
     std::string line;

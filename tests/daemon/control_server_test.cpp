@@ -173,9 +173,12 @@ TEST_F(ControlServerTest, HalfClosedClientStillGetsItsReply) {
   EXPECT_TRUE(c.waitClosed());
 }
 
+// Without reserved slots (issue 17 added them; see ReservedSlotTakesStopStatusAndPing), a
+// client past max_clients is refused.
 TEST_F(ControlServerTest, TooManyClientsAreToldBusy) {
   ControlServerOptions o = optionsAt(path_);
   o.max_clients = 2;
+  o.reserved_clients = 0;
   ServerThread s(o, testHandler);
   ASSERT_TRUE(s.startStatus().ok);
   Conn a(path_), b(path_);
@@ -187,6 +190,107 @@ TEST_F(ControlServerTest, TooManyClientsAreToldBusy) {
   EXPECT_EQ(readJson(c)["error"]["code"], "busy");
   EXPECT_TRUE(c.waitClosed());
   EXPECT_EQ(s.stats().refused_busy, 1u);
+}
+
+// Issue 17: with every regular slot held by idle connections, a further connection still gets
+// the emergency stop through (a reserved slot), but nothing else; past the reserved slots too,
+// connections are refused.
+TEST_F(ControlServerTest, ReservedSlotTakesStopStatusAndPing) {
+  ControlServerOptions o = optionsAt(path_);
+  o.max_clients = 2;
+  o.reserved_clients = 1;
+  ServerThread s(o, testHandler);
+  ASSERT_TRUE(s.startStatus().ok);
+  Conn a(path_), b(path_);
+  for (Conn* c : {&a, &b}) {
+    ASSERT_TRUE(c->send("{\"cmd\":\"ping\"}\n"));
+    ASSERT_TRUE(readJson(*c)["ok"]);
+  }
+  Conn r(path_);
+  ASSERT_TRUE(
+      r.send("{\"id\":1,\"cmd\":\"stop\"}\n{\"id\":2,\"cmd\":\"status\"}\n"
+             "{\"id\":3,\"cmd\":\"ping\"}\n{\"id\":4,\"cmd\":\"pause\"}\n"
+             "{\"id\":5,\"cmd\":\"subscribe\",\"topics\":[\"run\"]}\n"));
+  EXPECT_EQ(readJson(r),
+            json({{"id", 1}, {"ok", true}, {"result", {{"cmd", "stop"}, {"client", 3}}}}));
+  EXPECT_EQ(readJson(r)["result"]["cmd"], "status");
+  EXPECT_EQ(readJson(r)["result"]["pong"], true);
+  for (int id : {4, 5}) {
+    const json j = readJson(r);
+    EXPECT_EQ(j["id"], id);
+    EXPECT_EQ(j["error"]["code"], "busy");
+    EXPECT_NE(j["error"]["message"].get<std::string>().find("takes only stop, status and ping"),
+              std::string::npos);
+  }
+  Conn refused(path_);
+  EXPECT_EQ(readJson(refused)["error"]["code"], "busy");
+  EXPECT_TRUE(refused.waitClosed());
+  const ControlServerStats st = s.stats();
+  EXPECT_EQ(st.reserved_accepted, 1u);
+  EXPECT_EQ(st.refused_busy, 1u);
+}
+
+// Issue 17: a connection that sends nothing for idle_timeout_s is closed and its slot is free
+// again; a subscriber that reads its events stays however long it waits; one that does not
+// read what it was sent is idle too.
+TEST_F(ControlServerTest, IdleClientsAreClosedReadingSubscribersStay) {
+  ControlServerOptions o = optionsAt(path_);
+  o.max_clients = 3;
+  o.reserved_clients = 0;
+  o.idle_timeout_s = 0.3;
+  o.max_output_bytes = 16 * 1024 * 1024;  // the deaf subscriber is dropped as idle, not overflow
+  ServerThread s(o, testHandler);
+  ASSERT_TRUE(s.startStatus().ok);
+  Conn idle(path_), watcher(path_), deaf(path_);
+  for (Conn* c : {&watcher, &deaf}) {
+    ASSERT_TRUE(c->send("{\"cmd\":\"subscribe\",\"topics\":[\"status\"]}\n"));
+    ASSERT_TRUE(readJson(*c)["ok"]);
+  }
+  const auto t0 = testing::Clock::now();
+  EXPECT_TRUE(idle.waitClosed(3000));
+  EXPECT_GE(testing::Clock::now() - t0, std::chrono::milliseconds(200));
+  // More events than the deaf subscriber's socket holds: the rest waits in its queue, unread.
+  const std::string pad(8000, 'x');
+  for (int n = 0; n < 100; ++n) {
+    s.onLoop([&s, &pad, n] {
+      s.server().broadcast(Topic::kStatus, "status", {{"n", n}, {"pad", pad}});
+      return 0;
+    });
+    ASSERT_EQ(readJson(watcher)["n"], n);
+  }
+  // Waits for the hang-up without reading (reading would make the deaf client a reader).
+  pollfd hup{deaf.fd(), 0, 0};
+  EXPECT_EQ(::poll(&hup, 1, 5000), 1);
+  EXPECT_NE(hup.revents & POLLHUP, 0);
+  EXPECT_EQ(s.stats().idle_disconnects, 2u);
+  EXPECT_EQ(s.stats().overflow_disconnects, 0u);
+  // Well past the timeout, the reading watcher is still served; the freed slots take clients.
+  ASSERT_TRUE(watcher.send("{\"id\":9,\"cmd\":\"ping\"}\n"));
+  EXPECT_EQ(readJson(watcher)["id"], 9);
+  Conn again(path_);
+  ASSERT_TRUE(again.send("{\"cmd\":\"status\"}\n"));
+  EXPECT_TRUE(readJson(again)["ok"]);
+}
+
+// A handler may answer later (work off the loop thread): nullopt now, sendReply when done.
+TEST_F(ControlServerTest, DeferredReplyArrivesThroughSendReply) {
+  std::optional<std::pair<ClientId, Reply>> pending;  // touched on the loop thread only
+  ServerThread s(optionsAt(path_),
+                 [&pending](const Request& r, ClientId client) -> std::optional<Reply> {
+                   if (r.command != Command::kValidatePlan) return testHandler(r, client);
+                   pending.emplace(client, okReply(r.id, {{"deferred", true}}));
+                   return std::nullopt;
+                 });
+  ASSERT_TRUE(s.startStatus().ok);
+  Conn c(path_);
+  ASSERT_TRUE(
+      c.send("{\"id\":1,\"cmd\":\"validate_plan\",\"plan\":{\"toml\":\"x\"}}\n"
+             "{\"id\":2,\"cmd\":\"ping\"}\n"));
+  EXPECT_EQ(readJson(c)["id"], 2);  // nothing for request 1 yet; the ping is answered
+  EXPECT_TRUE(s.onLoop(
+      [&s, &pending] { return pending && s.server().sendReply(pending->first, pending->second); }));
+  EXPECT_EQ(readJson(c), json({{"id", 1}, {"ok", true}, {"result", {{"deferred", true}}}}));
+  EXPECT_FALSE(s.onLoop([&s] { return s.server().sendReply(999, okReply(nullptr)); }));
 }
 
 // A client that sends requests and never reads its replies is dropped when its queue passes
@@ -300,6 +404,11 @@ TEST(ControlServerOptions, Validation) {
   o.max_clients = 0;
   EXPECT_FALSE(o.IsValid(&why));
   o.max_clients = 1;
+  o.idle_timeout_s = -1.0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("idle_timeout_s"), std::string::npos);
+  o.idle_timeout_s = 0.0;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
   o.max_output_bytes = 100;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("max_output_bytes"), std::string::npos);

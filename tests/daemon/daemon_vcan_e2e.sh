@@ -34,6 +34,7 @@ cat >"$W/bench.toml" <<TOML
 name = "e2e"
 storage = "$W/imubench.db"
 control_socket = "$W/control.sock"
+plan_dir = "$SRC/tests/daemon/data"
 [site]
 latitude = "55.7558 deg"
 height = "150 m"
@@ -130,14 +131,14 @@ started = [e["label"] for e in events if e["event"] == "step_started"]
 check(started == ["h1", "r1", "h2"], "step events in order: %s" % started)
 events.clear()
 
-exp = reply({"id": 6, "cmd": "export", "run": run1, "dir": work + "/export1"})
-check(exp["ok"], "export: " + json.dumps(exp))
-with open(work + "/export1/segments.csv") as fh:
+exp = reply({"id": 6, "cmd": "export", "run": run1, "dir": "export1"})
+check(exp["ok"] and exp["result"]["dir"] == work + "/exports/export1", "export: " + json.dumps(exp))
+with open(work + "/exports/export1/segments.csv") as fh:
     segs = list(csv.DictReader(fh))
 check([s["kind"] for s in segs] == ["static", "rotate", "static"], "segments stored")
 hold = float(segs[0]["t1"]) - float(segs[0]["t0"])
 check(4.9 < hold < 6.0, "hold measured on the IMU clock: %.3f s of 5 s" % hold)
-with open(work + "/export1/imu.csv") as fh:
+with open(work + "/exports/export1/imu.csv") as fh:
     rows = [l for l in fh if l[0].isdigit() or l[0] == "-"]
 ts = [float(l.split(",")[0]) for l in rows]
 gaps = sum(1 for a, b in zip(ts, ts[1:]) if b - a > 0.0015)

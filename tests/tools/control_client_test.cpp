@@ -20,6 +20,7 @@
 
 #include "daemon/control_server.h"
 #include "daemon/event_loop.h"
+#include "daemon/file_io.h"
 #include "tests/daemon/control_test_util.h"
 #include "tools/cli11.h"
 #include "tools/cli_common.h"
@@ -78,7 +79,8 @@ class FakeDaemon {
   Reply handle(const Request& r, ClientId /*client*/) {
     json seen = {{"cmd", daemon::commandName(r.command)}};
     if (const auto* s = std::get_if<daemon::StartArgs>(&r.args)) {
-      seen["path"] = s->plan.text;
+      seen[s->plan.kind == daemon::PlanSource::Kind::kPath ? "path" : "toml"] = s->plan.text;
+      if (!s->plan.name.empty()) seen["name"] = s->plan.name;
       seen["label"] = s->options.label;
       seen["dry_run"] = s->options.dry_run;
     }
@@ -435,7 +437,12 @@ TEST_F(ControlClientTest, CliStartWatchCompletes) {
   const auto reqs = d.requests();
   ASSERT_GE(reqs.size(), 1u);
   EXPECT_EQ(reqs[0]["cmd"], "start");
-  EXPECT_EQ(reqs[0]["path"], plan);  // absolute
+  // Issue 17: the CLI reads the plan with the operator's rights and sends its text, named by
+  // its absolute path (it used to send the path for the daemon to read).
+  EXPECT_EQ(reqs[0]["name"], plan);  // absolute
+  std::string text;
+  ASSERT_TRUE(daemon::readWholeFile(plan, &text).ok);
+  EXPECT_EQ(reqs[0]["toml"], text);
   EXPECT_EQ(reqs[0]["label"], "T=+20C");
 }
 

@@ -174,10 +174,16 @@ class ClientTest(unittest.TestCase):
         seen = []
         with ic.Client(self.path) as c:
             c.subscribe()
-            started = c.start("relative/plan.toml", label="unit 42", dry_run=False)
+            # Issue 17: the client reads the plan (with its own rights) and sends the text,
+            # named by the file's absolute path; it used to send the path for the daemon.
+            plan_file = os.path.join(self.dir, "plan.toml")
+            with open(plan_file, "w") as fh:
+                fh.write("[plan]\nname = \"p\"\n")
+            rel = os.path.relpath(plan_file)
+            started = c.start(rel, label="unit 42", dry_run=False)
             self.assertEqual(started["run"], 1)
-            self.assertEqual(self.server.starts[0][1]["path"],
-                             os.path.abspath("relative/plan.toml"))
+            self.assertEqual(self.server.starts[0][1],
+                             {"toml": "[plan]\nname = \"p\"\n", "name": plan_file})
             end = c.wait_finished(timeout=10, on_event=seen.append, check=True)
             self.assertEqual(end, {"state": "finished", "exit": "completed", "run": 1})
             self.assertTrue(ic.run_completed(end))
@@ -267,6 +273,25 @@ class ClientTest(unittest.TestCase):
         self.assertEqual(p.returncode, 1, p.stdout + p.stderr)
         self.assertIn("T=+60C: run 2 ended finished aborted; sweep stopped", p.stderr)
         self.assertEqual([label for label, _ in self.server.starts], ["T=+20C", "T=+60C"])
+
+    def test_plans_are_read_here_library_plans_by_path(self):
+        fifo = os.path.join(self.dir, "plan.fifo")
+        os.mkfifo(fifo)
+        with ic.Client(self.path) as c:
+            with self.assertRaises(ValueError) as cm:
+                c.start(fifo)  # a FIFO would hang a blocking read; refused at once
+            self.assertIn("not a regular file", str(cm.exception))
+            big = os.path.join(self.dir, "big.toml")
+            with open(big, "w") as fh:
+                fh.write("#" * (ic.MAX_PLAN_BYTES + 1))
+            with self.assertRaises(ValueError):
+                c.validate_plan(big)
+            with self.assertRaises(FileNotFoundError):
+                c.start(os.path.join(self.dir, "none.toml"))
+            with self.assertRaises(ValueError):
+                c.start(toml="x", library="/p.toml")
+            c.start(library="/etc/imubench/plans/p.toml")
+            self.assertEqual(self.server.starts[-1][1], {"path": "/etc/imubench/plans/p.toml"})
 
 
 class NoServerTest(unittest.TestCase):

@@ -17,6 +17,9 @@ Errors are exceptions, all subclasses of ControlError:
     ProtocolError      the daemon sent a line that is not a protocol line (the message quotes it)
     RemoteError        the daemon answered ok=false: .code ("bad_state", ...) and .message
 
+Plans: start(path) and validate_plan(path) read the file here, with the caller's rights, and
+send its text (the daemon reads only its own plan library: start(library=...) names one).
+
 The fields of status results and run events are not fixed by the daemon yet; this module
 assumes the ones documented at the top of tools/cli_control.cpp (state, run, plan, step,
 progress, eta_s; events "state", "step_started", "step_finished", "alarm", "progress",
@@ -27,10 +30,13 @@ import json
 import os
 import select
 import socket
+import stat
 import time
 
 DEFAULT_SOCKET = "/run/imubench/control.sock"
 MAX_LINE_BYTES = 4 * 1024 * 1024
+# The daemon's default request size limit (daemon/control_server.h max_line_bytes).
+MAX_PLAN_BYTES = 64 * 1024
 END_STATES = ("finished", "faulted", "aborted", "interrupted")
 
 
@@ -84,6 +90,37 @@ def _quote(line):
     if len(line) > 120:
         out += " (%d bytes)" % len(line)
     return out
+
+
+def read_plan(path):
+    """The text of a plan file, read with this process's rights (the daemon reads no files a
+    client names, only its own plan library): {"toml": text, "name": absolute path}. Regular
+    files only (a FIFO would hang the caller), at most MAX_PLAN_BYTES."""
+    path = os.path.abspath(path)
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise ValueError("%s: not a regular file" % path)
+        if st.st_size > MAX_PLAN_BYTES:
+            raise ValueError("%s: %d bytes, more than a control request carries (%d)"
+                             % (path, st.st_size, MAX_PLAN_BYTES))
+        with os.fdopen(fd, "rb", closefd=False) as fh:
+            text = fh.read(MAX_PLAN_BYTES + 1)
+    finally:
+        os.close(fd)
+    return {"toml": text.decode("utf-8", "replace"), "name": path}
+
+
+def _plan_field(path, toml, library):
+    given = [x is not None for x in (path, toml, library)]
+    if sum(given) != 1:
+        raise ValueError("give exactly one of path, toml or library")
+    if path is not None:
+        return read_plan(path)
+    if toml is not None:
+        return {"toml": toml}
+    return {"path": library}
 
 
 def run_completed(end):
@@ -281,12 +318,11 @@ class Client:
     def ping(self):
         return self.call("ping")
 
-    def start(self, path=None, toml=None, label=None, dry_run=False, out_dir=None):
-        """Starts a plan: a file path (made absolute: the daemon has its own working directory)
-        or the plan's TOML text. Returns the start result (e.g. {"run": 12, ...})."""
-        if (path is None) == (toml is None):
-            raise ValueError("start: give exactly one of path or toml")
-        plan = {"path": os.path.abspath(path)} if path is not None else {"toml": toml}
+    def start(self, path=None, toml=None, label=None, dry_run=False, out_dir=None, library=None):
+        """Starts a plan: a file (read here with this process's rights and sent as text, see
+        read_plan), the plan's TOML text, or a plan of the daemon's library by the path
+        list_plans() reports. Returns the start result (e.g. {"run": 12, ...})."""
+        plan = _plan_field(path, toml, library)
         options = {}
         if dry_run:
             options["dry_run"] = True
@@ -325,9 +361,9 @@ class Client:
     def list_plans(self):
         return self.call("list_plans")
 
-    def validate_plan(self, path=None, toml=None):
-        plan = {"path": os.path.abspath(path)} if path is not None else {"toml": toml}
-        return self.call("validate_plan", plan=plan)
+    def validate_plan(self, path=None, toml=None, library=None):
+        """Checks a plan without running it; the plan as for start()."""
+        return self.call("validate_plan", plan=_plan_field(path, toml, library))
 
     def wait_finished(self, timeout=None, on_event=None, check=False):
         """Waits until the run ends (state finished, faulted, aborted or interrupted) and

@@ -43,13 +43,13 @@ e2e_start_daemon
 
 e2e_py <<'PY' || fail "client checks"
 import sys
-from e2e_client import Client, check, read_csv
+from e2e_client import Client, check, read_csv, plan_file
 
 work = sys.argv[1]
 SPACING = 0.4 * 5  # poll period x time scale: chamber samples apart on the IMU clock
 c = Client(work + "/control.sock")
 c.subscribe("run")
-start = c.reply({"cmd": "start", "plan": {"path": work + "/plan.toml"}})
+start = c.reply({"cmd": "start", "plan": plan_file(work + "/plan.toml")})
 check(start["ok"], "start: %s" % start)
 run = start["result"]["run"]
 fin = c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run, "run end", 120)

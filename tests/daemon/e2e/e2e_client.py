@@ -1,7 +1,8 @@
 """Control-socket client of the daemon's end-to-end tests (stdlib only).
 
-    from e2e_client import Client, check
+    from e2e_client import Client, check, plan_file
     c = Client(work + "/control.sock")
+    c.reply({"cmd": "start", "plan": plan_file(path)})
     c.reply({"cmd": "status"})                 # ids assigned; events seen meanwhile are queued
     c.wait_event(lambda e: e["event"] == "run_finished", "run end", limit=120)
 """
@@ -70,6 +71,13 @@ class Client:
         except socket.timeout:
             pass
         raise SystemExit("timed out waiting for %s; events: %s" % (what, self.events[-10:]))
+
+
+def plan_file(path):
+    """A plan file sent as its text, named by its path, as `imubench start` does (the daemon
+    reads by path only its own plan library)."""
+    with open(path) as fh:
+        return {"toml": fh.read(), "name": path}
 
 
 def read_csv(path):

@@ -34,7 +34,7 @@ e2e_start_daemon
 
 e2e_py "$VPID" <<'PY' || fail "client checks"
 import os, signal, sys, time
-from e2e_client import Client, check, read_csv
+from e2e_client import Client, check, read_csv, plan_file
 
 work, vb_pid = sys.argv[1], int(sys.argv[2])
 WRAP = 4294.967296  # the 2^32 us time stamp's wrap: stored IMU times continue past it
@@ -52,7 +52,7 @@ def imu_time(limit=30.0):
 
 t_start = imu_time()
 check(t_start < WRAP - 2.0, "the run starts before the wrap (IMU time %.3f s)" % t_start)
-start = c.reply({"cmd": "start", "plan": {"path": work + "/plan.toml"}})
+start = c.reply({"cmd": "start", "plan": plan_file(work + "/plan.toml")})
 check(start["ok"], "start: %s" % start)
 run = start["result"]["run"]
 end = time.time() + 60

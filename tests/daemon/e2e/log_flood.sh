@@ -14,12 +14,12 @@ e2e_start_daemon
 
 e2e_py "$SRC/tests/daemon/data/smoke_plan.toml" <<'PY' || fail "start"
 import sys
-from e2e_client import Client, check
+from e2e_client import Client, check, plan_file
 
 work, plan = sys.argv[1], sys.argv[2]
 c = Client(work + "/control.sock")
 c.subscribe("run")
-start = c.reply({"cmd": "start", "plan": {"path": plan}})
+start = c.reply({"cmd": "start", "plan": plan_file(plan)})
 check(start["ok"], "start: %s" % start)
 c.wait_event(lambda e: e["event"] == "step_started" and e["label"] == "h1", "step h1", 30)
 c.close()

@@ -61,7 +61,7 @@ e2e_start_daemon
 
 e2e_py "$W/profile.toml" "$W/too_fast.toml" <<'PY' || fail "motion profile checks"
 import math, sys
-from e2e_client import Client, check, read_csv
+from e2e_client import Client, check, read_csv, plan_file
 
 work, plan, too_fast = sys.argv[1], sys.argv[2], sys.argv[3]
 c = Client(work + "/control.sock")
@@ -69,12 +69,12 @@ c.subscribe("run")
 
 # A plan asking more than the bench allows: refused before anything moves, no run stored.
 runs_before = len(c.reply({"cmd": "results"})["result"]["runs"])
-r = c.reply({"cmd": "start", "plan": {"path": too_fast}})
+r = c.reply({"cmd": "start", "plan": plan_file(too_fast)})
 check(not r["ok"] and "more than this bench allows (30 deg/s, 10 deg/s^2)" in r["error"]["message"],
       "a plan above the bench's limits is refused: " + r.get("error", {}).get("message", ""))
 check(len(c.reply({"cmd": "results"})["result"]["runs"]) == runs_before, "no run recorded")
 
-r = c.reply({"cmd": "start", "plan": {"path": plan}})
+r = c.reply({"cmd": "start", "plan": plan_file(plan)})
 check(r["ok"], "start: %s" % r)
 run = r["result"]["run"]
 fin = c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run, "run end", 150)
@@ -141,12 +141,12 @@ E2E_TABLE_DEVICE=$W/no-profile-table.toml e2e_bench_file
 e2e_start_daemon
 e2e_py "$W/profile.toml" <<'PY' || fail "refusal on a table without a motion profile"
 import sys
-from e2e_client import Client, check
+from e2e_client import Client, check, plan_file
 
 work, plan = sys.argv[1], sys.argv[2]
 c = Client(work + "/control.sock")
 runs_before = len(c.reply({"cmd": "results"})["result"]["runs"])
-r = c.reply({"cmd": "start", "plan": {"path": plan}})
+r = c.reply({"cmd": "start", "plan": plan_file(plan)})
 check(not r["ok"] and "gives no way to set the rate and acceleration" in r["error"]["message"],
       "refused on a table without a motion profile: " + r.get("error", {}).get("message", ""))
 check(len(c.reply({"cmd": "results"})["result"]["runs"]) == runs_before, "no run recorded")
