@@ -13,8 +13,9 @@
 //
 // Safety (whatever the controller itself enforces): table silent beyond comm_timeout, IMU
 // silent beyond imu_timeout, the interlock found open, a motion taking far longer than
-// planned, or a failed command -> stop motion, pause, alarm; chamber above over_temperature -> chamber to its safe setpoint,
-// stop, pause, alarm. Recording is the daemon's business and goes on through all of these.
+// planned, or a failed command -> stop motion, pause, alarm; chamber above over_temperature ->
+// chamber to its safe setpoint, stop, pause, alarm. Recording is the daemon's business and goes on
+// through all of these.
 //
 // Angles: rad; the plan's angles are continuous (two +180 deg turns end at 360 deg), the
 // table reports wrapped angles, so position checks compare modulo 2 pi.
@@ -89,12 +90,12 @@ struct BenchObservation {
   // it (a virtual bench may run faster than the wall clock; the IMU's samples are what a
   // hold is for). Unset: now_s.
   std::optional<double> plan_time_s;
-  std::string table_fault;        // non-empty: the controller reports a fault (interlock, estop)
+  std::string table_fault;  // non-empty: the controller reports a fault (interlock, estop)
   // The controller reports its interlock closed (meaningful when table_ok). It opens without a
   // fault when the controller restarts or someone opens it at the bench: motion is refused
   // until it is closed again (the daemon's `rearm`).
   bool interlock_closed = true;
-  double imu_last_frame_s = 0.0;  // when the last IMU frame arrived
+  double imu_last_frame_s = 0.0;         // when the last IMU frame arrived
   std::optional<double> chamber_temp_c;  // measured, when there is a chamber
 };
 

@@ -54,13 +54,13 @@ check(start["ok"], "start: %s" % start)
 run = start["result"]["run"]
 fin = c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run, "run end", 120)
 check(fin["state"] == "finished" and fin["exit"] == "completed", "the run completed")
-exp = c.reply({"cmd": "export", "run": run, "dir": work + "/export"})
+exp = c.reply({"cmd": "export", "run": run, "dir": "export"})
 check(exp["ok"], "export: %s" % exp)
 import os
-check(os.path.exists(work + "/export/chamber.csv"), "chamber.csv exported")
+check(os.path.exists(work + "/exports/export/chamber.csv"), "chamber.csv exported")
 rows = [(float(r["t"]), float(r["setpoint"]), float(r["temp"]))
-        for r in read_csv(work + "/export/chamber.csv")]
-segs = read_csv(work + "/export/segments.csv")
+        for r in read_csv(work + "/exports/export/chamber.csv")]
+segs = read_csv(work + "/exports/export/segments.csv")
 check([s["label"] for s in segs] == ["h1", "c1", "h2"], "three steps stored")
 ts = [r[0] for r in rows]
 gaps = sorted(b - a for a, b in zip(ts, ts[1:]))

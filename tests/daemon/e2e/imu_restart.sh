@@ -73,9 +73,9 @@ st = c.reply({"cmd": "status"})["result"]
 check(st["imu_restarts"] == 1, "status imu_restarts 1")
 check(st["imu_lost_samples"] == 0, "no lost samples: %d" % st["imu_lost_samples"])
 
-exp = c.reply({"cmd": "export", "run": run, "dir": work + "/export"})
+exp = c.reply({"cmd": "export", "run": run, "dir": "export"})
 check(exp["ok"], "export: %s" % exp)
-ts = [float(r["t"]) for r in read_csv(work + "/export/imu.csv")]
+ts = [float(r["t"]) for r in read_csv(work + "/exports/export/imu.csv")]
 steps = [b - a for a, b in zip(ts, ts[1:])]
 check(min(steps) > 0, "stored IMU time strictly increasing")
 odd = [(ts[k], d) for k, d in enumerate(steps) if abs(d - 0.001) > 2e-6]
@@ -85,7 +85,7 @@ check(odd[0][1] < 0.5, "the restart's step %.3f s: its silence (0.2 s simulated)
 check(ts[0] < WRAP < odd[0][0], "the stored axis runs through the wrap (%.3f .. %.3f s)"
       % (ts[0], ts[-1]))
 check(ts[-1] - ts[0] < 130, "no time jump: %.3f s stored for a 120 s plan" % (ts[-1] - ts[0]))
-segs = read_csv(work + "/export/segments.csv")
+segs = read_csv(work + "/exports/export/segments.csv")
 for s in segs:
     d = float(s["t1"]) - float(s["t0"])
     check(59.5 < d < 61.5, "hold %s measured on the IMU clock: %.3f s of 60 s" % (s["label"], d))

@@ -79,12 +79,12 @@ check(r["ok"], "start: %s" % r)
 run = r["result"]["run"]
 fin = c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run, "run end", 150)
 check(fin["exit"] == "completed", "run completed: %s" % fin)
-check(c.reply({"cmd": "export", "run": run, "dir": work + "/export"})["ok"], "export")
+check(c.reply({"cmd": "export", "run": run, "dir": "export"})["ok"], "export")
 imu = [(float(r["t"]), float(r["dthx"]), float(r["dthy"]), float(r["dthz"]))
-       for r in read_csv(work + "/export/imu.csv")]
+       for r in read_csv(work + "/exports/export/imu.csv")]
 table = [(float(t["t"]), float(t["outer"]), float(t["inner"]))
-         for t in read_csv(work + "/export/table.csv")]
-segs = {s["label"]: s for s in read_csv(work + "/export/segments.csv")}
+         for t in read_csv(work + "/exports/export/table.csv")]
+segs = {s["label"]: s for s in read_csv(work + "/exports/export/segments.csv")}
 
 # Gyro rate (deg/s, magnitude) per sample from the stored increments.
 gyro = []
