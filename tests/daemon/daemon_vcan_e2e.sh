@@ -10,59 +10,12 @@
 # to completion (exit 0), `imubench status` answers, `imubench export` of the stored run works.
 # Usage: daemon_vcan_e2e.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
-VB=$1
-DAEMON=$2
-CLI=$3
-SRC=$4
-DEV=$SRC/drivers/devices
-W=$(mktemp -d)
-cleanup() {
-  [[ -n ${DPID:-} ]] && kill "$DPID" 2>/dev/null && wait "$DPID" 2>/dev/null
-  [[ -n ${VPID:-} ]] && kill "$VPID" 2>/dev/null && wait "$VPID" 2>/dev/null
-  rm -rf "$W"
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*"
-  echo "--- virtual bench"; tail -20 "$W/vb.out" || true
-  echo "--- daemon"; tail -40 "$W/d.out" || true
-  exit 1
-}
+source "$4/tests/daemon/e2e/lib.sh"
+e2e_init "$@"
+E2E_BENCH_EXTRA="plan_dir = \"$SRC/tests/daemon/data\"" e2e_bench_file
+e2e_start_vb --time-scale 5
+e2e_start_daemon
 
-cat >"$W/bench.toml" <<TOML
-[bench]
-name = "e2e"
-storage = "$W/imubench.db"
-control_socket = "$W/control.sock"
-plan_dir = "$SRC/tests/daemon/data"
-[site]
-latitude = "55.7558 deg"
-height = "150 m"
-[table]
-device = "$DEV/tables/imubench-ref-2axis-tcp.toml"
-port = 1502
-[chamber]
-device = "$DEV/chambers/watlow-f4-style.toml"
-port = 1503
-[imu]
-layout = "$DEV/imus/navgrade_fd.toml"
-interface = "vcan0"
-serial = "E2E-1"
-TOML
-
-"$VB" --table "$DEV/tables/imubench-ref-2axis-tcp.toml" \
-  --chamber "$DEV/chambers/watlow-f4-style.toml" --imu "$DEV/imus/navgrade_fd.toml" \
-  --can vcan0 --time-scale 5 >"$W/vb.out" 2>&1 &
-VPID=$!
-for _ in $(seq 300); do grep -q '^ready' "$W/vb.out" && break; sleep 0.1; done
-grep -q '^ready' "$W/vb.out" || fail "virtual bench not ready"
-
-"$DAEMON" --bench "$W/bench.toml" --stderr >"$W/d.out" 2>&1 &
-DPID=$!
-for _ in $(seq 300); do [[ -S $W/control.sock ]] && break; sleep 0.1; done
-[[ -S $W/control.sock ]] || fail "daemon control socket did not appear"
-
-export IMUBENCH_SOCKET=$W/control.sock
 "$CLI" start "$SRC/tests/daemon/data/smoke_plan.toml" --label cli --watch >"$W/watch.out" 2>&1 ||
   { cat "$W/watch.out"; fail "imubench start --watch did not end in a completed run"; }
 tail -3 "$W/watch.out"
@@ -178,8 +131,5 @@ check(not bad["ok"] and "emergency stop" in bad["error"]["message"] and
 check(reply({"id": 17, "cmd": "ping"})["ok"], "still answering")
 PY
 if grep "ALARM" "$W/d.out" | grep -qv "emergency stop"; then fail "unexpected alarm in the daemon log"; fi
-kill "$DPID"
-wait "$DPID" || fail "daemon exit status after SIGTERM"
-DPID=
-[[ -e $W/control.sock ]] && fail "control socket left behind"
+e2e_stop_daemon
 echo "PASS"

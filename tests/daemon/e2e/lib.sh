@@ -7,6 +7,7 @@
 #   e2e_init VB DAEMON CLI SRC         # sets W (scratch dir), DEV (device files), trap cleanup
 #   e2e_bench_file [EXTRA_TOML]        # writes $W/bench.toml (2-axis TCP table, chamber, IMU);
 #                                      #   $E2E_CHAMBER_EXTRA: more lines for [chamber]
+#                                      #   $E2E_BENCH_EXTRA: more lines for [bench]
 #   e2e_start_vb [ARGS...]             # virtual bench with the same devices; waits for "ready"
 #   e2e_start_daemon                   # imubenchd on $W/bench.toml; waits for the socket
 #   e2e_stop_daemon                    # SIGTERM, checks the exit status
@@ -54,6 +55,7 @@ e2e_bench_file() {
 name = "e2e"
 storage = "$W/imubench.db"
 control_socket = "$W/control.sock"
+${E2E_BENCH_EXTRA:-}
 [site]
 latitude = "55.7558 deg"
 height = "150 m"

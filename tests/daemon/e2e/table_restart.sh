@@ -13,39 +13,14 @@ e2e_bench_file
 e2e_start_vb --time-scale 5
 e2e_start_daemon
 
-e2e_py "$VPID" "$CLI" <<'PY' || fail "table restart checks"
+e2e_py "$VPID" "$CLI" "$SRC/tests/daemon/data/smoke_plan.toml" <<'PY' || fail "table restart checks"
 import os, signal, subprocess, sys, time
-from e2e_client import Client, check, read_csv
+from e2e_client import Client, check, plan_file
 
-work, vpid, cli = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-plan = """
-[plan]
-name = "table-restart"
-[table]
-kind = "two-axis"
-outer_axis_heading = "90 deg"
-max_rate = "20 deg/s"
-max_accel = "10 deg/s^2"
-[[step]]
-type = "hold"
-duration = "5 s"
-label = "h1"
-[[step]]
-type = "rotate"
-axis = "outer"
-angle = "180 deg"
-direction = "+"
-rate = "10 deg/s"
-accel = "5 deg/s^2"
-label = "r1"
-[[step]]
-type = "hold"
-duration = "5 s"
-label = "h2"
-"""
+work, vpid, cli, plan = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
 c = Client(work + "/control.sock")
 c.subscribe("run")
-start = c.reply({"cmd": "start", "plan": {"toml": plan}})
+start = c.reply({"cmd": "start", "plan": plan_file(plan)})  # h1, r1 (180 deg), h2
 check(start["ok"], "start: %s" % start)
 run = start["result"]["run"]
 c.wait_event(lambda e: e["event"] == "step_started" and e["label"] == "r1", "r1 start")
