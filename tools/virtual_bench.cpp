@@ -124,45 +124,183 @@ class ImuStreamer {
   bool stopping_ = false;
 };
 
+// The signals the virtual bench waits for (blocked in main before any thread starts):
+// stop, and the fault injections of the header comment.
+sigset_t benchSignals() {
+  sigset_t set;
+  sigemptyset(&set);
+  for (int sig : {SIGINT, SIGTERM, SIGUSR1, SIGUSR2, SIGRTMIN, SIGRTMIN + 1}) sigaddset(&set, sig);
+  return set;
+}
+
+// The device files named on the command line, checked against each other. nullopt + *why.
+struct Devices {
+  TableDeviceSpec table;
+  ChamberDeviceSpec chamber;
+  std::optional<TableDeviceSpec> serial_table;
+};
+
+std::optional<Devices> loadDevices(const Args& a, std::string* why) {
+  plans::Diagnostics tdiag(a.table_file);
+  auto table = loadTableDevice(a.table_file, tdiag);
+  if (!table) {
+    *why = "table device file refused:\n" + tdiag.str();
+    return std::nullopt;
+  }
+  if (table->transport.kind == TransportKind::kSerialScpi) {
+    *why = a.table_file +
+           ": --table needs a Modbus register map (give serial command sets with --serial-table)";
+    return std::nullopt;
+  }
+  plans::Diagnostics cdiag(a.chamber_file);
+  auto chamber = loadChamberDevice(a.chamber_file, cdiag);
+  if (!chamber) {
+    *why = "chamber device file refused:\n" + cdiag.str();
+    return std::nullopt;
+  }
+  Devices d{std::move(*table), std::move(*chamber), std::nullopt};
+  if (!a.serial_table_file.empty()) {
+    plans::Diagnostics sdiag(a.serial_table_file);
+    d.serial_table = loadTableDevice(a.serial_table_file, sdiag);
+    if (!d.serial_table) {
+      *why = "serial table device file refused:\n" + sdiag.str();
+      return std::nullopt;
+    }
+    if (d.serial_table->transport.kind != TransportKind::kSerialScpi ||
+        d.serial_table->kind != d.table.kind) {
+      *why = a.serial_table_file +
+             ": --serial-table needs a serial-scpi file for a table with as many axes as --table";
+      return std::nullopt;
+    }
+  }
+  return d;
+}
+
+// The IMU simulator on the world's motion, streaming CAN frames (started). null + *why.
+std::unique_ptr<ImuStreamer> startImu(const Args& a, VirtualWorld& world, const daemon::Logger& log,
+                                      std::string* why) {
+  plans::Diagnostics idiag(a.imu_layout_file);
+  auto layout = loadImuLayoutFile(a.imu_layout_file, idiag);
+  if (!layout) {
+    *why = "IMU device file refused:\n" + idiag.str();
+    return nullptr;
+  }
+  calib::BenchWorld bench;
+  if (!a.truth_file.empty()) {
+    auto t = daemon::readTruthFile(a.truth_file);
+    if (!t.status.ok) {
+      *why = t.status.message;
+      return nullptr;
+    }
+    bench.truth = t.truth;
+  }
+  bench.noise = *calib::NoiseModel::byName(a.noise);  // checked by CLI11
+  calib::SimOptions opts;
+  opts.imu_rate_hz = a.imu_rate_hz > 0 ? a.imu_rate_hz : 1.0 / layout->sample_period_s;
+  opts.seed = a.seed;
+  auto sim = world.withMotion([&](const calib::Motion& m, double) {
+    return calib::ImuSimulator::Create(bench, &m, opts, why);
+  });
+  if (!sim) {
+    *why = "IMU simulator: " + *why;
+    return nullptr;
+  }
+  VirtualImuOptions io;
+  io.interface = a.can_interface;
+  io.faults.drop_frame_every = a.imu_drop_every;
+  io.faults.corrupt_frame_every = a.imu_corrupt_every;
+  io.faults.stop_after = a.imu_stop_after;
+  io.faults.restart_at_s = a.imu_restart_after_s;
+  io.faults.restart_silence_s = a.imu_restart_silence_s;
+  io.wrap_at_s = a.imu_wrap_at_s;
+  if (!io.IsValid(why)) {
+    *why = "IMU: " + *why;
+    return nullptr;
+  }
+  auto can = std::make_unique<VirtualImuCan>(*layout, io);
+  if (Status s = can->open(); !s.ok) {
+    *why = "IMU on " + a.can_interface + ": " + s.message;
+    return nullptr;
+  }
+  auto imu = std::make_unique<ImuStreamer>(world, std::move(sim), std::move(can), log);
+  imu->start();
+  announce("imu can " + a.can_interface + " layout " + a.imu_layout_file + " rate " +
+           std::to_string(opts.imu_rate_hz) + " Hz");
+  return imu;
+}
+
+// What the running bench's fault injections act on.
+struct FaultTargets {
+  VirtualWorld& world;
+  ModbusServer& table_tcp;
+  ModbusServer& chamber_tcp;
+  ImuStreamer* imu;  // null without an IMU
+};
+
+// Waits for SIGINT/SIGTERM, carrying out the fault-injection signals and the scheduled
+// interlock trip (--fault-trip-after) on the way.
+void serveUntilStopped(const Args& a, const FaultTargets& f, const daemon::Logger& log) {
+  const sigset_t set = benchSignals();
+  auto trip = [&] {
+    f.world.withTable([&](VirtualTable& t, double now) {
+      t.trip(now, a.trip_reason);
+      return 0;
+    });
+    log.warning("fault injection: table interlock tripped: " + a.trip_reason);
+  };
+  bool tripped = a.trip_after_s < 0;
+  for (;;) {
+    timespec ts{1, 0};
+    if (!tripped) {
+      const double wall = std::max(0.0, (a.trip_after_s - f.world.now()) / a.time_scale);
+      ts.tv_sec = static_cast<time_t>(wall);
+      ts.tv_nsec = static_cast<long>((wall - std::floor(wall)) * 1e9);
+    }
+    const int sig = sigtimedwait(&set, nullptr, tripped ? nullptr : &ts);
+    if (sig == SIGINT || sig == SIGTERM) return;
+    if (sig == SIGUSR1) {
+      log.warning("fault injection: dropping every Modbus TCP connection");
+      f.table_tcp.dropConnections();
+      f.chamber_tcp.dropConnections();
+    }
+    if (sig == SIGUSR2) trip();
+    if (sig == SIGRTMIN + 1 && f.imu != nullptr) {
+      log.warning("fault injection: IMU restart (silent, then counter and time stamp from 0)");
+      f.imu->requestRestart();
+    }
+    if (sig == SIGRTMIN) {
+      log.warning("fault injection: table controller restart");
+      f.world.withTable([](VirtualTable& t, double now) {
+        t.restart(now);
+        return 0;
+      });
+      f.table_tcp.dropConnections();
+    }
+    if (!tripped && f.world.now() >= a.trip_after_s) {
+      trip();
+      tripped = true;
+    }
+  }
+}
+
 int run(const Args& a) {
   daemon::Logger log("imubench-virtual-bench", /*also_stderr=*/true);
   auto fail = [&](const std::string& m) {
     log.error(m);
     return 1;
   };
-  plans::Diagnostics tdiag(a.table_file);
-  auto table = loadTableDevice(a.table_file, tdiag);
-  if (!table) return fail("table device file refused:\n" + tdiag.str());
-  if (table->transport.kind == TransportKind::kSerialScpi) {
-    return fail(a.table_file +
-                ": --table needs a Modbus register map (give serial command sets "
-                "with --serial-table)");
-  }
-  plans::Diagnostics cdiag(a.chamber_file);
-  auto chamber = loadChamberDevice(a.chamber_file, cdiag);
-  if (!chamber) return fail("chamber device file refused:\n" + cdiag.str());
-  std::optional<TableDeviceSpec> serial_table;
-  if (!a.serial_table_file.empty()) {
-    plans::Diagnostics sdiag(a.serial_table_file);
-    serial_table = loadTableDevice(a.serial_table_file, sdiag);
-    if (!serial_table) return fail("serial table device file refused:\n" + sdiag.str());
-    if (serial_table->transport.kind != TransportKind::kSerialScpi ||
-        serial_table->kind != table->kind) {
-      return fail(a.serial_table_file +
-                  ": --serial-table needs a serial-scpi file for a table "
-                  "with as many axes as --table");
-    }
-  }
-
-  VirtualWorld world(*table, *chamber, a.time_scale, a.ambient_c);
+  std::string why;
+  const std::optional<Devices> dev = loadDevices(a, &why);
+  if (!dev) return fail(why);
+  VirtualWorld world(dev->table, dev->chamber, a.time_scale, a.ambient_c);
   LinkFaults faults;
   faults.reply_delay_s = a.reply_delay_ms / 1000.0;
   faults.drop_replies = a.drop_replies;
   EventSink sink = [&log](const std::string& m) { log.warning(m); };
 
-  VirtualTableRegisters table_regs(world, *table, sink);
+  VirtualTableRegisters table_regs(world, dev->table, sink);
   ModbusServer table_tcp(table_regs, faults, sink);
-  const int tport = a.table_port >= 0 ? a.table_port : table->transport.port;
+  const int tport = a.table_port >= 0 ? a.table_port : dev->table.transport.port;
   if (Status s = table_tcp.startTcp(a.host, tport); !s.ok) return fail("table: " + s.message);
   announce("table modbus-tcp " + a.host + ":" + std::to_string(table_tcp.port()) + " device " +
            a.table_file);
@@ -173,106 +311,25 @@ int run(const Args& a) {
     announce("table modbus-rtu " + table_rtu->ptyPath() + " unit " + std::to_string(a.rtu_unit));
   }
   std::unique_ptr<VirtualTableScpi> table_serial;
-  if (serial_table) {
-    table_serial = std::make_unique<VirtualTableScpi>(world, *serial_table, faults, sink);
+  if (dev->serial_table) {
+    table_serial = std::make_unique<VirtualTableScpi>(world, *dev->serial_table, faults, sink);
     if (Status s = table_serial->start(); !s.ok) return fail("table serial: " + s.message);
     announce("table serial " + table_serial->ptyPath() + " device " + a.serial_table_file);
   }
-  VirtualChamberRegisters chamber_regs(world, *chamber, sink);
+  VirtualChamberRegisters chamber_regs(world, dev->chamber, sink);
   ModbusServer chamber_tcp(chamber_regs, faults, sink);
-  const int cport = a.chamber_port >= 0 ? a.chamber_port : chamber->transport.port;
+  const int cport = a.chamber_port >= 0 ? a.chamber_port : dev->chamber.transport.port;
   if (Status s = chamber_tcp.startTcp(a.host, cport); !s.ok) return fail("chamber: " + s.message);
   announce("chamber modbus-tcp " + a.host + ":" + std::to_string(chamber_tcp.port()) + " device " +
            a.chamber_file);
 
   std::unique_ptr<ImuStreamer> imu;
   if (!a.imu_layout_file.empty()) {
-    plans::Diagnostics idiag(a.imu_layout_file);
-    auto layout = loadImuLayoutFile(a.imu_layout_file, idiag);
-    if (!layout) return fail("IMU device file refused:\n" + idiag.str());
-    calib::BenchWorld bench;
-    if (!a.truth_file.empty()) {
-      auto t = daemon::readTruthFile(a.truth_file);
-      if (!t.status.ok) return fail(t.status.message);
-      bench.truth = t.truth;
-    }
-    bench.noise = *calib::NoiseModel::byName(a.noise);  // checked by CLI11
-    calib::SimOptions opts;
-    opts.imu_rate_hz = a.imu_rate_hz > 0 ? a.imu_rate_hz : 1.0 / layout->sample_period_s;
-    opts.seed = a.seed;
-    std::string why;
-    auto sim = world.withMotion([&](const calib::Motion& m, double) {
-      return calib::ImuSimulator::Create(bench, &m, opts, &why);
-    });
-    if (!sim) return fail("IMU simulator: " + why);
-    VirtualImuOptions io;
-    io.interface = a.can_interface;
-    io.faults.drop_frame_every = a.imu_drop_every;
-    io.faults.corrupt_frame_every = a.imu_corrupt_every;
-    io.faults.stop_after = a.imu_stop_after;
-    io.faults.restart_at_s = a.imu_restart_after_s;
-    io.faults.restart_silence_s = a.imu_restart_silence_s;
-    io.wrap_at_s = a.imu_wrap_at_s;
-    if (!io.IsValid(&why)) return fail("IMU: " + why);
-    auto can = std::make_unique<VirtualImuCan>(*layout, io);
-    if (Status s = can->open(); !s.ok) return fail("IMU on " + a.can_interface + ": " + s.message);
-    imu = std::make_unique<ImuStreamer>(world, std::move(sim), std::move(can), log);
-    imu->start();
-    announce("imu can " + a.can_interface + " layout " + a.imu_layout_file + " rate " +
-             std::to_string(opts.imu_rate_hz) + " Hz");
+    imu = startImu(a, world, log, &why);
+    if (!imu) return fail(why);
   }
   announce("ready time-scale " + std::to_string(a.time_scale));
-
-  // Wait for SIGINT/SIGTERM (blocked in main before any thread started); wake up for a
-  // scheduled interlock trip on the way.
-  sigset_t set;
-  sigemptyset(&set);
-  sigaddset(&set, SIGINT);
-  sigaddset(&set, SIGTERM);
-  sigaddset(&set, SIGUSR1);
-  sigaddset(&set, SIGUSR2);
-  sigaddset(&set, SIGRTMIN + 1);
-  sigaddset(&set, SIGRTMIN);
-  auto trip = [&] {
-    world.withTable([&](VirtualTable& t, double now) {
-      t.trip(now, a.trip_reason);
-      return 0;
-    });
-    log.warning("fault injection: table interlock tripped: " + a.trip_reason);
-  };
-  bool tripped = a.trip_after_s < 0;
-  for (;;) {
-    timespec ts{1, 0};
-    if (!tripped) {
-      const double wall = std::max(0.0, (a.trip_after_s - world.now()) / a.time_scale);
-      ts.tv_sec = static_cast<time_t>(wall);
-      ts.tv_nsec = static_cast<long>((wall - std::floor(wall)) * 1e9);
-    }
-    const int sig = sigtimedwait(&set, nullptr, tripped ? nullptr : &ts);
-    if (sig == SIGINT || sig == SIGTERM) break;
-    if (sig == SIGUSR1) {
-      log.warning("fault injection: dropping every Modbus TCP connection");
-      table_tcp.dropConnections();
-      chamber_tcp.dropConnections();
-    }
-    if (sig == SIGUSR2) trip();
-    if (sig == SIGRTMIN + 1 && imu) {
-      log.warning("fault injection: IMU restart (silent, then counter and time stamp from 0)");
-      imu->requestRestart();
-    }
-    if (sig == SIGRTMIN) {
-      log.warning("fault injection: table controller restart");
-      world.withTable([](VirtualTable& t, double now) {
-        t.restart(now);
-        return 0;
-      });
-      table_tcp.dropConnections();
-    }
-    if (!tripped && world.now() >= a.trip_after_s) {
-      trip();
-      tripped = true;
-    }
-  }
+  serveUntilStopped(a, FaultTargets{world, table_tcp, chamber_tcp, imu.get()}, log);
   log.info("stopping");
   if (imu) imu->stop();
   return 0;
@@ -334,14 +391,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   // Signals are taken synchronously by the main thread (sigtimedwait): block them before any
   // server thread starts so every thread inherits the mask.
-  sigset_t set;
-  sigemptyset(&set);
-  sigaddset(&set, SIGINT);
-  sigaddset(&set, SIGTERM);
-  sigaddset(&set, SIGUSR1);
-  sigaddset(&set, SIGUSR2);
-  sigaddset(&set, SIGRTMIN + 1);
-  sigaddset(&set, SIGRTMIN);
+  const sigset_t set = benchSignals();
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   signal(SIGPIPE, SIG_IGN);
   return run(a);
