@@ -29,13 +29,13 @@
 
 #include "calib/simulator.h"
 #include "daemon/logging.h"
-#include "daemon/truth_file.h"
 #include "drivers/imu_layout.h"
 #include "drivers/modbus_device_models.h"
 #include "drivers/modbus_server.h"
 #include "drivers/virtual_imu_can.h"
 #include "drivers/virtual_table_scpi.h"
 #include "drivers/virtual_world.h"
+#include "io/truth_file.h"
 
 namespace {
 
@@ -130,7 +130,7 @@ int run(const Args& a) {
     log.error(m);
     return 1;
   };
-  plans::Diagnostics tdiag(a.table_file);
+  io::Diagnostics tdiag(a.table_file);
   auto table = loadTableDevice(a.table_file, tdiag);
   if (!table) return fail("table device file refused:\n" + tdiag.str());
   if (table->transport.kind == TransportKind::kSerialScpi) {
@@ -138,12 +138,12 @@ int run(const Args& a) {
                 ": --table needs a Modbus register map (give serial command sets "
                 "with --serial-table)");
   }
-  plans::Diagnostics cdiag(a.chamber_file);
+  io::Diagnostics cdiag(a.chamber_file);
   auto chamber = loadChamberDevice(a.chamber_file, cdiag);
   if (!chamber) return fail("chamber device file refused:\n" + cdiag.str());
   std::optional<TableDeviceSpec> serial_table;
   if (!a.serial_table_file.empty()) {
-    plans::Diagnostics sdiag(a.serial_table_file);
+    io::Diagnostics sdiag(a.serial_table_file);
     serial_table = loadTableDevice(a.serial_table_file, sdiag);
     if (!serial_table) return fail("serial table device file refused:\n" + sdiag.str());
     if (serial_table->transport.kind != TransportKind::kSerialScpi ||
@@ -187,12 +187,12 @@ int run(const Args& a) {
 
   std::unique_ptr<ImuStreamer> imu;
   if (!a.imu_layout_file.empty()) {
-    plans::Diagnostics idiag(a.imu_layout_file);
+    io::Diagnostics idiag(a.imu_layout_file);
     auto layout = loadImuLayoutFile(a.imu_layout_file, idiag);
     if (!layout) return fail("IMU device file refused:\n" + idiag.str());
     calib::BenchWorld bench;
     if (!a.truth_file.empty()) {
-      auto t = daemon::readTruthFile(a.truth_file);
+      auto t = io::readTruthFile(a.truth_file);
       if (!t.status.ok) return fail(t.status.message);
       bench.truth = t.truth;
     }
