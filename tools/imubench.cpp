@@ -7,6 +7,7 @@
 // `imubench-store` with it.
 #include <exception>
 #include <iostream>
+#include <string>
 
 #include "tools/cli11.h"
 #include "tools/cli_common.h"
@@ -37,7 +38,9 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const NeedsRunStore&) {
     // Nothing has been printed yet: the store program redoes the command from the start.
-    std::cerr << "imubench: " << runStoreProgram(argv) << "\n";
+    // runStoreProgram returns only when it could not run it (its output would come first).
+    const std::string why = runStoreProgram(argv);
+    std::cerr << "imubench: " << why << "\n";
     return 1;
   } catch (const CommandFailed& e) {
     std::cerr << "imubench: " << e.what() << "\n";
