@@ -51,7 +51,7 @@ std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& t
                                    const BenchConfig& bench, std::string* why) {
   LoadedPlan out;
   out.text = text;
-  plans::Diagnostics diag(name);
+  io::Diagnostics diag(name);
   auto plan = plans::parsePlan(out.text, name, diag);
   if (!plan || !plans::validatePlan(*plan, diag)) {
     *why = diag.str();
@@ -79,33 +79,33 @@ std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& t
 // would drop the process's SQLite locks on it).
 constexpr mode_t kDatabaseMode = 0640;
 
-IoStatus chmodDatabaseFiles(const std::string& db) {
+io::IoStatus chmodDatabaseFiles(const std::string& db) {
   for (const std::string& f : {db, db + "-wal", db + "-shm"}) {
     if (::chmod(f.c_str(), kDatabaseMode) != 0 && errno != ENOENT)
-      return IoStatus::Error(f + ": chmod 0640: " + std::strerror(errno));
+      return io::IoStatus::Error(f + ": chmod 0640: " + std::strerror(errno));
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus createDatabaseFile(const std::string& db) {
+io::IoStatus createDatabaseFile(const std::string& db) {
   const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, kDatabaseMode);
-  if (fd < 0) return IoStatus::Error(db + ": cannot open: " + std::strerror(errno));
+  if (fd < 0) return io::IoStatus::Error(db + ": cannot open: " + std::strerror(errno));
   ::close(fd);
   return chmodDatabaseFiles(db);
 }
 
 // The directory exports go to (exports/ next to the database), created 0750 when missing.
 // Refused when it is anything but a real directory (e.g. a symlink planted there).
-IoStatus exportRoot(const std::string& db, std::string* root) {
+io::IoStatus exportRoot(const std::string& db, std::string* root) {
   std::error_code ec;
   *root = (fs::absolute(fs::path(db), ec).parent_path() / "exports").string();
-  if (ec) return IoStatus::Error(db + ": " + ec.message());
+  if (ec) return io::IoStatus::Error(db + ": " + ec.message());
   if (::mkdir(root->c_str(), 0750) != 0 && errno != EEXIST)
-    return IoStatus::Error(*root + ": cannot create: " + std::strerror(errno));
+    return io::IoStatus::Error(*root + ": cannot create: " + std::strerror(errno));
   struct stat st {};
   if (::lstat(root->c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
-    return IoStatus::Error(*root + ": not a directory");
-  return IoStatus::Ok();
+    return io::IoStatus::Error(*root + ": not a directory");
+  return io::IoStatus::Ok();
 }
 
 // Writes run `run` of the store at db to exports/<name> next to it (runs off the loop: its own
@@ -126,7 +126,7 @@ Reply exportToStateDir(const std::string& db, std::int64_t run, const std::strin
                       dir + (exists ? ": exists already; name another export directory (dir)"
                                     : ": cannot create: " + std::string(std::strerror(errno))));
   }
-  if (auto st = writeRecording(dir, rec.recording); !st.ok)
+  if (auto st = io::writeRecording(dir, rec.recording); !st.ok)
     return errorReply(id, ErrorCode::kInternal, st.message);
   return okReply(id, {{"run", run}, {"dir", dir}, {"imu_samples", rec.recording.imu.size()}});
 }
@@ -175,18 +175,18 @@ double BenchDaemon::wallNow() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
 }
 
-IoStatus BenchDaemon::start() {
+io::IoStatus BenchDaemon::start() {
   std::string why;
-  if (!options_.IsValid(&why)) return IoStatus::Error("daemon options: " + why);
+  if (!options_.IsValid(&why)) return io::IoStatus::Error("daemon options: " + why);
   if (auto st = loop_.open(); !st.ok) return st;
 
   const std::string db =
       options_.storage_path.empty() ? bench_.storage_path : options_.storage_path;
-  if (auto st = createDatabaseFile(db); !st.ok) return IoStatus::Error("store: " + st.message);
+  if (auto st = createDatabaseFile(db); !st.ok) return io::IoStatus::Error("store: " + st.message);
   auto opened = Store::open(db, StoreOptions{});
-  if (!opened.status.ok) return IoStatus::Error("store: " + opened.status.message);
+  if (!opened.status.ok) return io::IoStatus::Error("store: " + opened.status.message);
   store_ = std::move(opened.store);
-  if (auto st = chmodDatabaseFiles(db); !st.ok) return IoStatus::Error("store: " + st.message);
+  if (auto st = chmodDatabaseFiles(db); !st.ok) return io::IoStatus::Error("store: " + st.message);
   db_path_ = db;
   const auto cut = store_->markInterruptedRuns();
   if (cut.status.ok && cut.count > 0) {
@@ -200,17 +200,17 @@ IoStatus BenchDaemon::start() {
     };
   };
   table_ = drivers::makeTableDriver(bench_.table, sink("table"));
-  if (auto st = table_->connect(); !st.ok) return IoStatus::Error("table: " + st.message);
+  if (auto st = table_->connect(); !st.ok) return io::IoStatus::Error("table: " + st.message);
   if (bench_.chamber) {
     chamber_ = drivers::makeChamberDriver(bench_.chamber->device, sink("chamber"));
-    if (auto st = chamber_->connect(); !st.ok) return IoStatus::Error("chamber: " + st.message);
+    if (auto st = chamber_->connect(); !st.ok) return io::IoStatus::Error("chamber: " + st.message);
   }
   port_ = std::make_unique<DriverBenchPort>(*table_, chamber_.get());
 
   drivers::ImuCanReaderOptions imu_options;
   imu_options.interface = bench_.imu.interface;
   imu_ = std::make_unique<drivers::ImuCanReader>(bench_.imu.layout, imu_options);
-  if (auto st = imu_->open(); !st.ok) return IoStatus::Error("IMU: " + st.message);
+  if (auto st = imu_->open(); !st.ok) return io::IoStatus::Error("IMU: " + st.message);
   if (auto st = loop_.add(imu_->socket().fd(), EPOLLIN, [this](std::uint32_t) { onImuReadable(); });
       !st.ok) {
     return st;
@@ -226,10 +226,11 @@ IoStatus BenchDaemon::start() {
   PlanLibraryOptions library;
   std::error_code ec;
   if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
-  if (ec) return IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
+  if (ec) return io::IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
   plans_ = std::make_unique<PlanLibrary>(&loop_, library);
   exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
-  if (auto st = server_->start(); !st.ok) return IoStatus::Error("control socket: " + st.message);
+  if (auto st = server_->start(); !st.ok)
+    return io::IoStatus::Error("control socket: " + st.message);
 
   EventLoop::TimerId timer{};
   if (auto st = loop_.addTimer(
@@ -263,10 +264,10 @@ IoStatus BenchDaemon::start() {
   notifier_.status("idle");
   log_.info("bench '" + bench_.name + "' ready: control socket " + server_options.socket_path +
             ", store " + db + ", IMU on " + bench_.imu.interface);
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus BenchDaemon::run() {
+io::IoStatus BenchDaemon::run() {
   return loop_.run();
 }
 
@@ -333,7 +334,7 @@ void BenchDaemon::onPoll() {
   BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
   obs.plan_time_s = imu_last_t_;
   if (imu_last_t_ && (!run_->last_table_t || *imu_last_t_ > *run_->last_table_t) && obs.table_ok) {
-    TableSample ts;
+    io::TableSample ts;
     ts.t = *imu_last_t_;
     for (std::size_t a = 0; a < obs.angles.size() && a < 3; ++a) {
       ts.angles_deg[a] = obs.angles[a] * kRadToDeg;
@@ -403,7 +404,7 @@ void BenchDaemon::onChamberPoll() {
   drivers::ChamberReading c;
   if (!port_->readChamber(&c) || !imu_last_t_) return;
   if (run_->last_chamber_t && !(*imu_last_t_ > *run_->last_chamber_t)) return;
-  ChamberSample cs;
+  io::ChamberSample cs;
   cs.t = *imu_last_t_;
   cs.setpoint_c = c.setpoint_c;
   cs.temp_c = c.temperature_c;

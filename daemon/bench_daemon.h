@@ -64,9 +64,9 @@ class BenchDaemon {
 
   // Opens the store (runs cut off by a crash become "interrupted"), connects the devices,
   // opens the IMU interface and the control socket; then READY=1. An error names the part.
-  IoStatus start();
+  io::IoStatus start();
   // Runs the loop until stop() (thread-safe, e.g. from a signal's self-pipe).
-  IoStatus run();
+  io::IoStatus run();
   void stop();
   EventLoop& loop() { return loop_; }
 

@@ -11,12 +11,12 @@ namespace imubench::daemon {
 namespace {
 
 namespace fs = std::filesystem;
-using plans::checkKeys;
-using plans::Diagnostics;
-using plans::Dimension;
-using plans::quantityField;
-using plans::strField;
-using plans::subTable;
+using io::checkKeys;
+using io::Diagnostics;
+using io::Dimension;
+using io::quantityField;
+using io::strField;
+using io::subTable;
 
 std::string resolve(const std::string& base_dir, const std::string& path) {
   if (path.empty() || fs::path(path).is_absolute() || base_dir.empty()) return path;
@@ -70,8 +70,7 @@ void parseSite(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
 // Endpoint overrides (host/port for TCP, path for serial lines) shared by table and chamber.
 void applyEndpoint(const toml::table& t, drivers::TransportSpec& tr, Diagnostics& diag) {
   if (auto host = strField(t, "host", diag, false)) tr.host = *host;
-  if (auto port = plans::intField(t, "port", diag, false, 1, 65535))
-    tr.port = static_cast<int>(*port);
+  if (auto port = io::intField(t, "port", diag, false, 1, 65535)) tr.port = static_cast<int>(*port);
   if (auto path = strField(t, "path", diag, false)) tr.device = *path;
 }
 
@@ -204,7 +203,7 @@ void parseControl(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
 
 std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_view file_name,
                                           const std::string& base_dir, Diagnostics& diag) {
-  auto root = plans::parseToml(text, diag);
+  auto root = io::parseToml(text, diag);
   if (!root) return std::nullopt;
   BenchConfig b;
   b.file = std::string(file_name);

@@ -57,8 +57,8 @@
 
 #include "drivers/device_file.h"
 #include "drivers/imu_layout.h"
+#include "io/toml_diagnostics.h"
 #include "nav/earth.h"
-#include "plans/toml_diagnostics.h"
 
 namespace imubench::daemon {
 
@@ -113,8 +113,8 @@ struct BenchConfig {
 // Parses bench text; device files are resolved against base_dir. file_name names the text in
 // diagnostics.
 std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_view file_name,
-                                          const std::string& base_dir, plans::Diagnostics& diag);
+                                          const std::string& base_dir, io::Diagnostics& diag);
 // Reads and parses a bench file.
-std::optional<BenchConfig> loadBenchFile(const std::string& path, plans::Diagnostics& diag);
+std::optional<BenchConfig> loadBenchFile(const std::string& path, io::Diagnostics& diag);
 
 }  // namespace imubench::daemon

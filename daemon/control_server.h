@@ -31,8 +31,8 @@
 
 #include "daemon/control_protocol.h"
 #include "daemon/event_loop.h"
-#include "daemon/io_status.h"
 #include "daemon/logging.h"
+#include "io/io_status.h"
 
 namespace imubench::daemon {
 
@@ -89,7 +89,7 @@ class ControlServer {
   ControlServer& operator=(const ControlServer&) = delete;
 
   // Listens (or adopts listen_fd) and registers with the loop.
-  IoStatus start();
+  io::IoStatus start();
 
   // Sends an event to every client subscribed to topic (serialized once).
   void broadcast(Topic topic, std::string_view name, const nlohmann::json& fields = nullptr);
@@ -106,8 +106,8 @@ class ControlServer {
 
  private:
   struct Client;
-  IoStatus listenOnPath();
-  IoStatus adoptListenFd();
+  io::IoStatus listenOnPath();
+  io::IoStatus adoptListenFd();
   void onListenReadable();
   void pauseAccepting();
   void acceptOne(int fd);

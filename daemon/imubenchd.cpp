@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   Logger log("imubenchd", to_stderr);
-  imubench::plans::Diagnostics diag(bench_file);
+  imubench::io::Diagnostics diag(bench_file);
   auto bench = loadBenchFile(bench_file, diag);
   if (!bench) {
     log.error("bench file refused:\n" + diag.str());

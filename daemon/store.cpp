@@ -136,49 +136,51 @@ bool finiteRow(const nav::ImuSample& s) {
   // temp_c NaN means "not reported"; infinity is a broken reading.
   return std::isfinite(s.t) && s.dtheta.allFinite() && s.dvel.allFinite() && !std::isinf(s.temp_c);
 }
-bool finiteRow(const TableSample& s) {
+bool finiteRow(const io::TableSample& s) {
   return std::isfinite(s.t) && std::isfinite(s.angles_deg[0]) && std::isfinite(s.angles_deg[1]) &&
          std::isfinite(s.angles_deg[2]);
 }
-bool finiteRow(const ChamberSample& s) {
+bool finiteRow(const io::ChamberSample& s) {
   return std::isfinite(s.t) && std::isfinite(s.setpoint_c) && std::isfinite(s.temp_c);
 }
 
 // Finite values and strictly increasing times (also after `last_t`, the previous row).
 template <typename Row>
-IoStatus checkRows(const char* what, std::span<const Row> rows, std::optional<double> last_t) {
+io::IoStatus checkRows(const char* what, std::span<const Row> rows, std::optional<double> last_t) {
   for (std::size_t i = 0; i < rows.size(); ++i) {
     if (!finiteRow(rows[i])) {
-      return IoStatus::Error(std::string(what) + " " + std::to_string(i) +
-                             " has a non-finite value");
+      return io::IoStatus::Error(std::string(what) + " " + std::to_string(i) +
+                                 " has a non-finite value");
     }
     if (last_t && !(rows[i].t > *last_t)) {
-      return IoStatus::Error(std::string(what) + " " + std::to_string(i) +
-                             ": time does not increase");
+      return io::IoStatus::Error(std::string(what) + " " + std::to_string(i) +
+                                 ": time does not increase");
     }
     last_t = rows[i].t;
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus checkSegments(std::span<const calib::Segment> segments, std::optional<double> last_t1) {
+io::IoStatus checkSegments(std::span<const calib::Segment> segments,
+                           std::optional<double> last_t1) {
   for (std::size_t i = 0; i < segments.size(); ++i) {
     const auto& s = segments[i];
     const std::string which = "segment " + std::to_string(i);
     if (!std::isfinite(s.t0) || !std::isfinite(s.t1) || !std::isfinite(s.angle))
-      return IoStatus::Error(which + " has a non-finite value");
-    if (!(s.t1 > s.t0)) return IoStatus::Error(which + ": t1 is not after t0");
+      return io::IoStatus::Error(which + " has a non-finite value");
+    if (!(s.t1 > s.t0)) return io::IoStatus::Error(which + ": t1 is not after t0");
     if (last_t1 && s.t0 < *last_t1)
-      return IoStatus::Error(which + " starts before the previous one ends");
+      return io::IoStatus::Error(which + " starts before the previous one ends");
     last_t1 = s.t1;
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus checkBatch(const RunBatch& b) {
+io::IoStatus checkBatch(const RunBatch& b) {
   if (auto st = checkRows<nav::ImuSample>("IMU sample", b.imu, std::nullopt); !st.ok) return st;
-  if (auto st = checkRows<TableSample>("table sample", b.table, std::nullopt); !st.ok) return st;
-  if (auto st = checkRows<ChamberSample>("chamber sample", b.chamber, std::nullopt); !st.ok)
+  if (auto st = checkRows<io::TableSample>("table sample", b.table, std::nullopt); !st.ok)
+    return st;
+  if (auto st = checkRows<io::ChamberSample>("chamber sample", b.chamber, std::nullopt); !st.ok)
     return st;
   return checkSegments(b.segments, std::nullopt);
 }
@@ -262,20 +264,20 @@ struct Store::Impl {
   DbPtr db;
   std::unordered_map<const char*, StmtPtr> statements;  // keyed by the SQL literal
 
-  IoStatus sqlError(std::string_view what) const {
-    return IoStatus::Error(path + ": " + std::string(what) + ": " + sqlite3_errmsg(db.get()));
+  io::IoStatus sqlError(std::string_view what) const {
+    return io::IoStatus::Error(path + ": " + std::string(what) + ": " + sqlite3_errmsg(db.get()));
   }
   // A file that is not SQLite, or is damaged, fails with these codes on its first read.
   bool notADatabase() const {
     const int code = sqlite3_errcode(db.get()) & 0xff;
     return code == SQLITE_NOTADB || code == SQLITE_CORRUPT;
   }
-  IoStatus error(std::string_view what) const {
-    return IoStatus::Error(path + ": " + std::string(what));
+  io::IoStatus error(std::string_view what) const {
+    return io::IoStatus::Error(path + ": " + std::string(what));
   }
 
   // The cached statement for `sql` (a string literal), prepared on first use.
-  Bound use(const char* sql, IoStatus* st) {
+  Bound use(const char* sql, io::IoStatus* st) {
     auto& slot = statements[sql];
     if (!slot) {
       sqlite3_stmt* s = nullptr;
@@ -290,9 +292,9 @@ struct Store::Impl {
     return Bound(slot.get());
   }
 
-  IoStatus execSql(const char* sql, std::string_view what) {
+  io::IoStatus execSql(const char* sql, std::string_view what) {
     char* msg = nullptr;
-    if (sqlite3_exec(db.get(), sql, nullptr, nullptr, &msg) == SQLITE_OK) return IoStatus::Ok();
+    if (sqlite3_exec(db.get(), sql, nullptr, nullptr, &msg) == SQLITE_OK) return io::IoStatus::Ok();
     std::string why = msg != nullptr ? msg : sqlite3_errmsg(db.get());
     sqlite3_free(msg);
     return error(std::string(what) + ": " + why);
@@ -300,45 +302,45 @@ struct Store::Impl {
 
   // Runs `body` (returning IoStatus) in one write transaction; rolls back on failure.
   template <typename Fn>
-  IoStatus transaction(std::string_view what, Fn&& body) {
+  io::IoStatus transaction(std::string_view what, Fn&& body) {
     if (auto st = execSql("BEGIN IMMEDIATE", what); !st.ok) return st;
-    IoStatus st = body();
+    io::IoStatus st = body();
     if (st.ok) st = execSql("COMMIT", what);
     if (!st.ok) sqlite3_exec(db.get(), "ROLLBACK", nullptr, nullptr, nullptr);
     return st;
   }
 
   // A single integer from a query without parameters (pragmas, counts).
-  IoStatus queryInt(const char* sql, std::string_view what, std::int64_t* out) {
-    IoStatus st;
+  io::IoStatus queryInt(const char* sql, std::string_view what, std::int64_t* out) {
+    io::IoStatus st;
     Bound q = use(sql, &st);
     if (!q) return st;
     if (q.step() != SQLITE_ROW) return sqlError(what);
     *out = q.integer(0);
-    return IoStatus::Ok();
+    return io::IoStatus::Ok();
   }
 
-  IoStatus openConnection();
-  IoStatus checkSchemaVersion(std::int64_t* version);
-  IoStatus configure();
-  IoStatus createSchemaIfNew();
-  IoStatus runState(std::int64_t run_id, RunState* state);
-  IoStatus requireRunning(std::int64_t run_id);
-  IoStatus insertRun(const RunStart& start, RunState state, std::int64_t* run_id);
-  IoStatus insertEvent(const RunEvent& event);
-  IoStatus insertRows(std::int64_t run_id, const RunBatch& batch);
-  IoStatus insertImu(std::int64_t run_id, std::span<const nav::ImuSample> rows);
-  IoStatus insertTable(std::int64_t run_id, std::span<const TableSample> rows);
-  IoStatus insertChamber(std::int64_t run_id, std::span<const ChamberSample> rows);
-  IoStatus insertSegments(std::int64_t run_id, std::span<const calib::Segment> rows);
-  IoStatus readRun(Bound& q, RunInfo* run);
-  IoStatus loadSamples(std::int64_t run_id, Recording* rec);
+  io::IoStatus openConnection();
+  io::IoStatus checkSchemaVersion(std::int64_t* version);
+  io::IoStatus configure();
+  io::IoStatus createSchemaIfNew();
+  io::IoStatus runState(std::int64_t run_id, RunState* state);
+  io::IoStatus requireRunning(std::int64_t run_id);
+  io::IoStatus insertRun(const RunStart& start, RunState state, std::int64_t* run_id);
+  io::IoStatus insertEvent(const RunEvent& event);
+  io::IoStatus insertRows(std::int64_t run_id, const RunBatch& batch);
+  io::IoStatus insertImu(std::int64_t run_id, std::span<const nav::ImuSample> rows);
+  io::IoStatus insertTable(std::int64_t run_id, std::span<const io::TableSample> rows);
+  io::IoStatus insertChamber(std::int64_t run_id, std::span<const io::ChamberSample> rows);
+  io::IoStatus insertSegments(std::int64_t run_id, std::span<const calib::Segment> rows);
+  io::IoStatus readRun(Bound& q, RunInfo* run);
+  io::IoStatus loadSamples(std::int64_t run_id, io::Recording* rec);
   template <class RowFn>
-  IoStatus forEachRunRow(const char* sql, std::int64_t run_id, const char* what, RowFn&& row);
-  IoStatus loadSegments(std::int64_t run_id, Recording* rec);
+  io::IoStatus forEachRunRow(const char* sql, std::int64_t run_id, const char* what, RowFn&& row);
+  io::IoStatus loadSegments(std::int64_t run_id, io::Recording* rec);
 };
 
-IoStatus Store::Impl::openConnection() {
+io::IoStatus Store::Impl::openConnection() {
   sqlite3* raw = nullptr;
   const int rc =
       sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
@@ -349,12 +351,12 @@ IoStatus Store::Impl::openConnection() {
   }
   sqlite3_extended_result_codes(db.get(), 1);
   sqlite3_busy_timeout(db.get(), options.busy_timeout_ms);
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
 // The first read of the file: also where a file that is not SQLite is found.
-IoStatus Store::Impl::checkSchemaVersion(std::int64_t* version) {
-  IoStatus st;
+io::IoStatus Store::Impl::checkSchemaVersion(std::int64_t* version) {
+  io::IoStatus st;
   Bound q = use("PRAGMA user_version", &st);
   if (!q || q.step() != SQLITE_ROW) {
     if (!notADatabase()) return sqlError("cannot read the schema version");
@@ -368,11 +370,11 @@ IoStatus Store::Impl::checkSchemaVersion(std::int64_t* version) {
                  "); use a newer imubench");
   }
   if (*version < 0) return error("invalid schema version " + std::to_string(*version));
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::configure() {
-  IoStatus st;
+io::IoStatus Store::Impl::configure() {
+  io::IoStatus st;
   {
     Bound q = use("PRAGMA journal_mode=WAL", &st);
     if (!q) return st;
@@ -388,7 +390,7 @@ IoStatus Store::Impl::configure() {
   return execSql("PRAGMA foreign_keys=ON", "cannot enable foreign keys");
 }
 
-IoStatus Store::Impl::createSchemaIfNew() {
+io::IoStatus Store::Impl::createSchemaIfNew() {
   return transaction("cannot create the schema", [&]() {
     std::int64_t version = 0;
     std::int64_t objects = 0;
@@ -405,8 +407,8 @@ IoStatus Store::Impl::createSchemaIfNew() {
   });
 }
 
-IoStatus Store::Impl::runState(std::int64_t run_id, RunState* state) {
-  IoStatus st;
+io::IoStatus Store::Impl::runState(std::int64_t run_id, RunState* state) {
+  io::IoStatus st;
   Bound q = use("SELECT state FROM runs WHERE id = ?1", &st);
   if (!q) return st;
   q.bind(1, run_id);
@@ -416,20 +418,20 @@ IoStatus Store::Impl::runState(std::int64_t run_id, RunState* state) {
   const auto s = runStateFromName(q.text(0));
   if (!s) return error(runLabel(run_id) + " has an unknown state '" + q.text(0) + "'");
   *state = *s;
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::requireRunning(std::int64_t run_id) {
+io::IoStatus Store::Impl::requireRunning(std::int64_t run_id) {
   RunState state{};
   if (auto st = runState(run_id, &state); !st.ok) return st;
   if (state != RunState::kRunning) {
     return error(runLabel(run_id) + " is " + runStateName(state) + ", not running");
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::insertRun(const RunStart& s, RunState state, std::int64_t* run_id) {
-  IoStatus st;
+io::IoStatus Store::Impl::insertRun(const RunStart& s, RunState state, std::int64_t* run_id) {
+  io::IoStatus st;
   Bound q =
       use("INSERT INTO runs(plan_name, plan_toml, bench_name, imu_serial, imu_rate_hz, "
           "latitude_deg, height_m, gravity_mps2, table_kind, outer_axis_heading_deg, "
@@ -452,14 +454,14 @@ IoStatus Store::Impl::insertRun(const RunStart& s, RunState state, std::int64_t*
   q.bind(13, std::string_view(runStateName(state)));
   if (q.step() != SQLITE_DONE) return sqlError("cannot start a run");
   *run_id = sqlite3_last_insert_rowid(db.get());
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::insertEvent(const RunEvent& e) {
+io::IoStatus Store::Impl::insertEvent(const RunEvent& e) {
   if (!nlohmann::json::accept(e.json)) {
     return error(runLabel(e.run_id) + ": event '" + e.kind + "' details are not valid JSON");
   }
-  IoStatus st;
+  io::IoStatus st;
   Bound q = use(
       "INSERT INTO events(run_id, wall_unix_s, severity, kind, json) VALUES(?1, ?2, ?3, ?4, ?5)",
       &st);
@@ -470,11 +472,11 @@ IoStatus Store::Impl::insertEvent(const RunEvent& e) {
   q.bind(4, e.kind);
   q.bind(5, e.json);
   if (q.step() != SQLITE_DONE) return sqlError(runLabel(e.run_id) + ": cannot add event");
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::insertImu(std::int64_t run_id, std::span<const nav::ImuSample> rows) {
-  IoStatus st;
+io::IoStatus Store::Impl::insertImu(std::int64_t run_id, std::span<const nav::ImuSample> rows) {
+  io::IoStatus st;
   Bound q =
       use("INSERT INTO imu_samples(run_id, t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c) "
           "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
@@ -492,11 +494,11 @@ IoStatus Store::Impl::insertImu(std::int64_t run_id, std::span<const nav::ImuSam
       return sqlError(runLabel(run_id) + ": cannot store IMU sample at t=" + std::to_string(s.t));
     q.rewind();
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::insertTable(std::int64_t run_id, std::span<const TableSample> rows) {
-  IoStatus st;
+io::IoStatus Store::Impl::insertTable(std::int64_t run_id, std::span<const io::TableSample> rows) {
+  io::IoStatus st;
   Bound q =
       use("INSERT INTO table_samples(run_id, t, angle0_deg, angle1_deg, angle2_deg) "
           "VALUES(?1, ?2, ?3, ?4, ?5)",
@@ -511,11 +513,12 @@ IoStatus Store::Impl::insertTable(std::int64_t run_id, std::span<const TableSamp
     }
     q.rewind();
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::insertChamber(std::int64_t run_id, std::span<const ChamberSample> rows) {
-  IoStatus st;
+io::IoStatus Store::Impl::insertChamber(std::int64_t run_id,
+                                        std::span<const io::ChamberSample> rows) {
+  io::IoStatus st;
   Bound q =
       use("INSERT INTO chamber_samples(run_id, t, setpoint_c, temp_c) VALUES(?1, ?2, ?3, ?4)", &st);
   if (!q) return st;
@@ -530,11 +533,12 @@ IoStatus Store::Impl::insertChamber(std::int64_t run_id, std::span<const Chamber
     }
     q.rewind();
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::insertSegments(std::int64_t run_id, std::span<const calib::Segment> rows) {
-  IoStatus st;
+io::IoStatus Store::Impl::insertSegments(std::int64_t run_id,
+                                         std::span<const calib::Segment> rows) {
+  io::IoStatus st;
   // idx continues the run's numbering: segments arrive one by one during a run.
   Bound q =
       use("INSERT INTO segments(run_id, idx, t0, t1, kind, label, recording, axis, angle_rad) "
@@ -555,10 +559,10 @@ IoStatus Store::Impl::insertSegments(std::int64_t run_id, std::span<const calib:
       return sqlError(runLabel(run_id) + ": cannot store segment '" + s.label + "'");
     q.rewind();
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::insertRows(std::int64_t run_id, const RunBatch& b) {
+io::IoStatus Store::Impl::insertRows(std::int64_t run_id, const RunBatch& b) {
   if (auto st = insertImu(run_id, b.imu); !st.ok) return st;
   if (auto st = insertTable(run_id, b.table); !st.ok) return st;
   if (auto st = insertChamber(run_id, b.chamber); !st.ok) return st;
@@ -566,7 +570,7 @@ IoStatus Store::Impl::insertRows(std::int64_t run_id, const RunBatch& b) {
 }
 
 // One row of kSelectRunsSql.
-IoStatus Store::Impl::readRun(Bound& q, RunInfo* run) {
+io::IoStatus Store::Impl::readRun(Bound& q, RunInfo* run) {
   run->id = q.integer(0);
   RunStart& s = run->start;
   s.plan_name = q.text(1);
@@ -587,27 +591,27 @@ IoStatus Store::Impl::readRun(Bound& q, RunInfo* run) {
   if (!state) return error(runLabel(run->id) + " has an unknown state '" + q.text(14) + "'");
   run->state = *state;
   run->exit_reason = q.text(15);
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
 // Runs a "... WHERE run_id = ?1 ..." query and hands every row to row(q), which may refuse it.
 template <class RowFn>
-IoStatus Store::Impl::forEachRunRow(const char* sql, std::int64_t run_id, const char* what,
-                                    RowFn&& row) {
-  IoStatus st;
+io::IoStatus Store::Impl::forEachRunRow(const char* sql, std::int64_t run_id, const char* what,
+                                        RowFn&& row) {
+  io::IoStatus st;
   Bound q = use(sql, &st);
   if (!q) return st;
   q.bind(1, run_id);
   int rc;
   while ((rc = q.step()) == SQLITE_ROW) {
-    if (IoStatus r = row(q); !r.ok) return r;
+    if (io::IoStatus r = row(q); !r.ok) return r;
   }
   if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read " + what);
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus Store::Impl::loadSamples(std::int64_t run_id, Recording* rec) {
-  IoStatus st = forEachRunRow(
+io::IoStatus Store::Impl::loadSamples(std::int64_t run_id, io::Recording* rec) {
+  io::IoStatus st = forEachRunRow(
       "SELECT t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c FROM imu_samples "
       "WHERE run_id = ?1 ORDER BY t",
       run_id, "IMU samples", [rec](Bound& q) {
@@ -616,26 +620,26 @@ IoStatus Store::Impl::loadSamples(std::int64_t run_id, Recording* rec) {
         s.dtheta = Vec3(q.real(1), q.real(2), q.real(3));
         s.dvel = Vec3(q.real(4), q.real(5), q.real(6));
         s.temp_c = q.realOrNaN(7);
-        return IoStatus::Ok();
+        return io::IoStatus::Ok();
       });
   if (!st.ok) return st;
   st = forEachRunRow(
       "SELECT t, angle0_deg, angle1_deg, angle2_deg FROM table_samples "
       "WHERE run_id = ?1 ORDER BY t",
       run_id, "table samples", [rec](Bound& q) {
-        rec->table.push_back(TableSample{q.real(0), {q.real(1), q.real(2), q.real(3)}});
-        return IoStatus::Ok();
+        rec->table.push_back(io::TableSample{q.real(0), {q.real(1), q.real(2), q.real(3)}});
+        return io::IoStatus::Ok();
       });
   if (!st.ok) return st;
   return forEachRunRow(
       "SELECT t, setpoint_c, temp_c FROM chamber_samples WHERE run_id = ?1 ORDER BY t", run_id,
       "chamber samples", [rec](Bound& q) {
-        rec->chamber.push_back(ChamberSample{q.real(0), q.real(1), q.real(2)});
-        return IoStatus::Ok();
+        rec->chamber.push_back(io::ChamberSample{q.real(0), q.real(1), q.real(2)});
+        return io::IoStatus::Ok();
       });
 }
 
-IoStatus Store::Impl::loadSegments(std::int64_t run_id, Recording* rec) {
+io::IoStatus Store::Impl::loadSegments(std::int64_t run_id, io::Recording* rec) {
   return forEachRunRow(
       "SELECT t0, t1, kind, label, recording, axis, angle_rad FROM segments "
       "WHERE run_id = ?1 ORDER BY idx",
@@ -650,7 +654,7 @@ IoStatus Store::Impl::loadSegments(std::int64_t run_id, Recording* rec) {
         s.recording = q.integer(4) != 0;
         s.axis = static_cast<int>(q.integer(5));
         s.angle = q.real(6);
-        return IoStatus::Ok();
+        return io::IoStatus::Ok();
       });
 }
 
@@ -723,7 +727,7 @@ bool RunStart::IsValid(std::string* why) const {
   return true;
 }
 
-RunStart runStartFromRecording(const Recording& rec) {
+RunStart runStartFromRecording(const io::Recording& rec) {
   RunStart s;
   s.imu_serial = rec.imu_serial;
   s.imu_rate_hz = rec.imu_rate_hz;
@@ -757,14 +761,14 @@ StoreOpenResult Store::open(const std::string& path, const StoreOptions& options
   StoreOpenResult r;
   std::string why;
   if (!options.IsValid(&why)) {
-    r.status = IoStatus::Error(path + ": invalid store options: " + why);
+    r.status = io::IoStatus::Error(path + ": invalid store options: " + why);
     return r;
   }
   auto impl = std::make_unique<Impl>();
   impl->path = path;
   impl->options = options;
   std::int64_t version = 0;
-  IoStatus st = impl->openConnection();
+  io::IoStatus st = impl->openConnection();
   if (st.ok) st = impl->checkSchemaVersion(&version);
   if (st.ok) st = impl->configure();
   if (st.ok && version == 0) st = impl->createSchemaIfNew();
@@ -787,13 +791,13 @@ RunIdResult Store::beginRun(const RunStart& start) {
   return r;
 }
 
-IoStatus Store::finishRun(std::int64_t run_id, RunState state, const std::string& reason) {
+io::IoStatus Store::finishRun(std::int64_t run_id, RunState state, const std::string& reason) {
   if (state == RunState::kRunning) {
     return impl_->error("cannot finish " + runLabel(run_id) + " in state running");
   }
   return impl_->transaction("cannot finish " + runLabel(run_id), [&]() {
     if (auto st = impl_->requireRunning(run_id); !st.ok) return st;
-    IoStatus st;
+    io::IoStatus st;
     Bound q = impl_->use(
         "UPDATE runs SET state = ?2, exit_reason = ?3, finished_unix_s = ?4 WHERE id = ?1", &st);
     if (!q) return st;
@@ -812,7 +816,7 @@ CountResult Store::markInterruptedRuns() {
   CountResult r;
   r.status = impl_->transaction("cannot mark interrupted runs", [&]() {
     std::vector<std::int64_t> ids;
-    IoStatus st;
+    io::IoStatus st;
     {
       Bound q = impl_->use("SELECT id FROM runs WHERE state = 'running' ORDER BY id", &st);
       if (!q) return st;
@@ -834,7 +838,7 @@ CountResult Store::markInterruptedRuns() {
       if (!st.ok) return st;
     }
     r.count = static_cast<int>(ids.size());
-    return IoStatus::Ok();
+    return io::IoStatus::Ok();
   });
   if (!r.status.ok) r.count = 0;
   return r;
@@ -868,7 +872,7 @@ RunInfoResult Store::runInfo(std::int64_t run_id) {
   return r;
 }
 
-IoStatus Store::appendBatch(std::int64_t run_id, const RunBatch& batch) {
+io::IoStatus Store::appendBatch(std::int64_t run_id, const RunBatch& batch) {
   if (auto st = checkBatch(batch); !st.ok) {
     return impl_->error(runLabel(run_id) + ": batch refused: " + st.message);
   }
@@ -878,7 +882,7 @@ IoStatus Store::appendBatch(std::int64_t run_id, const RunBatch& batch) {
   });
 }
 
-IoStatus Store::addEvent(const RunEvent& event) {
+io::IoStatus Store::addEvent(const RunEvent& event) {
   return impl_->transaction("cannot add event", [&]() {
     RunState state{};
     if (auto st = impl_->runState(event.run_id, &state); !st.ok) return st;
@@ -907,7 +911,7 @@ EventListResult Store::events(std::int64_t run_id) {
   return r;
 }
 
-RunIdResult Store::importRecording(const RunStart& start, const Recording& rec) {
+RunIdResult Store::importRecording(const RunStart& start, const io::Recording& rec) {
   RunIdResult r;
   std::string why;
   if (!start.IsValid(&why)) {
@@ -922,7 +926,7 @@ RunIdResult Store::importRecording(const RunStart& start, const Recording& rec) 
   r.status = impl_->transaction("cannot import recording", [&]() {
     if (auto st = impl_->insertRun(start, RunState::kRunning, &r.run_id); !st.ok) return st;
     if (auto st = impl_->insertRows(r.run_id, batch); !st.ok) return st;
-    IoStatus st;
+    io::IoStatus st;
     Bound q = impl_->use(
         "UPDATE runs SET state = 'finished', exit_reason = 'imported', "
         "finished_unix_s = started_unix_s WHERE id = ?1",
@@ -930,21 +934,21 @@ RunIdResult Store::importRecording(const RunStart& start, const Recording& rec) 
     if (!q) return st;
     q.bind(1, r.run_id);
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot finish the imported run");
-    return IoStatus::Ok();
+    return io::IoStatus::Ok();
   });
   if (!r.status.ok) r.run_id = 0;
   return r;
 }
 
-RecordingReadResult Store::loadRecording(std::int64_t run_id) {
-  RecordingReadResult r;
+io::RecordingReadResult Store::loadRecording(std::int64_t run_id) {
+  io::RecordingReadResult r;
   const RunInfoResult info = runInfo(run_id);
   if (!info.status.ok) {
     r.status = info.status;
     return r;
   }
   const RunStart& s = info.run.start;
-  Recording& rec = r.recording;
+  io::Recording& rec = r.recording;
   rec.latitude_deg = s.latitude_deg;
   rec.height_m = s.height_m;
   rec.gravity_mps2 = s.gravity_mps2;
@@ -954,13 +958,13 @@ RecordingReadResult Store::loadRecording(std::int64_t run_id) {
   rec.outer_axis_heading_deg = s.outer_axis_heading_deg;
   rec.segments_from_file = s.segments_from_file;
   // A read transaction around the reads: one consistent snapshot while the daemon writes.
-  IoStatus st = impl_->execSql("BEGIN", "cannot read " + runLabel(run_id));
+  io::IoStatus st = impl_->execSql("BEGIN", "cannot read " + runLabel(run_id));
   if (st.ok) st = impl_->loadSamples(run_id, &rec);
   if (st.ok) st = impl_->loadSegments(run_id, &rec);
   sqlite3_exec(impl_->db.get(), "COMMIT", nullptr, nullptr, nullptr);
   if (!st.ok) {
     r.status = st;
-    r.recording = Recording{};
+    r.recording = io::Recording{};
   }
   return r;
 }
@@ -980,7 +984,7 @@ ResultIdResult Store::storeResult(std::int64_t run_id, const std::string& imu_se
   r.status = impl_->transaction("cannot store result", [&]() {
     RunState state{};
     if (auto st = impl_->runState(run_id, &state); !st.ok) return st;
-    IoStatus st;
+    io::IoStatus st;
     Bound q = impl_->use(
         "INSERT INTO results(run_id, imu_serial, temperature_c, kind, json, created_unix_s) "
         "VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
@@ -994,7 +998,7 @@ ResultIdResult Store::storeResult(std::int64_t run_id, const std::string& imu_se
     q.bind(6, nowUnixS());
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot store result");
     r.result_id = sqlite3_last_insert_rowid(impl_->db.get());
-    return IoStatus::Ok();
+    return io::IoStatus::Ok();
   });
   return r;
 }
@@ -1017,8 +1021,8 @@ ResultListResult Store::results(const ResultFilter& filter) {
   return r;
 }
 
-IoStatus Store::integrityCheck() {
-  IoStatus st;
+io::IoStatus Store::integrityCheck() {
+  io::IoStatus st;
   Bound q = impl_->use("PRAGMA integrity_check", &st);
   if (!q) return st;
   std::string problems;
@@ -1029,7 +1033,7 @@ IoStatus Store::integrityCheck() {
   }
   if (rc != SQLITE_DONE) return impl_->sqlError("integrity check failed");
   if (!problems.empty()) return impl_->error("integrity check: " + problems);
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1042,32 +1046,32 @@ RunWriter::~RunWriter() {
 }
 
 template <class Row>
-IoStatus RunWriter::appendRows(const char* what, std::span<const Row> rows,
-                               std::optional<double>* last_t, std::vector<Row>* buffer) {
-  if (rows.empty()) return IoStatus::Ok();
+io::IoStatus RunWriter::appendRows(const char* what, std::span<const Row> rows,
+                                   std::optional<double>* last_t, std::vector<Row>* buffer) {
+  if (rows.empty()) return io::IoStatus::Ok();
   if (auto st = checkRows(what, rows, *last_t); !st.ok) {
-    return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+    return io::IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
   }
   buffer->insert(buffer->end(), rows.begin(), rows.end());
   *last_t = rows.back().t;
   return buffered(rows.front().t, rows.back().t);
 }
 
-IoStatus RunWriter::appendImu(std::span<const nav::ImuSample> samples) {
+io::IoStatus RunWriter::appendImu(std::span<const nav::ImuSample> samples) {
   return appendRows("IMU sample", samples, &last_imu_t_, &buffer_.imu);
 }
 
-IoStatus RunWriter::appendTable(std::span<const TableSample> samples) {
+io::IoStatus RunWriter::appendTable(std::span<const io::TableSample> samples) {
   return appendRows("table sample", samples, &last_table_t_, &buffer_.table);
 }
 
-IoStatus RunWriter::appendChamber(std::span<const ChamberSample> samples) {
+io::IoStatus RunWriter::appendChamber(std::span<const io::ChamberSample> samples) {
   return appendRows("chamber sample", samples, &last_chamber_t_, &buffer_.chamber);
 }
 
-IoStatus RunWriter::appendSegment(const calib::Segment& segment) {
+io::IoStatus RunWriter::appendSegment(const calib::Segment& segment) {
   if (auto st = checkSegments(std::span(&segment, 1), last_segment_t1_); !st.ok) {
-    return IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+    return io::IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
   }
   buffer_.segments.push_back(segment);
   last_segment_t1_ = segment.t1;
@@ -1075,26 +1079,26 @@ IoStatus RunWriter::appendSegment(const calib::Segment& segment) {
   return buffered(segment.t1, segment.t1);
 }
 
-IoStatus RunWriter::buffered(double oldest_new_t, double newest_t) {
+io::IoStatus RunWriter::buffered(double oldest_new_t, double newest_t) {
   if (!oldest_buffered_t_ || oldest_new_t < *oldest_buffered_t_) oldest_buffered_t_ = oldest_new_t;
   if (buffer_.rows() >= store_->options().max_unflushed_rows) return flush();
   return flushIfDue(newest_t);
 }
 
-IoStatus RunWriter::flushIfDue(double now_t) {
+io::IoStatus RunWriter::flushIfDue(double now_t) {
   if (oldest_buffered_t_ && now_t - *oldest_buffered_t_ >= store_->options().max_unflushed_s) {
     return flush();
   }
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
-IoStatus RunWriter::flush() {
-  if (buffer_.rows() == 0) return IoStatus::Ok();
+io::IoStatus RunWriter::flush() {
+  if (buffer_.rows() == 0) return io::IoStatus::Ok();
   // On failure the rows stay buffered, so a later flush can retry them.
   if (auto st = store_->appendBatch(run_id_, buffer_); !st.ok) return st;
   buffer_.clear();
   oldest_buffered_t_.reset();
-  return IoStatus::Ok();
+  return io::IoStatus::Ok();
 }
 
 }  // namespace imubench::daemon

@@ -22,8 +22,8 @@
 #include <string_view>
 #include <vector>
 
-#include "daemon/io_status.h"
-#include "daemon/recording.h"
+#include "io/io_status.h"
+#include "io/recording.h"
 
 namespace imubench::daemon {
 
@@ -70,7 +70,7 @@ struct RunStart {
 };
 
 // The meta data of `rec` as a RunStart (plan and bench names left empty).
-RunStart runStartFromRecording(const Recording& rec);
+RunStart runStartFromRecording(const io::Recording& rec);
 
 struct RunInfo {
   std::int64_t id = 0;
@@ -111,8 +111,8 @@ struct ResultFilter {
 // Rows of one run committed together (Store::appendBatch).
 struct RunBatch {
   nav::ImuSamples imu;
-  std::vector<TableSample> table;
-  std::vector<ChamberSample> chamber;
+  std::vector<io::TableSample> table;
+  std::vector<io::ChamberSample> chamber;
   std::vector<calib::Segment> segments;
 
   std::size_t rows() const { return imu.size() + table.size() + chamber.size() + segments.size(); }
@@ -122,35 +122,35 @@ struct RunBatch {
 class Store;
 
 struct StoreOpenResult {
-  IoStatus status;
+  io::IoStatus status;
   std::unique_ptr<Store> store;  // set only when status.ok
 };
 struct RunIdResult {
-  IoStatus status;
+  io::IoStatus status;
   std::int64_t run_id = 0;
 };
 struct RunInfoResult {
-  IoStatus status;
+  io::IoStatus status;
   RunInfo run;
 };
 struct RunListResult {
-  IoStatus status;
+  io::IoStatus status;
   std::vector<RunInfo> runs;  // by id
 };
 struct EventListResult {
-  IoStatus status;
+  io::IoStatus status;
   std::vector<RunEvent> events;  // in insertion order
 };
 struct ResultIdResult {
-  IoStatus status;
+  io::IoStatus status;
   std::int64_t result_id = 0;
 };
 struct ResultListResult {
-  IoStatus status;
+  io::IoStatus status;
   std::vector<StoredResult> results;  // by id
 };
 struct CountResult {
-  IoStatus status;
+  io::IoStatus status;
   int count = 0;
 };
 
@@ -170,7 +170,7 @@ class Store {
   // A new run in state running, started now.
   RunIdResult beginRun(const RunStart& start);
   // Ends a running run; `state` must not be kRunning.
-  IoStatus finishRun(std::int64_t run_id, RunState state, const std::string& reason);
+  io::IoStatus finishRun(std::int64_t run_id, RunState state, const std::string& reason);
   // Daemon start-up: every run still `running` was cut off by a crash or kill; it becomes
   // `interrupted` with an event. Returns how many.
   CountResult markInterruptedRuns();
@@ -179,16 +179,16 @@ class Store {
 
   // Commits the rows in one transaction. Refuses (nothing written) non-finite values, naming
   // the row; IMU temp_c may be NaN (not reported).
-  IoStatus appendBatch(std::int64_t run_id, const RunBatch& batch);
+  io::IoStatus appendBatch(std::int64_t run_id, const RunBatch& batch);
 
-  IoStatus addEvent(const RunEvent& event);  // json must be valid JSON
+  io::IoStatus addEvent(const RunEvent& event);  // json must be valid JSON
   EventListResult events(std::int64_t run_id);
 
   // A whole recording as one finished run (import of an imubench-csv/1 directory).
-  RunIdResult importRecording(const RunStart& start, const Recording& rec);
+  RunIdResult importRecording(const RunStart& start, const io::Recording& rec);
   // The run's samples and meta data as a Recording (also for a running or interrupted run:
   // what has been committed).
-  RecordingReadResult loadRecording(std::int64_t run_id);
+  io::RecordingReadResult loadRecording(std::int64_t run_id);
 
   ResultIdResult storeResult(std::int64_t run_id, const std::string& imu_serial,
                              double temperature_c, const std::string& kind,
@@ -196,7 +196,7 @@ class Store {
   ResultListResult results(const ResultFilter& filter = {});
 
   // PRAGMA integrity_check: ok, or the problems it lists.
-  IoStatus integrityCheck();
+  io::IoStatus integrityCheck();
 
  private:
   struct Impl;
@@ -217,25 +217,25 @@ class RunWriter {
   RunWriter(const RunWriter&) = delete;
   RunWriter& operator=(const RunWriter&) = delete;
 
-  IoStatus appendImu(std::span<const nav::ImuSample> samples);
-  IoStatus appendTable(std::span<const TableSample> samples);
-  IoStatus appendChamber(std::span<const ChamberSample> samples);
-  IoStatus appendSegment(const calib::Segment& segment);
+  io::IoStatus appendImu(std::span<const nav::ImuSample> samples);
+  io::IoStatus appendTable(std::span<const io::TableSample> samples);
+  io::IoStatus appendChamber(std::span<const io::ChamberSample> samples);
+  io::IoStatus appendSegment(const calib::Segment& segment);
 
   // Flushes when the oldest buffered row is max_unflushed_s older than `now_t` (sample
   // clock): a timer calls this so a stalled stream does not hold rows back.
-  IoStatus flushIfDue(double now_t);
-  IoStatus flush();
+  io::IoStatus flushIfDue(double now_t);
+  io::IoStatus flush();
 
   std::size_t bufferedRows() const { return buffer_.rows(); }
   std::int64_t runId() const { return run_id_; }
 
  private:
-  IoStatus buffered(double oldest_new_t, double newest_t);
+  io::IoStatus buffered(double oldest_new_t, double newest_t);
   // Checks rows of one stream (finite, time increasing past *last_t), then buffers them.
   template <class Row>
-  IoStatus appendRows(const char* what, std::span<const Row> rows, std::optional<double>* last_t,
-                      std::vector<Row>* buffer);
+  io::IoStatus appendRows(const char* what, std::span<const Row> rows,
+                          std::optional<double>* last_t, std::vector<Row>* buffer);
 
   Store* store_;
   std::int64_t run_id_;

@@ -23,7 +23,7 @@ bool isWordChar(char c) {
 
 // Splits DBC text into words, strings and punctuation, remembering line and column. Returns
 // false (with a diagnostic) on an unterminated string or a stray character.
-bool tokenize(std::string_view text, std::vector<Token>& out, plans::Diagnostics& diag) {
+bool tokenize(std::string_view text, std::vector<Token>& out, io::Diagnostics& diag) {
   int line = 1;
   int col = 1;
   std::size_t i = 0;
@@ -93,7 +93,7 @@ bool tokenize(std::string_view text, std::vector<Token>& out, plans::Diagnostics
 
 class Parser {
  public:
-  Parser(std::vector<Token> tokens, plans::Diagnostics& diag)
+  Parser(std::vector<Token> tokens, io::Diagnostics& diag)
       : toks_(std::move(tokens)), diag_(diag) {}
 
   std::optional<DbcDatabase> run() {
@@ -364,7 +364,7 @@ class Parser {
 
   std::vector<Token> toks_;
   std::size_t pos_ = 0;
-  plans::Diagnostics& diag_;
+  io::Diagnostics& diag_;
   DbcDatabase db_;
   DbcMessage* current_ = nullptr;  // points into db_.messages (stable: reserved below)
   bool skip_signals_ = false;
@@ -387,7 +387,7 @@ const DbcMessage* DbcDatabase::findMessage(std::string_view message_name) const 
   return nullptr;
 }
 
-std::optional<DbcDatabase> parseDbc(std::string_view text, plans::Diagnostics& diag) {
+std::optional<DbcDatabase> parseDbc(std::string_view text, io::Diagnostics& diag) {
   std::vector<Token> tokens;
   if (!tokenize(text, tokens, diag)) return std::nullopt;
   std::size_t bo_count = 0;
@@ -398,7 +398,7 @@ std::optional<DbcDatabase> parseDbc(std::string_view text, plans::Diagnostics& d
   return p.run();
 }
 
-std::optional<DbcDatabase> loadDbcFile(const std::string& path, plans::Diagnostics& diag) {
+std::optional<DbcDatabase> loadDbcFile(const std::string& path, io::Diagnostics& diag) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     diag.error(0, 0, "cannot open DBC file");

@@ -37,7 +37,7 @@
 #include <vector>
 
 #include "drivers/can_signal.h"
-#include "plans/toml_diagnostics.h"
+#include "io/toml_diagnostics.h"
 
 namespace imubench::drivers {
 
@@ -70,8 +70,8 @@ struct DbcDatabase {
 
 // Parses DBC text. Errors are reported in diag (file:line:column: reason); returns nullopt
 // when there was any error.
-std::optional<DbcDatabase> parseDbc(std::string_view text, plans::Diagnostics& diag);
+std::optional<DbcDatabase> parseDbc(std::string_view text, io::Diagnostics& diag);
 // Reads and parses a file; a missing file is a diagnostic too.
-std::optional<DbcDatabase> loadDbcFile(const std::string& path, plans::Diagnostics& diag);
+std::optional<DbcDatabase> loadDbcFile(const std::string& path, io::Diagnostics& diag);
 
 }  // namespace imubench::drivers

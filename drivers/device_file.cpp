@@ -7,8 +7,8 @@
 
 namespace imubench::drivers {
 
-using plans::Diagnostics;
-using plans::Dimension;
+using io::Diagnostics;
+using io::Dimension;
 
 const char* transportKindName(TransportKind k) {
   switch (k) {
@@ -24,18 +24,18 @@ const char* transportKindName(TransportKind k) {
 
 namespace {
 
-using plans::boolField;
-using plans::checkKeys;
-using plans::intField;
-using plans::strField;
-using plans::subTable;
+using io::boolField;
+using io::checkKeys;
+using io::intField;
+using io::strField;
+using io::subTable;
 
 void readInt(const toml::table& t, std::string_view key, int& out, Diagnostics& diag, int64_t lo,
              int64_t hi) {
   if (auto v = intField(t, key, diag, false, lo, hi)) out = static_cast<int>(*v);
 }
 
-// Jerk ("deg/s^3") has no plans::Dimension: parse it as an angular acceleration with one more /s.
+// Jerk ("deg/s^3") has no io::Dimension: parse it as an angular acceleration with one more /s.
 std::optional<double> jerkField(const toml::table& t, std::string_view key, Diagnostics& diag) {
   const toml::node* n = t.get(key);
   if (!n) return std::nullopt;
@@ -49,7 +49,7 @@ std::optional<double> jerkField(const toml::table& t, std::string_view key, Diag
   }
   text.replace(pos, 4, "/s^2");
   std::string why;
-  auto v = plans::parseQuantity(text, Dimension::kAngularAccel, &why);
+  auto v = io::parseQuantity(text, Dimension::kAngularAccel, &why);
   if (!v) diag.error(n->source(), "\"" + std::string(key) + "\": " + why);
   return v;
 }
@@ -66,7 +66,7 @@ std::optional<std::string> readFile(const std::string& path, Diagnostics& diag) 
 }
 
 void parseRetry(const toml::table& t, RetryPolicy& r, Diagnostics& diag) {
-  if (auto v = plans::quantityField(t, "timeout", Dimension::kTime, diag, true)) {
+  if (auto v = io::quantityField(t, "timeout", Dimension::kTime, diag, true)) {
     if (*v <= 0.0) {
       diag.error(t.get("timeout")->source(), "\"timeout\" must be positive");
     } else {
@@ -211,7 +211,7 @@ void parseRegister(const toml::table& parent, const FieldRule& rule, RegisterFie
       diag.error(unit->source(), "\"unit\" must be a string like \"deg\"");
     } else {
       std::string why;
-      auto v = plans::parseQuantity("1 " + unit->as_string()->get(), rule.dim, &why);
+      auto v = io::parseQuantity("1 " + unit->as_string()->get(), rule.dim, &why);
       if (v) {
         f.lsb = *v;
       } else {
@@ -221,7 +221,7 @@ void parseRegister(const toml::table& parent, const FieldRule& rule, RegisterFie
   } else if (lsb) {
     if (f.type == RegisterType::kF32) {
       diag.error(lsb->source(), "f32 registers take \"unit\", not \"lsb\"");
-    } else if (auto v = plans::quantityField(*t, "lsb", rule.dim, diag)) {
+    } else if (auto v = io::quantityField(*t, "lsb", rule.dim, diag)) {
       if (*v == 0.0) {
         diag.error(lsb->source(), "\"lsb\" must not be zero");
       } else {
@@ -340,7 +340,7 @@ void parseCommand(const toml::table& t, std::string_view key, SerialCommand& c, 
   } else if (const toml::table* ct = n->as_table()) {
     checkKeys(*ct, {"text", "timeout"}, "command \"" + std::string(key) + "\"", diag);
     if (auto s = strField(*ct, "text", diag, true)) c.text = *s;
-    if (auto v = plans::quantityField(*ct, "timeout", Dimension::kTime, diag, false)) {
+    if (auto v = io::quantityField(*ct, "timeout", Dimension::kTime, diag, false)) {
       c.timeout_s = *v;
     }
   } else {
@@ -357,7 +357,7 @@ void readUnit(const toml::table& c, std::string_view key, Dimension dim, bool re
   const auto u = strField(c, key, diag, required);
   if (!u) return;
   std::string why;
-  if (auto v = plans::parseQuantity("1 " + *u, dim, &why)) {
+  if (auto v = io::parseQuantity("1 " + *u, dim, &why)) {
     out = *v;
   } else {
     diag.error(c.get(key)->source(), why);
@@ -545,7 +545,7 @@ bool TableDeviceSpec::profileSettable() const {
 }
 
 std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, Diagnostics& diag) {
-  auto root = plans::parseToml(text, diag);
+  auto root = io::parseToml(text, diag);
   if (!root) return std::nullopt;
   TableDeviceSpec s;
   s.file = diag.file();
@@ -562,17 +562,17 @@ std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, Diagnosti
   if (const toml::table* l = subTable(*root, "limits", diag, true)) {
     checkKeys(*l, {"max_rate", "max_accel", "max_jerk", "position_min", "position_max"}, "[limits]",
               diag);
-    if (auto v = plans::quantityField(*l, "max_rate", Dimension::kRate, diag)) {
+    if (auto v = io::quantityField(*l, "max_rate", Dimension::kRate, diag)) {
       if (*v <= 0) diag.error(l->get("max_rate")->source(), "max_rate must be positive");
       s.limits.max_rate = *v;
     }
-    if (auto v = plans::quantityField(*l, "max_accel", Dimension::kAngularAccel, diag)) {
+    if (auto v = io::quantityField(*l, "max_accel", Dimension::kAngularAccel, diag)) {
       if (*v <= 0) diag.error(l->get("max_accel")->source(), "max_accel must be positive");
       s.limits.max_accel = *v;
     }
     if (auto v = jerkField(*l, "max_jerk", diag)) s.limits.max_jerk = *v;
-    auto lo = plans::quantityField(*l, "position_min", Dimension::kAngle, diag, false);
-    auto hi = plans::quantityField(*l, "position_max", Dimension::kAngle, diag, false);
+    auto lo = io::quantityField(*l, "position_min", Dimension::kAngle, diag, false);
+    auto hi = io::quantityField(*l, "position_max", Dimension::kAngle, diag, false);
     if (lo.has_value() != hi.has_value()) {
       diag.error(l->source(),
                  "give both position_min and position_max (limited travel) or "
@@ -613,7 +613,7 @@ std::optional<TableDeviceSpec> loadTableDevice(const std::string& path, Diagnost
 }
 
 std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagnostics& diag) {
-  auto root = plans::parseToml(text, diag);
+  auto root = io::parseToml(text, diag);
   if (!root) return std::nullopt;
   ChamberDeviceSpec s;
   s.file = diag.file();
@@ -624,8 +624,8 @@ std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagn
   if (const toml::table* l = subTable(*root, "limits", diag, true)) {
     checkKeys(*l, {"temperature_min", "temperature_max", "max_ramp", "time_constant"}, "[limits]",
               diag);
-    auto lo = plans::quantityField(*l, "temperature_min", Dimension::kTemperature, diag);
-    auto hi = plans::quantityField(*l, "temperature_max", Dimension::kTemperature, diag);
+    auto lo = io::quantityField(*l, "temperature_min", Dimension::kTemperature, diag);
+    auto hi = io::quantityField(*l, "temperature_max", Dimension::kTemperature, diag);
     if (lo && hi) {
       if (*lo >= *hi) {
         diag.error(l->get("temperature_max")->source(),
@@ -634,11 +634,11 @@ std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagn
       s.temp_min_c = *lo;
       s.temp_max_c = *hi;
     }
-    if (auto v = plans::quantityField(*l, "max_ramp", Dimension::kTemperatureRate, diag)) {
+    if (auto v = io::quantityField(*l, "max_ramp", Dimension::kTemperatureRate, diag)) {
       if (*v <= 0) diag.error(l->get("max_ramp")->source(), "max_ramp must be positive");
       s.max_ramp = *v;
     }
-    if (auto v = plans::quantityField(*l, "time_constant", Dimension::kTime, diag, false)) {
+    if (auto v = io::quantityField(*l, "time_constant", Dimension::kTime, diag, false)) {
       if (*v <= 0) diag.error(l->get("time_constant")->source(), "time_constant must be positive");
       s.time_constant_s = *v;
     }

@@ -4,7 +4,7 @@
 // chamber in a protocol family we already speak is a new file, not new code.
 //
 // Loading never throws and never crashes on bad input: every problem becomes a
-// plans::Diagnostic "file:line:column: reason" and the device is refused (nullopt).
+// io::Diagnostic "file:line:column: reason" and the device is refused (nullopt).
 // All values inside are SI (rad, rad/s, s, degC, degC/s); units are required in the file.
 #pragma once
 
@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "calib/motion.h"
-#include "plans/toml_diagnostics.h"
+#include "io/toml_diagnostics.h"
 
 namespace imubench::drivers {
 
@@ -192,11 +192,9 @@ struct ChamberDeviceSpec {
 };
 
 // Parsing from text (file name only used in diagnostics) and from a file.
-std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, plans::Diagnostics& diag);
-std::optional<TableDeviceSpec> loadTableDevice(const std::string& path, plans::Diagnostics& diag);
-std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text,
-                                                    plans::Diagnostics& diag);
-std::optional<ChamberDeviceSpec> loadChamberDevice(const std::string& path,
-                                                   plans::Diagnostics& diag);
+std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, io::Diagnostics& diag);
+std::optional<TableDeviceSpec> loadTableDevice(const std::string& path, io::Diagnostics& diag);
+std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, io::Diagnostics& diag);
+std::optional<ChamberDeviceSpec> loadChamberDevice(const std::string& path, io::Diagnostics& diag);
 
 }  // namespace imubench::drivers

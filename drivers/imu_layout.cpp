@@ -220,7 +220,7 @@ constexpr TypeSpec kTypes[] = {
     {"f32", 32, true, ValueType::kFloat32},  {"f64", 64, true, ValueType::kFloat64}};
 
 std::optional<std::int64_t> intField(const toml::table& t, std::string_view key,
-                                     plans::Diagnostics& diag, bool required) {
+                                     io::Diagnostics& diag, bool required) {
   const toml::node* n = t.get(key);
   if (n == nullptr) {
     if (required) diag.error(t.source(), "missing required key '" + std::string(key) + "'");
@@ -232,7 +232,7 @@ std::optional<std::int64_t> intField(const toml::table& t, std::string_view key,
 }
 
 std::optional<std::string> stringField(const toml::table& t, std::string_view key,
-                                       plans::Diagnostics& diag, bool required) {
+                                       io::Diagnostics& diag, bool required) {
   const toml::node* n = t.get(key);
   if (n == nullptr) {
     if (required) diag.error(t.source(), "missing required key '" + std::string(key) + "'");
@@ -245,7 +245,7 @@ std::optional<std::string> stringField(const toml::table& t, std::string_view ke
 
 // Scale/offset written as "<number> <unit>" (unit-less for counter and status).
 bool scaleField(const toml::table& t, std::string_view key, ImuQuantity q, double def, double* out,
-                plans::Diagnostics& diag) {
+                io::Diagnostics& diag) {
   const toml::node* n = t.get(key);
   if (n == nullptr) {
     *out = def;
@@ -277,7 +277,7 @@ bool scaleField(const toml::table& t, std::string_view key, ImuQuantity q, doubl
   return true;
 }
 
-bool parseSignal(const toml::table& st, ImuSignal* sig, plans::Diagnostics& diag) {
+bool parseSignal(const toml::table& st, ImuSignal* sig, io::Diagnostics& diag) {
   auto qname = stringField(st, "quantity", diag, true);
   if (!qname) return false;
   auto q = imuQuantityFromName(*qname);
@@ -348,7 +348,7 @@ bool parseSignal(const toml::table& st, ImuSignal* sig, plans::Diagnostics& diag
 }
 
 bool layoutFromMessages(const toml::table& root, bool fd, ImuLayout* layout,
-                        plans::Diagnostics& diag) {
+                        io::Diagnostics& diag) {
   const toml::array* arr = root.get_as<toml::array>("message");
   if (arr == nullptr || arr->empty()) {
     diag.error(root.source(), "device file needs either 'dbc' or at least one [[message]]");
@@ -407,7 +407,7 @@ bool layoutFromMessages(const toml::table& root, bool fd, ImuLayout* layout,
 }
 
 bool layoutFromDbc(const toml::table& root, const std::string& base_dir, bool fd, ImuLayout* layout,
-                   plans::Diagnostics& diag) {
+                   io::Diagnostics& diag) {
   const toml::node* dn = root.get("dbc");
   auto dbc_name = dn->value<std::string>();
   if (!dbc_name) {
@@ -416,7 +416,7 @@ bool layoutFromDbc(const toml::table& root, const std::string& base_dir, bool fd
   }
   std::filesystem::path p(*dbc_name);
   if (p.is_relative()) p = std::filesystem::path(base_dir) / p;
-  plans::Diagnostics dbc_diag(p.string());
+  io::Diagnostics dbc_diag(p.string());
   auto db = loadDbcFile(p.string(), dbc_diag);
   if (!db) {
     for (const auto& d : dbc_diag.items()) diag.error(dn->source(), "in DBC: " + d.str());
@@ -511,8 +511,8 @@ bool layoutFromDbc(const toml::table& root, const std::string& base_dir, bool fd
 }  // namespace
 
 std::optional<ImuLayout> parseImuLayout(std::string_view toml_text, const std::string& base_dir,
-                                        plans::Diagnostics& diag) {
-  auto root = plans::parseToml(toml_text, diag);
+                                        io::Diagnostics& diag) {
+  auto root = io::parseToml(toml_text, diag);
   if (!root) return std::nullopt;
   auto format = stringField(*root, "format", diag, true);
   if (format && *format != "imubench-imu-can/1") {
@@ -522,7 +522,7 @@ std::optional<ImuLayout> parseImuLayout(std::string_view toml_text, const std::s
   ImuLayout layout;
   layout.name = stringField(*root, "name", diag, true).value_or("");
   layout.source = stringField(*root, "source", diag, false).value_or("");
-  auto period = plans::quantityField(*root, "sample_period", plans::Dimension::kTime, diag);
+  auto period = io::quantityField(*root, "sample_period", io::Dimension::kTime, diag);
   const std::string bus = stringField(*root, "bus", diag, false).value_or("classic");
   if (bus != "classic" && bus != "fd") {
     diag.error(root->get("bus")->source(), "bus must be \"classic\" or \"fd\"");
@@ -546,7 +546,7 @@ std::optional<ImuLayout> parseImuLayout(std::string_view toml_text, const std::s
   return layout;
 }
 
-std::optional<ImuLayout> loadImuLayoutFile(const std::string& path, plans::Diagnostics& diag) {
+std::optional<ImuLayout> loadImuLayoutFile(const std::string& path, io::Diagnostics& diag) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     diag.error(0, 0, "cannot open device file");

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "drivers/can_signal.h"
-#include "plans/toml_diagnostics.h"
+#include "io/toml_diagnostics.h"
 
 namespace imubench::drivers {
 
@@ -94,8 +94,8 @@ struct ImuLayout {
 
 // Reads an imubench IMU device file (TOML). Relative "dbc" paths are taken relative to the
 // device file's directory. Errors go to diag (file:line:column: reason).
-std::optional<ImuLayout> loadImuLayoutFile(const std::string& path, plans::Diagnostics& diag);
+std::optional<ImuLayout> loadImuLayoutFile(const std::string& path, io::Diagnostics& diag);
 std::optional<ImuLayout> parseImuLayout(std::string_view toml_text, const std::string& base_dir,
-                                        plans::Diagnostics& diag);
+                                        io::Diagnostics& diag);
 
 }  // namespace imubench::drivers

@@ -1,7 +1,7 @@
 // Plan file parser.
 //
 // GRAMMAR (TOML 1.0; every dimensioned value is a STRING with its unit, a bare number is
-// refused with "missing unit"; units: see plans/toml_diagnostics.h parseQuantity)
+// refused with "missing unit"; units: see io/toml_diagnostics.h parseQuantity)
 //
 //   [plan]
 //   name = "two_axis_12run"                # optional, free text
@@ -206,7 +206,7 @@ std::string joinQuoted(std::span<const std::string_view> options) {
 
 class Parser {
  public:
-  explicit Parser(Diagnostics& diag) : diag_(diag) {}
+  explicit Parser(io::Diagnostics& diag) : diag_(diag) {}
 
   Plan parse(const toml::table& root, std::string_view file_name) {
     Plan plan;
@@ -229,7 +229,7 @@ class Parser {
   }
 
  private:
-  Diagnostics& diag_;
+  io::Diagnostics& diag_;
 
   const toml::table* subTable(const toml::table& t, std::string_view key, bool required) {
     const toml::node* n = t.get(key);
@@ -255,9 +255,9 @@ class Parser {
     }
   }
 
-  std::optional<Quantity> quantity(const toml::table& t, std::string_view key, Dimension dim,
+  std::optional<Quantity> quantity(const toml::table& t, std::string_view key, io::Dimension dim,
                                    bool required) {
-    auto v = quantityField(t, key, dim, diag_, required);
+    auto v = io::quantityField(t, key, dim, diag_, required);
     if (!v) return std::nullopt;
     return Quantity{*v, posOf(t.get(key)->source())};
   }
@@ -338,7 +338,7 @@ class Parser {
                                                  didYouMean(*k, kKinds));
       }
     }
-    if (auto h = quantity(t, "outer_axis_heading", Dimension::kAngle, false)) {
+    if (auto h = quantity(t, "outer_axis_heading", io::Dimension::kAngle, false)) {
       if (table.kind != TableKind::kTwoAxis) {
         diag_.error(t.get("outer_axis_heading")->source(),
                     "outer_axis_heading applies to two-axis tables only (a three-axis table's "
@@ -346,8 +346,8 @@ class Parser {
       }
       table.outer_axis_heading = h->value;
     }
-    table.max_rate = quantity(t, "max_rate", Dimension::kRate, false);
-    table.max_accel = quantity(t, "max_accel", Dimension::kAngularAccel, false);
+    table.max_rate = quantity(t, "max_rate", io::Dimension::kRate, false);
+    table.max_accel = quantity(t, "max_accel", io::Dimension::kAngularAccel, false);
     for (std::string_view axis : {"outer", "middle", "inner"}) {
       const toml::node* n = t.get(axis);
       if (!n) continue;
@@ -363,10 +363,10 @@ class Parser {
       AxisLimits lim;
       lim.axis = std::string(axis);
       lim.where = posOf(at->source());
-      lim.max_rate = quantity(*at, "max_rate", Dimension::kRate, false);
-      lim.max_accel = quantity(*at, "max_accel", Dimension::kAngularAccel, false);
-      lim.min_angle = quantity(*at, "min_angle", Dimension::kAngle, false);
-      lim.max_angle = quantity(*at, "max_angle", Dimension::kAngle, false);
+      lim.max_rate = quantity(*at, "max_rate", io::Dimension::kRate, false);
+      lim.max_accel = quantity(*at, "max_accel", io::Dimension::kAngularAccel, false);
+      lim.min_angle = quantity(*at, "min_angle", io::Dimension::kAngle, false);
+      lim.max_angle = quantity(*at, "max_angle", io::Dimension::kAngle, false);
       if (static_cast<bool>(at->get("min_angle")) != static_cast<bool>(at->get("max_angle"))) {
         diag_.error(at->source(), ctx +
                                       ": give both min_angle and max_angle (a limited axis) "
@@ -380,11 +380,11 @@ class Parser {
     ChamberSpec c;
     c.where = posOf(t.source());
     checkKeys(t, {"min_temp", "max_temp", "max_ramp", "initial"}, "[chamber]");
-    if (auto q = quantity(t, "min_temp", Dimension::kTemperature, true)) c.min_temp = *q;
-    if (auto q = quantity(t, "max_temp", Dimension::kTemperature, true)) c.max_temp = *q;
-    if (auto q = quantity(t, "max_ramp", Dimension::kTemperatureRate, true)) c.max_ramp = *q;
+    if (auto q = quantity(t, "min_temp", io::Dimension::kTemperature, true)) c.min_temp = *q;
+    if (auto q = quantity(t, "max_temp", io::Dimension::kTemperature, true)) c.max_temp = *q;
+    if (auto q = quantity(t, "max_ramp", io::Dimension::kTemperatureRate, true)) c.max_ramp = *q;
     c.initial = {20.0, {}};
-    if (auto q = quantity(t, "initial", Dimension::kTemperature, false)) c.initial = *q;
+    if (auto q = quantity(t, "initial", io::Dimension::kTemperature, false)) c.initial = *q;
     return c;
   }
 
@@ -421,7 +421,7 @@ class Parser {
       for (std::string_view axis : {"outer", "middle", "inner"}) {
         const toml::node* an = t.get(axis);
         if (!an) continue;
-        if (auto q = quantity(t, axis, Dimension::kAngle, true)) {
+        if (auto q = quantity(t, axis, io::Dimension::kAngle, true)) {
           s.targets.push_back({std::string(axis), keyPos(t, axis), *q});
         }
       }
@@ -429,37 +429,37 @@ class Parser {
         diag_.error(t.source(),
                     "a move step needs at least one axis target, e.g. outer = \"90 deg\"");
       }
-      s.rate = quantity(t, "rate", Dimension::kRate, false);
-      s.accel = quantity(t, "accel", Dimension::kAngularAccel, false);
+      s.rate = quantity(t, "rate", io::Dimension::kRate, false);
+      s.accel = quantity(t, "accel", io::Dimension::kAngularAccel, false);
     } else if (*type == "rotate") {
       s.type = StepType::kRotate;
       checkKeys(t, {"type", "label", "axis", "angle", "direction", "rate", "accel"},
                 "a rotate step");
       parseAxis(t, s);
-      auto angle = quantity(t, "angle", Dimension::kAngle, true);
+      auto angle = quantity(t, "angle", io::Dimension::kAngle, true);
       applyDirection(t, angle, "angle");
       if (angle) s.angle = *angle;
-      s.rate = quantity(t, "rate", Dimension::kRate, false);
-      s.accel = quantity(t, "accel", Dimension::kAngularAccel, false);
+      s.rate = quantity(t, "rate", io::Dimension::kRate, false);
+      s.accel = quantity(t, "accel", io::Dimension::kAngularAccel, false);
     } else if (*type == "rate") {
       s.type = StepType::kRate;
       checkKeys(t, {"type", "label", "axis", "rate", "direction", "duration", "accel"},
                 "a rate step");
       parseAxis(t, s);
-      s.rate = quantity(t, "rate", Dimension::kRate, true);
+      s.rate = quantity(t, "rate", io::Dimension::kRate, true);
       applyDirection(t, s.rate, "rate");
-      if (auto d = quantity(t, "duration", Dimension::kTime, true)) s.duration = *d;
-      s.accel = quantity(t, "accel", Dimension::kAngularAccel, false);
+      if (auto d = quantity(t, "duration", io::Dimension::kTime, true)) s.duration = *d;
+      s.accel = quantity(t, "accel", io::Dimension::kAngularAccel, false);
     } else if (*type == "hold") {
       s.type = StepType::kHold;
       checkKeys(t, {"type", "label", "duration"}, "a hold step");
-      if (auto d = quantity(t, "duration", Dimension::kTime, true)) s.duration = *d;
+      if (auto d = quantity(t, "duration", io::Dimension::kTime, true)) s.duration = *d;
     } else if (*type == "chamber") {
       s.type = StepType::kChamber;
       checkKeys(t, {"type", "label", "setpoint", "ramp", "soak"}, "a chamber step");
-      if (auto q = quantity(t, "setpoint", Dimension::kTemperature, true)) s.setpoint = *q;
-      s.ramp = quantity(t, "ramp", Dimension::kTemperatureRate, false);
-      if (auto q = quantity(t, "soak", Dimension::kTime, true)) s.soak = *q;
+      if (auto q = quantity(t, "setpoint", io::Dimension::kTemperature, true)) s.setpoint = *q;
+      s.ramp = quantity(t, "ramp", io::Dimension::kTemperatureRate, false);
+      if (auto q = quantity(t, "soak", io::Dimension::kTime, true)) s.soak = *q;
     } else if (*type == "record") {
       s.type = StepType::kRecord;
       checkKeys(t, {"type", "label", "state"}, "a record step");
@@ -526,8 +526,8 @@ class Parser {
 };
 
 std::optional<Plan> parseImpl(std::string_view text, std::string_view file_name,
-                              Diagnostics& diag) {
-  auto root = parseToml(text, diag);
+                              io::Diagnostics& diag) {
+  auto root = io::parseToml(text, diag);
   if (!root) return std::nullopt;
   Parser p(diag);
   return p.parse(*root, file_name);
@@ -536,12 +536,12 @@ std::optional<Plan> parseImpl(std::string_view text, std::string_view file_name,
 }  // namespace
 
 std::optional<Plan> parsePlanPartial(std::string_view text, std::string_view file_name,
-                                     Diagnostics& diag) {
+                                     io::Diagnostics& diag) {
   return parseImpl(text, file_name, diag);
 }
 
 std::optional<Plan> parsePlan(std::string_view text, std::string_view file_name,
-                              Diagnostics& diag) {
+                              io::Diagnostics& diag) {
   const size_t before = diag.items().size();
   auto plan = parseImpl(text, file_name, diag);
   if (diag.items().size() != before) return std::nullopt;
@@ -549,7 +549,7 @@ std::optional<Plan> parsePlan(std::string_view text, std::string_view file_name,
 }
 
 namespace {
-std::optional<std::string> readFile(const std::string& path, Diagnostics& diag) {
+std::optional<std::string> readFile(const std::string& path, io::Diagnostics& diag) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     diag.error(0, 0, std::string("cannot open plan file: ") + std::strerror(errno));
@@ -565,7 +565,7 @@ std::optional<std::string> readFile(const std::string& path, Diagnostics& diag) 
 }
 }  // namespace
 
-std::optional<Plan> loadPlanFile(const std::string& path, Diagnostics& diag) {
+std::optional<Plan> loadPlanFile(const std::string& path, io::Diagnostics& diag) {
   auto text = readFile(path, diag);
   if (!text) return std::nullopt;
   return parsePlan(*text, path, diag);

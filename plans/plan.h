@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "calib/motion.h"
-#include "plans/toml_diagnostics.h"
+#include "io/toml_diagnostics.h"
 
 namespace imubench::plans {
 
@@ -129,15 +129,16 @@ const char* tableKindName(calib::TableKind kind);  // "two-axis" | "three-axis"
 // Parses plan text. Reports every syntax / shape error (bad TOML, missing units, wrong unit
 // dimension, unknown keys and step types, wrong value types) into diag and returns nullopt
 // if there was any. Semantic checks (limits, axes, 180-degree moves...) are validatePlan's.
-std::optional<Plan> parsePlan(std::string_view text, std::string_view file_name, Diagnostics& diag);
+std::optional<Plan> parsePlan(std::string_view text, std::string_view file_name,
+                              io::Diagnostics& diag);
 
 // As parsePlan, but returns the plan even when some fields had errors (those steps are
 // marked complete = false), so a checker can run the validator too and report ALL errors at
 // once. nullopt only when the text is not TOML at all.
 std::optional<Plan> parsePlanPartial(std::string_view text, std::string_view file_name,
-                                     Diagnostics& diag);
+                                     io::Diagnostics& diag);
 
 // Reads a plan file (an unreadable file is a diagnostic, not an exception).
-std::optional<Plan> loadPlanFile(const std::string& path, Diagnostics& diag);
+std::optional<Plan> loadPlanFile(const std::string& path, io::Diagnostics& diag);
 
 }  // namespace imubench::plans

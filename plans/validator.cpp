@@ -51,7 +51,7 @@ bool above(double v, double limit) {
 
 class Validator {
  public:
-  Validator(const Plan& plan, Diagnostics& diag, const ValidatorOptions& options)
+  Validator(const Plan& plan, io::Diagnostics& diag, const ValidatorOptions& options)
       : plan_(plan), diag_(diag), opt_(options) {}
 
   bool run() {
@@ -84,7 +84,7 @@ class Validator {
 
  private:
   const Plan& plan_;
-  Diagnostics& diag_;
+  io::Diagnostics& diag_;
   const ValidatorOptions& opt_;
   std::set<std::tuple<int, int, std::string>> seen_;  // repeats must not repeat diagnostics
   std::vector<double> angle_;
@@ -383,7 +383,7 @@ std::string hms(double seconds) {
 
 }  // namespace
 
-bool validatePlan(const Plan& plan, Diagnostics& diag, const ValidatorOptions& options) {
+bool validatePlan(const Plan& plan, io::Diagnostics& diag, const ValidatorOptions& options) {
   Validator v(plan, diag, options);
   return v.run();
 }
@@ -405,7 +405,7 @@ std::string formatSummary(const PlanSummary& s) {
 PlanCheck checkPlanText(std::string_view text, std::string_view file_name,
                         const ValidatorOptions& options) {
   PlanCheck result;
-  Diagnostics diag{std::string(file_name)};
+  io::Diagnostics diag{std::string(file_name)};
   auto plan = parsePlanPartial(text, file_name, diag);
   if (plan) validatePlan(*plan, diag, options);
   if (plan && diag.ok()) {

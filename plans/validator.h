@@ -15,8 +15,8 @@
 #include <string_view>
 #include <vector>
 
+#include "io/toml_diagnostics.h"
 #include "plans/plan.h"
-#include "plans/toml_diagnostics.h"
 
 namespace imubench::plans {
 
@@ -34,7 +34,7 @@ struct ValidatorOptions {
 };
 
 // Adds one diagnostic per problem to diag; returns true when the plan is fit to run.
-bool validatePlan(const Plan& plan, Diagnostics& diag, const ValidatorOptions& options = {});
+bool validatePlan(const Plan& plan, io::Diagnostics& diag, const ValidatorOptions& options = {});
 
 // What `imubench plan check` prints after a successful check.
 struct PlanSummary {
@@ -57,8 +57,8 @@ std::string formatSummary(const PlanSummary& s);
 
 struct PlanCheck {
   bool ok = false;
-  std::vector<Diagnostic> diagnostics;  // every problem found; empty when ok
-  PlanSummary summary;                  // meaningful when ok
+  std::vector<io::Diagnostic> diagnostics;  // every problem found; empty when ok
+  PlanSummary summary;                      // meaningful when ok
 };
 
 // Parse + validate + expand a plan file; all errors collected.

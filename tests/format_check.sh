@@ -4,7 +4,7 @@
 set -euo pipefail
 root=${1:?usage: format_check.sh SOURCE_DIR}
 cd "$root"
-mapfile -t files < <(find nav calib plans drivers daemon tools tests bench \
+mapfile -t files < <(find nav calib io plans drivers daemon tools tests bench \
   -type f \( -name '*.h' -o -name '*.cpp' \) | sort)
 ((${#files[@]})) || { echo "format_check: no sources found under $root" >&2; exit 1; }
 bad=()

@@ -39,9 +39,9 @@
 #include "calib/indirect_calibration.h"
 #include "calib/scalar_calibration.h"
 #include "calib/truth_comparison.h"
-#include "daemon/import_real.h"
-#include "daemon/recording.h"
-#include "daemon/truth_file.h"
+#include "io/import_real.h"
+#include "io/recording.h"
+#include "io/truth_file.h"
 #include "nav/free_navigation.h"
 #include "tools/cli_common.h"
 #include "tools/cli_store.h"
@@ -53,9 +53,9 @@ struct CalibrateOptions {
   std::string dir;
   std::string method;  // empty: indirect for imubench recordings, scalar for the others
   std::string format = "imubench";
-  std::string gyro_file;                          // imutk: the gyro file of the pair
-  double rate_hz = daemon::kImucalExampleRateHz;  // imucal: sampling rate
-  std::optional<double> gravity;                  // m/s^2; else from --latitude/--height
+  std::string gyro_file;                      // imutk: the gyro file of the pair
+  double rate_hz = io::kImucalExampleRateHz;  // imucal: sampling rate
+  std::optional<double> gravity;              // m/s^2; else from --latitude/--height
   std::optional<double> latitude_deg;
   double height_m = 0.0;
   bool json = false;
@@ -71,7 +71,7 @@ struct CalibrateOptions {
 
 // Mean temperature of a recording for its stored result: the IMU's reported temperature, else
 // the chamber's measured one.
-std::optional<double> meanTemperature(const daemon::Recording& rec) {
+std::optional<double> meanTemperature(const io::Recording& rec) {
   double sum = 0.0;
   std::size_t n = 0;
   for (const nav::ImuSample& s : rec.imu) {
@@ -81,7 +81,7 @@ std::optional<double> meanTemperature(const daemon::Recording& rec) {
     }
   }
   if (n == 0) {
-    for (const daemon::ChamberSample& c : rec.chamber) {
+    for (const io::ChamberSample& c : rec.chamber) {
       sum += c.temp_c;
       ++n;
     }
@@ -106,33 +106,31 @@ void checkStoreResult(const CalibrateOptions& o, const ResolvedRecording& src) {
 void storeResult(const CalibrateOptions& o, const ResolvedRecording& src,
                  const calib::CoefficientReport& report, std::ostream& info) {
   if (!o.store_result || !src.run_id) return;
-  const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kExisting);
-  const daemon::ResultIdResult r = store->storeResult(*src.run_id, src.recording.imu_serial,
-                                                      meanTemperature(src.recording).value_or(0.0),
-                                                      "coefficients", calib::toJson(report).dump());
-  if (!r.status.ok) throw CommandFailed(r.status.message);
-  info << "coefficients stored as result " << r.result_id << " of " << src.label << " in " << o.db
+  const std::int64_t result_id = storeRunResult(o.db, *src.run_id, src.recording.imu_serial,
+                                                meanTemperature(src.recording).value_or(0.0),
+                                                "coefficients", calib::toJson(report).dump());
+  info << "coefficients stored as result " << result_id << " of " << src.label << " in " << o.db
        << "\n";
 }
 
-std::vector<calib::TableSample> tableSamples(const daemon::Recording& rec) {
+std::vector<calib::TableSample> tableSamples(const io::Recording& rec) {
   std::vector<calib::TableSample> out;
   out.reserve(rec.table.size());
-  for (const daemon::TableSample& s : rec.table) {
-    const std::vector<double> a = daemon::tableAnglesRad(rec.table_kind, s);
+  for (const io::TableSample& s : rec.table) {
+    const std::vector<double> a = io::tableAnglesRad(rec.table_kind, s);
     out.push_back({s.t, calib::tableAnglesFromAxes(rec.table_kind, a.data())});
   }
   return out;
 }
 
-calib::TableGeometry geometryOf(const daemon::Recording& rec) {
+calib::TableGeometry geometryOf(const io::Recording& rec) {
   calib::TableGeometry g;
   g.kind = rec.table_kind;
   g.outer_axis_heading_rad = rec.outerAxisHeadingDeg() * kDegToRad;
   return g;
 }
 
-calib::DirectCalibrationResult runDirect(const daemon::Recording& rec,
+calib::DirectCalibrationResult runDirect(const io::Recording& rec,
                                          const std::vector<calib::TableSample>& table,
                                          const calib::IncrementCheckOptions& checks) {
   calib::DirectCalibrationInput in;
@@ -244,7 +242,7 @@ void emit(const CalibrateOptions& o, const ResolvedRecording& src,
     if (cmp) printComparison(*cmp, o.truth, frame);
   }
   if (!o.out.empty()) {
-    const daemon::IoStatus s = daemon::writeCoefficientFile(o.out, report);
+    const io::IoStatus s = io::writeCoefficientFile(o.out, report);
     if (!s.ok) throw CommandFailed(s.message);
     if (!o.json) std::cout << "coefficients written to " << o.out << "\n";
   }
@@ -257,17 +255,17 @@ void runCalibrateReal(const CalibrateOptions& o) {
   if (!o.method.empty() && o.method != "scalar") {
     throw CommandFailed("--format " + o.format + " has no table angles: only --method scalar", 2);
   }
-  daemon::RealImport in;
+  io::RealImport in;
   calib::ScalarCalibrationOptions so;
   bool accel_si = false;
   if (o.format == "imutk") {
     if (o.gyro_file.empty()) throw CommandFailed("--format imutk needs --gyro FILE", 2);
-    in = daemon::readImuTkPair(o.dir, o.gyro_file);
+    in = io::readImuTkPair(o.dir, o.gyro_file);
     so.min_initial_static_s = 30.0;  // imu_tk records a long initial static for the gyro bias
     so.checks.accel_min = so.checks.gyro_min = 0.0;  // 16-bit unsigned raw counts
     so.checks.accel_max = so.checks.gyro_max = 65535.0;
   } else {
-    in = daemon::readImucalCsv(o.dir, o.rate_hz);
+    in = io::readImucalCsv(o.dir, o.rate_hz);
     accel_si = true;
   }
   if (!in.ok) throw CommandFailed(in.error);
@@ -296,7 +294,7 @@ void runCalibrateReal(const CalibrateOptions& o) {
     std::cout << j.dump(2) << "\n";
   }
   if (!o.out.empty()) {
-    const daemon::IoStatus s = daemon::writeCoefficientFile(o.out, r.report);
+    const io::IoStatus s = io::writeCoefficientFile(o.out, r.report);
     if (!s.ok) throw CommandFailed(s.message);
   }
 }
@@ -328,9 +326,9 @@ void printIndirect(std::ostream& info, const std::string& what, const calib::Cal
 void runPipeline(const CalibrateOptions& o, const ResolvedRecording& src,
                  const std::vector<calib::TableSample>& table) {
   std::ostream& info = o.json ? std::cerr : std::cout;
-  const daemon::Recording& rec = src.recording;
+  const io::Recording& rec = src.recording;
   const ResolvedRecording direct = loadRunOrDir(o.direct_dir, o.db);
-  const daemon::Recording& drec = direct.recording;
+  const io::Recording& drec = direct.recording;
   const std::string& dlabel = direct.label;
   if (drec.table_kind != rec.table_kind) {
     throw CommandFailed(dlabel + " and " + src.label +
@@ -369,7 +367,7 @@ void runCalibrate(const CalibrateOptions& o) {
   }
   const ResolvedRecording src = loadRunOrDir(o.dir, o.db);
   checkStoreResult(o, src);
-  const daemon::Recording& rec = src.recording;
+  const io::Recording& rec = src.recording;
   const std::string& label = src.label;
   const std::vector<calib::TableSample> table = tableSamples(rec);
   std::ostream& info = o.json ? std::cerr : std::cout;
@@ -419,7 +417,7 @@ void runCalibrate(const CalibrateOptions& o) {
   in.table = table;
   in.segments = rec.segments;
   if (!o.start.empty()) {
-    const daemon::CoefficientFileResult s = daemon::readCoefficientFile(o.start);
+    const io::CoefficientFileResult s = io::readCoefficientFile(o.start);
     if (!s.status.ok) throw CommandFailed(s.status.message);
     in.start = s.report.values.sensors;
     in.start_base_tilt = s.report.values.table.base_tilt;

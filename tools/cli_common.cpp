@@ -5,7 +5,7 @@
 #include <sstream>
 #include <vector>
 
-#include "daemon/truth_file.h"
+#include "io/truth_file.h"
 
 namespace imubench::tools {
 
@@ -101,7 +101,7 @@ calib::BenchTruth defaultTruth() {
 }
 
 calib::BenchTruth loadTruthOrFail(const std::string& path) {
-  auto r = daemon::readTruthFile(path);
+  auto r = io::readTruthFile(path);
   if (!r.status.ok) throw CommandFailed(r.status.message);
   return r.truth;
 }

@@ -34,7 +34,7 @@ struct ExperimentOptions {
 calib::Motion planMotionOrFail(const std::string& file) {
   const std::string path = bundledPlanPath(file);
   if (path.empty()) throw CommandFailed("bundled plan " + file + " not found");
-  plans::Diagnostics diag(path);
+  io::Diagnostics diag(path);
   auto plan = plans::loadPlanFile(path, diag);
   if (!plan || !plans::validatePlan(*plan, diag)) throw CommandFailed(diag.str());
   plans::ExpandResult e = plans::expand(*plan);

@@ -9,7 +9,7 @@
 #include <memory>
 
 #include "calib/table_model.h"
-#include "daemon/recording.h"
+#include "io/recording.h"
 #include "nav/free_navigation.h"
 #include "tools/cli_common.h"
 
@@ -29,17 +29,16 @@ std::string fmt(const char* f, double a, double b, double c, double d, double e)
 }
 
 void runNav(const NavOptions& o) {
-  const auto read = daemon::readRecording(o.dir);
+  const auto read = io::readRecording(o.dir);
   if (!read.status.ok) throw CommandFailed(read.status.message);
-  const daemon::Recording& rec = read.recording;
+  const io::Recording& rec = read.recording;
   if (rec.imu.size() < 2) throw CommandFailed(o.dir + ": fewer than two IMU samples");
 
   calib::TableGeometry geometry;
   geometry.kind = rec.table_kind;
   geometry.outer_axis_heading_rad = rec.outerAxisHeadingDeg() * kDegToRad;
   const calib::TableModel table(geometry, calib::TableErrors{});
-  const std::vector<double> start_angles =
-      daemon::tableAnglesRad(rec.table_kind, rec.table.front());
+  const std::vector<double> start_angles = io::tableAnglesRad(rec.table_kind, rec.table.front());
   const Mat3 C_LB =
       table.nominalC_LB(calib::tableAnglesFromAxes(rec.table_kind, start_angles.data()));
 

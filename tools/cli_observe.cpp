@@ -29,7 +29,7 @@ struct ObserveOptions {
 };
 
 void runObserve(const ObserveOptions& o) {
-  plans::Diagnostics diag(o.path);
+  io::Diagnostics diag(o.path);
   auto plan = plans::loadPlanFile(o.path, diag);
   if (!plan || !plans::validatePlan(*plan, diag)) {
     std::cerr << diag.str();

@@ -3,7 +3,7 @@
 #include <iostream>
 #include <memory>
 
-#include "daemon/truth_file.h"
+#include "io/truth_file.h"
 #include "plans/plan.h"
 #include "tools/cli_common.h"
 #include "tools/cli_run_report.h"
@@ -36,7 +36,7 @@ void runMain(const RunOptions& o) {
   req.seed = o.sim.seed;
   req.noise = *noiseByName(o.sim.noise);  // checked by CLI11
   if (!o.write_truth.empty()) {
-    const auto st = daemon::writeTruthFile(o.write_truth, req.truth);
+    const auto st = io::writeTruthFile(o.write_truth, req.truth);
     if (!st.ok) throw CommandFailed(st.message);
   }
 

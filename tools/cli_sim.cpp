@@ -2,7 +2,7 @@
 
 #include <iostream>
 
-#include "daemon/sim_recording.h"
+#include "io/sim_recording.h"
 #include "plans/expand.h"
 #include "plans/validator.h"
 
@@ -10,7 +10,7 @@ namespace imubench::tools {
 
 SimOutcome simulatePlanOrFail(const SimRequest& request) {
   SimOutcome out;
-  plans::Diagnostics diag(request.plan_path);
+  io::Diagnostics diag(request.plan_path);
   auto plan = plans::loadPlanFile(request.plan_path, diag);
   if (plan) plans::validatePlan(*plan, diag);
   if (!plan || !diag.ok()) {
@@ -40,16 +40,16 @@ SimOutcome simulatePlanOrFail(const SimRequest& request) {
   return out;
 }
 
-daemon::Recording recordingOf(const SimOutcome& outcome, const SimRequest& request) {
-  daemon::RecordingIdentity id;
+io::Recording recordingOf(const SimOutcome& outcome, const SimRequest& request) {
+  io::RecordingIdentity id;
   id.imu_serial = "SIM-" + std::to_string(request.seed);
   id.imu_rate_hz = request.imu_rate_hz;
   id.outer_axis_heading_rad = outcome.plan.table.outer_axis_heading;
-  return daemon::recordingFromSimulation(outcome.sim, outcome.site, id);
+  return io::recordingFromSimulation(outcome.sim, outcome.site, id);
 }
 
-void writeRecordingOrFail(const std::string& dir, const daemon::Recording& rec) {
-  const auto st = daemon::writeRecording(dir, rec);
+void writeRecordingOrFail(const std::string& dir, const io::Recording& rec) {
+  const auto st = io::writeRecording(dir, rec);
   if (!st.ok) throw CommandFailed(st.message);
 }
 

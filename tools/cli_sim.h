@@ -8,7 +8,7 @@
 #include "calib/motion.h"
 #include "calib/noise.h"
 #include "calib/simulator.h"
-#include "daemon/recording.h"
+#include "io/recording.h"
 #include "plans/plan.h"
 #include "tools/cli_common.h"
 
@@ -36,9 +36,9 @@ struct SimOutcome {
 SimOutcome simulatePlanOrFail(const SimRequest& request);
 
 // The simulation as an imubench-csv/1 recording.
-daemon::Recording recordingOf(const SimOutcome& outcome, const SimRequest& request);
+io::Recording recordingOf(const SimOutcome& outcome, const SimRequest& request);
 
 // Writes it (throws CommandFailed with the file error).
-void writeRecordingOrFail(const std::string& dir, const daemon::Recording& rec);
+void writeRecordingOrFail(const std::string& dir, const io::Recording& rec);
 
 }  // namespace imubench::tools

@@ -37,34 +37,19 @@ std::optional<std::int64_t> parseRunId(const std::string& text) {
   return id;
 }
 
-std::unique_ptr<daemon::Store> openStoreOrFail(const std::string& db_path, StoreAccess access) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (access == StoreAccess::kExisting && !fs::exists(db_path, ec)) {
-    throw CommandFailed(db_path + ": no run store here (give --db PATH or set " +
-                        std::string(kStorePathEnv) + ")");
-  }
-  daemon::StoreOpenResult r = daemon::Store::open(db_path);
-  if (!r.status.ok) throw CommandFailed(r.status.message);
-  return std::move(r.store);
-}
-
 ResolvedRecording loadRunOrDir(const std::string& arg, const std::string& db_path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   ResolvedRecording out;
   if (fs::is_directory(arg, ec)) {
-    daemon::RecordingReadResult r = daemon::readRecording(arg);
+    io::RecordingReadResult r = io::readRecording(arg);
     if (!r.status.ok) throw CommandFailed(r.status.message);
     out.recording = std::move(r.recording);
     out.label = arg;
     return out;
   }
   if (const std::optional<std::int64_t> id = parseRunId(arg)) {
-    const std::unique_ptr<daemon::Store> store = openStoreOrFail(db_path, StoreAccess::kExisting);
-    daemon::RecordingReadResult r = store->loadRecording(*id);
-    if (!r.status.ok) throw CommandFailed(r.status.message);
-    out.recording = std::move(r.recording);
+    out.recording = loadStoredRun(*id, db_path);
     out.run_id = *id;
     out.label = "run " + std::to_string(*id);
     return out;

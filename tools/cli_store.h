@@ -9,15 +9,20 @@
 //
 // Commands that only read (export, runs, calibrate on a run id) refuse a store file that does
 // not exist instead of creating an empty database; import creates it.
+//
+// Two programs share this interface. `imubench` links no SQLite: its store backend
+// (cli_store_exec.cpp) throws NeedsRunStore, and main() then runs `imubench-store` (installed
+// next to it) with the same arguments, so the store commands behave as documented.
+// `imubench-store` is the same command line linked with the SQLite backend
+// (cli_store_sqlite.cpp, daemon/store.h).
 #pragma once
 
 #include <cstdint>
-#include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
-#include "daemon/recording.h"
-#include "daemon/store.h"
+#include "io/recording.h"
 #include "tools/cli11.h"
 
 namespace imubench::tools {
@@ -34,15 +39,8 @@ void addStoreOption(CLI::App& sub, std::string* db_path);
 // "N" or "run:N" with N a positive integer (decimal digits only, no sign, no spaces).
 std::optional<std::int64_t> parseRunId(const std::string& text);
 
-enum class StoreAccess {
-  kExisting,  // the file must exist (reading commands do not create a database)
-  kCreate,    // created with its schema when missing (import)
-};
-// Opens the store or throws CommandFailed with the store's message.
-std::unique_ptr<daemon::Store> openStoreOrFail(const std::string& db_path, StoreAccess access);
-
 struct ResolvedRecording {
-  daemon::Recording recording;
+  io::Recording recording;
   std::optional<std::int64_t> run_id;  // set when read from the store
   std::string label;                   // for messages: the directory, or "run N"
 };
@@ -51,5 +49,49 @@ struct ResolvedRecording {
 // (the recording reader's or the store's message, or "'x' is neither a recording directory
 // nor a run id").
 ResolvedRecording loadRunOrDir(const std::string& arg, const std::string& db_path);
+
+// ---- The store backend (cli_store_sqlite.cpp in imubench-store, cli_store_exec.cpp in
+// imubench) ----
+
+// Thrown by imubench's backend when a command needs the run store; main() then hands the
+// whole command line to imubench-store (runStoreProgram).
+class NeedsRunStore : public std::runtime_error {
+ public:
+  NeedsRunStore() : std::runtime_error("this command needs the run store (imubench-store)") {}
+};
+
+// Runs imubench-store with argv (argv[0] kept). Returns only on failure, with the reason.
+std::string runStoreProgram(char** argv);
+
+// Run `id` of the store at db_path as a recording; throws CommandFailed with the store's
+// message.
+io::Recording loadStoredRun(std::int64_t id, const std::string& db_path);
+
+// Stores `json` as a result of `kind` of run `run_id`; returns its result id or throws
+// CommandFailed.
+std::int64_t storeRunResult(const std::string& db_path, std::int64_t run_id,
+                            const std::string& imu_serial, double temperature_c,
+                            const std::string& kind, const std::string& json);
+
+// The store subcommands' work (registered by addStoreCommands in cli_runs.cpp).
+struct RunsOptions {
+  std::string db;
+  bool json = false;
+};
+struct ExportOptions {
+  std::string run;
+  std::string db;
+  std::string csv_dir;
+  std::string results;
+};
+struct ImportOptions {
+  std::string dir;
+  std::string db;
+  std::string plan_name;
+  std::optional<std::string> serial;
+};
+void runRuns(const RunsOptions& o);
+void runExport(const ExportOptions& o);
+void runImport(const ImportOptions& o);
 
 }  // namespace imubench::tools

@@ -2,11 +2,16 @@
 // pattern in tools/cli_common.h); main only wires them and maps failures to exit codes:
 //   0 success, 1 the command failed (bad input file, plan errors, failed work),
 //   2 bad command line (CLI11 parse error).
+// The same main is linked twice (tools/CMakeLists.txt): `imubench` without the run store, which
+// hands the store commands to `imubench-store` (NeedsRunStore, tools/cli_store.h), and
+// `imubench-store` with it.
 #include <exception>
 #include <iostream>
+#include <string>
 
 #include "tools/cli11.h"
 #include "tools/cli_common.h"
+#include "tools/cli_store.h"
 
 int main(int argc, char** argv) {
   using namespace imubench::tools;
@@ -31,6 +36,12 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     app.exit(e);  // prints the message
     return 2;
+  } catch (const NeedsRunStore&) {
+    // Nothing has been printed yet: the store program redoes the command from the start.
+    // runStoreProgram returns only when it could not run it (its output would come first).
+    const std::string why = runStoreProgram(argv);
+    std::cerr << "imubench: " << why << "\n";
+    return 1;
   } catch (const CommandFailed& e) {
     std::cerr << "imubench: " << e.what() << "\n";
     return e.exitCode();

@@ -29,13 +29,13 @@
 
 #include "calib/simulator.h"
 #include "daemon/logging.h"
-#include "daemon/truth_file.h"
 #include "drivers/imu_layout.h"
 #include "drivers/modbus_device_models.h"
 #include "drivers/modbus_server.h"
 #include "drivers/virtual_imu_can.h"
 #include "drivers/virtual_table_scpi.h"
 #include "drivers/virtual_world.h"
+#include "io/truth_file.h"
 
 namespace {
 
@@ -141,7 +141,7 @@ struct Devices {
 };
 
 std::optional<Devices> loadDevices(const Args& a, std::string* why) {
-  plans::Diagnostics tdiag(a.table_file);
+  io::Diagnostics tdiag(a.table_file);
   auto table = loadTableDevice(a.table_file, tdiag);
   if (!table) {
     *why = "table device file refused:\n" + tdiag.str();
@@ -152,7 +152,7 @@ std::optional<Devices> loadDevices(const Args& a, std::string* why) {
            ": --table needs a Modbus register map (give serial command sets with --serial-table)";
     return std::nullopt;
   }
-  plans::Diagnostics cdiag(a.chamber_file);
+  io::Diagnostics cdiag(a.chamber_file);
   auto chamber = loadChamberDevice(a.chamber_file, cdiag);
   if (!chamber) {
     *why = "chamber device file refused:\n" + cdiag.str();
@@ -160,7 +160,7 @@ std::optional<Devices> loadDevices(const Args& a, std::string* why) {
   }
   Devices d{std::move(*table), std::move(*chamber), std::nullopt};
   if (!a.serial_table_file.empty()) {
-    plans::Diagnostics sdiag(a.serial_table_file);
+    io::Diagnostics sdiag(a.serial_table_file);
     d.serial_table = loadTableDevice(a.serial_table_file, sdiag);
     if (!d.serial_table) {
       *why = "serial table device file refused:\n" + sdiag.str();
@@ -179,7 +179,7 @@ std::optional<Devices> loadDevices(const Args& a, std::string* why) {
 // The IMU simulator on the world's motion, streaming CAN frames (started). null + *why.
 std::unique_ptr<ImuStreamer> startImu(const Args& a, VirtualWorld& world, const daemon::Logger& log,
                                       std::string* why) {
-  plans::Diagnostics idiag(a.imu_layout_file);
+  io::Diagnostics idiag(a.imu_layout_file);
   auto layout = loadImuLayoutFile(a.imu_layout_file, idiag);
   if (!layout) {
     *why = "IMU device file refused:\n" + idiag.str();
@@ -187,7 +187,7 @@ std::unique_ptr<ImuStreamer> startImu(const Args& a, VirtualWorld& world, const 
   }
   calib::BenchWorld bench;
   if (!a.truth_file.empty()) {
-    auto t = daemon::readTruthFile(a.truth_file);
+    auto t = io::readTruthFile(a.truth_file);
     if (!t.status.ok) {
       *why = t.status.message;
       return nullptr;

@@ -32,7 +32,7 @@ struct Fixture {
 Fixture simulatePlan(const char* name) {
   Fixture out;
   const std::string path = std::string(IMUBENCH_PLAN_DIR) + "/" + name + ".toml";
-  plans::Diagnostics diag(path);
+  io::Diagnostics diag(path);
   auto plan = plans::loadPlanFile(path, diag);
   if (!plan || !plans::validatePlan(*plan, diag)) {
     std::fprintf(stderr, "plan %s: %s\n", path.c_str(), diag.str().c_str());

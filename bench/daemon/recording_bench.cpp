@@ -10,12 +10,12 @@
 #include <iostream>
 #include <random>
 
-#include "daemon/recording.h"
+#include "io/recording.h"
 
 namespace {
 
 using imubench::Vec3;
-namespace daemon = imubench::daemon;
+namespace io = imubench::io;
 namespace fs = std::filesystem;
 
 constexpr double kRateHz = 2000.0;
@@ -24,8 +24,8 @@ constexpr double kTargetS = 10.0;
 
 // Static navigation-grade IMU at 55 deg N: Earth rate + gravity increments with noise, so
 // every number has a full-length mantissa like a real recording.
-daemon::Recording makeHourRecording() {
-  daemon::Recording rec;
+io::Recording makeHourRecording() {
+  io::Recording rec;
   rec.latitude_deg = 55.75;
   rec.height_m = 150.0;
   rec.imu_serial = "BENCH-1";
@@ -45,7 +45,7 @@ daemon::Recording makeHourRecording() {
     s.temp_c = 25.0 + 0.01 * noise(rng);
   }
   for (int k = 0; k <= static_cast<int>(kDurationS * 100.0); ++k) {
-    daemon::TableSample s;
+    io::TableSample s;
     s.t = k * 0.01;
     s.angles_deg = {0.0, 90.0, 0.0};
     rec.table.push_back(s);
@@ -58,7 +58,7 @@ void BM_ReadRecording1h2kHz(benchmark::State& state, const std::string& dir) {
   double wall_s = 0.0;  // own wall clock: rate counters would use CPU time
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
-    auto r = daemon::readRecording(dir);
+    auto r = io::readRecording(dir);
     wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!r.status.ok) {
       state.SkipWithError(r.status.message.c_str());
@@ -82,7 +82,7 @@ int main(int argc, char** argv) {
       fs::temp_directory_path() / ("imubench-bench-rec-" + std::to_string(::getpid()));
   {
     const auto rec = makeHourRecording();
-    const auto st = daemon::writeRecording(dir.string(), rec);
+    const auto st = io::writeRecording(dir.string(), rec);
     if (!st.ok) {
       std::cerr << "cannot write the benchmark recording: " << st.message << "\n";
       return 1;

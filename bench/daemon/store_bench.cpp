@@ -19,6 +19,7 @@ namespace {
 
 using imubench::Vec3;
 namespace daemon = imubench::daemon;
+namespace io = imubench::io;
 namespace nav = imubench::nav;
 namespace fs = std::filesystem;
 
@@ -52,7 +53,7 @@ bool appendSecond(daemon::RunWriter& writer, long second, std::mt19937_64& rng) 
     }
     if (!writer.appendImu(batch).ok) return false;
     // One table sample per 10 ms batch: 100 Hz.
-    const daemon::TableSample table{batch.back().t, {10.0 * batch.back().t, 90.0, 0.0}};
+    const io::TableSample table{batch.back().t, {10.0 * batch.back().t, 90.0, 0.0}};
     if (!writer.appendTable(std::span(&table, 1)).ok) return false;
   }
   return true;

@@ -16,7 +16,7 @@ namespace {
 
 ImuLayout load(const char* name) {
   const std::string path = std::string(IMUBENCH_IMU_DEVICE_DIR) + "/" + name;
-  plans::Diagnostics diag(path);
+  io::Diagnostics diag(path);
   auto l = loadImuLayoutFile(path, diag);
   if (!l) std::abort();  // shipped file: our bug
   return *l;

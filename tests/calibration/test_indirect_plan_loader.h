@@ -14,7 +14,7 @@ namespace imubench::calib::testing {
 
 inline Motion libraryMotion(const std::string& name) {
   const std::string path = std::string(IMUBENCH_PLAN_DIR) + "/" + name + ".toml";
-  plans::Diagnostics diag(path);
+  io::Diagnostics diag(path);
   auto plan = plans::loadPlanFile(path, diag);
   EXPECT_TRUE(plan.has_value()) << diag.str();
   if (!plan) return {};

@@ -6,7 +6,7 @@
 #include <iostream>
 
 #include "calib/scalar_calibration.h"
-#include "daemon/import_real.h"
+#include "io/import_real.h"
 #include "nav/earth.h"
 
 namespace imubench {
@@ -19,8 +19,8 @@ void print(const std::string& title, const calib::ScalarCalibrationResult& r) {
 }
 
 TEST(ScalarReal, ImuTkXsensPair) {
-  const daemon::RealImport in =
-      daemon::readImuTkPair(kDir + "/imutk_xsens_acc.txt", kDir + "/imutk_xsens_gyro.txt");
+  const io::RealImport in =
+      io::readImuTkPair(kDir + "/imutk_xsens_acc.txt", kDir + "/imutk_xsens_gyro.txt");
   ASSERT_TRUE(in.ok) << in.error;
   ASSERT_GT(in.data.size(), 50000u);
   calib::ScalarCalibrationOptions o;
@@ -43,11 +43,10 @@ TEST(ScalarReal, ImuTkXsensPair) {
 }
 
 TEST(ScalarReal, ImucalFerrarisSession) {
-  const daemon::RealImport in =
-      daemon::readImucalCsv(kDir + "/imucal_example_ferraris_session.csv");
+  const io::RealImport in = io::readImucalCsv(kDir + "/imucal_example_ferraris_session.csv");
   ASSERT_TRUE(in.ok) << in.error;
-  const daemon::SectionListImport sl =
-      daemon::readImucalSectionList(kDir + "/imucal_example_ferraris_session_list.json");
+  const io::SectionListImport sl =
+      io::readImucalSectionList(kDir + "/imucal_example_ferraris_session_list.json");
   ASSERT_TRUE(sl.ok) << sl.error;
   ASSERT_EQ(sl.sections.size(), 9u);
   calib::ScalarCalibrationOptions o;
@@ -56,7 +55,7 @@ TEST(ScalarReal, ImucalFerrarisSession) {
   ASSERT_TRUE(r.status.ok()) << r.status.reason;
   print("imucal Ferraris session (m/s^2, deg/s)", r);
   // Every annotated static face must lie inside one detected span.
-  for (const daemon::LabelledRange& s : sl.sections) {
+  for (const io::LabelledRange& s : sl.sections) {
     if (s.name.find("rot") != std::string::npos) continue;
     bool inside = false;
     for (const calib::StaticSpan& sp : r.spans)
@@ -72,7 +71,7 @@ TEST(ScalarReal, ImucalFerrarisSession) {
   // rad/s. Check it against imucal's protocol: each *_rot section is one full turn (imucal's
   // FerrarisCalibration expects -360 deg). Integrating the calibrated gyro over x_rot must
   // give ~360 deg about x.
-  for (const daemon::LabelledRange& s : sl.sections) {
+  for (const io::LabelledRange& s : sl.sections) {
     if (s.name.find("rot") == std::string::npos) continue;
     Vec3 angle = Vec3::Zero();
     for (std::size_t i = s.start; i < s.end; ++i)

@@ -19,7 +19,7 @@ inline std::string deviceFile(const std::string& name) {
 }
 
 inline ImuLayout loadShipped(const std::string& name) {
-  plans::Diagnostics diag(deviceFile(name));
+  io::Diagnostics diag(deviceFile(name));
   auto layout = loadImuLayoutFile(deviceFile(name), diag);
   EXPECT_TRUE(layout.has_value()) << diag.str();
   return layout.value_or(ImuLayout{});

@@ -473,7 +473,7 @@ BO_ 2147484000 FLOATS: 16 A
 SIG_VALTYPE_ 2147484000 RATE_X : 1;
 SIG_VALTYPE_ 2147484000 DV_X : 2;
 )";
-  plans::Diagnostics diag("floats.dbc");
+  io::Diagnostics diag("floats.dbc");
   auto db = parseDbc(text, diag);
   ASSERT_TRUE(db) << diag.str();
   ASSERT_EQ(db->messages.size(), 1U);
@@ -497,7 +497,7 @@ struct DbcError {
 class DbcGrammarErrors : public ::testing::TestWithParam<DbcError> {};
 
 TEST_P(DbcGrammarErrors, RefusedWithLineAndReason) {
-  plans::Diagnostics diag("bad.dbc");
+  io::Diagnostics diag("bad.dbc");
   auto db = parseDbc(GetParam().text, diag);
   EXPECT_FALSE(db.has_value());
   ASSERT_FALSE(diag.ok());
@@ -540,7 +540,7 @@ length = 8
   type = "i32"
   scale = "1e-9 m/s"
 )";
-  plans::Diagnostics diag("imu.toml");
+  io::Diagnostics diag("imu.toml");
   auto l = parseImuLayout(text, ".", diag);
   EXPECT_FALSE(l.has_value());
   ASSERT_FALSE(diag.ok());
@@ -563,14 +563,14 @@ length = 8
   type = "i32"
   scale = "1e-9 rad"
 )";
-  plans::Diagnostics diag("imu.toml");
+  io::Diagnostics diag("imu.toml");
   EXPECT_FALSE(parseImuLayout(text, ".", diag).has_value());
   EXPECT_NE(diag.str().find("axis x: need exactly one of dvel or accel"), std::string::npos)
       << diag.str();
 }
 
 TEST(ImuLayoutFile, DbcMappingErrorsPointAtDeviceFile) {
-  plans::Diagnostics diag("m.toml");
+  io::Diagnostics diag("m.toml");
   const std::string text = std::string(R"(format = "imubench-imu-can/1"
 name = "x"
 sample_period = "10 ms"

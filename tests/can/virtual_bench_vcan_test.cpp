@@ -23,9 +23,9 @@
 #include <vector>
 
 #include "calib/simulator.h"
-#include "daemon/truth_file.h"
 #include "drivers/imu_can_reader.h"
 #include "drivers/imu_layout.h"
+#include "io/truth_file.h"
 #include "scratch_dir.h"
 
 extern char** environ;
@@ -93,7 +93,7 @@ std::string slurp(const std::string& path) {
 // t = 0 with zero angle and rate; the chamber history is ambient).
 nav::ImuSamples expectedSamples(const ImuLayout& layout, std::size_t n) {
   calib::BenchWorld world;
-  auto truth = daemon::readTruthFile(truthPath());
+  auto truth = io::readTruthFile(truthPath());
   EXPECT_TRUE(truth.status.ok) << truth.status.message;
   world.truth = truth.truth;
   world.noise = calib::NoiseModel::tactical();
@@ -121,7 +121,7 @@ class VirtualBenchVcan : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(VirtualBenchVcan, SamplesEqualInProcessSimulatorWithinResolution) {
   const std::string layout_file = devicePath(std::string("imus/") + GetParam());
-  plans::Diagnostics diag(layout_file);
+  io::Diagnostics diag(layout_file);
   auto loaded = loadImuLayoutFile(layout_file, diag);
   ASSERT_TRUE(loaded.has_value()) << diag.str();
   const ImuLayout& layout = *loaded;

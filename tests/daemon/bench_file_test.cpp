@@ -49,12 +49,12 @@ std::string replaced(const std::string& from, const std::string& to) {
   return s;
 }
 
-std::optional<BenchConfig> parse(const std::string& text, plans::Diagnostics& diag) {
+std::optional<BenchConfig> parse(const std::string& text, io::Diagnostics& diag) {
   return parseBenchFile(text, "bench.toml", kBenchDir, diag);
 }
 
 TEST(BenchFile, ShippedVirtualBenchLoads) {
-  plans::Diagnostics diag(kBenchDir + "/virtual-bench.toml");
+  io::Diagnostics diag(kBenchDir + "/virtual-bench.toml");
   const auto b = loadBenchFile(diag.file(), diag);
   ASSERT_TRUE(b.has_value()) << diag.str();
   EXPECT_EQ(b->name, "virtual-bench");
@@ -69,7 +69,7 @@ TEST(BenchFile, ShippedVirtualBenchLoads) {
 }
 
 TEST(BenchFile, EveryFieldReadAndPathsResolvedAgainstTheBenchFile) {
-  plans::Diagnostics diag("bench.toml");
+  io::Diagnostics diag("bench.toml");
   const auto b = parse(kGood, diag);
   ASSERT_TRUE(b.has_value()) << diag.str();
   EXPECT_EQ(b->storage_path, kBenchDir + "/state/imubench.db");
@@ -90,23 +90,23 @@ TEST(BenchFile, EveryFieldReadAndPathsResolvedAgainstTheBenchFile) {
 }
 
 TEST(BenchFile, ControlIdleTimeout) {
-  plans::Diagnostics diag("bench.toml");
+  io::Diagnostics diag("bench.toml");
   auto b = parse(kGood + "\n[control]\nidle_timeout = \"2.5 s\"\n", diag);
   ASSERT_TRUE(b.has_value()) << diag.str();
   EXPECT_DOUBLE_EQ(b->control.idle_timeout_s, 2.5);
   b = parse(kGood + "\n[control]\nidle_timeout = \"0 s\"\n", diag);
   ASSERT_TRUE(b.has_value()) << diag.str();
   EXPECT_DOUBLE_EQ(b->control.idle_timeout_s, 0.0);
-  plans::Diagnostics bad("bench.toml");
+  io::Diagnostics bad("bench.toml");
   EXPECT_FALSE(parse(kGood + "\n[control]\nidle_timeout = \"-1 s\"\n", bad).has_value());
   EXPECT_NE(bad.str().find("idle_timeout must be in [0, "), std::string::npos) << bad.str();
-  plans::Diagnostics typo("bench.toml");
+  io::Diagnostics typo("bench.toml");
   EXPECT_FALSE(parse(kGood + "\n[control]\nidle = \"1 s\"\n", typo).has_value());
   EXPECT_NE(typo.str().find("unknown key \"idle\" in [control]"), std::string::npos) << typo.str();
 }
 
 TEST(BenchFile, ChamberPollPeriod) {
-  plans::Diagnostics diag("bench.toml");
+  io::Diagnostics diag("bench.toml");
   const auto b = parse(replaced("safe_setpoint = \"25 degC\"",
                                 "safe_setpoint = \"25 degC\"\npoll_period = \"250 ms\""),
                        diag);
@@ -119,7 +119,7 @@ TEST(BenchFile, ChamberIsOptional) {
   const auto from = text.find("[chamber]");
   const auto to = text.find("[imu]");
   text.erase(from, to - from);
-  plans::Diagnostics diag("bench.toml");
+  io::Diagnostics diag("bench.toml");
   const auto b = parse(text, diag);
   ASSERT_TRUE(b.has_value()) << diag.str();
   EXPECT_FALSE(b->chamber.has_value());
@@ -136,7 +136,7 @@ class BenchFileRefuses : public ::testing::TestWithParam<BadCase> {};
 
 TEST_P(BenchFileRefuses, WithFileLineAndReason) {
   const BadCase& c = GetParam();
-  plans::Diagnostics diag("bench.toml");
+  io::Diagnostics diag("bench.toml");
   EXPECT_FALSE(parse(c.text, diag).has_value());
   const std::string msg = diag.str();
   EXPECT_NE(msg.find(c.expected), std::string::npos) << msg;
@@ -175,7 +175,7 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<BadCase>& tc) { return std::string(tc.param.name); });
 
 TEST(BenchFile, UnreadableFileNamesIt) {
-  plans::Diagnostics diag("/nonexistent/bench.toml");
+  io::Diagnostics diag("/nonexistent/bench.toml");
   EXPECT_FALSE(loadBenchFile(diag.file(), diag).has_value());
   EXPECT_NE(diag.str().find("/nonexistent/bench.toml"), std::string::npos) << diag.str();
   EXPECT_NE(diag.str().find("cannot open bench file"), std::string::npos) << diag.str();

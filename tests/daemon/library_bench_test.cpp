@@ -45,7 +45,7 @@ std::vector<Bench> bundledBenches() {
   std::vector<Bench> out;
   for (const auto& e : fs::directory_iterator(kSource + "/daemon/benches")) {
     if (e.path().extension() != ".toml") continue;
-    plans::Diagnostics diag(e.path().string());
+    io::Diagnostics diag(e.path().string());
     auto b = loadBenchFile(e.path().string(), diag);
     EXPECT_TRUE(b.has_value()) << diag.str();
     if (b) out.push_back({e.path().filename().string(), readText(e.path()), std::move(*b)});
@@ -55,7 +55,7 @@ std::vector<Bench> bundledBenches() {
 
 // Parsed, validated and expanded, as the daemon does before its bench check.
 std::optional<LibraryPlan> loadLibraryPlan(const fs::path& path) {
-  plans::Diagnostics diag(path.string());
+  io::Diagnostics diag(path.string());
   auto plan = plans::loadPlanFile(path.string(), diag);
   EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
   if (!plan || !diag.ok()) return std::nullopt;
@@ -95,7 +95,7 @@ TEST(BundledLibrary, EveryPlanFitsTheBundledBenchesItIsMeantFor) {
 
 TEST(BundledLibrary, BenchLimitsNeverExceedTheDeviceFiles) {
   for (const Bench& b : bundledBenches()) {
-    plans::Diagnostics diag(b.config.table.file);
+    io::Diagnostics diag(b.config.table.file);
     const auto device = drivers::loadTableDevice(b.config.table.file, diag);
     ASSERT_TRUE(device.has_value()) << diag.str();
     EXPECT_LE(b.config.table.limits.max_rate, device->limits.max_rate) << b.file;
@@ -105,7 +105,7 @@ TEST(BundledLibrary, BenchLimitsNeverExceedTheDeviceFiles) {
 }
 
 BenchConfig virtualBench() {
-  plans::Diagnostics diag(kSource + "/daemon/benches/virtual-bench.toml");
+  io::Diagnostics diag(kSource + "/daemon/benches/virtual-bench.toml");
   auto b = loadBenchFile(diag.file(), diag);
   EXPECT_TRUE(b.has_value()) << diag.str();
   return b ? *b : BenchConfig{};

@@ -15,7 +15,7 @@ namespace imubench::daemon::testing {
 
 inline std::vector<RunStep> libraryPlanSteps(const std::string& file) {
   const std::string path = std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/" + file;
-  plans::Diagnostics diag(path);
+  io::Diagnostics diag(path);
   auto plan = plans::loadPlanFile(path, diag);
   EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
   if (!plan) return {};

@@ -1,6 +1,6 @@
 // imubench-csv/1 recordings: bit-exact round trip, strict refusal of malformed files with
 // file:line and the reason, and segment derivation from table motion.
-#include "daemon/recording.h"
+#include "io/recording.h"
 
 #include <gtest/gtest.h>
 
@@ -44,12 +44,12 @@ bool sameBits(double a, double b) {
 
 // Awkward doubles on purpose: random mantissas over many exponents, negative zero, subnormal,
 // extremes.
-Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
+io::Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::uniform_int_distribution<int> ex(-30, 5);
   auto odd = [&]() { return std::ldexp(u(rng), ex(rng)); };
-  Recording rec;
+  io::Recording rec;
   rec.latitude_deg = 55.7558 + odd() * 1e-3;
   rec.height_m = 156.0 + odd();
   rec.gravity_mps2 = 9.8154321987654321;
@@ -72,7 +72,7 @@ Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
   rec.imu[3].dvel.z() = std::numeric_limits<double>::max();
   rec.imu[4].dtheta.z() = -std::numeric_limits<double>::min();
   for (int i = 0; i < 50; ++i) {
-    TableSample s;
+    io::TableSample s;
     s.t = 0.01 * i + odd() * 1e-6;
     for (int a = 0; a < calib::axisCount(kind); ++a)
       s.angles_deg[static_cast<size_t>(a)] = 180.0 * u(rng);
@@ -93,7 +93,7 @@ Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
   return rec;
 }
 
-void expectSame(const Recording& a, const Recording& b) {
+void expectSame(const io::Recording& a, const io::Recording& b) {
   EXPECT_TRUE(sameBits(a.latitude_deg, b.latitude_deg));
   EXPECT_TRUE(sameBits(a.height_m, b.height_m));
   ASSERT_EQ(a.gravity_mps2.has_value(), b.gravity_mps2.has_value());
@@ -145,10 +145,10 @@ void expectSame(const Recording& a, const Recording& b) {
 
 TEST(RecordingRoundTrip, TwoAxisIsBitExact) {
   TempDir dir("rt2");
-  const Recording rec = makeRecording(7, calib::TableKind::kTwoAxis, 20000);
-  const auto st = writeRecording(dir.str(), rec);
+  const io::Recording rec = makeRecording(7, calib::TableKind::kTwoAxis, 20000);
+  const auto st = io::writeRecording(dir.str(), rec);
   ASSERT_TRUE(st.ok) << st.message;
-  const auto r = readRecording(dir.str());
+  const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
   EXPECT_TRUE(r.recording.segments_from_file);
   expectSame(rec, r.recording);
@@ -156,14 +156,14 @@ TEST(RecordingRoundTrip, TwoAxisIsBitExact) {
 
 TEST(RecordingRoundTrip, ThreeAxisWithoutOptionalFilesIsBitExact) {
   TempDir dir("rt3");
-  Recording rec = makeRecording(11, calib::TableKind::kThreeAxis, 500);
+  io::Recording rec = makeRecording(11, calib::TableKind::kThreeAxis, 500);
   rec.chamber.clear();
   rec.segments.clear();
   rec.gravity_mps2.reset();
-  ASSERT_TRUE(writeRecording(dir.str(), rec).ok);
+  ASSERT_TRUE(io::writeRecording(dir.str(), rec).ok);
   EXPECT_FALSE(fs::exists(dir.file("chamber.csv")));
   EXPECT_FALSE(fs::exists(dir.file("segments.csv")));
-  auto r = readRecording(dir.str());
+  auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
   EXPECT_FALSE(r.recording.segments_from_file);
   EXPECT_FALSE(r.recording.segments.empty());  // derived from the table motion
@@ -173,9 +173,9 @@ TEST(RecordingRoundTrip, ThreeAxisWithoutOptionalFilesIsBitExact) {
 
 TEST(RecordingRoundTrip, WriteRefusesNonFinite) {
   TempDir dir("nf");
-  Recording rec = makeRecording(3, calib::TableKind::kTwoAxis, 10);
+  io::Recording rec = makeRecording(3, calib::TableKind::kTwoAxis, 10);
   rec.imu[5].dvel.x() = std::numeric_limits<double>::infinity();
-  const auto st = writeRecording(dir.str(), rec);
+  const auto st = io::writeRecording(dir.str(), rec);
   EXPECT_FALSE(st.ok);
   EXPECT_NE(st.message.find("IMU sample 5"), std::string::npos) << st.message;
 }
@@ -216,7 +216,7 @@ TEST_P(MalformedRecording, IsRefusedWithFileLineAndReason) {
   writeText(dir.file("table.csv"), kGoodTable);
   {
     // Sanity: the good recording reads.
-    const auto good = readRecording(dir.str());
+    const auto good = io::readRecording(dir.str());
     ASSERT_TRUE(good.status.ok) << good.status.message;
   }
   if (c.contents) {
@@ -224,7 +224,7 @@ TEST_P(MalformedRecording, IsRefusedWithFileLineAndReason) {
   } else {
     fs::remove(dir.file(c.file));
   }
-  const auto r = readRecording(dir.str());
+  const auto r = io::readRecording(dir.str());
   ASSERT_FALSE(r.status.ok);
   const std::string where = dir.file(c.file) + c.expect_where;
   EXPECT_EQ(r.status.message.rfind(where, 0), 0u)
@@ -322,7 +322,7 @@ TEST(Recording, CrLfLineEndingsAreAccepted) {
   writeText(dir.file("imu.csv"),
             "t,dthx,dthy,dthz,dvx,dvy,dvz,temp\r\n0.01,0,0,0,0,0,0.098,25\r\n");
   writeText(dir.file("table.csv"), "t,outer,inner\r\n0,0,0\r\n1,0,0");  // no final newline
-  const auto r = readRecording(dir.str());
+  const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
   EXPECT_EQ(r.recording.imu.size(), 1u);
   EXPECT_EQ(r.recording.table.size(), 2u);
@@ -330,7 +330,7 @@ TEST(Recording, CrLfLineEndingsAreAccepted) {
 }
 
 TEST(Recording, NotADirectory) {
-  const auto r = readRecording("/nonexistent/imubench/recording");
+  const auto r = io::readRecording("/nonexistent/imubench/recording");
   EXPECT_FALSE(r.status.ok);
   EXPECT_NE(r.status.message.find("not a directory"), std::string::npos);
 }
@@ -339,11 +339,11 @@ TEST(Recording, NotADirectory) {
 
 // Table history of a two-axis plan: hold 5 s, rotate the inner axis +180 deg at 10 deg/s
 // (wrapping the encoder through 180 -> -180), hold 5 s, move both axes, hold 5 s.
-std::vector<TableSample> syntheticTable() {
-  std::vector<TableSample> t;
+std::vector<io::TableSample> syntheticTable() {
+  std::vector<io::TableSample> t;
   const double dt = 0.01;
   auto push = [&](double time, double outer, double inner) {
-    TableSample s;
+    io::TableSample s;
     s.t = time;
     s.angles_deg = {outer, inner, 0.0};
     t.push_back(s);
@@ -362,7 +362,7 @@ std::vector<TableSample> syntheticTable() {
 
 TEST(DeriveSegments, StaticRotateStaticMoveStatic) {
   const auto table = syntheticTable();
-  const auto segs = deriveSegments(calib::TableKind::kTwoAxis, table);
+  const auto segs = io::deriveSegments(calib::TableKind::kTwoAxis, table);
   ASSERT_EQ(segs.size(), 5u);
   EXPECT_EQ(segs[0].kind, calib::SegmentKind::kStatic);
   EXPECT_EQ(segs[1].kind, calib::SegmentKind::kRotate);
@@ -385,7 +385,7 @@ TEST(DeriveSegments, ShortPauseStaysInsideTheMotion) {
     if (s.t > 10.0 && s.t < 10.3) s.angles_deg[1] = table[1000].angles_deg[1];
   }
   // Re-continue after the pause with the same offset so only a pause is introduced.
-  const auto segs = deriveSegments(calib::TableKind::kTwoAxis, table);
+  const auto segs = io::deriveSegments(calib::TableKind::kTwoAxis, table);
   ASSERT_GE(segs.size(), 2u);
   EXPECT_EQ(segs[1].kind, calib::SegmentKind::kRotate);
   EXPECT_NEAR(segs[1].t1, 23.0, 0.011);
@@ -400,7 +400,7 @@ TEST(DeriveSegments, ReadUsesDerivedSegmentsWhenFileAbsent) {
   for (const auto& s : syntheticTable())
     t << s.t << ',' << s.angles_deg[0] << ',' << s.angles_deg[1] << '\n';
   writeText(dir.file("table.csv"), t.str());
-  const auto r = readRecording(dir.str());
+  const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
   ASSERT_EQ(r.recording.segments.size(), 5u);
   EXPECT_EQ(r.recording.segments[1].kind, calib::SegmentKind::kRotate);
@@ -419,7 +419,7 @@ TEST(DeriveSegments, RotateAxisFilledFromTableWhenSegmentsFileGiven) {
   writeText(dir.file("table.csv"), t.str());
   writeText(dir.file("segments.csv"),
             "t0,t1,kind,label\n0,4.9,static,\"A, up\"\n4.95,23.05,rotate,Z180\n");
-  const auto r = readRecording(dir.str());
+  const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
   ASSERT_EQ(r.recording.segments.size(), 2u);
   EXPECT_EQ(r.recording.segments[0].label, "A, up");
@@ -428,7 +428,7 @@ TEST(DeriveSegments, RotateAxisFilledFromTableWhenSegmentsFileGiven) {
 }
 
 TEST(DeriveSegments, OptionsValidation) {
-  SegmentDerivationOptions o;
+  io::SegmentDerivationOptions o;
   std::string why;
   EXPECT_TRUE(o.IsValid(&why));
   o.still_rate_deg_s = 0.0;
@@ -466,7 +466,7 @@ TEST_F(LargeImuCsv, ReadsAllRowsInOrder) {
   writeText(dir.file("meta.json"), kGoodMeta);
   writeText(dir.file("table.csv"), kGoodTable);
   writeText(dir.file("imu.csv"), text(-1, ""));
-  const auto r = readRecording(dir.str());
+  const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
   ASSERT_EQ(r.recording.imu.size(), static_cast<size_t>(kRows));
   for (int k = 0; k < kRows; ++k)
@@ -488,7 +488,7 @@ TEST_F(LargeImuCsv, ErrorsNameTheirLineAcrossChunks) {
   }
   for (int line : {lines[0], lines[1], lines[2], lines[3]}) {
     writeText(dir.file("imu.csv"), text(line, "12x,0,0,0,0,0,0,\n"));
-    const auto r = readRecording(dir.str());
+    const auto r = io::readRecording(dir.str());
     ASSERT_FALSE(r.status.ok);
     EXPECT_EQ(r.status.message, dir.file("imu.csv") + ":" + std::to_string(line) +
                                     ": column 't': not a number '12x'");
@@ -496,7 +496,7 @@ TEST_F(LargeImuCsv, ErrorsNameTheirLineAcrossChunks) {
   for (int line : lines) {
     // Time steps back to 0 at this line.
     writeText(dir.file("imu.csv"), text(line, row(0.0)));
-    const auto r = readRecording(dir.str());
+    const auto r = io::readRecording(dir.str());
     ASSERT_FALSE(r.status.ok);
     EXPECT_EQ(r.status.message.rfind(
                   dir.file("imu.csv") + ":" + std::to_string(line) + ": time 0 is not after", 0),

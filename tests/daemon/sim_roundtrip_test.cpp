@@ -7,9 +7,9 @@
 #include <fstream>
 
 #include "calib/simulator.h"
-#include "daemon/recording.h"
-#include "daemon/sim_recording.h"
-#include "daemon/truth_file.h"
+#include "io/recording.h"
+#include "io/sim_recording.h"
+#include "io/truth_file.h"
 #include "plans/expand.h"
 
 namespace imubench::daemon {
@@ -70,14 +70,14 @@ TEST(SimulatedRecording, WriteReadIsBitExact) {
   ASSERT_TRUE(sim.ok) << sim.error;
   ASSERT_GT(sim.imu.size(), 4000u);
 
-  RecordingIdentity id;
+  io::RecordingIdentity id;
   id.imu_rate_hz = opt.imu_rate_hz;
-  const Recording rec = recordingFromSimulation(sim, in.world.site, id);
+  const io::Recording rec = io::recordingFromSimulation(sim, in.world.site, id);
   const fs::path dir = freshDir("bitexact");
-  ASSERT_TRUE(writeRecording(dir.string(), rec).ok);
-  const auto back = readRecording(dir.string());
+  ASSERT_TRUE(io::writeRecording(dir.string(), rec).ok);
+  const auto back = io::readRecording(dir.string());
   ASSERT_TRUE(back.status.ok) << back.status.message;
-  const Recording& r = back.recording;
+  const io::Recording& r = back.recording;
 
   ASSERT_EQ(r.imu.size(), sim.imu.size());
   size_t mismatches = 0;
@@ -120,11 +120,11 @@ TEST(SimulatedRecording, DerivedSegmentsMatchThePlanWhenSegmentsFileIsMissing) {
   opt.imu_rate_hz = 100.0;
   const calib::Simulation sim = calib::simulate(in, opt);
   ASSERT_TRUE(sim.ok) << sim.error;
-  Recording rec = recordingFromSimulation(sim, in.world.site, RecordingIdentity{});
+  io::Recording rec = io::recordingFromSimulation(sim, in.world.site, io::RecordingIdentity{});
   rec.segments.clear();
   const fs::path dir = freshDir("derived");
-  ASSERT_TRUE(writeRecording(dir.string(), rec).ok);
-  const auto back = readRecording(dir.string());
+  ASSERT_TRUE(io::writeRecording(dir.string(), rec).ok);
+  const auto back = io::readRecording(dir.string());
   ASSERT_TRUE(back.status.ok) << back.status.message;
   const auto& segs = back.recording.segments;
   ASSERT_EQ(segs.size(), 5u);
@@ -151,8 +151,8 @@ TEST(TruthFile, RoundTripKeepsEveryCoefficient) {
   const fs::path dir = freshDir("truth");
   fs::create_directories(dir);
   const std::string path = (dir / "truth.json").string();
-  ASSERT_TRUE(writeTruthFile(path, t).ok);
-  const auto r = readTruthFile(path);
+  ASSERT_TRUE(io::writeTruthFile(path, t).ok);
+  const auto r = io::readTruthFile(path);
   ASSERT_TRUE(r.status.ok) << r.status.message;
   const auto a = calib::flatValues(t);
   const auto b = calib::flatValues(r.truth);
@@ -166,17 +166,17 @@ TEST(TruthFile, ErrorsNameTheFile) {
   fs::create_directories(dir);
   const std::string syntax = (dir / "syntax.json").string();
   std::ofstream(syntax) << "{\n  \"accel\": {\n    \"bias\": [1, 2,\n  }\n}\n";
-  auto r = readTruthFile(syntax);
+  auto r = io::readTruthFile(syntax);
   ASSERT_FALSE(r.status.ok);
   EXPECT_EQ(r.status.message.rfind(syntax + ":4: JSON syntax error", 0), 0u) << r.status.message;
 
   const std::string bad = (dir / "bad.json").string();
   std::ofstream(bad) << R"({"accel": {"bias": [1, 2, "x"]}})";
-  r = readTruthFile(bad);
+  r = io::readTruthFile(bad);
   ASSERT_FALSE(r.status.ok);
   EXPECT_EQ(r.status.message.rfind(bad + ": accel", 0), 0u) << r.status.message;
 
-  r = readTruthFile((dir / "missing.json").string());
+  r = io::readTruthFile((dir / "missing.json").string());
   ASSERT_FALSE(r.status.ok);
   EXPECT_NE(r.status.message.find("missing file"), std::string::npos);
   fs::remove_all(dir);

@@ -51,12 +51,12 @@ bool sameBits(double a, double b) {
 
 // Awkward doubles on purpose: random mantissas over many exponents, negative zero,
 // subnormals, extremes, NaN temperatures (not reported).
-Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
+io::Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::uniform_int_distribution<int> ex(-30, 5);
   auto odd = [&]() { return std::ldexp(u(rng), ex(rng)); };
-  Recording rec;
+  io::Recording rec;
   rec.latitude_deg = 55.7558 + odd() * 1e-3;
   rec.height_m = -0.0;
   rec.gravity_mps2 = 9.8154321987654321;
@@ -80,7 +80,7 @@ Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
   rec.imu[4].dtheta.z() = -std::numeric_limits<double>::min();
   rec.imu[5].dvel.x() = 3.0;  // integral: SQLite REAL affinity would store it as an integer
   for (int i = 0; i < 300; ++i) {
-    TableSample s;
+    io::TableSample s;
     s.t = 0.01 * i + odd() * 1e-6;
     for (int a = 0; a < 3; ++a) s.angles_deg[static_cast<size_t>(a)] = 180.0 * u(rng);
     rec.table.push_back(s);
@@ -97,7 +97,7 @@ Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
   return rec;
 }
 
-void expectSameRecording(const Recording& a, const Recording& b) {
+void expectSameRecording(const io::Recording& a, const io::Recording& b) {
   EXPECT_TRUE(sameBits(a.latitude_deg, b.latitude_deg));
   EXPECT_TRUE(sameBits(a.height_m, b.height_m));
   ASSERT_EQ(a.gravity_mps2.has_value(), b.gravity_mps2.has_value());
@@ -167,12 +167,12 @@ TEST(Store, ImportedRecordingLoadsBitExactAndExports) {
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
   for (auto kind : {calib::TableKind::kTwoAxis, calib::TableKind::kThreeAxis}) {
-    const Recording rec = makeRecording(7, kind, 6000);
+    const io::Recording rec = makeRecording(7, kind, 6000);
     RunStart start = runStartFromRecording(rec);
     start.plan_name = "imported";
     const RunIdResult run = store->importRecording(start, rec);
     ASSERT_TRUE(run.status.ok) << run.status.message;
-    const RecordingReadResult loaded = store->loadRecording(run.run_id);
+    const io::RecordingReadResult loaded = store->loadRecording(run.run_id);
     ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
     expectSameRecording(rec, loaded.recording);
     const RunInfoResult info = store->runInfo(run.run_id);
@@ -180,7 +180,7 @@ TEST(Store, ImportedRecordingLoadsBitExactAndExports) {
     EXPECT_EQ(info.run.state, RunState::kFinished);
     EXPECT_EQ(info.run.start.plan_name, "imported");
     // The loaded value exports as imubench-csv/1.
-    const IoStatus st = writeRecording(dir.file("export"), loaded.recording);
+    const io::IoStatus st = io::writeRecording(dir.file("export"), loaded.recording);
     EXPECT_TRUE(st.ok) << st.message;
   }
 }
@@ -189,14 +189,15 @@ TEST(Store, LiveRunThroughRunWriterLoadsBitExact) {
   ScratchDir dir;
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
-  const Recording rec = makeRecording(11, calib::TableKind::kTwoAxis, 5000);
+  const io::Recording rec = makeRecording(11, calib::TableKind::kTwoAxis, 5000);
   const RunIdResult run = store->beginRun(runStartFromRecording(rec));
   ASSERT_TRUE(run.status.ok) << run.status.message;
   {
     RunWriter writer(*store, run.run_id);
     const std::span<const nav::ImuSample> imu(rec.imu);
     for (size_t i = 0; i < imu.size(); i += 37) {
-      const IoStatus st = writer.appendImu(imu.subspan(i, std::min<size_t>(37, imu.size() - i)));
+      const io::IoStatus st =
+          writer.appendImu(imu.subspan(i, std::min<size_t>(37, imu.size() - i)));
       ASSERT_TRUE(st.ok) << st.message;
       // Time-based flushing keeps the buffer at about max_unflushed_s of samples.
       EXPECT_LE(writer.bufferedRows(), 1100u);
@@ -204,12 +205,12 @@ TEST(Store, LiveRunThroughRunWriterLoadsBitExact) {
     ASSERT_TRUE(writer.appendTable(rec.table).ok);
     ASSERT_TRUE(writer.appendChamber(rec.chamber).ok);
     for (const auto& s : rec.segments) ASSERT_TRUE(writer.appendSegment(s).ok);
-    const IoStatus st = writer.flush();
+    const io::IoStatus st = writer.flush();
     ASSERT_TRUE(st.ok) << st.message;
     EXPECT_EQ(writer.bufferedRows(), 0u);
   }
   ASSERT_TRUE(store->finishRun(run.run_id, RunState::kFinished, "plan complete").ok);
-  const RecordingReadResult loaded = store->loadRecording(run.run_id);
+  const io::RecordingReadResult loaded = store->loadRecording(run.run_id);
   ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
   expectSameRecording(rec, loaded.recording);
 }
@@ -242,7 +243,7 @@ TEST(Store, RunLifeCycleEventsAndResults) {
   ASSERT_TRUE(a.status.ok && b.status.ok && c.status.ok);
   ASSERT_TRUE(store->finishRun(a.run_id, RunState::kFinished, "done").ok);
   ASSERT_TRUE(store->finishRun(b.run_id, RunState::kFaulted, "table overtemperature").ok);
-  const IoStatus again = store->finishRun(a.run_id, RunState::kAborted, "x");
+  const io::IoStatus again = store->finishRun(a.run_id, RunState::kAborted, "x");
   EXPECT_FALSE(again.ok);
   EXPECT_NE(again.message.find("is finished, not running"), std::string::npos) << again.message;
   EXPECT_FALSE(store->finishRun(c.run_id, RunState::kRunning, "x").ok);
@@ -295,7 +296,7 @@ TEST(Store, UnknownRunIsAnError) {
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
   const std::string missing = "run 42 not found";
-  auto expectMissing = [&](const IoStatus& st) {
+  auto expectMissing = [&](const io::IoStatus& st) {
     EXPECT_FALSE(st.ok);
     EXPECT_NE(st.message.find(missing), std::string::npos) << st.message;
   };
@@ -322,7 +323,7 @@ TEST(Store, NonFiniteAndUnorderedSamplesAreRefusedWithTheirIndex) {
   nav::ImuSamples imu(6);
   for (size_t i = 0; i < imu.size(); ++i) imu[i].t = 0.001 * static_cast<double>(i + 1);
   imu[3].dvel.y() = std::numeric_limits<double>::quiet_NaN();
-  IoStatus st = writer.appendImu(imu);
+  io::IoStatus st = writer.appendImu(imu);
   EXPECT_FALSE(st.ok);
   EXPECT_NE(st.message.find("IMU sample 3 has a non-finite value"), std::string::npos)
       << st.message;
@@ -335,7 +336,7 @@ TEST(Store, NonFiniteAndUnorderedSamplesAreRefusedWithTheirIndex) {
   st = writer.appendImu(std::span(imu).subspan(5));  // same time again
   EXPECT_NE(st.message.find("IMU sample 0: time does not increase"), std::string::npos)
       << st.message;
-  std::vector<TableSample> table(2);
+  std::vector<io::TableSample> table(2);
   table[1].t = 1.0;
   table[1].angles_deg[2] = std::numeric_limits<double>::infinity();
   st = writer.appendTable(table);
@@ -482,7 +483,7 @@ struct CrashOutcome {
 void checkAfterKill(const std::string& path, int expected_runs, CrashOutcome* out) {
   auto store = openOrFail(path);
   ASSERT_TRUE(store);
-  const IoStatus integrity = store->integrityCheck();
+  const io::IoStatus integrity = store->integrityCheck();
   ASSERT_TRUE(integrity.ok) << integrity.message;
   const CountResult marked = store->markInterruptedRuns();
   ASSERT_TRUE(marked.status.ok) << marked.status.message;
@@ -492,7 +493,7 @@ void checkAfterKill(const std::string& path, int expected_runs, CrashOutcome* ou
   ASSERT_EQ(static_cast<int>(runs.runs.size()), expected_runs);
   const RunInfo& run = runs.runs.back();
   EXPECT_EQ(run.state, RunState::kInterrupted);
-  const RecordingReadResult loaded = store->loadRecording(run.id);
+  const io::RecordingReadResult loaded = store->loadRecording(run.id);
   ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
   const nav::ImuSamples& imu = loaded.recording.imu;
   ASSERT_FALSE(imu.empty());

@@ -19,7 +19,7 @@ TEST(DeviceFiles, EveryShippedTableFileLoads) {
   int n = 0;
   for (const auto& e : fs::directory_iterator(deviceDir() + "/tables")) {
     if (e.path().extension() != ".toml") continue;
-    plans::Diagnostics diag(e.path().string());
+    io::Diagnostics diag(e.path().string());
     auto s = loadTableDevice(e.path().string(), diag);
     EXPECT_TRUE(s.has_value()) << diag.str();
     if (s) {
@@ -35,7 +35,7 @@ TEST(DeviceFiles, EveryShippedChamberFileLoads) {
   int n = 0;
   for (const auto& e : fs::directory_iterator(deviceDir() + "/chambers")) {
     if (e.path().extension() != ".toml") continue;
-    plans::Diagnostics diag(e.path().string());
+    io::Diagnostics diag(e.path().string());
     auto s = loadChamberDevice(e.path().string(), diag);
     EXPECT_TRUE(s.has_value()) << diag.str();
     n += s.has_value();
@@ -115,7 +115,7 @@ int lineOf(const std::string& text, const std::string& needle) {
 }
 
 TEST(DeviceFiles, GoodBaseLoads) {
-  plans::Diagnostics diag("good.toml");
+  io::Diagnostics diag("good.toml");
   EXPECT_TRUE(parseTableDevice(kGood, diag).has_value()) << diag.str();
 }
 
@@ -142,7 +142,7 @@ TEST(DeviceFiles, BrokenTableFilesAreRefusedWithLineAndReason) {
   };
   for (const auto& c : cases) {
     const std::string text = replaceLine(kGood, c.from, c.to);
-    plans::Diagnostics diag("broken.toml");
+    io::Diagnostics diag("broken.toml");
     EXPECT_FALSE(parseTableDevice(text, diag).has_value()) << c.to;
     ASSERT_FALSE(diag.ok()) << c.to;
     const auto& d = diag.items().front();
@@ -157,7 +157,7 @@ TEST(DeviceFiles, BrokenTableFilesAreRefusedWithLineAndReason) {
 TEST(DeviceFiles, EveryShippedTableFileCanSetTheMotionProfile) {
   for (const auto& e : fs::directory_iterator(deviceDir() + "/tables")) {
     if (e.path().extension() != ".toml") continue;
-    plans::Diagnostics diag(e.path().string());
+    io::Diagnostics diag(e.path().string());
     auto s = loadTableDevice(e.path().string(), diag);
     ASSERT_TRUE(s.has_value()) << diag.str();
     EXPECT_TRUE(s->profileSettable()) << e.path();
@@ -176,11 +176,11 @@ TEST(DeviceFiles, MotionProfileCommandsAreBothOrNeitherWithLineAndReason) {
                            "set_rate_limit = \"A{axis}:VEL {value}\"\n"
                            "set_accel_limit = \"A{axis}:ACC {value}\"\n";
   {
-    plans::Diagnostics diag("good.toml");
+    io::Diagnostics diag("good.toml");
     auto s = parseTableDevice(with, diag);
     ASSERT_TRUE(s.has_value()) << diag.str();
     EXPECT_TRUE(s->profileSettable());
-    plans::Diagnostics diag2("without.toml");
+    io::Diagnostics diag2("without.toml");
     auto without = parseTableDevice(kGood, diag2);
     ASSERT_TRUE(without.has_value());
     EXPECT_FALSE(without->profileSettable());  // loads, but cannot follow a plan's profile
@@ -195,7 +195,7 @@ TEST(DeviceFiles, MotionProfileCommandsAreBothOrNeitherWithLineAndReason) {
   };
   for (const auto& c : cases) {
     const std::string text = replaceLine(with, c.from, c.to);
-    plans::Diagnostics diag("broken.toml");
+    io::Diagnostics diag("broken.toml");
     EXPECT_FALSE(parseTableDevice(text, diag).has_value()) << c.to;
     ASSERT_FALSE(diag.ok()) << c.to;
     const auto& d = diag.items().front();
@@ -204,7 +204,7 @@ TEST(DeviceFiles, MotionProfileCommandsAreBothOrNeitherWithLineAndReason) {
     EXPECT_NE(d.str().find(c.reason), std::string::npos) << c.to << " -> " << d.str();
   }
   // accel_unit is required with set_accel_limit.
-  plans::Diagnostics diag("no-unit.toml");
+  io::Diagnostics diag("no-unit.toml");
   const std::string no_unit = replaceLine(with, "accel_unit = \"deg/s^2\"\n", "");
   EXPECT_FALSE(parseTableDevice(no_unit, diag).has_value());
   EXPECT_NE(diag.str().find("needs \"accel_unit\""), std::string::npos) << diag.str();
@@ -231,7 +231,7 @@ TEST(DeviceFiles, MotionProfileRegistersAreBothOrNeither) {
        "overlap"},
   };
   for (const auto& c : cases) {
-    plans::Diagnostics diag("broken-map.toml");
+    io::Diagnostics diag("broken-map.toml");
     EXPECT_FALSE(parseTableDevice(replaceLine(ref, c.from, c.to), diag).has_value()) << c.to;
     EXPECT_NE(diag.str().find(c.reason), std::string::npos) << c.to << " -> " << diag.str();
     EXPECT_NE(diag.str().find("broken-map.toml:"), std::string::npos) << diag.str();
@@ -260,7 +260,7 @@ run = { address = 320, type = "u16" }
 alarms = { address = 330, type = "u16" }
 )";
   {
-    plans::Diagnostics diag("ok.toml");
+    io::Diagnostics diag("ok.toml");
     EXPECT_TRUE(parseChamberDevice(base, diag).has_value()) << diag.str();
   }
   const BrokenCase cases[] = {
@@ -276,7 +276,7 @@ alarms = { address = 330, type = "u16" }
   };
   for (const auto& c : cases) {
     const std::string text = replaceLine(base, c.from, c.to);
-    plans::Diagnostics diag("broken-chamber.toml");
+    io::Diagnostics diag("broken-chamber.toml");
     EXPECT_FALSE(parseChamberDevice(text, diag).has_value()) << c.to;
     ASSERT_FALSE(diag.ok());
     const auto& d = diag.items().front();
@@ -284,16 +284,16 @@ alarms = { address = 330, type = "u16" }
     EXPECT_NE(d.message.find(c.reason), std::string::npos) << c.to << " -> " << d.str();
   }
   // Overlapping registers are reported (at the [registers] table).
-  plans::Diagnostics diag("overlap.toml");
+  io::Diagnostics diag("overlap.toml");
   EXPECT_FALSE(parseChamberDevice(replaceLine(base, "address = 320", "address = 300"), diag));
   EXPECT_NE(diag.str().find("overlap at address 300"), std::string::npos) << diag.str();
   // A table file given where a chamber is expected says so.
-  plans::Diagnostics kind("kind.toml");
+  io::Diagnostics kind("kind.toml");
   EXPECT_FALSE(
       parseChamberDevice(replaceLine(base, "kind = \"chamber\"", "kind = \"table\""), kind));
   EXPECT_NE(kind.str().find("expected kind = \"chamber\""), std::string::npos) << kind.str();
   // A missing file names the file.
-  plans::Diagnostics missing("/nonexistent/device.toml");
+  io::Diagnostics missing("/nonexistent/device.toml");
   EXPECT_FALSE(loadTableDevice("/nonexistent/device.toml", missing));
   EXPECT_NE(missing.str().find("/nonexistent/device.toml: cannot open"), std::string::npos);
 }

@@ -25,14 +25,14 @@ inline std::string deviceDir() {
 }
 
 inline TableDeviceSpec tableSpec(const std::string& name) {
-  plans::Diagnostics diag(deviceDir() + "/tables/" + name);
+  io::Diagnostics diag(deviceDir() + "/tables/" + name);
   auto s = loadTableDevice(diag.file(), diag);
   EXPECT_TRUE(s.has_value()) << diag.str();
   return s ? *s : TableDeviceSpec{};
 }
 
 inline ChamberDeviceSpec chamberSpec(const std::string& name) {
-  plans::Diagnostics diag(deviceDir() + "/chambers/" + name);
+  io::Diagnostics diag(deviceDir() + "/chambers/" + name);
   auto s = loadChamberDevice(diag.file(), diag);
   EXPECT_TRUE(s.has_value()) << diag.str();
   return s ? *s : ChamberDeviceSpec{};

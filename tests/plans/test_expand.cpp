@@ -71,7 +71,7 @@ TEST(Profile, ZeroTurnAddsNothing) {
 }
 
 calib::Motion expandText(const std::string& text, const ExpandOptions& options = {}) {
-  Diagnostics diag("e.toml");
+  io::Diagnostics diag("e.toml");
   auto plan = parsePlan(text, "e.toml", diag);
   EXPECT_TRUE(plan) << diag.str();
   if (!plan) return {};
@@ -208,7 +208,7 @@ TEST(Expand, InitialAnglesOption) {
   EXPECT_NEAR(m.segments[0].angle, -kPi / 2, 1e-15);
   EXPECT_EQ(m.axes[0].at(m.duration).angle, 0.0);
 
-  Diagnostics diag("e.toml");
+  io::Diagnostics diag("e.toml");
   auto plan =
       parsePlan(test::twoAxis("[[step]]\ntype = \"hold\"\nduration = \"1 s\"\n"), "e.toml", diag);
   ASSERT_TRUE(plan);
@@ -219,7 +219,7 @@ TEST(Expand, InitialAnglesOption) {
 }
 
 TEST(Expand, UnvalidatedUnknownAxisIsAnErrorNotACrash) {
-  Diagnostics diag("e.toml");
+  io::Diagnostics diag("e.toml");
   auto plan =
       parsePlan(test::twoAxis("[[step]]\ntype = \"move\"\nmiddle = \"10 deg\"\n"), "e.toml", diag);
   ASSERT_TRUE(plan) << diag.str();  // the parser accepts axis names; the validator refuses

@@ -26,7 +26,7 @@ struct Loaded {
 
 Loaded load(const std::string& name) {
   const std::string path = test::kLibraryDir + "/" + name;
-  Diagnostics diag(path);
+  io::Diagnostics diag(path);
   auto plan = loadPlanFile(path, diag);
   EXPECT_TRUE(plan) << diag.str();
   if (!plan) return {};

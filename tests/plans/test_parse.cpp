@@ -67,7 +67,7 @@ count = 3
   type = "hold"
   duration = "1500 ms"
 )";
-  Diagnostics diag("all.toml");
+  io::Diagnostics diag("all.toml");
   auto plan = parsePlan(text, "all.toml", diag);
   ASSERT_TRUE(plan) << diag.str();
   EXPECT_EQ(plan->name, "all");
@@ -125,7 +125,7 @@ count = 3
 }
 
 TEST(ParsePlan, InlineTableStepsAreAccepted) {
-  Diagnostics diag("inline.toml");
+  io::Diagnostics diag("inline.toml");
   // Top-level keys must come before the first [section].
   auto plan = parsePlan(
       "step = [ { type = \"hold\", duration = \"2 s\" } ]\n" + std::string(test::kTwoAxisHeader),
@@ -137,7 +137,7 @@ TEST(ParsePlan, InlineTableStepsAreAccepted) {
 
 TEST(ParsePlan, DirectionSignsAngle) {
   for (auto [dir, sign] : {std::pair{"+", 1.0}, {"ccw", 1.0}, {"-", -1.0}, {"cw", -1.0}}) {
-    Diagnostics diag("d.toml");
+    io::Diagnostics diag("d.toml");
     auto plan = parsePlan(twoAxis(std::string("[[step]]\ntype = \"rotate\"\naxis = \"inner\"\n"
                                               "angle = \"90 deg\"\ndirection = \"") +
                                   dir + "\"\n"),
@@ -148,7 +148,7 @@ TEST(ParsePlan, DirectionSignsAngle) {
 }
 
 TEST(ParsePlan, SignedAngleWithDirectionIsRefused) {
-  Diagnostics diag("d.toml");
+  io::Diagnostics diag("d.toml");
   auto plan = parsePlan(twoAxis("[[step]]\ntype = \"rotate\"\naxis = \"inner\"\n"
                                 "angle = \"-90 deg\"\ndirection = \"+\"\n"),
                         "d.toml", diag);
@@ -160,7 +160,7 @@ TEST(ParsePlan, SignedAngleWithDirectionIsRefused) {
 }
 
 TEST(ParsePlan, BadDirectionNamed) {
-  Diagnostics diag("d.toml");
+  io::Diagnostics diag("d.toml");
   EXPECT_FALSE(parsePlan(twoAxis("[[step]]\ntype = \"rotate\"\naxis = \"inner\"\n"
                                  "angle = \"90 deg\"\ndirection = \"clockwise\"\n"),
                          "d.toml", diag));
@@ -178,10 +178,10 @@ duration = 5
 type = "hold"
 duration = "5 s"
 )");
-  Diagnostics strict("p.toml");
+  io::Diagnostics strict("p.toml");
   EXPECT_FALSE(parsePlan(text, "p.toml", strict));
   EXPECT_EQ(strict.items().size(), 1u);
-  Diagnostics partial("p.toml");
+  io::Diagnostics partial("p.toml");
   auto plan = parsePlanPartial(text, "p.toml", partial);
   ASSERT_TRUE(plan);
   ASSERT_EQ(plan->steps.size(), 2u);
@@ -191,7 +191,7 @@ duration = "5 s"
 }
 
 TEST(ParsePlan, MissingTableAndStepsAreReported) {
-  Diagnostics diag("empty.toml");
+  io::Diagnostics diag("empty.toml");
   EXPECT_FALSE(parsePlan("[plan]\nname = \"x\"\n", "empty.toml", diag));
   const std::string all = diag.str();
   EXPECT_NE(all.find("missing required [table] table"), std::string::npos) << all;
@@ -199,14 +199,14 @@ TEST(ParsePlan, MissingTableAndStepsAreReported) {
 }
 
 TEST(ParsePlan, NonStringQuantityTypeIsNamed) {
-  Diagnostics diag("t.toml");
+  io::Diagnostics diag("t.toml");
   EXPECT_FALSE(parsePlan(twoAxis("[[step]]\ntype = \"hold\"\nduration = true\n"), "t.toml", diag));
   ASSERT_EQ(diag.items().size(), 1u);
   EXPECT_NE(diag.items()[0].message.find("must be a string like"), std::string::npos);
 }
 
 TEST(ParsePlan, RepeatCountMustBeAnInteger) {
-  Diagnostics diag("r.toml");
+  io::Diagnostics diag("r.toml");
   EXPECT_FALSE(parsePlan(twoAxis("[[step]]\ntype = \"repeat\"\ncount = \"3\"\n"
                                  "[[step.steps]]\ntype = \"hold\"\nduration = \"1 s\"\n"),
                          "r.toml", diag));
@@ -216,7 +216,7 @@ TEST(ParsePlan, RepeatCountMustBeAnInteger) {
 }
 
 TEST(ParsePlan, OuterAxisHeadingOnlyForTwoAxis) {
-  Diagnostics diag("h.toml");
+  io::Diagnostics diag("h.toml");
   EXPECT_FALSE(parsePlan(R"([table]
 kind = "three-axis"
 outer_axis_heading = "0 deg"
@@ -232,7 +232,7 @@ duration = "1 s"
 }
 
 TEST(LoadPlanFile, UnreadableFileIsADiagnostic) {
-  Diagnostics diag("/nonexistent/plan.toml");
+  io::Diagnostics diag("/nonexistent/plan.toml");
   EXPECT_FALSE(loadPlanFile("/nonexistent/plan.toml", diag));
   ASSERT_EQ(diag.items().size(), 1u);
   EXPECT_NE(diag.str().find("/nonexistent/plan.toml: cannot open plan file"), std::string::npos)

@@ -59,8 +59,8 @@ TEST_P(BrokenPlan, FailsAtTheRightPlaceWithTheRightReason) {
   EXPECT_FALSE(check.ok);
   const std::string all = allDiagnostics(check);
   for (const auto& e : expected) {
-    const bool found =
-        std::any_of(check.diagnostics.begin(), check.diagnostics.end(), [&](const Diagnostic& d) {
+    const bool found = std::any_of(
+        check.diagnostics.begin(), check.diagnostics.end(), [&](const io::Diagnostic& d) {
           return d.file == path && d.line == e.line && d.column == e.column &&
                  d.message.find(e.substring) != std::string::npos;
         });

@@ -20,7 +20,7 @@
 
 #include "daemon/control_server.h"
 #include "daemon/event_loop.h"
-#include "daemon/file_io.h"
+#include "io/file_io.h"
 #include "tests/daemon/control_test_util.h"
 #include "tools/cli11.h"
 #include "tools/cli_common.h"
@@ -156,7 +156,7 @@ class FakeDaemon {
   std::vector<json> requests_;
   EventLoop loop_;
   std::unique_ptr<ControlServer> server_;
-  daemon::IoStatus start_;
+  io::IoStatus start_;
   std::thread thread_;
 };
 
@@ -441,7 +441,7 @@ TEST_F(ControlClientTest, CliStartWatchCompletes) {
   // its absolute path (it used to send the path for the daemon to read).
   EXPECT_EQ(reqs[0]["name"], plan);  // absolute
   std::string text;
-  ASSERT_TRUE(daemon::readWholeFile(plan, &text).ok);
+  ASSERT_TRUE(io::readWholeFile(plan, &text).ok);
   EXPECT_EQ(reqs[0]["toml"], text);
   EXPECT_EQ(reqs[0]["label"], "T=+20C");
 }

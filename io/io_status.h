@@ -1,11 +1,11 @@
-// Status of a file operation in daemon/: what readers and writers return, so callers check it
+// Status of a file operation in io/: what readers and writers return, so callers check it
 // instead of catching exceptions. External input never crashes.
 #pragma once
 
 #include <string>
 #include <utility>
 
-namespace imubench::daemon {
+namespace imubench::io {
 
 struct IoStatus {
   bool ok = true;
@@ -16,4 +16,4 @@ struct IoStatus {
   static IoStatus Error(std::string why) { return {false, std::move(why)}; }
 };
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

@@ -1,6 +1,6 @@
-#include "daemon/sim_recording.h"
+#include "io/sim_recording.h"
 
-namespace imubench::daemon {
+namespace imubench::io {
 
 Recording recordingFromSimulation(const calib::Simulation& sim, const nav::Site& site,
                                   const RecordingIdentity& id) {
@@ -32,4 +32,4 @@ Recording recordingFromSimulation(const calib::Simulation& sim, const nav::Site&
   return rec;
 }
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-namespace imubench::plans {
+namespace imubench::io {
 
 struct Diagnostic {
   std::string file;
@@ -81,4 +81,4 @@ std::optional<int64_t> intField(const toml::table& t, std::string_view key, Diag
                                 bool required, int64_t lo, int64_t hi);
 std::optional<bool> boolField(const toml::table& t, std::string_view key, Diagnostics& diag);
 
-}  // namespace imubench::plans
+}  // namespace imubench::io

@@ -1,4 +1,4 @@
-#include "plans/toml_diagnostics.h"
+#include "io/toml_diagnostics.h"
 
 #include <charconv>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include "nav/rotation.h"
 
-namespace imubench::plans {
+namespace imubench::io {
 
 std::string Diagnostic::str() const {
   std::string s = file;
@@ -236,4 +236,4 @@ std::optional<bool> boolField(const toml::table& t, std::string_view key, Diagno
   return n->as_boolean()->get();
 }
 
-}  // namespace imubench::plans
+}  // namespace imubench::io

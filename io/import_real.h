@@ -16,7 +16,7 @@
 
 #include "calib/static_detection.h"
 
-namespace imubench::daemon {
+namespace imubench::io {
 
 struct RealImport {
   bool ok = false;
@@ -48,4 +48,4 @@ struct SectionListImport {
 // imucal section list JSON.
 SectionListImport readImucalSectionList(const std::string& json_path);
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

@@ -16,11 +16,11 @@
 #include <vector>
 
 #include "calib/motion.h"
-#include "daemon/io_status.h"
+#include "io/io_status.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"
 
-namespace imubench::daemon {
+namespace imubench::io {
 
 inline constexpr const char* kRecordingFormat = "imubench-csv/1";
 
@@ -102,4 +102,4 @@ double netAxisAngle(const std::vector<TableSample>& table, int axis, double t0, 
 // Encoder angles of one sample in rad (axisCount(kind) entries).
 std::vector<double> tableAnglesRad(calib::TableKind kind, const TableSample& s);
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

@@ -1,11 +1,11 @@
-#include "daemon/import_real.h"
+#include "io/import_real.h"
 
 #include <charconv>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-namespace imubench::daemon {
+namespace imubench::io {
 
 namespace {
 
@@ -205,4 +205,4 @@ SectionListImport readImucalSectionList(const std::string& path) {
   return r;
 }
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

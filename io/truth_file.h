@@ -5,9 +5,9 @@
 #include <string>
 
 #include "calib/bench_truth.h"
-#include "daemon/io_status.h"
+#include "io/io_status.h"
 
-namespace imubench::daemon {
+namespace imubench::io {
 
 struct TruthFileResult {
   IoStatus status;
@@ -34,4 +34,4 @@ IoStatus writeCoefficientFile(const std::string& path, const calib::CoefficientR
 IoStatus readJsonFile(const std::string& path, nlohmann::json* out);
 IoStatus writeJsonFile(const std::string& path, const nlohmann::json& j);
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

@@ -1,4 +1,4 @@
-#include "daemon/truth_file.h"
+#include "io/truth_file.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -6,9 +6,9 @@
 #include <cstring>
 #include <filesystem>
 
-#include "daemon/file_io.h"
+#include "io/file_io.h"
 
-namespace imubench::daemon {
+namespace imubench::io {
 namespace {
 
 long lineOfByte(const std::string& text, size_t byte) {
@@ -89,4 +89,4 @@ IoStatus writeCoefficientFile(const std::string& path, const calib::CoefficientR
   return writeJsonFile(path, calib::toJson(report));
 }
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

@@ -1,4 +1,4 @@
-#include "daemon/recording.h"
+#include "io/recording.h"
 
 #include <algorithm>
 #include <array>
@@ -15,9 +15,9 @@
 #include <system_error>
 #include <thread>
 
-#include "daemon/file_io.h"
+#include "io/file_io.h"
 
-namespace imubench::daemon {
+namespace imubench::io {
 namespace {
 
 namespace fs = std::filesystem;
@@ -930,4 +930,4 @@ std::vector<calib::Segment> deriveSegments(calib::TableKind kind,
   return out;
 }
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

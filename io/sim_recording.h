@@ -5,9 +5,9 @@
 #include <string>
 
 #include "calib/simulator.h"
-#include "daemon/recording.h"
+#include "io/recording.h"
 
-namespace imubench::daemon {
+namespace imubench::io {
 
 struct RecordingIdentity {
   std::string imu_serial = "SIM-0001";        // what a real IMU reports; simulated runs get a tag
@@ -18,4 +18,4 @@ struct RecordingIdentity {
 Recording recordingFromSimulation(const calib::Simulation& sim, const nav::Site& site,
                                   const RecordingIdentity& id);
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

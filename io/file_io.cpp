@@ -1,4 +1,4 @@
-#include "daemon/file_io.h"
+#include "io/file_io.h"
 
 #include <cerrno>
 #include <cstdio>
@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <memory>
 
-namespace imubench::daemon {
+namespace imubench::io {
 namespace {
 struct FileCloser {
   void operator()(std::FILE* f) const { std::fclose(f); }
@@ -30,4 +30,4 @@ IoStatus readWholeFile(const std::string& path, std::string* out) {
   return IoStatus::Ok();
 }
 
-}  // namespace imubench::daemon
+}  // namespace imubench::io

@@ -1,0 +1,177 @@
+// The run store's work for imubench-store: the SQLite backend of tools/cli_store.h (the store
+// subcommands `runs`, `export`, `import`, run ids as recordings, stored results). Registration
+// of the subcommands is in cli_runs.cpp, shared with imubench.
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <system_error>
+
+#include "daemon/store.h"
+#include "io/recording.h"
+#include "io/truth_file.h"
+#include "tools/cli_common.h"
+#include "tools/cli_store.h"
+
+namespace imubench::tools {
+namespace {
+
+const char* tableKindName(calib::TableKind kind) {
+  return kind == calib::TableKind::kThreeAxis ? "three-axis" : "two-axis";
+}
+
+// "2024-05-01T12:00:00Z"; "-" for a time that does not fit.
+std::string utcTime(double unix_s) {
+  if (!std::isfinite(unix_s)) return "-";
+  const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
+  std::tm tm{};
+  if (gmtime_r(&t, &tm) == nullptr) return "-";
+  char buf[32];
+  if (std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm) == 0) return "-";
+  return buf;
+}
+
+std::string orDash(const std::string& s) {
+  return s.empty() ? "-" : s;
+}
+
+enum class StoreAccess {
+  kExisting,  // the file must exist (reading commands do not create a database)
+  kCreate,    // created with its schema when missing (import)
+};
+
+// Opens the store or throws CommandFailed with the store's message.
+std::unique_ptr<daemon::Store> openStoreOrFail(const std::string& db_path, StoreAccess access) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (access == StoreAccess::kExisting && !fs::exists(db_path, ec)) {
+    throw CommandFailed(db_path + ": no run store here (give --db PATH or set " +
+                        std::string(kStorePathEnv) + ")");
+  }
+  daemon::StoreOpenResult r = daemon::Store::open(db_path);
+  if (!r.status.ok) throw CommandFailed(r.status.message);
+  return std::move(r.store);
+}
+
+nlohmann::json runJson(const daemon::RunInfo& r) {
+  nlohmann::json j = {{"id", r.id},
+                      {"state", daemon::runStateName(r.state)},
+                      {"plan_name", r.start.plan_name},
+                      {"bench_name", r.start.bench_name},
+                      {"imu_serial", r.start.imu_serial},
+                      {"imu_rate_hz", r.start.imu_rate_hz},
+                      {"table_kind", tableKindName(r.start.table_kind)},
+                      {"started_unix_s", r.started_unix_s},
+                      {"finished_unix_s", nullptr},
+                      {"exit_reason", r.exit_reason}};
+  if (r.finished_unix_s) j["finished_unix_s"] = *r.finished_unix_s;
+  return j;
+}
+
+}  // namespace
+
+std::string runStoreProgram(char** /*argv*/) {
+  return "internal error: imubench-store links the run store and delegates to nobody";
+}
+
+io::Recording loadStoredRun(std::int64_t id, const std::string& db_path) {
+  const std::unique_ptr<daemon::Store> store = openStoreOrFail(db_path, StoreAccess::kExisting);
+  io::RecordingReadResult r = store->loadRecording(id);
+  if (!r.status.ok) throw CommandFailed(r.status.message);
+  return std::move(r.recording);
+}
+
+std::int64_t storeRunResult(const std::string& db_path, std::int64_t run_id,
+                            const std::string& imu_serial, double temperature_c,
+                            const std::string& kind, const std::string& json) {
+  const std::unique_ptr<daemon::Store> store = openStoreOrFail(db_path, StoreAccess::kExisting);
+  const daemon::ResultIdResult r =
+      store->storeResult(run_id, imu_serial, temperature_c, kind, json);
+  if (!r.status.ok) throw CommandFailed(r.status.message);
+  return r.result_id;
+}
+
+// ---- runs ----
+
+void runRuns(const RunsOptions& o) {
+  const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kExisting);
+  const daemon::RunListResult list = store->listRuns();
+  if (!list.status.ok) throw CommandFailed(list.status.message);
+  if (o.json) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const daemon::RunInfo& r : list.runs) a.push_back(runJson(r));
+    std::cout << a.dump(2) << "\n";
+    return;
+  }
+  if (list.runs.empty()) {
+    std::cout << "no runs in " << o.db << "\n";
+    return;
+  }
+  std::printf("%6s  %-11s  %-20s  %-24s  %-16s  %s\n", "id", "state", "started (UTC)", "plan",
+              "IMU serial", "exit reason");
+  for (const daemon::RunInfo& r : list.runs) {
+    std::printf("%6lld  %-11s  %-20s  %-24s  %-16s  %s\n", static_cast<long long>(r.id),
+                daemon::runStateName(r.state), utcTime(r.started_unix_s).c_str(),
+                orDash(r.start.plan_name).c_str(), orDash(r.start.imu_serial).c_str(),
+                orDash(r.exit_reason).c_str());
+  }
+}
+
+// ---- export ----
+
+void runExport(const ExportOptions& o) {
+  const std::optional<std::int64_t> id = parseRunId(o.run);
+  if (!id) throw CommandFailed("'" + o.run + "' is not a run id (N or run:N, N >= 1)", 2);
+  const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kExisting);
+  const io::RecordingReadResult rec = store->loadRecording(*id);
+  if (!rec.status.ok) throw CommandFailed(rec.status.message);
+  if (const io::IoStatus s = io::writeRecording(o.csv_dir, rec.recording); !s.ok) {
+    throw CommandFailed(s.message);
+  }
+  std::cout << "run " << *id << " written to " << o.csv_dir << " (" << io::kRecordingFormat << ", "
+            << rec.recording.imu.size() << " IMU samples)\n";
+  if (o.results.empty()) return;
+  daemon::ResultFilter filter;
+  filter.run_id = *id;
+  const daemon::ResultListResult results = store->results(filter);
+  if (!results.status.ok) throw CommandFailed(results.status.message);
+  nlohmann::json a = nlohmann::json::array();
+  for (const daemon::StoredResult& r : results.results) {
+    nlohmann::json value = nlohmann::json::parse(r.json, nullptr, false);
+    if (value.is_discarded()) value = r.json;  // the store checks JSON on insert; keep the text
+    a.push_back({{"id", r.id},
+                 {"run_id", r.run_id},
+                 {"imu_serial", r.imu_serial},
+                 {"temperature_c", r.temperature_c},
+                 {"kind", r.kind},
+                 {"created_unix_s", r.created_unix_s},
+                 {"json", value}});
+  }
+  if (const io::IoStatus s = io::writeJsonFile(o.results, a); !s.ok) {
+    throw CommandFailed(s.message);
+  }
+  std::cout << results.results.size() << " result(s) of run " << *id << " written to " << o.results
+            << "\n";
+}
+
+// ---- import ----
+
+void runImport(const ImportOptions& o) {
+  const io::RecordingReadResult rec = io::readRecording(o.dir);
+  if (!rec.status.ok) throw CommandFailed(rec.status.message);
+  daemon::RunStart start = daemon::runStartFromRecording(rec.recording);
+  start.plan_name = o.plan_name;
+  if (o.serial) start.imu_serial = *o.serial;
+  const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kCreate);
+  const daemon::RunIdResult r = store->importRecording(start, rec.recording);
+  if (!r.status.ok) throw CommandFailed(r.status.message);
+  std::cerr << "imported " << o.dir << " into " << o.db << " as run " << r.run_id << "\n";
+  std::cout << r.run_id << "\n";
+}
+
+}  // namespace imubench::tools
