@@ -216,20 +216,8 @@ IoStatus BenchDaemon::start() {
     return st;
   }
 
-  ControlServerOptions server_options;
-  server_options.socket_path =
-      options_.socket_path.empty() ? bench_.control_socket : options_.socket_path;
-  server_options.idle_timeout_s = bench_.control.idle_timeout_s;
-  if (auto st = systemdListenFd(&server_options.listen_fd); !st.ok) return st;
-  server_ = std::make_unique<ControlServer>(
-      &loop_, server_options, [this](const Request& r, ClientId c) { return handle(r, c); }, &log_);
-  PlanLibraryOptions library;
-  std::error_code ec;
-  if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
-  if (ec) return IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
-  plans_ = std::make_unique<PlanLibrary>(&loop_, library);
-  exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
-  if (auto st = server_->start(); !st.ok) return IoStatus::Error("control socket: " + st.message);
+  std::string socket_path;
+  if (auto st = startControl(&socket_path); !st.ok) return st;
 
   EventLoop::TimerId timer{};
   if (auto st = loop_.addTimer(
@@ -261,8 +249,38 @@ IoStatus BenchDaemon::start() {
   }
   notifier_.ready();
   notifier_.status("idle");
-  log_.info("bench '" + bench_.name + "' ready: control socket " + server_options.socket_path +
+  log_.info("bench '" + bench_.name + "' ready: control socket " + socket_path +
             ", store " + db + ", IMU on " + bench_.imu.interface);
+  return IoStatus::Ok();
+}
+
+// The control socket (with its access policy), the plan library and the export worker.
+IoStatus BenchDaemon::startControl(std::string* socket_path) {
+  ControlServerOptions server_options;
+  server_options.socket_path =
+      options_.socket_path.empty() ? bench_.control_socket : options_.socket_path;
+  server_options.idle_timeout_s = bench_.control.idle_timeout_s;
+  if (auto st = systemdListenFd(&server_options.listen_fd); !st.ok) return st;
+  server_ = std::make_unique<ControlServer>(
+      &loop_, server_options, [this](const Request& r, ClientId c) { return handle(r, c); }, &log_);
+  const ControlRights rights{bench_.control.command_group, bench_.control.read_group, ::geteuid()};
+  server_->setAccessPolicy([rights](Command c, const PeerCredentials& peer) {
+    return checkCommandRights(rights, peer, c);
+  });
+  if (rights.command_group) {
+    log_.info("control rights: commands need group " + rights.command_group->name +
+              (rights.read_group ? ", reading needs group " + rights.read_group->name
+                                 : std::string(", reading is open")) +
+              "; stop and ping are open to every user who reaches the socket");
+  }
+  PlanLibraryOptions library;
+  std::error_code ec;
+  if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
+  if (ec) return IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
+  plans_ = std::make_unique<PlanLibrary>(&loop_, library);
+  exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
+  if (auto st = server_->start(); !st.ok) return IoStatus::Error("control socket: " + st.message);
+  *socket_path = server_options.socket_path;
   return IoStatus::Ok();
 }
 

@@ -77,6 +77,7 @@ class BenchDaemon {
   using PlanUse = std::function<Reply(const std::string& name, const std::string& text)>;
 
   // nullopt: the reply follows through the server (a plan read from the plan library).
+  IoStatus startControl(std::string* socket_path);
   std::optional<Reply> handle(const Request& request, ClientId client);
   std::optional<Reply> withPlanText(const Request& request, ClientId client,
                                     const PlanSource& source, const PlanUse& use);

@@ -353,6 +353,8 @@ std::string_view errorCodeName(ErrorCode c) {
       return "not_found";
     case ErrorCode::kBadPlan:
       return "bad_plan";
+    case ErrorCode::kForbidden:
+      return "forbidden";
     case ErrorCode::kInternal:
       return "internal";
   }
@@ -414,6 +416,9 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //   {"cmd":"results","run":1.5}  -> bad_argument "run: must be an integer run id, got 1.5"
 //   {"cmd":"export","run":1,"dir":"/tmp/x"} -> bad_argument "dir: must be a single name ..."
 //   a line over the size limit   -> too_large (sent by the server; the line is discarded)
+//   {"cmd":"start",...} from a user outside the bench's command group (daemon/control_rights.h)
+//                                -> forbidden "start: forbidden for uid 1000: commanding the
+//                                   bench needs group imubench (gid 1001)" (stop, ping: never)
 ParseResult parseRequest(std::string_view line) {
   ParseResult r;
   json doc;

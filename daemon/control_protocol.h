@@ -47,6 +47,7 @@ enum class ErrorCode {
   kBadState,        // not possible in the current state (e.g. resume when not paused)
   kNotFound,        // no such run or plan
   kBadPlan,         // the plan was refused by the validator
+  kForbidden,       // the peer may not send this command (daemon/control_rights.h)
   kInternal,        // the daemon failed (I/O error, ...)
 };
 std::string_view errorCodeName(ErrorCode c);
