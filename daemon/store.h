@@ -28,8 +28,9 @@
 namespace imubench::daemon {
 
 // PRAGMA user_version of the schema this code writes. A database with a higher version was
-// written by a newer imubench and is refused rather than misread.
-inline constexpr int kStoreSchemaVersion = 1;
+// written by a newer imubench and is refused rather than misread; an older one is migrated
+// when opened (1 -> 2: the plan queue's table).
+inline constexpr int kStoreSchemaVersion = 2;
 
 struct StoreOptions {
   // How long a statement waits for a lock held by another connection (a CLI reading while
@@ -92,6 +93,17 @@ struct RunEvent {
   std::string json;  // details, a JSON text
 };
 
+// A plan waiting in the daemon's queue: started when the run before it completes. Stored, so
+// the queue survives a daemon restart.
+struct QueueEntry {
+  std::int64_t id = 0;        // assigned by queueAdd, never reused
+  std::string plan_name;      // the plan's own name ([plan] name)
+  std::string source;         // what diagnostics call the plan (the client's file, a library path)
+  std::string plan_toml;      // the plan's text as it was queued
+  std::string label;          // the start's label (may be empty)
+  double added_unix_s = 0.0;  // set by queueAdd
+};
+
 struct StoredResult {
   std::int64_t id = 0;
   std::int64_t run_id = 0;
@@ -149,6 +161,15 @@ struct ResultListResult {
   IoStatus status;
   std::vector<StoredResult> results;  // by id
 };
+struct QueueAddResult {
+  IoStatus status;
+  std::int64_t entry_id = 0;
+  int position = 0;  // 1-based: where it landed (the last place)
+};
+struct QueueListResult {
+  IoStatus status;
+  std::vector<QueueEntry> entries;  // in queue order, the next to start first
+};
 struct CountResult {
   IoStatus status;
   int count = 0;
@@ -194,6 +215,14 @@ class Store {
                              double temperature_c, const std::string& kind,
                              const std::string& json_text);
   ResultListResult results(const ResultFilter& filter = {});
+
+  // The plan queue. Positions are 1-based, the head (position 1) starts next.
+  QueueAddResult queueAdd(const QueueEntry& entry);  // appended at the end
+  QueueListResult queueList();
+  // Moves an entry to `position` (1..size); the others keep their order. Refuses an unknown
+  // entry or a position out of range (nothing changes).
+  IoStatus queueMove(std::int64_t entry_id, int position);
+  IoStatus queueRemove(std::int64_t entry_id);  // refuses an unknown entry
 
   // PRAGMA integrity_check: ok, or the problems it lists.
   IoStatus integrityCheck();
