@@ -56,12 +56,16 @@ CommandClass commandClass(Command c) {
     case Command::kExport:
     case Command::kListPlans:
     case Command::kValidatePlan:
+    case Command::kQueueList:
       return CommandClass::kRead;
     case Command::kStart:
     case Command::kPause:
     case Command::kResume:
     case Command::kAbort:
     case Command::kRearm:
+    case Command::kQueueMove:
+    case Command::kQueueRemove:
+    case Command::kQueueResume:
       return CommandClass::kCommand;
   }
   return CommandClass::kCommand;  // a command added without a class needs the most rights

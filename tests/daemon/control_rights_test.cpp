@@ -29,11 +29,12 @@ PeerCredentials peer(uid_t uid, gid_t gid) {
   return {true, uid, gid, 4242};
 }
 
-const Command kCommands[] = {Command::kStart, Command::kPause,  Command::kResume,
-                             Command::kAbort, Command::kRearm};
+const Command kCommands[] = {Command::kStart,     Command::kPause,       Command::kResume,
+                             Command::kAbort,     Command::kRearm,       Command::kQueueMove,
+                             Command::kQueueRemove, Command::kQueueResume};
 const Command kReads[] = {Command::kStatus,   Command::kSubscribe,  Command::kUnsubscribe,
                           Command::kResults,  Command::kExport,     Command::kListPlans,
-                          Command::kValidatePlan};
+                          Command::kValidatePlan, Command::kQueueList};
 const Command kAnyone[] = {Command::kStop, Command::kPing};
 
 TEST(ControlRights, CommandClasses) {
