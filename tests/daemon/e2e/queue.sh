@@ -6,7 +6,8 @@
 #     (`queue remove`): the remaining one starts by itself when the first completes;
 #   - one more queued, SIGTERM, the daemon started again on the same database: `imubench
 #     queue` still lists it and nothing started by itself; `queue resume` starts it;
-#   - after an abort the queue holds (the next plan does not start).
+#   - after an abort the queue holds (the next plan does not start); a queued plan the bench
+#     cannot start (table in emergency stop) stays queued.
 # Usage: queue.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
@@ -130,6 +131,14 @@ check(end["state"] == "aborted", "run 3 aborted")
 stays_idle("after an abort the queue holds")
 check(not any(e["event"] == "queue_started" and e["entry"] == 4 for e in c.events),
       "fifth (entry 4) never started")
+# A queued plan the bench cannot start now (table in emergency stop) stays queued.
+check(c.reply({"cmd": "stop"})["ok"], "emergency stop with no run")
+r = c.reply({"cmd": "queue_resume"})
+check(not r["ok"] and r["error"]["code"] == "bad_state" and
+      r["error"]["message"].startswith("queue entry 4 (plan 'fifth'): ") and
+      "emergency stop" in r["error"]["message"], "queue resume on a stopped table: %s" % r["error"])
+q = c.reply({"cmd": "queue_list"})["result"]["queue"]
+check([e["entry"] for e in q] == [4], "the entry stays queued")
 PY
 e2e_stop_daemon
 echo "PASS"
