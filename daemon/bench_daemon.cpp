@@ -251,8 +251,8 @@ IoStatus BenchDaemon::start() {
   }
   notifier_.ready();
   notifier_.status("idle");
-  log_.info("bench '" + bench_.name + "' ready: control socket " + socket_path +
-            ", store " + db + ", IMU on " + bench_.imu.interface);
+  log_.info("bench '" + bench_.name + "' ready: control socket " + socket_path + ", store " + db +
+            ", IMU on " + bench_.imu.interface);
   return IoStatus::Ok();
 }
 

@@ -201,8 +201,8 @@ std::optional<NamedGroup> groupField(const toml::table& t, std::string_view key,
   std::vector<char> buf(static_cast<std::size_t>(hint > 0 ? hint : kDefaultGrBuffer));
   group gr{};
   group* found = nullptr;
-  if (name->empty() ||
-      ::getgrnam_r(name->c_str(), &gr, buf.data(), buf.size(), &found) != 0 || found == nullptr) {
+  if (name->empty() || ::getgrnam_r(name->c_str(), &gr, buf.data(), buf.size(), &found) != 0 ||
+      found == nullptr) {
     diag.error(t.get(key)->source(),
                std::string(key) + ": no group \"" + *name + "\" on this system");
     return std::nullopt;

@@ -115,9 +115,9 @@ struct QueueMoveArgs {
 struct QueueRemoveArgs {
   std::int64_t entry = 0;
 };
-using RequestArgs = std::variant<NoArgs, StartArgs, SubscribeArgs, UnsubscribeArgs,
-                                 ValidatePlanArgs, ResultsArgs, ExportArgs, QueueMoveArgs,
-                                 QueueRemoveArgs>;
+using RequestArgs =
+    std::variant<NoArgs, StartArgs, SubscribeArgs, UnsubscribeArgs, ValidatePlanArgs, ResultsArgs,
+                 ExportArgs, QueueMoveArgs, QueueRemoveArgs>;
 
 struct Request {
   nlohmann::json id;  // null when the client sent none; echoed in the reply

@@ -60,8 +60,7 @@ std::vector<gid_t> peerGroups(const PeerCredentials& peer);
 // nullopt: allowed. Otherwise the refusal's message, naming the command, the peer's uid and the
 // group needed. groups: the peer's groups (peerGroups), consulted only when needed.
 std::optional<std::string> refuseCommand(const ControlRights& rights, const PeerCredentials& peer,
-                                         Command command,
-                                         const std::vector<gid_t>& groups);
+                                         Command command, const std::vector<gid_t>& groups);
 
 // refuseCommand with the groups looked up only when the decision needs them.
 std::optional<std::string> checkCommandRights(const ControlRights& rights,

@@ -89,8 +89,7 @@ class ControlServer {
   // nullopt: the reply comes later (work off the loop thread), through sendReply().
   using Handler = std::function<std::optional<Reply>(const Request&, ClientId)>;
   // Whether a peer may send a command: nullopt allows it, else the refusal's message.
-  using AccessPolicy =
-      std::function<std::optional<std::string>(Command, const PeerCredentials&)>;
+  using AccessPolicy = std::function<std::optional<std::string>(Command, const PeerCredentials&)>;
 
   // loop and logger (nullable: no logging) must outlive the server.
   ControlServer(EventLoop* loop, ControlServerOptions options, Handler handler,

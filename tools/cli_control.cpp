@@ -471,8 +471,8 @@ void printQueue(const json& r) {
   }
   std::cout << "pos  entry  plan  (file)  label\n";
   for (const json& e : entries) {
-    std::cout << textField(e, "position").value_or("?") << "  " << textField(e, "entry").value_or("?")
-              << "  " << textField(e, "plan").value_or("?");
+    std::cout << textField(e, "position").value_or("?") << "  "
+              << textField(e, "entry").value_or("?") << "  " << textField(e, "plan").value_or("?");
     if (auto name = textField(e, "name")) std::cout << "  (" << *name << ")";
     if (auto label = textField(e, "label"); label && !label->empty())
       std::cout << "  \"" << *label << "\"";
@@ -499,8 +499,8 @@ void runQueue(const QueueOptions& o, const std::string& cmd) {
 
 void addQueueCommands(CLI::App& app, const std::string& group) {
   auto o = std::make_shared<QueueOptions>();
-  CLI::App* q = app.add_subcommand(
-      "queue", "the plan queue: list it (no subcommand), move, remove, resume");
+  CLI::App* q =
+      app.add_subcommand("queue", "the plan queue: list it (no subcommand), move, remove, resume");
   q->group(group);
   q->require_subcommand(0, 1);
   q->fallthrough();  // --socket/--json also after move/remove/resume

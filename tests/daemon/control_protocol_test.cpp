@@ -121,10 +121,11 @@ TEST(ControlProtocol, StartArgumentErrorsNameTheField) {
 
 // Issue 15: the plan queue's requests.
 TEST(ControlProtocol, QueueCommands) {
-  Request r = parseOk(R"({"cmd":"start","plan":{"toml":"x"},"options":{"queue":true,"label":"u"}})");
+  Request r =
+      parseOk(R"({"cmd":"start","plan":{"toml":"x"},"options":{"queue":true,"label":"u"}})");
   EXPECT_TRUE(std::get<StartArgs>(r.args).options.queue);
-  EXPECT_FALSE(std::get<StartArgs>(parseOk(R"({"cmd":"start","plan":{"toml":"x"}})").args)
-                   .options.queue);
+  EXPECT_FALSE(
+      std::get<StartArgs>(parseOk(R"({"cmd":"start","plan":{"toml":"x"}})").args).options.queue);
   r = parseOk(R"({"id":1,"cmd":"queue_move","entry":7,"position":2})");
   EXPECT_EQ(r.command, Command::kQueueMove);
   EXPECT_EQ(std::get<QueueMoveArgs>(r.args).entry, 7);

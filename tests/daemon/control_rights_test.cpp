@@ -29,11 +29,11 @@ PeerCredentials peer(uid_t uid, gid_t gid) {
   return {true, uid, gid, 4242};
 }
 
-const Command kCommands[] = {Command::kStart,     Command::kPause,       Command::kResume,
-                             Command::kAbort,     Command::kRearm,       Command::kQueueMove,
+const Command kCommands[] = {Command::kStart,       Command::kPause,      Command::kResume,
+                             Command::kAbort,       Command::kRearm,      Command::kQueueMove,
                              Command::kQueueRemove, Command::kQueueResume};
-const Command kReads[] = {Command::kStatus,   Command::kSubscribe,  Command::kUnsubscribe,
-                          Command::kResults,  Command::kExport,     Command::kListPlans,
+const Command kReads[] = {Command::kStatus,       Command::kSubscribe, Command::kUnsubscribe,
+                          Command::kResults,      Command::kExport,    Command::kListPlans,
                           Command::kValidatePlan, Command::kQueueList};
 const Command kAnyone[] = {Command::kStop, Command::kPing};
 

@@ -254,8 +254,8 @@ TEST_F(ControlServerTest, AccessPolicyRefusesWithForbidden) {
     const json j = readJson(c);
     EXPECT_EQ(j["id"], id);
     EXPECT_EQ(j["error"]["code"], "forbidden");
-    EXPECT_NE(j["error"]["message"].get<std::string>().find(
-                  "forbidden for uid " + std::to_string(::getuid())),
+    EXPECT_NE(j["error"]["message"].get<std::string>().find("forbidden for uid " +
+                                                            std::to_string(::getuid())),
               std::string::npos)
         << j;
   }
