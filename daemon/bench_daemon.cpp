@@ -20,6 +20,14 @@
 #include "plans/validator.h"
 
 namespace imubench::daemon {
+
+// A plan ready to run on this bench (loadPlan).
+struct LoadedPlan {
+  plans::Plan plan;
+  std::string text;
+  calib::Motion motion;
+};
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -41,12 +49,6 @@ std::chrono::nanoseconds seconds(double s) {
 // A plan's text (sent by the client, or read from the plan library) parsed, validated, and
 // checked against this bench (table kind, limits). name is what diagnostics call it. nullopt
 // with the diagnostics text when refused.
-struct LoadedPlan {
-  plans::Plan plan;
-  std::string text;
-  calib::Motion motion;
-};
-
 std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& text,
                                    const BenchConfig& bench, std::string* why) {
   LoadedPlan out;
@@ -216,21 +218,8 @@ io::IoStatus BenchDaemon::start() {
     return st;
   }
 
-  ControlServerOptions server_options;
-  server_options.socket_path =
-      options_.socket_path.empty() ? bench_.control_socket : options_.socket_path;
-  server_options.idle_timeout_s = bench_.control.idle_timeout_s;
-  if (auto st = systemdListenFd(&server_options.listen_fd); !st.ok) return st;
-  server_ = std::make_unique<ControlServer>(
-      &loop_, server_options, [this](const Request& r, ClientId c) { return handle(r, c); }, &log_);
-  PlanLibraryOptions library;
-  std::error_code ec;
-  if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
-  if (ec) return io::IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
-  plans_ = std::make_unique<PlanLibrary>(&loop_, library);
-  exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
-  if (auto st = server_->start(); !st.ok)
-    return io::IoStatus::Error("control socket: " + st.message);
+  std::string socket_path;
+  if (auto st = startControl(&socket_path); !st.ok) return st;
 
   EventLoop::TimerId timer{};
   if (auto st = loop_.addTimer(
@@ -262,8 +251,38 @@ io::IoStatus BenchDaemon::start() {
   }
   notifier_.ready();
   notifier_.status("idle");
-  log_.info("bench '" + bench_.name + "' ready: control socket " + server_options.socket_path +
-            ", store " + db + ", IMU on " + bench_.imu.interface);
+  log_.info("bench '" + bench_.name + "' ready: control socket " + socket_path + ", store " + db +
+            ", IMU on " + bench_.imu.interface);
+  return io::IoStatus::Ok();
+}
+
+// The control socket (with its access policy), the plan library and the export worker.
+io::IoStatus BenchDaemon::startControl(std::string* socket_path) {
+  ControlServerOptions server_options;
+  server_options.socket_path =
+      options_.socket_path.empty() ? bench_.control_socket : options_.socket_path;
+  server_options.idle_timeout_s = bench_.control.idle_timeout_s;
+  if (auto st = systemdListenFd(&server_options.listen_fd); !st.ok) return st;
+  server_ = std::make_unique<ControlServer>(
+      &loop_, server_options, [this](const Request& r, ClientId c) { return handle(r, c); }, &log_);
+  const ControlRights rights{bench_.control.command_group, bench_.control.read_group, ::geteuid()};
+  server_->setAccessPolicy([rights](Command c, const PeerCredentials& peer) {
+    return checkCommandRights(rights, peer, c);
+  });
+  if (rights.command_group) {
+    log_.info("control rights: commands need group " + rights.command_group->name +
+              (rights.read_group ? ", reading needs group " + rights.read_group->name
+                                 : std::string(", reading is open")) +
+              "; stop and ping are open to every user who reaches the socket");
+  }
+  PlanLibraryOptions library;
+  std::error_code ec;
+  if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
+  if (ec) return io::IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
+  plans_ = std::make_unique<PlanLibrary>(&loop_, library);
+  exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
+  if (auto st = server_->start(); !st.ok) return io::IoStatus::Error("control socket: " + st.message);
+  *socket_path = server_options.socket_path;
   return io::IoStatus::Ok();
 }
 
@@ -273,6 +292,7 @@ io::IoStatus BenchDaemon::run() {
 
 void BenchDaemon::stop() {
   loop_.post([this] {
+    stopping_ = true;
     if (run_ && run_->runner->state() == RunnerState::kRunning) {
       run_->runner->abort(wallNow());
       publish(run_->runner->takeEvents());
@@ -432,6 +452,9 @@ void BenchDaemon::closeRun() {
   log_.info("run " + std::to_string(run_->id) + " closed: " + runStateName(state));
   run_.reset();
   notifier_.status("idle");
+  // Only a completed run lets the queue go on (next turn of the loop, not from inside the
+  // poll that closed the run); after an abort, fault or emergency stop it holds.
+  if (state == RunState::kFinished) loop_.post([this] { advanceQueue(); });
 }
 
 void BenchDaemon::onStatusTimer() {
@@ -476,6 +499,13 @@ std::optional<Reply> BenchDaemon::handle(const Request& request, ClientId client
       return results(request);
     case Command::kExport:
       return exportRun(request, client);
+    case Command::kQueueList:
+      return queueReply(request.id);
+    case Command::kQueueMove:
+    case Command::kQueueRemove:
+      return queueChange(request);
+    case Command::kQueueResume:
+      return startQueued(request.id);
     case Command::kPing:
     case Command::kSubscribe:
     case Command::kUnsubscribe:
@@ -508,7 +538,7 @@ std::optional<Reply> BenchDaemon::withPlanText(const Request& request, ClientId 
 }
 
 std::optional<Reply> BenchDaemon::startPlan(const Request& request, ClientId client) {
-  if (run_) return busyReply(request);
+  if (run_ && !std::get<StartArgs>(request.args).options.queue) return busyReply(request);
   return withPlanText(request, client, std::get<StartArgs>(request.args).plan,
                       [this, request](const std::string& name, const std::string& text) {
                         return startLoaded(request, name, text);
@@ -524,17 +554,27 @@ Reply BenchDaemon::busyReply(const Request& request) const {
 Reply BenchDaemon::startLoaded(const Request& request, const std::string& name,
                                const std::string& text) {
   const auto& args = std::get<StartArgs>(request.args);
-  if (run_) return busyReply(request);  // another start won while the plan was read
+  if (run_ && !args.options.queue) return busyReply(request);  // another start won the race
   std::string why;
   auto loaded = loadPlan(name, text, bench_, &why);
   if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
-  std::vector<RunStep> steps = runSteps(loaded->motion);
   if (args.options.dry_run) {
     return okReply(request.id, {{"dry_run", true},
                                 {"plan", loaded->plan.name},
-                                {"steps", steps.size()},
+                                {"steps", runSteps(loaded->motion).size()},
                                 {"planned_s", loaded->motion.duration}});
   }
+  if (args.options.queue) {
+    const auto waiting = store_->queueList();
+    if (!waiting.status.ok)
+      return errorReply(request.id, ErrorCode::kInternal, waiting.status.message);
+    if (run_ || !waiting.entries.empty()) return enqueue(request, name, *loaded);
+  }
+  return launch(*loaded, request.id);
+}
+
+// The plan's runner with the bench's safety settings.
+std::unique_ptr<PlanRunner> BenchDaemon::makeRunner(const LoadedPlan& loaded) {
   RunnerOptions ro;
   ro.comm_timeout_s = bench_.safety.comm_timeout_s;
   ro.imu_timeout_s = bench_.safety.imu_timeout_s;
@@ -542,16 +582,22 @@ Reply BenchDaemon::startLoaded(const Request& request, const std::string& name,
     ro.chamber_safe_setpoint_c = bench_.chamber->safe_setpoint_c;
     ro.chamber_over_temperature_c = bench_.chamber->over_temperature_c;
   }
-  auto runner = std::make_unique<PlanRunner>(std::move(steps), ro, *port_);
+  return std::make_unique<PlanRunner>(runSteps(loaded.motion), ro, *port_);
+}
+
+// Starts a validated plan now (no run going): the runner, then the run's record. The reply to
+// the request with id `id`.
+Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
+  auto runner = makeRunner(loaded);
   // Started before the run is recorded: a bench that cannot move (controller unreachable,
   // emergency stop not cleared) gets no run record, nothing was attempted. The runner's
   // first events wait in its queue until the run has an id.
   if (const CommandResult started = runner->start(wallNow()); !started.ok) {
-    return errorReply(request.id, ErrorCode::kBadState, started.message);
+    return errorReply(id, ErrorCode::kBadState, started.message);
   }
   RunStart start;
-  start.plan_name = loaded->plan.name;
-  start.plan_toml = loaded->text;
+  start.plan_name = loaded.plan.name;
+  start.plan_toml = loaded.text;
   start.bench_name = bench_.name;
   start.imu_serial = bench_.imu.serial;
   start.imu_rate_hz = 1.0 / bench_.imu.layout.sample_period_s;
@@ -563,19 +609,121 @@ Reply BenchDaemon::startLoaded(const Request& request, const std::string& name,
     start.outer_axis_heading_deg = bench_.outer_axis_heading_rad * kRadToDeg;
   }
   auto begun = store_->beginRun(start);
-  if (!begun.status.ok) return errorReply(request.id, ErrorCode::kInternal, begun.status.message);
+  if (!begun.status.ok) return errorReply(id, ErrorCode::kInternal, begun.status.message);
   auto run = std::make_unique<ActiveRun>();
   run->id = begun.run_id;
-  run->plan_name = loaded->plan.name;
+  run->plan_name = loaded.plan.name;
   run->runner = std::move(runner);
   run->writer = std::make_unique<RunWriter>(*store_, begun.run_id);
   run_ = std::move(run);
   publish(run_->runner->takeEvents());
   log_.info("run " + std::to_string(run_->id) + " started: plan '" + run_->plan_name + "'");
-  return okReply(request.id, {{"run", run_->id},
-                              {"plan", run_->plan_name},
-                              {"steps", run_->runner->steps().size()},
-                              {"planned_s", run_->runner->plannedTotalS()}});
+  return okReply(id, {{"run", run_->id},
+                      {"plan", run_->plan_name},
+                      {"steps", run_->runner->steps().size()},
+                      {"planned_s", run_->runner->plannedTotalS()}});
+}
+
+// ---- the plan queue (stored: it survives a restart) -----------------------------------------
+
+// A validated plan appended to the queue; it starts when the runs before it have completed.
+Reply BenchDaemon::enqueue(const Request& request, const std::string& name,
+                           const LoadedPlan& loaded) {
+  QueueEntry entry;
+  entry.plan_name = loaded.plan.name;
+  entry.source = name;
+  entry.plan_toml = loaded.text;
+  entry.label = std::get<StartArgs>(request.args).options.label;
+  const QueueAddResult added = store_->queueAdd(entry);
+  if (!added.status.ok) return errorReply(request.id, ErrorCode::kInternal, added.status.message);
+  const json queued = {
+      {"entry", added.entry_id}, {"position", added.position}, {"plan", entry.plan_name}};
+  log_.info("plan '" + entry.plan_name + "' queued: entry " + std::to_string(added.entry_id) +
+            ", position " + std::to_string(added.position));
+  server_->broadcast(Topic::kRun, "queued", queued);
+  return okReply(request.id, {{"queued", queued}});
+}
+
+// The queue's head started now (no run going). It leaves the queue only once it has started;
+// a plan the bench refuses now stays queued (the reply says why).
+Reply BenchDaemon::startQueued(const json& id) {
+  if (run_) {
+    return errorReply(id, ErrorCode::kBadState,
+                      "run " + std::to_string(run_->id) +
+                          " is going; the queue goes on by itself when it completes");
+  }
+  const QueueListResult list = store_->queueList();
+  if (!list.status.ok) return errorReply(id, ErrorCode::kInternal, list.status.message);
+  if (list.entries.empty()) return errorReply(id, ErrorCode::kNotFound, "the queue is empty");
+  const QueueEntry& head = list.entries.front();
+  const std::string which =
+      "queue entry " + std::to_string(head.id) + " (plan '" + head.plan_name + "')";
+  std::string why;
+  const auto loaded = loadPlan(head.source, head.plan_toml, bench_, &why);
+  if (!loaded) return errorReply(id, ErrorCode::kBadPlan, which + ": " + why);
+  Reply r = launch(*loaded, id);
+  if (!r.ok) {
+    r.error.message = which + ": " + r.error.message;
+    return r;
+  }
+  if (auto st = store_->queueRemove(head.id); !st.ok) log_.error("store: " + st.message);
+  r.result["entry"] = head.id;
+  server_->broadcast(Topic::kRun, "queue_started",
+                     {{"entry", head.id}, {"run", run_->id}, {"plan", run_->plan_name}});
+  log_.info(which + " started as run " + std::to_string(run_->id));
+  return r;
+}
+
+// After a run completed: the next queued plan, if any. One that cannot start holds the queue.
+void BenchDaemon::advanceQueue() {
+  if (stopping_ || run_) return;
+  const Reply r = startQueued(nullptr);
+  if (r.ok || r.error.code == ErrorCode::kNotFound) return;
+  log_.warning("queue held: " + r.error.message);
+  server_->broadcast(Topic::kRun, "queue_held", {{"reason", r.error.message}});
+}
+
+Reply BenchDaemon::queueReply(const json& id) {
+  const QueueListResult list = store_->queueList();
+  if (!list.status.ok) return errorReply(id, ErrorCode::kInternal, list.status.message);
+  json entries = json::array();
+  for (std::size_t i = 0; i < list.entries.size(); ++i) {
+    const QueueEntry& e = list.entries[i];
+    entries.push_back({{"entry", e.id},
+                       {"position", i + 1},
+                       {"plan", e.plan_name},
+                       {"name", e.source},
+                       {"label", e.label},
+                       {"added_unix_s", e.added_unix_s}});
+  }
+  return okReply(id, {{"queue", entries}});
+}
+
+// queue_move and queue_remove; the reply is the queue as it is now.
+Reply BenchDaemon::queueChange(const Request& request) {
+  const bool move = request.command == Command::kQueueMove;
+  const std::int64_t entry = move ? std::get<QueueMoveArgs>(request.args).entry
+                                  : std::get<QueueRemoveArgs>(request.args).entry;
+  const QueueListResult list = store_->queueList();
+  if (!list.status.ok) return errorReply(request.id, ErrorCode::kInternal, list.status.message);
+  const std::string which = "queue entry " + std::to_string(entry);
+  if (std::none_of(list.entries.begin(), list.entries.end(),
+                   [entry](const QueueEntry& e) { return e.id == entry; }))
+    return errorReply(request.id, ErrorCode::kNotFound, which + " is not queued");
+  io::IoStatus st;
+  if (move) {
+    const int position = std::get<QueueMoveArgs>(request.args).position;
+    if (static_cast<std::size_t>(position) > list.entries.size())
+      return errorReply(request.id, ErrorCode::kBadArgument,
+                        "position: " + std::to_string(position) + " is beyond the queue's " +
+                            std::to_string(list.entries.size()) + " entries");
+    st = store_->queueMove(entry, position);
+  } else {
+    st = store_->queueRemove(entry);
+  }
+  if (!st.ok) return errorReply(request.id, ErrorCode::kInternal, st.message);
+  log_.info(which + (move ? " moved" : " removed"));
+  return queueReply(request.id);
 }
 
 Reply BenchDaemon::runnerCommand(const Request& request) {
@@ -653,6 +801,9 @@ Reply BenchDaemon::status() const {
   s["imu_bad_frames"] = imu_->decoder().counters().badFrames();
   s["imu_restarts"] = imu_->decoder().counters().restarts;
   s["table"] = tableJson();
+  if (const auto waiting = store_->queueList(); waiting.status.ok) {
+    s["queued"] = waiting.entries.size();  // plans in the queue (queue_list)
+  }
   if (run_) {
     const PlanRunner& r = *run_->runner;
     s["run"] = run_->id;

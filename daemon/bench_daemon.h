@@ -8,7 +8,11 @@
 //   runner events        -> store events, control-socket broadcast (topic "run"), syslog
 //   status timer         -> topic "status" (progress, ETA, step), sd_notify STATUS, watchdog
 //   control socket       -> start/pause/resume/abort/stop/rearm/status/list_plans/
-//                           validate_plan/results/export
+//                           validate_plan/results/export/queue_*; each request first passes
+//                           the bench's command rights (daemon/control_rights.h)
+//   run completed        -> the plan queue's head starts (stored in the database, so the
+//                           queue survives a restart; an abort, fault or restart holds it until
+//                           queue_resume)
 //   plan library reads,  -> a worker thread each (daemon/off_loop.h); the reply is sent from
 //   exports                 the loop when the work is done (no file read or write on the loop)
 //
@@ -44,6 +48,8 @@
 
 namespace imubench::daemon {
 
+struct LoadedPlan;
+
 struct DaemonOptions {
   std::string socket_path;   // empty: the bench file's control_socket
   std::string storage_path;  // empty: the bench file's storage
@@ -77,11 +83,19 @@ class BenchDaemon {
   using PlanUse = std::function<Reply(const std::string& name, const std::string& text)>;
 
   // nullopt: the reply follows through the server (a plan read from the plan library).
+  io::IoStatus startControl(std::string* socket_path);
   std::optional<Reply> handle(const Request& request, ClientId client);
   std::optional<Reply> withPlanText(const Request& request, ClientId client,
                                     const PlanSource& source, const PlanUse& use);
   std::optional<Reply> startPlan(const Request& request, ClientId client);
   Reply startLoaded(const Request& request, const std::string& name, const std::string& text);
+  std::unique_ptr<PlanRunner> makeRunner(const LoadedPlan& loaded);
+  Reply launch(const LoadedPlan& loaded, const nlohmann::json& id);
+  Reply enqueue(const Request& request, const std::string& name, const LoadedPlan& loaded);
+  Reply startQueued(const nlohmann::json& id);
+  void advanceQueue();
+  Reply queueReply(const nlohmann::json& id);
+  Reply queueChange(const Request& request);
   Reply busyReply(const Request& request) const;
   Reply status() const;
   std::optional<Reply> listPlans(const Request& request, ClientId client);
@@ -118,6 +132,7 @@ class BenchDaemon {
   std::string db_path_;               // the store's file; exports go next to it
   SystemdNotifier notifier_;
   std::unique_ptr<ActiveRun> run_;
+  bool stopping_ = false;  // stop() has begun: no queued plan starts any more
   std::vector<drivers::DecodedImuSample> decoded_;  // per-wake buffers, reused (hot path)
   nav::ImuSamples samples_;
   std::optional<double> imu_last_t_;     // newest IMU sample time (the recording's clock)

@@ -1,9 +1,13 @@
 #include "daemon/bench_file.h"
 
+#include <grp.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "nav/rotation.h"
 
@@ -184,11 +188,38 @@ void parseSafety(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
   }
 }
 
-// The control socket's connection policy (daemon/control_server.h).
+// getgrnam_r's buffer when sysconf has no hint.
+constexpr long kDefaultGrBuffer = 64 * 1024;
+
+// A group named by key, resolved now (the group database as the daemon starts).
+std::optional<NamedGroup> groupField(const toml::table& t, std::string_view key,
+                                     Diagnostics& diag) {
+  const auto name = strField(t, key, diag, false);
+  if (!name) return std::nullopt;
+  const long hint = ::sysconf(_SC_GETGR_R_SIZE_MAX);
+  std::vector<char> buf(static_cast<std::size_t>(hint > 0 ? hint : kDefaultGrBuffer));
+  group gr{};
+  group* found = nullptr;
+  if (name->empty() || ::getgrnam_r(name->c_str(), &gr, buf.data(), buf.size(), &found) != 0 ||
+      found == nullptr) {
+    diag.error(t.get(key)->source(),
+               std::string(key) + ": no group \"" + *name + "\" on this system");
+    return std::nullopt;
+  }
+  return NamedGroup{*name, gr.gr_gid};
+}
+
+// The control socket's connection policy (daemon/control_server.h) and rights
+// (daemon/control_rights.h).
 void parseControl(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
   const toml::table* t = subTable(root, "control", diag, false);
   if (t == nullptr) return;
-  checkKeys(*t, {"idle_timeout"}, "[control]", diag);
+  checkKeys(*t, {"idle_timeout", "command_group", "read_group"}, "[control]", diag);
+  b.control.command_group = groupField(*t, "command_group", diag);
+  b.control.read_group = groupField(*t, "read_group", diag);
+  if (b.control.read_group && !b.control.command_group && t->get("command_group") == nullptr)
+    diag.error(t->get("read_group")->source(),
+               "read_group needs command_group (who may command the bench)");
   if (auto v = quantityField(*t, "idle_timeout", Dimension::kTime, diag, false)) {
     if (*v >= 0.0 && *v <= kMaxIdleTimeoutS) {
       b.control.idle_timeout_s = *v;

@@ -46,6 +46,19 @@
 //   [control]                 # optional: the control socket's connections
 //   idle_timeout = "600 s"    # a connection without a request this long is closed, unless it
 //                             #   is subscribed and reads its events; "0 s": never
+//   command_group = "imubench"       # optional: only members (and root, and the daemon's own
+//                                    #   user) may start/pause/resume/abort/rearm and change
+//                                    #   the queue; everyone who reaches the socket may still
+//                                    #   send the emergency stop (stop) and ping
+//   read_group = "imubench-view"     # optional, needs command_group: members (and the command
+//                                    #   group's) may read: status, watch, results, export,
+//                                    #   list_plans, validate_plan, queue_list
+//   Without command_group anyone who can reach the socket may send every command: the socket
+//   file's mode (0660, group imubench) is the only gate, as before these keys. With a
+//   command_group and other users meant to read or stop, the socket must let them connect
+//   (SocketMode=0666 in systemd/imubenchd.socket, or a group they share). Group names are
+//   resolved when the bench file is loaded (an unknown group is an error at its key). Rules:
+//   daemon/control_rights.h.
 //
 // Loading never throws: every problem is a diagnostic "file:line:column: reason", including
 // problems inside the referenced device files, and the bench is refused (nullopt).
@@ -55,6 +68,7 @@
 #include <string>
 #include <string_view>
 
+#include "daemon/control_rights.h"
 #include "drivers/device_file.h"
 #include "drivers/imu_layout.h"
 #include "io/toml_diagnostics.h"
@@ -84,6 +98,10 @@ struct BenchControl {
   // ControlServerOptions::idle_timeout_s: leaked connections free their slots; ten minutes
   // outlasts an operator pausing at a prompt.
   double idle_timeout_s = 600.0;
+  // Who may command and who may read (daemon/control_rights.h); absent: everyone who reaches
+  // the socket may do everything (the socket's file mode is the gate).
+  std::optional<NamedGroup> command_group;
+  std::optional<NamedGroup> read_group;
 };
 
 struct BenchImu {

@@ -12,7 +12,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr std::array<std::pair<Command, std::string_view>, 14> kCommands{{
+constexpr std::array<std::pair<Command, std::string_view>, 18> kCommands{{
     {Command::kStart, "start"},
     {Command::kPause, "pause"},
     {Command::kResume, "resume"},
@@ -27,6 +27,10 @@ constexpr std::array<std::pair<Command, std::string_view>, 14> kCommands{{
     {Command::kResults, "results"},
     {Command::kExport, "export"},
     {Command::kPing, "ping"},
+    {Command::kQueueList, "queue_list"},
+    {Command::kQueueMove, "queue_move"},
+    {Command::kQueueRemove, "queue_remove"},
+    {Command::kQueueResume, "queue_resume"},
 }};
 
 constexpr std::array<std::pair<Topic, std::string_view>, kTopicCount> kTopics{{
@@ -128,9 +132,10 @@ bool readBool(const json& obj, std::string_view key, std::string_view where, boo
   return true;
 }
 
-// Run ids are positive integers (SQLite rowids); 1.0 or "3" are refused, not converted.
-bool readRunId(const json& obj, std::string_view key, bool required,
-               std::optional<std::int64_t>* out, ProtocolError* err) {
+// Run and queue entry ids (SQLite rowids) and queue positions are positive integers; 1.0 or
+// "3" are refused, not converted. noun names the kind in the message ("run id").
+bool readPositive(const json& obj, std::string_view key, bool required, std::string_view noun,
+                  std::optional<std::int64_t>* out, ProtocolError* err) {
   const auto it = obj.find(key);
   if (it == obj.end()) {
     if (required) return fail(err, ErrorCode::kBadArgument, std::string(key) + ": missing");
@@ -139,7 +144,7 @@ bool readRunId(const json& obj, std::string_view key, bool required,
   const std::string where(key);
   if (!it->is_number_integer())
     return fail(err, ErrorCode::kBadArgument,
-                where + ": must be an integer run id, got " +
+                where + ": must be an integer " + std::string(noun) + ", got " +
                     it->dump(-1, ' ', false, json::error_handler_t::replace));
   if (it->is_number_unsigned() &&
       it->get<std::uint64_t>() > std::uint64_t{std::numeric_limits<std::int64_t>::max()})
@@ -148,6 +153,11 @@ bool readRunId(const json& obj, std::string_view key, bool required,
   if (v < 1) return fail(err, ErrorCode::kBadArgument, where + ": must be >= 1");
   *out = v;
   return true;
+}
+
+bool readRunId(const json& obj, std::string_view key, bool required,
+               std::optional<std::int64_t>* out, ProtocolError* err) {
+  return readPositive(obj, key, required, "run id", out, err);
 }
 
 bool readPlan(const json& obj, PlanSource* out, ProtocolError* err) {
@@ -202,9 +212,14 @@ bool readStartOptions(const json& obj, StartOptions* out, ProtocolError* err) {
   if (!it->is_object())
     return fail(err, ErrorCode::kBadArgument,
                 std::string("options: must be an object, got ") + it->type_name());
-  if (!refuseUnknownFields(*it, {"dry_run", "label", "out_dir"}, "options", "options", err))
+  if (!refuseUnknownFields(*it, {"dry_run", "label", "out_dir", "queue"}, "options", "options",
+                           err))
     return false;
   if (!readBool(*it, "dry_run", "options", &out->dry_run, err)) return false;
+  if (!readBool(*it, "queue", "options", &out->queue, err)) return false;
+  if (out->queue && out->dry_run)
+    return fail(err, ErrorCode::kBadArgument,
+                "options.queue: not with dry_run (a dry run only validates; use validate_plan)");
   if (!readString(*it, "label", "options", false, &out->label, err)) return false;
   if (out->label.size() > kMaxLabelBytes)
     return fail(err, ErrorCode::kBadArgument,
@@ -266,6 +281,27 @@ bool readCommandName(const json& obj, Command* out, ProtocolError* err) {
               "cmd: unknown command " + quote(name) + " (known: " + commandList() + ")");
 }
 
+// queue_move {"entry":N,"position":P} and queue_remove {"entry":N}.
+bool readQueueArgs(const json& obj, Command c, const std::string& owner, RequestArgs* out,
+                   ProtocolError* err) {
+  const bool move = c == Command::kQueueMove;
+  if (move ? !refuseUnknownFields(obj, {"id", "cmd", "entry", "position"}, "", owner, err)
+           : !refuseUnknownFields(obj, {"id", "cmd", "entry"}, "", owner, err))
+    return false;
+  std::optional<std::int64_t> entry;
+  if (!readPositive(obj, "entry", true, "queue entry id", &entry, err)) return false;
+  if (!move) {
+    *out = QueueRemoveArgs{*entry};
+    return true;
+  }
+  std::optional<std::int64_t> position;
+  if (!readPositive(obj, "position", true, "position (1 = next)", &position, err)) return false;
+  if (*position > std::numeric_limits<int>::max())
+    return fail(err, ErrorCode::kBadArgument, "position: out of range");
+  *out = QueueMoveArgs{*entry, static_cast<int>(*position)};
+  return true;
+}
+
 // The arguments of one command; refuses fields the command does not take.
 bool readArgs(const json& obj, Command c, RequestArgs* out, ProtocolError* err) {
   const std::string owner = "command " + quote(commandName(c));
@@ -312,6 +348,9 @@ bool readArgs(const json& obj, Command c, RequestArgs* out, ProtocolError* err) 
       *out = std::move(a);
       return true;
     }
+    case Command::kQueueMove:
+    case Command::kQueueRemove:
+      return readQueueArgs(obj, c, owner, out, err);
     default:
       *out = NoArgs{};
       return refuseUnknownFields(obj, {"id", "cmd"}, "", owner, err);
@@ -353,6 +392,8 @@ std::string_view errorCodeName(ErrorCode c) {
       return "not_found";
     case ErrorCode::kBadPlan:
       return "bad_plan";
+    case ErrorCode::kForbidden:
+      return "forbidden";
     case ErrorCode::kInternal:
       return "internal";
   }
@@ -398,6 +439,24 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //        "dir":"/var/lib/imubench/exports/unit42"}}  (the daemon writes only under exports/
 //        next to its database; "dir" is optional, default "run-42"; an existing one is refused)
 //
+// The plan queue (stored in the database, so it survives a daemon restart). A start with
+// "queue":true while a run is going (or while plans are already queued) validates the plan
+// against the bench now and appends it; otherwise it starts at once like any start:
+//   {"id":20,"cmd":"start","plan":{"toml":"...","name":"/home/op/b.toml"},
+//    "options":{"queue":true,"label":"unit 43"}}
+//        -> {"result":{"queued":{"entry":7,"position":2,"plan":"b"}}}   (refused: bad_plan)
+//   {"id":21,"cmd":"queue_list"} -> {"result":{"queue":[{"entry":6,"position":1,"plan":"a",
+//        "name":"/home/op/a.toml","label":"","added_unix_s":1.7e9},...]}}
+//   {"id":22,"cmd":"queue_move","entry":7,"position":1}   (1 = next; replies the new queue)
+//   {"id":23,"cmd":"queue_remove","entry":6}               (replies the new queue)
+//   {"id":24,"cmd":"queue_resume"}   (no run going: start the head now; replies as start, plus
+//                                     "entry")
+// When a run ends completed, the queue's head starts by itself (event "queue_started" on topic
+// run; if it cannot start, e.g. the bench is in emergency stop, it stays queued: event
+// "queue_held" with the reason). After an abort, a fault, an emergency stop or a daemon restart
+// the queue holds: nothing starts until the operator sends queue_resume (or starts a plan,
+// whose completion lets the queue go on).
+//
 // Replies carry the request's id. Work that may block (a library plan read, an export) runs
 // off the daemon's event loop and is answered when done: a client that sends several requests
 // without waiting may get those replies after later ones, and matches them by id.
@@ -413,7 +472,12 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //   {"cmd":"pause","force":1}    -> bad_argument "force: unknown field of command \"pause\" ..."
 //   {"cmd":"results","run":1.5}  -> bad_argument "run: must be an integer run id, got 1.5"
 //   {"cmd":"export","run":1,"dir":"/tmp/x"} -> bad_argument "dir: must be a single name ..."
+//   {"cmd":"queue_move","entry":7}          -> bad_argument "position: missing"
+//   {"cmd":"queue_remove","entry":99}       -> not_found "queue entry 99 is not queued"
 //   a line over the size limit   -> too_large (sent by the server; the line is discarded)
+//   {"cmd":"start",...} from a user outside the bench's command group (daemon/control_rights.h)
+//                                -> forbidden "start: forbidden for uid 1000: commanding the
+//                                   bench needs group imubench (gid 1001)" (stop, ping: never)
 ParseResult parseRequest(std::string_view line) {
   ParseResult r;
   json doc;

@@ -34,6 +34,10 @@ enum class Command {
   kResults,       // run history or one run's results
   kExport,        // write a run's recording to a directory under the daemon's state directory
   kPing,          // liveness check of the event loop
+  kQueueList,     // the plan queue (plans waiting for the run before them to complete)
+  kQueueMove,     // move a queued plan to another position
+  kQueueRemove,   // take a plan out of the queue
+  kQueueResume,   // start the queue's head now (no run going; e.g. after an abort held it)
 };
 // The wire name ("start", "list_plans", ...).
 std::string_view commandName(Command c);
@@ -47,6 +51,7 @@ enum class ErrorCode {
   kBadState,        // not possible in the current state (e.g. resume when not paused)
   kNotFound,        // no such run or plan
   kBadPlan,         // the plan was refused by the validator
+  kForbidden,       // the peer may not send this command (daemon/control_rights.h)
   kInternal,        // the daemon failed (I/O error, ...)
 };
 std::string_view errorCodeName(ErrorCode c);
@@ -75,6 +80,9 @@ struct StartOptions {
   bool dry_run = false;  // validate and expand, move nothing
   std::string label;     // free text stored with the run (empty: none)
   std::string out_dir;   // where the recording goes (empty: the daemon's state directory)
+  // Run after what is already queued: appended to the plan queue when a run is going (or the
+  // queue is not empty), started now otherwise. Not with dry_run.
+  bool queue = false;
 };
 
 struct NoArgs {};
@@ -100,8 +108,16 @@ struct ExportArgs {
   // database): one name of [A-Za-z0-9._-], not starting with '.'. Empty: "run-<id>".
   std::string dir;
 };
-using RequestArgs = std::variant<NoArgs, StartArgs, SubscribeArgs, UnsubscribeArgs,
-                                 ValidatePlanArgs, ResultsArgs, ExportArgs>;
+struct QueueMoveArgs {
+  std::int64_t entry = 0;  // the queue entry's id (queue_list)
+  int position = 1;        // 1-based; 1 = next to start
+};
+struct QueueRemoveArgs {
+  std::int64_t entry = 0;
+};
+using RequestArgs =
+    std::variant<NoArgs, StartArgs, SubscribeArgs, UnsubscribeArgs, ValidatePlanArgs, ResultsArgs,
+                 ExportArgs, QueueMoveArgs, QueueRemoveArgs>;
 
 struct Request {
   nlohmann::json id;  // null when the client sent none; echoed in the reply

@@ -28,6 +28,7 @@ struct ControlServer::Client {
   std::uint32_t interest = EPOLLIN;  // the events registered with the loop
   std::bitset<kTopicCount> topics;
   bool reserved = false;  // in a reserved slot: stop, status and ping only
+  PeerCredentials peer;   // SO_PEERCRED at accept
   // The last request received, or output written: what the idle timeout measures from.
   std::chrono::steady_clock::time_point last_active = std::chrono::steady_clock::now();
 };
@@ -247,11 +248,12 @@ void ControlServer::acceptOne(int fd) {
   }
   ucred cred{};
   socklen_t len = sizeof cred;
-  const bool have_cred = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0;
+  if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0)
+    c->peer = {true, cred.uid, cred.gid, cred.pid};
   log(LogLevel::kInfo, "client " + std::to_string(id) + " connected" +
-                           (have_cred ? " (uid " + std::to_string(cred.uid) + ", pid " +
-                                            std::to_string(cred.pid) + ")"
-                                      : "") +
+                           (c->peer.known ? " (uid " + std::to_string(cred.uid) + ", pid " +
+                                                std::to_string(cred.pid) + ")"
+                                          : "") +
                            (reserved ? " into a reserved slot (stop, status, ping)" : ""));
   clients_.emplace(id, std::move(c));
   ++stats_.accepted;
@@ -375,6 +377,13 @@ std::optional<Reply> ControlServer::answer(Client& c, const Request& request) {
                       "all " + std::to_string(options_.max_clients) +
                           " client slots are taken; this connection is in a reserved slot and "
                           "takes only stop, status and ping");
+  if (policy_) {
+    if (auto refused = policy_(request.command, c.peer)) {
+      ++stats_.forbidden;
+      log(LogLevel::kNotice, "client " + std::to_string(c.id) + ": " + *refused);
+      return errorReply(request.id, ErrorCode::kForbidden, *refused);
+    }
+  }
   switch (request.command) {
     case Command::kPing:
       return okReply(request.id, {{"pong", true}});

@@ -14,6 +14,12 @@
 // request for idle_timeout_s and either listens to no topic or has had output waiting unread
 // that long; idle connections are closed. A subscribed watcher that keeps reading its events is
 // never idle, however long the bench is quiet.
+//
+// Rights: the server reads each connection's peer credentials (SO_PEERCRED) when it accepts it
+// and, before answering any request (ping and subscribe included), asks the access policy it
+// was given (setAccessPolicy; daemon/control_rights.h decides for imubenchd) whether that peer
+// may send that command; a refusal is answered with the error "forbidden". Without a policy
+// every request is allowed.
 #pragma once
 
 #include <sys/types.h>
@@ -30,6 +36,7 @@
 #include <string_view>
 
 #include "daemon/control_protocol.h"
+#include "daemon/control_rights.h"
 #include "daemon/event_loop.h"
 #include "daemon/logging.h"
 #include "io/io_status.h"
@@ -72,6 +79,7 @@ struct ControlServerStats {
   std::uint64_t overflow_disconnects = 0;  // clients dropped because their queue overflowed
   std::uint64_t requests = 0;              // lines answered (valid or not)
   std::uint64_t errors = 0;                // of which error replies
+  std::uint64_t forbidden = 0;             // of which refused by the access policy
 };
 
 class ControlServer {
@@ -80,6 +88,8 @@ class ControlServer {
   // thread; the server sets the reply's id to the request's. May call broadcast()/send().
   // nullopt: the reply comes later (work off the loop thread), through sendReply().
   using Handler = std::function<std::optional<Reply>(const Request&, ClientId)>;
+  // Whether a peer may send a command: nullopt allows it, else the refusal's message.
+  using AccessPolicy = std::function<std::optional<std::string>(Command, const PeerCredentials&)>;
 
   // loop and logger (nullable: no logging) must outlive the server.
   ControlServer(EventLoop* loop, ControlServerOptions options, Handler handler,
@@ -90,6 +100,8 @@ class ControlServer {
 
   // Listens (or adopts listen_fd) and registers with the loop.
   io::IoStatus start();
+  // Consulted for every request from now on (empty: allow all).
+  void setAccessPolicy(AccessPolicy policy) { policy_ = std::move(policy); }
 
   // Sends an event to every client subscribed to topic (serialized once).
   void broadcast(Topic topic, std::string_view name, const nlohmann::json& fields = nullptr);
@@ -129,6 +141,7 @@ class ControlServer {
   EventLoop* loop_;
   ControlServerOptions options_;
   Handler handler_;
+  AccessPolicy policy_;
   const Logger* logger_;
   int listen_fd_ = -1;
   bool bound_path_ = false;  // we created socket_path (and remove it at the end)

@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -94,6 +95,24 @@ CREATE TABLE results(
 CREATE INDEX results_by_serial ON results(imu_serial, temperature_c);
 CREATE INDEX results_by_run ON results(run_id);
 )sql";
+
+// Schema version 2: the plan queue (a new database gets it with the rest; a version 1 one is
+// migrated when opened). pos orders the entries (gaps allowed); AUTOINCREMENT: an entry's id is
+// never reused, so an operator's "remove 3" cannot hit a later entry.
+constexpr const char* kQueueSchemaSql = R"sql(
+CREATE TABLE queue(
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  pos INTEGER NOT NULL,
+  plan_name TEXT NOT NULL,
+  source TEXT NOT NULL,
+  plan_toml TEXT NOT NULL,
+  label TEXT NOT NULL,
+  added_unix_s REAL NOT NULL
+) STRICT;
+CREATE INDEX queue_by_pos ON queue(pos);
+)sql";
+constexpr const char* kSetSchemaVersionSql = "PRAGMA user_version=2";
+static_assert(kStoreSchemaVersion == 2, "kSetSchemaVersionSql writes version 2");
 
 // All runs (?1 NULL) or one; read by Store::Impl::readRun.
 constexpr const char* kSelectRunsSql =
@@ -300,7 +319,7 @@ struct Store::Impl {
     return error(std::string(what) + ": " + why);
   }
 
-  // Runs `body` (returning IoStatus) in one write transaction; rolls back on failure.
+  // Runs `body` (returning io::IoStatus) in one write transaction; rolls back on failure.
   template <typename Fn>
   io::IoStatus transaction(std::string_view what, Fn&& body) {
     if (auto st = execSql("BEGIN IMMEDIATE", what); !st.ok) return st;
@@ -324,6 +343,8 @@ struct Store::Impl {
   io::IoStatus checkSchemaVersion(std::int64_t* version);
   io::IoStatus configure();
   io::IoStatus createSchemaIfNew();
+  io::IoStatus migrateSchema();
+  io::IoStatus queueIds(std::vector<std::int64_t>* ids);
   io::IoStatus runState(std::int64_t run_id, RunState* state);
   io::IoStatus requireRunning(std::int64_t run_id);
   io::IoStatus insertRun(const RunStart& start, RunState state, std::int64_t* run_id);
@@ -403,8 +424,31 @@ io::IoStatus Store::Impl::createSchemaIfNew() {
     }
     if (objects != 0) return error("not an imubench store (has tables but no schema version)");
     if (auto st = execSql(kSchemaSql, "cannot create the schema"); !st.ok) return st;
-    return execSql("PRAGMA user_version=1", "cannot set the schema version");
+    if (auto st = execSql(kQueueSchemaSql, "cannot create the schema"); !st.ok) return st;
+    return execSql(kSetSchemaVersionSql, "cannot set the schema version");
   });
+}
+
+// Version 1 (before the queue) -> 2.
+io::IoStatus Store::Impl::migrateSchema() {
+  return transaction("cannot migrate the schema to version 2", [&]() {
+    std::int64_t version = 0;
+    // Re-read inside the write transaction: another process may have migrated it meanwhile.
+    if (auto st = checkSchemaVersion(&version); !st.ok || version != 1) return st;
+    if (auto st = execSql(kQueueSchemaSql, "cannot add the queue"); !st.ok) return st;
+    return execSql(kSetSchemaVersionSql, "cannot set the schema version");
+  });
+}
+
+// The queue's entry ids in order.
+io::IoStatus Store::Impl::queueIds(std::vector<std::int64_t>* ids) {
+  io::IoStatus st;
+  Bound q = use("SELECT id FROM queue ORDER BY pos, id", &st);
+  if (!q) return st;
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) ids->push_back(q.integer(0));
+  if (rc != SQLITE_DONE) return sqlError("cannot read the queue");
+  return io::IoStatus::Ok();
 }
 
 io::IoStatus Store::Impl::runState(std::int64_t run_id, RunState* state) {
@@ -772,6 +816,7 @@ StoreOpenResult Store::open(const std::string& path, const StoreOptions& options
   if (st.ok) st = impl->checkSchemaVersion(&version);
   if (st.ok) st = impl->configure();
   if (st.ok && version == 0) st = impl->createSchemaIfNew();
+  if (st.ok && version == 1) st = impl->migrateSchema();
   if (!st.ok) {
     r.status = st;
     return r;
@@ -1019,6 +1064,80 @@ ResultListResult Store::results(const ResultFilter& filter) {
   }
   if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot list results");
   return r;
+}
+
+QueueAddResult Store::queueAdd(const QueueEntry& entry) {
+  QueueAddResult r;
+  r.status = impl_->transaction("cannot queue plan '" + entry.plan_name + "'", [&]() {
+    io::IoStatus st;
+    Bound q = impl_->use(
+        "INSERT INTO queue(pos, plan_name, source, plan_toml, label, added_unix_s) "
+        "VALUES((SELECT coalesce(max(pos), 0) + 1 FROM queue), ?1, ?2, ?3, ?4, ?5)",
+        &st);
+    if (!q) return st;
+    q.bind(1, entry.plan_name);
+    q.bind(2, entry.source);
+    q.bind(3, entry.plan_toml);
+    q.bind(4, entry.label);
+    q.bind(5, nowUnixS());
+    if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot queue the plan");
+    r.entry_id = sqlite3_last_insert_rowid(impl_->db.get());
+    std::int64_t count = 0;
+    st = impl_->queryInt("SELECT count(*) FROM queue", "cannot count the queue", &count);
+    r.position = static_cast<int>(count);
+    return st;
+  });
+  if (!r.status.ok) r.entry_id = 0;
+  return r;
+}
+
+QueueListResult Store::queueList() {
+  QueueListResult r;
+  Bound q = impl_->use(
+      "SELECT id, plan_name, source, plan_toml, label, added_unix_s FROM queue ORDER BY pos, id",
+      &r.status);
+  if (!q) return r;
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    r.entries.push_back({q.integer(0), q.text(1), q.text(2), q.text(3), q.text(4), q.real(5)});
+  }
+  if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot read the queue");
+  return r;
+}
+
+io::IoStatus Store::queueMove(std::int64_t entry_id, int position) {
+  const std::string what = "queue entry " + std::to_string(entry_id);
+  return impl_->transaction("cannot move " + what, [&]() {
+    std::vector<std::int64_t> ids;
+    if (auto st = impl_->queueIds(&ids); !st.ok) return st;
+    const auto it = std::find(ids.begin(), ids.end(), entry_id);
+    if (it == ids.end()) return impl_->error(what + " not found");
+    if (position < 1 || static_cast<std::size_t>(position) > ids.size())
+      return impl_->error("position " + std::to_string(position) + " is outside 1.." +
+                          std::to_string(ids.size()));
+    ids.erase(it);
+    ids.insert(ids.begin() + (position - 1), entry_id);
+    io::IoStatus st;
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      Bound q = impl_->use("UPDATE queue SET pos = ?2 WHERE id = ?1", &st);
+      if (!q) return st;
+      q.bind(1, ids[i]);
+      q.bind(2, static_cast<std::int64_t>(i + 1));
+      if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot move " + what);
+    }
+    return io::IoStatus::Ok();
+  });
+}
+
+io::IoStatus Store::queueRemove(std::int64_t entry_id) {
+  const std::string what = "queue entry " + std::to_string(entry_id);
+  io::IoStatus st;
+  Bound q = impl_->use("DELETE FROM queue WHERE id = ?1", &st);
+  if (!q) return st;
+  q.bind(1, entry_id);
+  if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot remove " + what);
+  if (sqlite3_changes(impl_->db.get()) == 0) return impl_->error(what + " not found");
+  return io::IoStatus::Ok();
 }
 
 io::IoStatus Store::integrityCheck() {

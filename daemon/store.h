@@ -6,10 +6,10 @@
 // written in batches (RunWriter), one transaction per batch, so a killed daemon loses at most
 // the unflushed tail (StoreOptions::max_unflushed_s of sample time).
 //
-// loadRecording(run) rebuilds the exact Recording value (doubles bit-exact, -0.0 included), so
+// loadRecording(run) rebuilds the exact io::Recording value (doubles bit-exact, -0.0 included), so
 // writeRecording() exports a run as imubench-csv/1 and the calibrators run on a run id.
 //
-// Errors are returned as IoStatus naming the database path; nothing here prints or throws.
+// Errors are returned as io::IoStatus naming the database path; nothing here prints or throws.
 // A Store is one connection and is not thread-safe; other processes may read concurrently.
 #pragma once
 
@@ -28,8 +28,9 @@
 namespace imubench::daemon {
 
 // PRAGMA user_version of the schema this code writes. A database with a higher version was
-// written by a newer imubench and is refused rather than misread.
-inline constexpr int kStoreSchemaVersion = 1;
+// written by a newer imubench and is refused rather than misread; an older one is migrated
+// when opened (1 -> 2: the plan queue's table).
+inline constexpr int kStoreSchemaVersion = 2;
 
 struct StoreOptions {
   // How long a statement waits for a lock held by another connection (a CLI reading while
@@ -51,7 +52,7 @@ const char* runStateName(RunState state);
 std::optional<RunState> runStateFromName(std::string_view name);
 
 // What is known when a run starts: the plan, the bench and the recording's meta data
-// (Recording fields of the same name).
+// (io::Recording fields of the same name).
 struct RunStart {
   std::string plan_name;
   std::string plan_toml;  // the plan file's text, so a run can be repeated exactly
@@ -63,7 +64,7 @@ struct RunStart {
   std::optional<double> gravity_mps2;
   calib::TableKind table_kind = calib::TableKind::kTwoAxis;
   std::optional<double> outer_axis_heading_deg;  // two-axis only
-  // Recording::segments_from_file: live runs log the plan's segments, so true.
+  // io::Recording::segments_from_file: live runs log the plan's segments, so true.
   bool segments_from_file = true;
 
   bool IsValid(std::string* why) const;
@@ -90,6 +91,17 @@ struct RunEvent {
   EventSeverity severity = EventSeverity::kInfo;
   std::string kind;  // short machine-readable tag, e.g. "interrupted", "table-fault"
   std::string json;  // details, a JSON text
+};
+
+// A plan waiting in the daemon's queue: started when the run before it completes. Stored, so
+// the queue survives a daemon restart.
+struct QueueEntry {
+  std::int64_t id = 0;        // assigned by queueAdd, never reused
+  std::string plan_name;      // the plan's own name ([plan] name)
+  std::string source;         // what diagnostics call the plan (the client's file, a library path)
+  std::string plan_toml;      // the plan's text as it was queued
+  std::string label;          // the start's label (may be empty)
+  double added_unix_s = 0.0;  // set by queueAdd
 };
 
 struct StoredResult {
@@ -149,6 +161,15 @@ struct ResultListResult {
   io::IoStatus status;
   std::vector<StoredResult> results;  // by id
 };
+struct QueueAddResult {
+  io::IoStatus status;
+  std::int64_t entry_id = 0;
+  int position = 0;  // 1-based: where it landed (the last place)
+};
+struct QueueListResult {
+  io::IoStatus status;
+  std::vector<QueueEntry> entries;  // in queue order, the next to start first
+};
 struct CountResult {
   io::IoStatus status;
   int count = 0;
@@ -186,7 +207,7 @@ class Store {
 
   // A whole recording as one finished run (import of an imubench-csv/1 directory).
   RunIdResult importRecording(const RunStart& start, const io::Recording& rec);
-  // The run's samples and meta data as a Recording (also for a running or interrupted run:
+  // The run's samples and meta data as a io::Recording (also for a running or interrupted run:
   // what has been committed).
   io::RecordingReadResult loadRecording(std::int64_t run_id);
 
@@ -194,6 +215,14 @@ class Store {
                              double temperature_c, const std::string& kind,
                              const std::string& json_text);
   ResultListResult results(const ResultFilter& filter = {});
+
+  // The plan queue. Positions are 1-based, the head (position 1) starts next.
+  QueueAddResult queueAdd(const QueueEntry& entry);  // appended at the end
+  QueueListResult queueList();
+  // Moves an entry to `position` (1..size); the others keep their order. Refuses an unknown
+  // entry or a position out of range (nothing changes).
+  io::IoStatus queueMove(std::int64_t entry_id, int position);
+  io::IoStatus queueRemove(std::int64_t entry_id);  // refuses an unknown entry
 
   // PRAGMA integrity_check: ok, or the problems it lists.
   io::IoStatus integrityCheck();

@@ -1,9 +1,15 @@
-// imubench start | pause | resume | abort | stop | status | results | watch: the operator's
+// imubench start | pause | resume | abort | stop | status | results | watch | queue: the operator's
 // commands to a running imubenchd over its control socket (tools/control_client.h).
 //
-//   imubench start PLAN [--label L] [--dry-run] [--out-dir DIR] [--watch]
+//   imubench start PLAN [--label L] [--dry-run] [--out-dir DIR] [--watch] [--queue]
 //     PLAN is read here, with the operator's rights, and its text sent (the daemon reads no
-//     client-named files); diagnostics name PLAN by its path.
+//     client-named files); diagnostics name PLAN by its path. --queue: while a run is going (or
+//     plans wait), the plan is validated and appended to the daemon's plan queue instead.
+//   imubench queue [--json]                 the plan queue (position, entry id, plan, label)
+//   imubench queue move ENTRY POSITION      reorder (1 = next to start)
+//   imubench queue remove ENTRY             take a plan out of the queue
+//   imubench queue resume                   start the queue's head now (after an abort, a
+//                                           fault or a daemon restart the queue holds)
 //   imubench pause | resume | abort | stop          (stop = emergency stop)
 //   imubench status [--json]     imubench results [RUN] [--json]     imubench watch [--json]
 // Every command takes --socket PATH (default $IMUBENCH_SOCKET, else /run/imubench/control.sock).
@@ -395,6 +401,13 @@ std::string readPlanText(const std::string& path) {
   return text;
 }
 
+void printQueued(const json& q) {
+  std::cout << "queued as entry " << textField(q, "entry").value_or("?") << " at position "
+            << textField(q, "position").value_or("?");
+  if (auto plan = textField(q, "plan")) std::cout << " (plan " << *plan << ")";
+  std::cout << "; it starts when the runs before it have completed\n";
+}
+
 struct StartOptions {
   ControlOptions ctl;
   std::string plan;
@@ -402,6 +415,7 @@ struct StartOptions {
   std::string out_dir;
   bool dry_run = false;
   bool watch = false;
+  bool queue = false;
 };
 
 void runStart(const StartOptions& o) {
@@ -412,6 +426,7 @@ void runStart(const StartOptions& o) {
               {"plan", {{"toml", readPlanText(plan.string())}, {"name", plan.string()}}}};
   json options = json::object();
   if (o.dry_run) options["dry_run"] = true;
+  if (o.queue) options["queue"] = true;
   if (!o.label.empty()) options["label"] = o.label;
   if (!o.out_dir.empty()) {
     options["out_dir"] = std::filesystem::absolute(o.out_dir).lexically_normal().string();
@@ -420,6 +435,10 @@ void runStart(const StartOptions& o) {
   withClient(o.ctl, [&](ControlClient& c) {
     if (o.watch) subscribeForWatch(c, o.ctl);  // before start: no event of the run is missed
     const json r = exchange(o.ctl, c, req);
+    if (r.contains("queued")) {
+      if (!o.ctl.json) printQueued(r["queued"]);
+      return;  // a queued plan has no run to watch yet
+    }
     if (!o.ctl.json) {
       WatchState s;
       applyStatus(s, r);
@@ -440,6 +459,72 @@ void runStart(const StartOptions& o) {
     applyStatus(s, r);
     applyStatus(s, exchange(ControlOptions{o.ctl.socket, false}, c, {{"cmd", "status"}}));
     followRun(c, s, o.ctl.json);
+  });
+}
+
+// ---- the plan queue ----
+void printQueue(const json& r) {
+  const json entries = r.value("queue", json::array());
+  if (entries.empty()) {
+    std::cout << "the queue is empty\n";
+    return;
+  }
+  std::cout << "pos  entry  plan  (file)  label\n";
+  for (const json& e : entries) {
+    std::cout << textField(e, "position").value_or("?") << "  "
+              << textField(e, "entry").value_or("?") << "  " << textField(e, "plan").value_or("?");
+    if (auto name = textField(e, "name")) std::cout << "  (" << *name << ")";
+    if (auto label = textField(e, "label"); label && !label->empty())
+      std::cout << "  \"" << *label << "\"";
+    std::cout << "\n";
+  }
+}
+
+struct QueueOptions {
+  ControlOptions ctl;
+  long long entry = 0;
+  long long position = 0;
+};
+
+// queue_list, or a change (queue_move, queue_remove) whose reply is the queue as it is now.
+void runQueue(const QueueOptions& o, const std::string& cmd) {
+  json req = {{"cmd", cmd}};
+  if (cmd == "queue_move" || cmd == "queue_remove") req["entry"] = o.entry;
+  if (cmd == "queue_move") req["position"] = o.position;
+  withClient(o.ctl, [&](ControlClient& c) {
+    const json r = exchange(o.ctl, c, req);
+    if (!o.ctl.json) printQueue(r);
+  });
+}
+
+void addQueueCommands(CLI::App& app, const std::string& group) {
+  auto o = std::make_shared<QueueOptions>();
+  CLI::App* q =
+      app.add_subcommand("queue", "the plan queue: list it (no subcommand), move, remove, resume");
+  q->group(group);
+  q->require_subcommand(0, 1);
+  q->fallthrough();  // --socket/--json also after move/remove/resume
+  addControlOptions(*q, &o->ctl);
+  CLI::App* move = q->add_subcommand("move", "move a queued plan to POSITION (1 = next)");
+  move->add_option("ENTRY", o->entry, "queue entry id")->required()->check(CLI::PositiveNumber);
+  move->add_option("POSITION", o->position, "new position")->required()->check(CLI::PositiveNumber);
+  move->callback([o] { runQueue(*o, "queue_move"); });
+  CLI::App* remove = q->add_subcommand("remove", "take a plan out of the queue");
+  remove->add_option("ENTRY", o->entry, "queue entry id")->required()->check(CLI::PositiveNumber);
+  remove->callback([o] { runQueue(*o, "queue_remove"); });
+  CLI::App* resume = q->add_subcommand(
+      "resume", "start the queue's head now (no run going; after an abort or a restart)");
+  resume->callback([o] {
+    withClient(o->ctl, [&](ControlClient& c) {
+      const json r = exchange(o->ctl, c, {{"cmd", "queue_resume"}});
+      if (o->ctl.json) return;
+      std::cout << "started queue entry " << textField(r, "entry").value_or("?") << " as run "
+                << textField(r, "run").value_or("?") << " (plan "
+                << textField(r, "plan").value_or("?") << ")\n";
+    });
+  });
+  q->callback([o, q] {
+    if (q->get_subcommands().empty()) runQueue(*o, "queue_list");
   });
 }
 
@@ -486,8 +571,14 @@ void addControlCommands(CLI::App& app) {
     sub->add_option("--label", o->label, "free text stored with the run");
     sub->add_option("--out-dir", o->out_dir, "where the daemon writes the recording");
     CLI::Option* dry = sub->add_flag("--dry-run", o->dry_run, "validate and expand, move nothing");
-    sub->add_flag("--watch", o->watch, "follow the run until it ends (as `imubench watch`)")
-        ->excludes(dry);
+    CLI::Option* watch =
+        sub->add_flag("--watch", o->watch, "follow the run until it ends (as `imubench watch`)")
+            ->excludes(dry);
+    sub->add_flag("--queue", o->queue,
+                  "while a run is going (or plans wait): validate the plan and append it to "
+                  "the daemon's plan queue; it starts when the runs before it completed")
+        ->excludes(dry)
+        ->excludes(watch);
     addControlOptions(*sub, &o->ctl);
     sub->callback([o] { runStart(*o); });
   }
@@ -525,6 +616,7 @@ void addControlCommands(CLI::App& app) {
       });
     });
   }
+  addQueueCommands(app, group);
   {
     auto o = std::make_shared<ResultsOptions>();
     CLI::App* sub = app.add_subcommand("results", "the run history, or one run's results");

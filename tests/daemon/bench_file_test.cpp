@@ -105,6 +105,32 @@ TEST(BenchFile, ControlIdleTimeout) {
   EXPECT_NE(typo.str().find("unknown key \"idle\" in [control]"), std::string::npos) << typo.str();
 }
 
+TEST(BenchFile, ControlGroupsResolvedAtLoad) {
+  io::Diagnostics diag("bench.toml");
+  auto b = parse(kGood, diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_FALSE(b->control.command_group.has_value());  // absent: no rights checked
+  EXPECT_FALSE(b->control.read_group.has_value());
+  b = parse(kGood + "\n[control]\ncommand_group = \"root\"\nread_group = \"daemon\"\n", diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  ASSERT_TRUE(b->control.command_group.has_value());
+  EXPECT_EQ(b->control.command_group->name, "root");
+  EXPECT_EQ(b->control.command_group->gid, 0u);
+  ASSERT_TRUE(b->control.read_group.has_value());
+  EXPECT_EQ(b->control.read_group->name, "daemon");
+  // An unknown group: file:line at its key.
+  io::Diagnostics unknown("bench.toml");
+  EXPECT_FALSE(
+      parse(kGood + "\n[control]\ncommand_group = \"no-such-group-x\"\n", unknown).has_value());
+  EXPECT_NE(unknown.str().find("bench.toml:29:"), std::string::npos) << unknown.str();
+  EXPECT_NE(unknown.str().find("command_group: no group \"no-such-group-x\" on this system"),
+            std::string::npos)
+      << unknown.str();
+  io::Diagnostics alone("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[control]\nread_group = \"root\"\n", alone).has_value());
+  EXPECT_NE(alone.str().find("read_group needs command_group"), std::string::npos) << alone.str();
+}
+
 TEST(BenchFile, ChamberPollPeriod) {
   io::Diagnostics diag("bench.toml");
   const auto b = parse(replaced("safe_setpoint = \"25 degC\"",

@@ -119,6 +119,46 @@ TEST(ControlProtocol, StartArgumentErrorsNameTheField) {
             std::string::npos);
 }
 
+// Issue 15: the plan queue's requests.
+TEST(ControlProtocol, QueueCommands) {
+  Request r =
+      parseOk(R"({"cmd":"start","plan":{"toml":"x"},"options":{"queue":true,"label":"u"}})");
+  EXPECT_TRUE(std::get<StartArgs>(r.args).options.queue);
+  EXPECT_FALSE(
+      std::get<StartArgs>(parseOk(R"({"cmd":"start","plan":{"toml":"x"}})").args).options.queue);
+  r = parseOk(R"({"id":1,"cmd":"queue_move","entry":7,"position":2})");
+  EXPECT_EQ(r.command, Command::kQueueMove);
+  EXPECT_EQ(std::get<QueueMoveArgs>(r.args).entry, 7);
+  EXPECT_EQ(std::get<QueueMoveArgs>(r.args).position, 2);
+  r = parseOk(R"({"cmd":"queue_remove","entry":3})");
+  EXPECT_EQ(std::get<QueueRemoveArgs>(r.args).entry, 3);
+  for (const auto& [name, cmd] : {std::pair{"queue_list", Command::kQueueList},
+                                  std::pair{"queue_resume", Command::kQueueResume}}) {
+    r = parseOk(std::string("{\"cmd\":\"") + name + "\"}");
+    EXPECT_EQ(r.command, cmd);
+    EXPECT_EQ(commandName(cmd), name);
+  }
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"cmd":"start","plan":{"toml":"x"},"options":{"queue":true,"dry_run":true}})",
+       "options.queue: not with dry_run"},
+      {R"({"cmd":"start","plan":{"toml":"x"},"options":{"queue":"yes"}})",
+       "options.queue: must be true or false"},
+      {R"({"cmd":"queue_move","entry":7})", "position: missing"},
+      {R"({"cmd":"queue_move","position":1})", "entry: missing"},
+      {R"({"cmd":"queue_move","entry":7,"position":0})", "position: must be >= 1"},
+      {R"({"cmd":"queue_move","entry":7,"position":1.5})",
+       "position: must be an integer position (1 = next), got 1.5"},
+      {R"({"cmd":"queue_move","entry":7,"position":99999999999})", "position: out of range"},
+      {R"({"cmd":"queue_remove","entry":"3"})", "entry: must be an integer queue entry id"},
+      {R"({"cmd":"queue_remove","entry":3,"position":1})", "position: unknown field of command"},
+      {R"({"cmd":"queue_list","entry":3})", "entry: unknown field of command"},
+  };
+  for (const auto& [line, want] : cases) {
+    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
+    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
+  }
+}
+
 TEST(ControlProtocol, SubscribeAndUnsubscribe) {
   Request r = parseOk(R"({"cmd":"subscribe","topics":["run","log"]})");
   EXPECT_EQ(std::get<SubscribeArgs>(r.args).topics, (std::vector<Topic>{Topic::kRun, Topic::kLog}));

@@ -230,6 +230,48 @@ TEST_F(ControlServerTest, ReservedSlotTakesStopStatusAndPing) {
   EXPECT_EQ(st.refused_busy, 1u);
 }
 
+// Issue 15: the access policy sees every request (the server's own ping and subscribe too) with
+// the peer's SO_PEERCRED credentials; a refusal is "forbidden" and the connection stays.
+TEST_F(ControlServerTest, AccessPolicyRefusesWithForbidden) {
+  ServerThread s(optionsAt(path_), testHandler);
+  ASSERT_TRUE(s.startStatus().ok);
+  std::vector<std::pair<Command, PeerCredentials>> seen;
+  s.onLoop([&] {
+    s.server().setAccessPolicy(
+        [&seen](Command c, const PeerCredentials& p) -> std::optional<std::string> {
+          seen.emplace_back(c, p);
+          if (c == Command::kStop || c == Command::kStatus) return std::nullopt;
+          return std::string(commandName(c)) + ": forbidden for uid " + std::to_string(p.uid);
+        });
+    return 0;
+  });
+  Conn c(path_);
+  ASSERT_TRUE(
+      c.send("{\"id\":1,\"cmd\":\"start\",\"plan\":{\"path\":\"/p.toml\"}}\n"
+             "{\"id\":2,\"cmd\":\"subscribe\",\"topics\":[\"run\"]}\n{\"id\":3,\"cmd\":\"ping\"}\n"
+             "{\"id\":4,\"cmd\":\"status\"}\n{\"id\":5,\"cmd\":\"stop\"}\n"));
+  for (int id : {1, 2, 3}) {
+    const json j = readJson(c);
+    EXPECT_EQ(j["id"], id);
+    EXPECT_EQ(j["error"]["code"], "forbidden");
+    EXPECT_NE(j["error"]["message"].get<std::string>().find("forbidden for uid " +
+                                                            std::to_string(::getuid())),
+              std::string::npos)
+        << j;
+  }
+  EXPECT_EQ(readJson(c)["result"]["cmd"], "status");
+  EXPECT_EQ(readJson(c)["result"]["cmd"], "stop");
+  const auto seen_now = s.onLoop([&] { return seen; });
+  ASSERT_EQ(seen_now.size(), 5u);
+  for (const auto& [cmd, p] : seen_now) {
+    EXPECT_TRUE(p.known);
+    EXPECT_EQ(p.uid, ::getuid());
+    EXPECT_EQ(p.gid, ::getgid());
+    EXPECT_EQ(p.pid, ::getpid());
+  }
+  EXPECT_EQ(s.stats().forbidden, 3u);
+}
+
 // Issue 17: a connection that sends nothing for idle_timeout_s is closed and its slot is free
 // again; a subscriber that reads its events stays however long it waits; one that does not
 // read what it was sent is idle too.

@@ -1,4 +1,4 @@
-// The SQLite run store: bit-exact Recording round trip, run life cycle, results, refusal of
+// The SQLite run store: bit-exact io::Recording round trip, run life cycle, results, refusal of
 // bad input (corrupt file, newer schema, unknown run, non-finite samples), and crash safety:
 // a writer killed with SIGKILL loses at most the unflushed tail of its samples.
 #include "daemon/store.h"
@@ -395,6 +395,110 @@ TEST(Store, ForeignDatabaseAndNewerSchemaAreRefused) {
   EXPECT_FALSE(n.status.ok);
   EXPECT_NE(n.status.message.find(newer + ": schema version 99 is newer"), std::string::npos)
       << n.status.message;
+}
+
+QueueEntry queued(const std::string& name, const std::string& label = "") {
+  QueueEntry e;
+  e.plan_name = name;
+  e.source = "/home/op/" + name + ".toml";
+  e.plan_toml = "[plan]\nname = \"" + name + "\"\n";
+  e.label = label;
+  return e;
+}
+
+std::vector<std::string> queueNames(Store& store) {
+  const QueueListResult list = store.queueList();
+  EXPECT_TRUE(list.status.ok) << list.status.message;
+  std::vector<std::string> names;
+  for (const QueueEntry& e : list.entries) names.push_back(e.plan_name);
+  return names;
+}
+
+// Issue 15: the plan queue: add (at the end), list (in order), move, remove, and all of it
+// still there after the store is closed and opened again.
+TEST(StoreQueue, AddListMoveRemoveAndPersistAcrossReopen) {
+  ScratchDir dir;
+  const std::string path = dir.file("bench.db");
+  std::vector<std::int64_t> ids;
+  {
+    auto store = openOrFail(path);
+    ASSERT_TRUE(store);
+    EXPECT_TRUE(store->queueList().entries.empty());
+    for (const char* name : {"a", "b", "c", "d"}) {
+      const QueueAddResult r = store->queueAdd(queued(name, std::string("label ") + name));
+      ASSERT_TRUE(r.status.ok) << r.status.message;
+      EXPECT_EQ(r.position, static_cast<int>(ids.size()) + 1);
+      ids.push_back(r.entry_id);
+    }
+    EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"a", "b", "c", "d"}));
+    const QueueListResult list = store->queueList();
+    EXPECT_EQ(list.entries[1].id, ids[1]);
+    EXPECT_EQ(list.entries[1].source, "/home/op/b.toml");
+    EXPECT_EQ(list.entries[1].plan_toml, "[plan]\nname = \"b\"\n");
+    EXPECT_EQ(list.entries[1].label, "label b");
+    EXPECT_GT(list.entries[1].added_unix_s, 1.6e9);
+
+    ASSERT_TRUE(store->queueMove(ids[3], 1).ok);  // d to the head
+    EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"d", "a", "b", "c"}));
+    ASSERT_TRUE(store->queueMove(ids[0], 4).ok);  // a to the end
+    EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"d", "b", "c", "a"}));
+    ASSERT_TRUE(store->queueMove(ids[2], 2).ok);
+    EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"d", "c", "b", "a"}));
+    ASSERT_TRUE(store->queueRemove(ids[1]).ok);  // b
+    EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"d", "c", "a"}));
+
+    // Refused, nothing changed: unknown entry, position out of range, removed entry.
+    for (const auto& [st, text] :
+         {std::pair{store->queueMove(9999, 1), "queue entry 9999 not found"},
+          std::pair{store->queueMove(ids[0], 4), "position 4 is outside 1..3"},
+          std::pair{store->queueMove(ids[0], 0), "position 0 is outside 1..3"},
+          std::pair{store->queueRemove(ids[1]), "not found"}}) {
+      EXPECT_FALSE(st.ok);
+      EXPECT_NE(st.message.find(text), std::string::npos) << st.message;
+      EXPECT_NE(st.message.find(path), std::string::npos) << st.message;
+    }
+    EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"d", "c", "a"}));
+  }
+  auto store = openOrFail(path);
+  ASSERT_TRUE(store);
+  EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"d", "c", "a"}));
+  // A new entry goes to the end and never reuses an id, even the largest one removed.
+  ASSERT_TRUE(store->queueRemove(ids[3]).ok);
+  const QueueAddResult e = store->queueAdd(queued("e"));
+  ASSERT_TRUE(e.status.ok);
+  EXPECT_GT(e.entry_id, ids[3]);
+  EXPECT_EQ(e.position, 3);
+  EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"c", "a", "e"}));
+}
+
+// A version 1 database (before the queue) is migrated when opened; its runs stay.
+TEST(StoreQueue, Version1DatabaseIsMigrated) {
+  ScratchDir dir;
+  const std::string path = dir.file("v1.db");
+  {
+    auto store = openOrFail(path);
+    ASSERT_TRUE(store);
+    ASSERT_TRUE(store->beginRun(benchStart("SN-1")).status.ok);
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(
+      sqlite3_exec(db, "DROP TABLE queue; PRAGMA user_version = 1", nullptr, nullptr, nullptr),
+      SQLITE_OK);
+  sqlite3_close(db);
+  auto store = openOrFail(path);
+  ASSERT_TRUE(store);
+  EXPECT_EQ(store->listRuns().runs.size(), 1u);
+  ASSERT_TRUE(store->queueAdd(queued("a")).status.ok);
+  EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"a"}));
+  store.reset();
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* q = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA user_version", -1, &q, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(q), SQLITE_ROW);
+  EXPECT_EQ(sqlite3_column_int(q, 0), 2);
+  sqlite3_finalize(q);
+  sqlite3_close(db);
 }
 
 TEST(Store, OptionsAndRunStartAreValidated) {

@@ -15,7 +15,9 @@ Errors are exceptions, all subclasses of ControlError:
     ControlTimeout     no reply (or no end of the run) within the timeout
     ConnectionClosed   the daemon closed the connection
     ProtocolError      the daemon sent a line that is not a protocol line (the message quotes it)
-    RemoteError        the daemon answered ok=false: .code ("bad_state", ...) and .message
+    RemoteError        the daemon answered ok=false: .code ("bad_state", "forbidden", ...) and
+                       .message ("forbidden": the bench's [control] command_group/read_group
+                       does not include this user)
 
 Plans: start(path) and validate_plan(path) read the file here, with the caller's rights, and
 send its text (the daemon reads only its own plan library: start(library=...) names one).
@@ -318,14 +320,19 @@ class Client:
     def ping(self):
         return self.call("ping")
 
-    def start(self, path=None, toml=None, label=None, dry_run=False, out_dir=None, library=None):
+    def start(self, path=None, toml=None, label=None, dry_run=False, out_dir=None, library=None,
+              queue=False):
         """Starts a plan: a file (read here with this process's rights and sent as text, see
         read_plan), the plan's TOML text, or a plan of the daemon's library by the path
-        list_plans() reports. Returns the start result (e.g. {"run": 12, ...})."""
+        list_plans() reports. Returns the start result (e.g. {"run": 12, ...}). queue=True:
+        while a run is going (or plans wait) the plan is validated and appended to the plan
+        queue instead; the result is then {"queued": {"entry": 7, "position": 2, "plan": ..}}."""
         plan = _plan_field(path, toml, library)
         options = {}
         if dry_run:
             options["dry_run"] = True
+        if queue:
+            options["queue"] = True
         if label:
             options["label"] = label
         if out_dir:
@@ -354,6 +361,24 @@ class Client:
 
     def status(self):
         return self.call("status")
+
+    # ---- the plan queue (stored by the daemon; survives its restart) ----
+    def queue_list(self):
+        """The queued plans, next first: [{"entry", "position", "plan", "name", "label",
+        "added_unix_s"}, ...]."""
+        return self.call("queue_list").get("queue", [])
+
+    def queue_move(self, entry, position):
+        """Moves queue entry `entry` to `position` (1 = next); returns the queue."""
+        return self.call("queue_move", entry=entry, position=position).get("queue", [])
+
+    def queue_remove(self, entry):
+        """Takes queue entry `entry` out of the queue; returns the queue."""
+        return self.call("queue_remove", entry=entry).get("queue", [])
+
+    def queue_resume(self):
+        """Starts the queue's head now (no run going): the start result plus "entry"."""
+        return self.call("queue_resume")
 
     def results(self, run=None):
         return self.call("results", run=run) if run is not None else self.call("results")

@@ -1,0 +1,112 @@
+#include "daemon/control_rights.h"
+
+#include <grp.h>
+#include <pwd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <functional>
+
+namespace imubench::daemon {
+namespace {
+
+// getpwuid_r's buffer: sysconf's hint, or 16 KiB when it has none.
+constexpr long kDefaultPwBuffer = 16 * 1024;
+// Supplementary groups looked up at most: far beyond NGROUPS_MAX of a usual system.
+constexpr int kMaxGroups = 4096;
+
+std::string groupText(const NamedGroup& g) {
+  return g.name + " (gid " + std::to_string(g.gid) + ")";
+}
+
+std::optional<std::string> decide(const ControlRights& rights, const PeerCredentials& peer,
+                                  Command command,
+                                  const std::function<std::vector<gid_t>()>& groups) {
+  const CommandClass cls = commandClass(command);
+  if (cls == CommandClass::kAnyone || !rights.command_group) return std::nullopt;
+  if (cls == CommandClass::kRead && !rights.read_group) return std::nullopt;
+  const std::string what = std::string(commandName(command)) + ": forbidden";
+  if (!peer.known) return what + " (the peer's credentials are unknown)";
+  if (peer.uid == 0 || peer.uid == rights.daemon_uid) return std::nullopt;
+  std::vector<gid_t> needed = {rights.command_group->gid};
+  if (cls == CommandClass::kRead) needed.push_back(rights.read_group->gid);
+  const auto member = [&needed](gid_t g) {
+    return std::find(needed.begin(), needed.end(), g) != needed.end();
+  };
+  if (member(peer.gid)) return std::nullopt;
+  const std::vector<gid_t> all = groups();
+  if (std::any_of(all.begin(), all.end(), member)) return std::nullopt;
+  std::string need = "group " + groupText(*rights.command_group);
+  if (cls == CommandClass::kRead) need = "group " + groupText(*rights.read_group) + " or " + need;
+  const char* doing = cls == CommandClass::kRead ? "reading" : "commanding the bench";
+  return what + " for uid " + std::to_string(peer.uid) + ": " + doing + " needs " + need;
+}
+
+}  // namespace
+
+CommandClass commandClass(Command c) {
+  switch (c) {
+    case Command::kStop:
+    case Command::kPing:
+      return CommandClass::kAnyone;
+    case Command::kStatus:
+    case Command::kSubscribe:
+    case Command::kUnsubscribe:
+    case Command::kResults:
+    case Command::kExport:
+    case Command::kListPlans:
+    case Command::kValidatePlan:
+    case Command::kQueueList:
+      return CommandClass::kRead;
+    case Command::kStart:
+    case Command::kPause:
+    case Command::kResume:
+    case Command::kAbort:
+    case Command::kRearm:
+    case Command::kQueueMove:
+    case Command::kQueueRemove:
+    case Command::kQueueResume:
+      return CommandClass::kCommand;
+  }
+  return CommandClass::kCommand;  // a command added without a class needs the most rights
+}
+
+const char* commandClassName(CommandClass c) {
+  switch (c) {
+    case CommandClass::kAnyone:
+      return "anyone";
+    case CommandClass::kRead:
+      return "read";
+    case CommandClass::kCommand:
+      return "command";
+  }
+  return "command";
+}
+
+std::vector<gid_t> peerGroups(const PeerCredentials& peer) {
+  std::vector<gid_t> out = {peer.gid};
+  if (!peer.known) return {};
+  long hint = ::sysconf(_SC_GETPW_R_SIZE_MAX);
+  std::vector<char> buf(static_cast<std::size_t>(hint > 0 ? hint : kDefaultPwBuffer));
+  passwd pw{};
+  passwd* found = nullptr;
+  if (::getpwuid_r(peer.uid, &pw, buf.data(), buf.size(), &found) != 0 || found == nullptr)
+    return out;
+  int n = kMaxGroups;
+  std::vector<gid_t> groups(static_cast<std::size_t>(n));
+  if (::getgrouplist(pw.pw_name, peer.gid, groups.data(), &n) < 0) return out;
+  groups.resize(static_cast<std::size_t>(std::max(n, 0)));
+  return groups;
+}
+
+std::optional<std::string> refuseCommand(const ControlRights& rights, const PeerCredentials& peer,
+                                         Command command, const std::vector<gid_t>& groups) {
+  return decide(rights, peer, command, [&groups] { return groups; });
+}
+
+std::optional<std::string> checkCommandRights(const ControlRights& rights,
+                                              const PeerCredentials& peer, Command command) {
+  return decide(rights, peer, command, [&peer] { return peerGroups(peer); });
+}
+
+}  // namespace imubench::daemon
