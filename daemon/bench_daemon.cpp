@@ -281,7 +281,8 @@ io::IoStatus BenchDaemon::startControl(std::string* socket_path) {
   if (ec) return io::IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
   plans_ = std::make_unique<PlanLibrary>(&loop_, library);
   exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
-  if (auto st = server_->start(); !st.ok) return io::IoStatus::Error("control socket: " + st.message);
+  if (auto st = server_->start(); !st.ok)
+    return io::IoStatus::Error("control socket: " + st.message);
   *socket_path = server_options.socket_path;
   return io::IoStatus::Ok();
 }
