@@ -41,7 +41,7 @@ std::string parameterName(int global_index) {
   const int i = global_index % kTriadSize;
   if (i < kBias) return triad + "scale." + kAxis[i - kScale];
   if (i < kMis) return triad + "bias." + kAxis[i - kBias];
-  return triad + "misalignment." + kMisNames[static_cast<std::size_t>(i - kMis)];
+  return triad + "misalignment." + model::kMisEntries[static_cast<std::size_t>(i - kMis)].name;
 }
 
 }  // namespace indirect
@@ -49,26 +49,6 @@ std::string parameterName(int global_index) {
 namespace {
 
 using namespace indirect;
-
-void triadToBlock(const TriadModel& m, double* block) {
-  for (int i = 0; i < 3; ++i) {
-    block[kScale + i] = m.scale[i];
-    block[kBias + i] = m.bias[i];
-  }
-  const double mis[6] = {m.mis.xy, m.mis.xz, m.mis.yx, m.mis.yz, m.mis.zx, m.mis.zy};
-  for (int i = 0; i < 6; ++i) block[kMis + i] = mis[i];
-}
-
-TriadModel blockToTriad(const double* block) {
-  TriadModel m;
-  for (int i = 0; i < 3; ++i) {
-    m.scale[i] = block[kScale + i];
-    m.bias[i] = block[kBias + i];
-  }
-  const double* mis = block + kMis;
-  m.mis = {mis[kMisXY], mis[kMisXZ], mis[kMisYX], mis[kMisYZ], mis[kMisZX], mis[kMisZY]};
-  return m;
-}
 
 // A static hold reduced to means.
 struct Hold {
@@ -390,8 +370,9 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
   // ---- Parameters ----------------------------------------------------------------------------
   double accel[kTriadSize], gyro[kTriadSize], table[kTableSize];
   const SensorModel start = in.start.value_or(SensorModel{});
-  triadToBlock(start.accel, accel);
-  triadToBlock(start.gyro, gyro);
+  const auto accel0 = start.accel.block(), gyro0 = start.gyro.block();
+  std::copy(accel0.begin(), accel0.end(), accel);
+  std::copy(gyro0.begin(), gyro0.end(), gyro);
   table[kTiltX] = in.start_base_tilt.x();
   table[kTiltY] = in.start_base_tilt.y();
   table[kNonorthInnerY] = in.start_nonorthogonality.inner_y;
@@ -554,8 +535,8 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
 
   // ---- Report ------------------------------------------------------------------------------
   CoefficientReport& rep = result.coefficients;
-  rep.values.sensors.accel = blockToTriad(accel);
-  rep.values.sensors.gyro = blockToTriad(gyro);
+  rep.values.sensors.accel = TriadModel::fromBlock(accel);
+  rep.values.sensors.gyro = TriadModel::fromBlock(gyro);
   rep.values.table.base_tilt = Vec2(table[kTiltX], table[kTiltY]);
   rep.values.table.nonorthogonality = {table[kNonorthInnerY], table[kNonorthMiddleX],
                                        table[kNonorthMiddleY]};
@@ -593,7 +574,7 @@ GyroReferencedTruth toGyroReferenced(const BenchTruth& truth, const TableGeometr
     Mat3 Mn = d.asDiagonal().inverse() * M;
     o.scale = t.scale.cwiseProduct(d);
     o.bias = t.bias.cwiseQuotient(d);
-    o.mis = {Mn(0, 1), -Mn(0, 2), -Mn(1, 0), Mn(1, 2), Mn(2, 0), -Mn(2, 1)};
+    o.mis = misalignmentFrom(model::misalignmentsOf(Mn).data());
     return o;
   };
   out.sensors.accel = mapTriad(truth.sensors.accel);

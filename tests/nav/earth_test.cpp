@@ -18,7 +18,7 @@ constexpr double kGammaPole = 9.8321849378;
 // constants (not from nav/earth.h): gamma = gamma_e (1 + k s2) / sqrt(1 - e2 s2), s2 = 1/2.
 double somigliana45() {
   const double gamma_e = 9.7803253359;
-  const double k = 0.00193185265241;  // Somigliana's constant
+  const double k = 0.00193185265241;   // Somigliana's constant
   const double e2 = 0.00669437999014;  // first eccentricity squared
   return gamma_e * (1.0 + k * 0.5) / std::sqrt(1.0 - e2 * 0.5);
 }
