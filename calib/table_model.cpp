@@ -39,24 +39,20 @@ TableAngles tableAnglesFromAxes(TableKind kind, const double* a) {
   return {a[0], a[1], a[2]};
 }
 
+// Both blocks list their entries in offset order (checked here).
+static_assert(model::kTiltX == 0 && model::kTiltY == 1 && model::kNonorthInnerY == 2 &&
+              model::kNonorthMiddleX == 3 && model::kNonorthMiddleY == 4);
+static_assert(model::kMountX == 0 && model::kMountY == 1 && model::kZeroOuter == 2 &&
+              model::kZeroMiddle == 3 && model::kZeroInner == 4);
+
 std::array<double, model::kTableAxesSize> axesBlock(const TableErrors& e) {
-  std::array<double, model::kTableAxesSize> b{};
-  b[model::kTiltX] = e.base_tilt.x();
-  b[model::kTiltY] = e.base_tilt.y();
-  b[model::kNonorthInnerY] = e.nonorthogonality.inner_y;
-  b[model::kNonorthMiddleX] = e.nonorthogonality.middle_x;
-  b[model::kNonorthMiddleY] = e.nonorthogonality.middle_y;
-  return b;
+  const Nonorthogonality& nu = e.nonorthogonality;
+  return {e.base_tilt.x(), e.base_tilt.y(), nu.inner_y, nu.middle_x, nu.middle_y};
 }
 
 std::array<double, model::kTableDeviceSize> deviceBlock(const TableErrors& e) {
-  std::array<double, model::kTableDeviceSize> b{};
-  b[model::kMountX] = e.mounting.x();
-  b[model::kMountY] = e.mounting.y();
-  b[model::kZeroOuter] = e.encoder_zero.outer;
-  b[model::kZeroMiddle] = e.encoder_zero.middle;
-  b[model::kZeroInner] = e.encoder_zero.inner;
-  return b;
+  const EncoderZero& z = e.encoder_zero;
+  return {e.mounting.x(), e.mounting.y(), z.outer, z.middle, z.inner};
 }
 
 model::ChainErrors<double> chainErrors(TableKind kind, const TableErrors& e) {
