@@ -8,7 +8,6 @@ namespace {
 using nlohmann::json;
 
 const char* const kXYZ[] = {"x", "y", "z"};
-const char* const kMisNames[] = {"xy", "xz", "yx", "yz", "zx", "zy"};
 const char* const kSigmaKey = "sigma";
 const char* const kObservableKey = "observable";
 
@@ -36,7 +35,8 @@ void triadSlots(const std::string& g, TriadModel& t, std::vector<Slot>* out) {
   for (int i = 0; i < 3; ++i)
     out->push_back({g + ".bias." + kXYZ[i], g, "bias", "", i, 0, &t.bias[i]});
   for (int i = 0; i < 6; ++i) {
-    out->push_back({g + ".misalignment." + kMisNames[i], g, "misalignment", kMisNames[i], -1, 0,
+    out->push_back({g + ".misalignment." + model::kMisEntries[static_cast<std::size_t>(i)].name, g,
+                    "misalignment", model::kMisEntries[static_cast<std::size_t>(i)].name, -1, 0,
                     misField(t.mis, i)});
   }
 }
@@ -142,7 +142,7 @@ bool readTriad(const json& j, const std::string& g, TriadModel* t, std::string* 
       for (auto m = it->begin(); m != it->end(); ++m) {
         int idx = -1;
         for (int i = 0; i < 6; ++i) {
-          if (m.key() == kMisNames[i]) idx = i;
+          if (m.key() == model::kMisEntries[static_cast<std::size_t>(i)].name) idx = i;
         }
         if (idx < 0)
           return fail(why, path + "." + m.key(),

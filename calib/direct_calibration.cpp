@@ -109,9 +109,11 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
     X.block<1, 3>(j, 0) = rows.input[static_cast<std::size_t>(j)].transpose();
     X(j, 3) = 1.0;
   }
-  // Names of K_i's entries: diagonal -> scale, off-diagonal -> misalignment, o -> bias.
-  static const char* kMisName[3][3] = {{"", "xy", "xz"}, {"yx", "", "yz"}, {"zx", "zy", ""}};
-  static const double kMisSign[3][3] = {{0, 1, -1}, {-1, 0, 1}, {1, -1, 0}};
+  // Names of K_i's entries: diagonal -> scale, off-diagonal -> misalignment (the model's
+  // kMisEntries: which entry of M, with which sign), o -> bias.
+  auto misEntry = [](int row, int col) {
+    return model::kMisEntries[static_cast<std::size_t>(model::misalignmentAt(row, col))];
+  };
   // Variance of the mean over `idx` rows of axis i's reading, and per-row weights.
   auto meanVar = [&](const std::vector<std::size_t>& idx, int i) {
     double v = 0.0;
@@ -129,14 +131,12 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
   double ss = 0.0;
   Mat3 K = Mat3::Identity();
   Vec3 o = Vec3::Zero();
-  Misalignment mis;
-  double* mis_field[3][3] = {
-      {nullptr, &mis.xy, &mis.xz}, {&mis.yx, nullptr, &mis.yz}, {&mis.zx, &mis.zy, nullptr}};
+  std::array<double, model::kMisCount> mis{};
   for (int i = 0; i < 3; ++i) {
     std::vector<std::string> names;
     for (int c = 0; c < 3; ++c)
       names.push_back(c == i ? triad + ".scale." + kAxis[static_cast<std::size_t>(i)]
-                             : triad + ".misalignment." + kMisName[i][c]);
+                             : triad + ".misalignment." + misEntry(i, c).name);
     names.push_back(triad + ".bias." + kAxis[static_cast<std::size_t>(i)]);
     Eigen::VectorXd y(n);
     for (Eigen::Index j = 0; j < n; ++j) y(j) = rows.reading[static_cast<std::size_t>(j)][i];
@@ -280,7 +280,8 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
       if (c == i) {
         report->setSigma(names[static_cast<std::size_t>(c)], std::sqrt(cov(c, c)));
       } else {
-        *mis_field[i][c] = kMisSign[i][c] * beta(c) / s;
+        mis[static_cast<std::size_t>(model::misalignmentAt(i, c))] =
+            misEntry(i, c).sign * beta(c) / s;
         report->setSigma(names[static_cast<std::size_t>(c)], std::sqrt(cov(c, c)) / std::abs(s));
       }
     }
@@ -293,7 +294,7 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
   }
   out->scale = K.diagonal();
   out->bias = -o.cwiseQuotient(out->scale);
-  out->mis = mis;
+  out->mis = misalignmentFrom(mis.data());
   *rms = n > 0 ? std::sqrt(ss / (3.0 * static_cast<double>(n))) : 0.0;
 }
 

@@ -30,6 +30,7 @@
 #include <string_view>
 #include <vector>
 
+#include "calib/model/bench_physics.h"
 #include "calib/sensor_model.h"
 #include "nav/rotation.h"
 
@@ -78,7 +79,7 @@ struct LeverArm {
   Vec3 r_m = Vec3::Zero();
   // Specific force added at the sensing point.
   Vec3 specificForceTerm(const Vec3& w_LB_B, const Vec3& wdot_LB_B) const {
-    return wdot_LB_B.cross(r_m) + w_LB_B.cross(w_LB_B.cross(r_m));
+    return model::leverArmTerm(w_LB_B, wdot_LB_B, r_m);
   }
 };
 

@@ -4,7 +4,9 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <vector>
 
@@ -41,7 +43,7 @@ std::string parameterName(int global_index) {
   const int i = global_index % kTriadSize;
   if (i < kBias) return triad + "scale." + kAxis[i - kScale];
   if (i < kMis) return triad + "bias." + kAxis[i - kBias];
-  return triad + "misalignment." + kMisNames[static_cast<std::size_t>(i - kMis)];
+  return triad + "misalignment." + model::kMisEntries[static_cast<std::size_t>(i - kMis)].name;
 }
 
 }  // namespace indirect
@@ -49,26 +51,6 @@ std::string parameterName(int global_index) {
 namespace {
 
 using namespace indirect;
-
-void triadToBlock(const TriadModel& m, double* block) {
-  for (int i = 0; i < 3; ++i) {
-    block[kScale + i] = m.scale[i];
-    block[kBias + i] = m.bias[i];
-  }
-  const double mis[6] = {m.mis.xy, m.mis.xz, m.mis.yx, m.mis.yz, m.mis.zx, m.mis.zy};
-  for (int i = 0; i < 6; ++i) block[kMis + i] = mis[i];
-}
-
-TriadModel blockToTriad(const double* block) {
-  TriadModel m;
-  for (int i = 0; i < 3; ++i) {
-    m.scale[i] = block[kScale + i];
-    m.bias[i] = block[kBias + i];
-  }
-  const double* mis = block + kMis;
-  m.mis = {mis[kMisXY], mis[kMisXZ], mis[kMisYX], mis[kMisYZ], mis[kMisZX], mis[kMisZY]};
-  return m;
-}
 
 // A static hold reduced to means.
 struct Hold {
@@ -251,38 +233,72 @@ bool IndirectOptions::IsValid(std::string* why) const {
   return checks.IsValid(why);
 }
 
-CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptions& opt) {
-  CalibrationResult result;
-  std::string why;
-  if (!opt.IsValid(&why)) {
-    result.error = "invalid options: " + why;
-    return result;
-  }
+namespace {
+
+// Appends a printf-formatted warning (a skipped hold or run).
+__attribute__((format(printf, 2, 3))) void warn(std::vector<std::string>* warnings,
+                                                const char* format, ...) {
+  char buf[256];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf, sizeof(buf), format, args);
+  va_end(args);
+  warnings->emplace_back(buf);
+}
+
+// The recordings of one calibration: the main one first, then the extra legs.
+std::vector<IndirectLeg> legsOf(const IndirectInput& in) {
   std::vector<IndirectLeg> legs{{in.imu, in.table, in.segments}};
   legs.insert(legs.end(), in.extra_legs.begin(), in.extra_legs.end());
+  return legs;
+}
+
+// Why the recordings cannot be used, or "" when they can.
+std::string checkLegs(const std::vector<IndirectLeg>& legs, const IndirectOptions& opt) {
   for (std::size_t l = 0; l < legs.size(); ++l) {
     const std::string where = legs.size() > 1 ? "recording " + std::to_string(l + 1) + ": " : "";
-    if (legs[l].imu.size() < 2) {
-      result.error = where + "fewer than 2 IMU samples";
-      return result;
-    }
-    if (legs[l].table.empty()) {
-      result.error = where + "no table samples";
-      return result;
-    }
+    if (legs[l].imu.size() < 2) return where + "fewer than 2 IMU samples";
+    if (legs[l].table.empty()) return where + "no table samples";
     const RecordingCheck check =
         checkIncrements(legs[l].imu, opt.checks,
                         legs.size() > 1 ? "recording " + std::to_string(l + 1) : "recording");
-    if (!check.ok()) {
-      result.error = check.reason;
-      return result;
-    }
+    if (!check.ok()) return check.reason;
   }
-  const double gravity = nav::siteGravity(in.site);
-  const Vec3 w_ie_L = nav::earthRateL(in.site.latitude_rad);
-  char buf[256];
+  return "";
+}
 
-  // ---- Holds: means and noise -------------------------------------------------------------
+// Means and noise of the samples [a, b) of one hold.
+Hold reduceHold(std::span<const nav::ImuSample> imu, std::size_t a, std::size_t b,
+                const IndirectOptions& opt) {
+  Hold h;
+  Vec3 sum_a = Vec3::Zero(), sum_g = Vec3::Zero();
+  for (std::size_t k = a; k < b; ++k) {
+    sum_a += imu[k].dvel;
+    sum_g += imu[k].dtheta;
+  }
+  const double T = imu[b - 1].t - intervalStart(imu, a);
+  h.accel_mean = sum_a / T;
+  h.gyro_mean = sum_g / T;
+  Vec3 var_a = Vec3::Zero(), var_g = Vec3::Zero();
+  for (std::size_t k = a; k < b; ++k) {
+    const double dt = imu[k].t - intervalStart(imu, k);
+    var_a += (imu[k].dvel / dt - h.accel_mean).cwiseAbs2();
+    var_g += (imu[k].dtheta / dt - h.gyro_mean).cwiseAbs2();
+  }
+  const double n = static_cast<double>(b - a);
+  for (int i = 0; i < 3; ++i) {
+    const double sa = std::max(std::sqrt(var_a[i] / (n - 1)), opt.min_accel_noise);
+    const double sg = std::max(std::sqrt(var_g[i] / (n - 1)), opt.min_gyro_noise);
+    h.accel_sigma[i] = sa / std::sqrt(n);
+    h.gyro_sigma[i] = sg / std::sqrt(n);
+    h.gyro_noise = std::max(h.gyro_noise, sg);
+  }
+  return h;
+}
+
+// Every usable static hold of every leg; skipped ones are named in warnings.
+std::vector<Hold> collectHolds(const std::vector<IndirectLeg>& legs, const IndirectOptions& opt,
+                               std::vector<std::string>* warnings) {
   std::vector<Hold> holds;
   for (std::size_t l = 0; l < legs.size(); ++l) {
     const std::span<const nav::ImuSample> imu = legs[l].imu;
@@ -291,63 +307,39 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
       const double t0 = seg.t0 + opt.static_margin_s;
       const double t1 = seg.t1 - opt.static_margin_s;
       if (t1 - t0 < opt.min_static_s) {
-        std::snprintf(buf, sizeof(buf), "hold '%s' (%.1f-%.1f s): shorter than %.1f s, skipped",
-                      seg.label.c_str(), seg.t0, seg.t1,
-                      opt.min_static_s + 2 * opt.static_margin_s);
-        result.warnings.emplace_back(buf);
+        warn(warnings, "hold '%s' (%.1f-%.1f s): shorter than %.1f s, skipped", seg.label.c_str(),
+             seg.t0, seg.t1, opt.min_static_s + 2 * opt.static_margin_s);
         continue;
       }
       const std::size_t a = firstSampleStartingAt(imu, t0);
       const std::size_t b = endSampleEndingAt(imu, t1);
       if (b <= a + 2) {
-        std::snprintf(buf, sizeof(buf), "hold '%s' (%.1f-%.1f s): no IMU samples, skipped",
-                      seg.label.c_str(), seg.t0, seg.t1);
-        result.warnings.emplace_back(buf);
+        warn(warnings, "hold '%s' (%.1f-%.1f s): no IMU samples, skipped", seg.label.c_str(),
+             seg.t0, seg.t1);
         continue;
       }
-      Hold h;
+      Hold h = reduceHold(imu, a, b, opt);
       h.leg = static_cast<int>(l);
       h.segment = &seg;
-      Vec3 sum_a = Vec3::Zero(), sum_g = Vec3::Zero();
-      double T = 0.0;
-      for (std::size_t k = a; k < b; ++k) {
-        sum_a += imu[k].dvel;
-        sum_g += imu[k].dtheta;
-      }
-      T = imu[b - 1].t - intervalStart(imu, a);
-      h.accel_mean = sum_a / T;
-      h.gyro_mean = sum_g / T;
-      Vec3 var_a = Vec3::Zero(), var_g = Vec3::Zero();
-      for (std::size_t k = a; k < b; ++k) {
-        const double dt = imu[k].t - intervalStart(imu, k);
-        var_a += (imu[k].dvel / dt - h.accel_mean).cwiseAbs2();
-        var_g += (imu[k].dtheta / dt - h.gyro_mean).cwiseAbs2();
-      }
-      const double n = static_cast<double>(b - a);
-      for (int i = 0; i < 3; ++i) {
-        const double sa = std::max(std::sqrt(var_a[i] / (n - 1)), opt.min_accel_noise);
-        const double sg = std::max(std::sqrt(var_g[i] / (n - 1)), opt.min_gyro_noise);
-        h.accel_sigma[i] = sa / std::sqrt(n);
-        h.gyro_sigma[i] = sg / std::sqrt(n);
-        h.gyro_noise = std::max(h.gyro_noise, sg);
-      }
       h.angles = holdAngles(legs[l].table, t0, t1);
       holds.push_back(h);
     }
   }
+  return holds;
+}
 
-  if (holds.empty()) {
-    result.error = "no usable static hold in the recording (need holds of at least " +
-                   std::to_string(opt.min_static_s + 2 * opt.static_margin_s) + " s)";
-    return result;
-  }
+// The median per-sample gyro noise of the holds (weights of the runs).
+double medianGyroNoise(const std::vector<Hold>& holds) {
   std::vector<double> noises;
   for (const Hold& h : holds) noises.push_back(h.gyro_noise);
   std::nth_element(noises.begin(), noises.begin() + static_cast<long>(noises.size() / 2),
                    noises.end());
-  const double gyro_noise = noises[noises.size() / 2];
+  return noises[noises.size() / 2];
+}
 
-  // ---- Runs: rotations between two usable holds -------------------------------------------
+// Every rotation run between two usable holds of the same leg.
+std::vector<Run> collectRuns(const std::vector<IndirectLeg>& legs, const std::vector<Hold>& holds,
+                             const IndirectOptions& opt, std::vector<std::string>* warnings) {
   std::vector<Run> runs;
   for (std::size_t l = 0; l < legs.size(); ++l) {
     const std::span<const nav::ImuSample> imu = legs[l].imu;
@@ -361,9 +353,8 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
         if (std::abs(h.segment->t0 - seg.t1) <= opt.adjacency_tolerance_s) after = &h;
       }
       if (!before || !after) {
-        std::snprintf(buf, sizeof(buf), "run '%s' (%.1f-%.1f s): no usable hold %s it, skipped",
-                      seg.label.c_str(), seg.t0, seg.t1, before ? "after" : "before");
-        result.warnings.emplace_back(buf);
+        warn(warnings, "run '%s' (%.1f-%.1f s): no usable hold %s it, skipped", seg.label.c_str(),
+             seg.t0, seg.t1, before ? "after" : "before");
         continue;
       }
       const double pad_a =
@@ -374,9 +365,7 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
       r.first = firstSampleStartingAt(imu, seg.t0 - pad_a);
       r.last = endSampleEndingAt(imu, seg.t1 + pad_b);
       if (r.first >= r.last || r.first == 0) {
-        std::snprintf(buf, sizeof(buf), "run '%s': IMU data does not cover it, skipped",
-                      seg.label.c_str());
-        result.warnings.emplace_back(buf);
+        warn(warnings, "run '%s': IMU data does not cover it, skipped", seg.label.c_str());
         continue;
       }
       r.t_start = intervalStart(imu, r.first);
@@ -386,199 +375,293 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
       runs.push_back(r);
     }
   }
+  return runs;
+}
 
-  // ---- Parameters ----------------------------------------------------------------------------
-  double accel[kTriadSize], gyro[kTriadSize], table[kTableSize];
-  const SensorModel start = in.start.value_or(SensorModel{});
-  triadToBlock(start.accel, accel);
-  triadToBlock(start.gyro, gyro);
-  table[kTiltX] = in.start_base_tilt.x();
-  table[kTiltY] = in.start_base_tilt.y();
-  table[kNonorthInnerY] = in.start_nonorthogonality.inner_y;
-  table[kNonorthMiddleX] = in.start_nonorthogonality.middle_x;
-  table[kNonorthMiddleY] = in.start_nonorthogonality.middle_y;
+// The parameter blocks (model layout, calib/indirect_params.h) and which entries are
+// estimated: free (estimated), held (at the start values by convention), in_model (false: not
+// part of this table's chain).
+struct Parameters {
+  double accel[kTriadSize] = {};
+  double gyro[kTriadSize] = {};
+  double table[kTableSize] = {};
+  std::vector<bool> free = std::vector<bool>(kParamCount, true);
+  std::vector<bool> held = std::vector<bool>(kParamCount, false);
+  std::vector<bool> in_model = std::vector<bool>(kParamCount, true);
 
-  std::vector<bool> free(kParamCount, true);
-  std::vector<bool> held(kParamCount, false);     // held at the start values by convention
-  std::vector<bool> in_model(kParamCount, true);  // false: not part of this table's chain
-  auto hold = [&](int g) {
+  void hold(int g) {
     free[static_cast<std::size_t>(g)] = false;
     held[static_cast<std::size_t>(g)] = true;
-  };
+  }
+};
+
+// Start values and the parameters held by the options' conventions.
+Parameters initialParameters(const IndirectInput& in, const IndirectOptions& opt,
+                             std::vector<std::string>* warnings) {
+  Parameters p;
+  const SensorModel start = in.start.value_or(SensorModel{});
+  const auto accel0 = start.accel.block(), gyro0 = start.gyro.block();
+  std::copy(accel0.begin(), accel0.end(), p.accel);
+  std::copy(gyro0.begin(), gyro0.end(), p.gyro);
+  TableErrors start_table;
+  start_table.base_tilt = in.start_base_tilt;
+  start_table.nonorthogonality = in.start_nonorthogonality;
+  const auto axes0 = axesBlock(start_table);
+  std::copy(axes0.begin(), axes0.end(), p.table);
   if (in.geometry.kind == TableKind::kTwoAxis) {
     for (int i : {kNonorthMiddleX, kNonorthMiddleY}) {
-      hold(kTableOffset + i);
-      in_model[static_cast<std::size_t>(kTableOffset + i)] = false;
-      table[i] = 0.0;
+      p.hold(kTableOffset + i);
+      p.in_model[static_cast<std::size_t>(kTableOffset + i)] = false;
+      p.table[i] = 0.0;
     }
   }
   if (!opt.estimate_base_tilt) {
-    hold(kTableOffset + kTiltX);
-    hold(kTableOffset + kTiltY);
+    p.hold(kTableOffset + kTiltX);
+    p.hold(kTableOffset + kTiltY);
   }
   if (!opt.estimate_nonorthogonality) {
-    for (int i : {kNonorthInnerY, kNonorthMiddleX, kNonorthMiddleY}) hold(kTableOffset + i);
+    for (int i : {kNonorthInnerY, kNonorthMiddleX, kNonorthMiddleY}) p.hold(kTableOffset + i);
   }
   if (opt.gyro_reference == GyroReference::kStartValues) {
     if (in.start) {
-      for (int i = 0; i < 6; ++i) hold(kGyroOffset + kMis + i);
+      for (int i = 0; i < model::kMisCount; ++i) p.hold(kGyroOffset + kMis + i);
     } else {
-      result.warnings.emplace_back(
+      warnings->emplace_back(
           "no start values: gyro misalignments estimated from the runs (not from the direct "
           "calibration)");
     }
   }
-  std::vector<double> sigma(kParamCount, 0.0);
-  bool analysed = false;
+  return p;
+}
 
-  for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
-    ceres::Problem problem;
-    problem.AddParameterBlock(accel, kTriadSize);
-    problem.AddParameterBlock(gyro, kTriadSize);
-    problem.AddParameterBlock(table, kTableSize);
-    for (const Hold& h : holds) {
-      problem.AddResidualBlock(
-          StaticAccelCost::Create(h.accel_mean, in.geometry, h.angles, gravity, h.accel_sigma),
-          nullptr, accel, table);
-      problem.AddResidualBlock(
-          StaticGyroCost::Create(h.gyro_mean, in.geometry, h.angles, w_ie_L, h.gyro_sigma), nullptr,
-          gyro, table);
-    }
-    for (const Run& r : runs) {
-      // Navigate from the start setting at the current table estimate.
-      const Mat3 C_LP_start0 = platformAttitude(in.geometry, r.before->angles, table);
-      const RunPreintegration pre = preintegrateRun(r.imu.subspan(r.first, r.last - r.first),
-                                                    r.t_start, C_LP_start0, gyro, w_ie_L);
-      const double sigma_angle = std::max(gyro_noise, opt.min_gyro_noise) * pre.duration_s /
-                                 std::sqrt(std::max(pre.samples, 1));
-      problem.AddResidualBlock(RunCost::Create(pre, in.geometry, r.before->angles, r.after->angles,
-                                               C_LP_start0, sigma_angle),
-                               nullptr, gyro, table);
-    }
+// What every outer iteration sees: the holds, the runs and the site.
+struct Observations {
+  std::vector<Hold> holds;
+  std::vector<Run> runs;
+  double gyro_noise = 0.0;
+  double gravity = 0.0;
+  Vec3 w_ie_L = Vec3::Zero();
+};
 
-    if (!analysed) {
-      const Eigen::MatrixXd J = denseJacobian(problem, accel, gyro, table);
-      result.conditioning = analyseInformation(J, &free, opt);
-      analysed = true;
-    }
-    auto fixedIn = [&free](int offset, int size) {
-      std::vector<int> f;
-      for (int i = 0; i < size; ++i) {
-        if (!free[static_cast<std::size_t>(offset + i)]) f.push_back(i);
-      }
-      return f;
-    };
-    const std::vector<int> fa = fixedIn(kAccelOffset, kTriadSize);
-    const std::vector<int> fg = fixedIn(kGyroOffset, kTriadSize);
-    const std::vector<int> ft = fixedIn(kTableOffset, kTableSize);
-    if (fa.size() == kTriadSize) {
-      problem.SetParameterBlockConstant(accel);
-    } else if (!fa.empty()) {
-      problem.SetManifold(accel, new ceres::SubsetManifold(kTriadSize, fa));
-    }
-    if (fg.size() == kTriadSize) {
-      problem.SetParameterBlockConstant(gyro);
-    } else if (!fg.empty()) {
-      problem.SetManifold(gyro, new ceres::SubsetManifold(kTriadSize, fg));
-    }
-    if (ft.size() == kTableSize) {
-      problem.SetParameterBlockConstant(table);
-    } else if (!ft.empty()) {
-      problem.SetManifold(table, new ceres::SubsetManifold(kTableSize, ft));
-    }
-
-    double before_values[kParamCount];
-    std::copy(accel, accel + kTriadSize, before_values + kAccelOffset);
-    std::copy(gyro, gyro + kTriadSize, before_values + kGyroOffset);
-    std::copy(table, table + kTableSize, before_values + kTableOffset);
-
-    ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_QR;
-    so.max_num_iterations = 50;
-    so.function_tolerance = 1e-15;
-    so.parameter_tolerance = 1e-15;
-    so.gradient_tolerance = 1e-20;
-    so.logging_type = ceres::SILENT;
-    so.minimizer_progress_to_stdout = false;
-    so.num_threads = 1;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &problem, &summary);
-    result.solver_report = summary.BriefReport();
-    result.outer_iterations = outer + 1;
-    if (!summary.IsSolutionUsable()) {
-      result.error = "Ceres solve failed: " + summary.message;
-      return result;
-    }
-    const int nres = problem.NumResiduals();
-    result.rms_normalised_residual = nres > 0 ? std::sqrt(2.0 * summary.final_cost / nres) : 0.0;
-
-    ceres::Covariance::Options co;
-    co.algorithm_type = ceres::DENSE_SVD;
-    co.null_space_rank = -1;
-    co.num_threads = 1;
-    ceres::Covariance cov(co);
-    std::vector<std::pair<const double*, const double*>> blocks = {
-        {accel, accel}, {gyro, gyro}, {table, table}};
-    if (!cov.Compute(blocks, &problem)) {
-      result.error = "covariance could not be computed (rank-deficient information matrix: " +
-                     result.conditioning.describe() + ")";
-      return result;
-    }
-    double ca[kTriadSize * kTriadSize], cg[kTriadSize * kTriadSize], ct[kTableSize * kTableSize];
-    cov.GetCovarianceBlock(accel, accel, ca);
-    cov.GetCovarianceBlock(gyro, gyro, cg);
-    cov.GetCovarianceBlock(table, table, ct);
-    for (int i = 0; i < kTriadSize; ++i) {
-      sigma[static_cast<std::size_t>(kAccelOffset + i)] =
-          std::sqrt(std::max(ca[i * kTriadSize + i], 0.0));
-      sigma[static_cast<std::size_t>(kGyroOffset + i)] =
-          std::sqrt(std::max(cg[i * kTriadSize + i], 0.0));
-    }
-    for (int i = 0; i < kTableSize; ++i) {
-      sigma[static_cast<std::size_t>(kTableOffset + i)] =
-          std::sqrt(std::max(ct[i * kTableSize + i], 0.0));
-    }
-    double worst = 0.0;
-    const double* now[3] = {accel, gyro, table};
-    const int offsets[3] = {kAccelOffset, kGyroOffset, kTableOffset};
-    const int sizes[3] = {kTriadSize, kTriadSize, kTableSize};
-    for (int b = 0; b < 3; ++b) {
-      for (int i = 0; i < sizes[b]; ++i) {
-        const std::size_t g = static_cast<std::size_t>(offsets[b] + i);
-        if (!free[g] || !(sigma[g] > 0.0)) continue;
-        worst = std::max(worst, std::abs(now[b][i] - before_values[g]) / sigma[g]);
-      }
-    }
-    if (worst < opt.outer_tolerance_sigma) break;
+// The residual blocks at the current parameters (the runs re-navigated at them).
+void addResiduals(const IndirectInput& in, const IndirectOptions& opt, const Observations& obs,
+                  Parameters* p, ceres::Problem* problem) {
+  problem->AddParameterBlock(p->accel, kTriadSize);
+  problem->AddParameterBlock(p->gyro, kTriadSize);
+  problem->AddParameterBlock(p->table, kTableSize);
+  for (const Hold& h : obs.holds) {
+    problem->AddResidualBlock(
+        StaticAccelCost::Create(h.accel_mean, in.geometry, h.angles, obs.gravity, h.accel_sigma),
+        nullptr, p->accel, p->table);
+    problem->AddResidualBlock(
+        StaticGyroCost::Create(h.gyro_mean, in.geometry, h.angles, obs.w_ie_L, h.gyro_sigma),
+        nullptr, p->gyro, p->table);
   }
+  for (const Run& r : obs.runs) {
+    // Navigate from the start setting at the current table estimate.
+    const Mat3 C_LP_start0 = platformAttitude(in.geometry, r.before->angles, p->table);
+    const RunPreintegration pre = preintegrateRun(r.imu.subspan(r.first, r.last - r.first),
+                                                  r.t_start, C_LP_start0, p->gyro, obs.w_ie_L);
+    const double sigma_angle = std::max(obs.gyro_noise, opt.min_gyro_noise) * pre.duration_s /
+                               std::sqrt(std::max(pre.samples, 1));
+    problem->AddResidualBlock(RunCost::Create(pre, in.geometry, r.before->angles, r.after->angles,
+                                              C_LP_start0, sigma_angle),
+                              nullptr, p->gyro, p->table);
+  }
+}
 
-  // ---- Report ------------------------------------------------------------------------------
-  CoefficientReport& rep = result.coefficients;
-  rep.values.sensors.accel = blockToTriad(accel);
-  rep.values.sensors.gyro = blockToTriad(gyro);
-  rep.values.table.base_tilt = Vec2(table[kTiltX], table[kTiltY]);
-  rep.values.table.nonorthogonality = {table[kNonorthInnerY], table[kNonorthMiddleX],
-                                       table[kNonorthMiddleY]};
+// Holds the entries that are not free (whole blocks constant, or a subset manifold).
+void fixNonFree(const Parameters& p, double* block, int offset, int size, ceres::Problem* problem) {
+  std::vector<int> fixed;
+  for (int i = 0; i < size; ++i) {
+    if (!p.free[static_cast<std::size_t>(offset + i)]) fixed.push_back(i);
+  }
+  if (static_cast<int>(fixed.size()) == size) {
+    problem->SetParameterBlockConstant(block);
+  } else if (!fixed.empty()) {
+    problem->SetManifold(block, new ceres::SubsetManifold(size, fixed));
+  }
+}
+
+// Solves the problem; false (result->error set) when the solution is unusable.
+bool solve(ceres::Problem* problem, CalibrationResult* result) {
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 50;
+  so.function_tolerance = 1e-15;
+  so.parameter_tolerance = 1e-15;
+  so.gradient_tolerance = 1e-20;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, problem, &summary);
+  result->solver_report = summary.BriefReport();
+  if (!summary.IsSolutionUsable()) {
+    result->error = "Ceres solve failed: " + summary.message;
+    return false;
+  }
+  const int nres = problem->NumResiduals();
+  result->rms_normalised_residual = nres > 0 ? std::sqrt(2.0 * summary.final_cost / nres) : 0.0;
+  return true;
+}
+
+// Standard deviations of every parameter from the covariance of the solved problem; false
+// (result->error set) when the information matrix is rank-deficient.
+bool parameterSigmas(ceres::Problem* problem, Parameters* p, std::vector<double>* sigma,
+                     CalibrationResult* result) {
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = -1;
+  co.num_threads = 1;
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> blocks = {
+      {p->accel, p->accel}, {p->gyro, p->gyro}, {p->table, p->table}};
+  if (!cov.Compute(blocks, problem)) {
+    result->error = "covariance could not be computed (rank-deficient information matrix: " +
+                    result->conditioning.describe() + ")";
+    return false;
+  }
+  double ca[kTriadSize * kTriadSize], cg[kTriadSize * kTriadSize], ct[kTableSize * kTableSize];
+  cov.GetCovarianceBlock(p->accel, p->accel, ca);
+  cov.GetCovarianceBlock(p->gyro, p->gyro, cg);
+  cov.GetCovarianceBlock(p->table, p->table, ct);
+  for (int i = 0; i < kTriadSize; ++i) {
+    (*sigma)[static_cast<std::size_t>(kAccelOffset + i)] =
+        std::sqrt(std::max(ca[i * kTriadSize + i], 0.0));
+    (*sigma)[static_cast<std::size_t>(kGyroOffset + i)] =
+        std::sqrt(std::max(cg[i * kTriadSize + i], 0.0));
+  }
+  for (int i = 0; i < kTableSize; ++i) {
+    (*sigma)[static_cast<std::size_t>(kTableOffset + i)] =
+        std::sqrt(std::max(ct[i * kTableSize + i], 0.0));
+  }
+  return true;
+}
+
+// All parameters in one flat array ([accel | gyro | table], the global index order).
+std::array<double, kParamCount> flatParameters(const Parameters& p) {
+  std::array<double, kParamCount> v{};
+  std::copy(p.accel, p.accel + kTriadSize, v.begin() + kAccelOffset);
+  std::copy(p.gyro, p.gyro + kTriadSize, v.begin() + kGyroOffset);
+  std::copy(p.table, p.table + kTableSize, v.begin() + kTableOffset);
+  return v;
+}
+
+// Largest change of a free parameter over the iteration, in its sigmas.
+double largestChangeInSigmas(const Parameters& p, const std::array<double, kParamCount>& before,
+                             const std::vector<double>& sigma) {
+  const std::array<double, kParamCount> now = flatParameters(p);
+  double worst = 0.0;
+  for (std::size_t g = 0; g < now.size(); ++g) {
+    if (!p.free[g] || !(sigma[g] > 0.0)) continue;
+    worst = std::max(worst, std::abs(now[g] - before[g]) / sigma[g]);
+  }
+  return worst;
+}
+
+// The coefficients, sigmas and flags of the result.
+void report(const IndirectInput& in, const Parameters& p, const std::vector<double>& sigma,
+            CalibrationResult* result) {
+  CoefficientReport& rep = result->coefficients;
+  rep.values.sensors.accel = TriadModel::fromBlock(p.accel);
+  rep.values.sensors.gyro = TriadModel::fromBlock(p.gyro);
+  rep.values.table.base_tilt = Vec2(p.table[kTiltX], p.table[kTiltY]);
+  rep.values.table.nonorthogonality = {p.table[kNonorthInnerY], p.table[kNonorthMiddleX],
+                                       p.table[kNonorthMiddleY]};
   rep.values.table_kind = in.geometry.kind;
   for (int i = 0; i < kParamCount; ++i) {
     const std::string name = parameterName(i);
     const std::size_t g = static_cast<std::size_t>(i);
-    if (!in_model[g]) continue;
-    if (free[g]) {
+    if (!p.in_model[g]) continue;
+    if (p.free[g]) {
       rep.setSigma(name, sigma[g]);
       continue;
     }
     // Held or unobservable: the start value stays, with its own uncertainty if known.
     const auto it = in.start_uncertainty.find(name);
     if (it != in.start_uncertainty.end()) rep.uncertainty[name] = it->second;
-    if (!held[g]) rep.setUnobservable(name);
+    if (!p.held[g]) rep.setUnobservable(name);
   }
   // Navigation-based calibration cannot see the mounting: it is absorbed by the misalignments.
   rep.setUnobservable("table.mounting.x");
   rep.setUnobservable("table.mounting.y");
-  if (runs.empty()) result.warnings.emplace_back("no usable rotation run: statics only");
+}
+
+// Holds, runs and site of the input; false (result->error set) when nothing is usable.
+bool observe(const IndirectInput& in, const IndirectOptions& opt, Observations* obs,
+             CalibrationResult* result) {
+  const std::vector<IndirectLeg> legs = legsOf(in);
+  result->error = checkLegs(legs, opt);
+  if (!result->error.empty()) return false;
+  obs->gravity = nav::siteGravity(in.site);
+  obs->w_ie_L = nav::earthRateL(in.site.latitude_rad);
+  obs->holds = collectHolds(legs, opt, &result->warnings);
+  if (obs->holds.empty()) {
+    result->error = "no usable static hold in the recording (need holds of at least " +
+                    std::to_string(opt.min_static_s + 2 * opt.static_margin_s) + " s)";
+    return false;
+  }
+  obs->gyro_noise = medianGyroNoise(obs->holds);
+  obs->runs = collectRuns(legs, obs->holds, opt, &result->warnings);
+  return true;
+}
+
+}  // namespace
+
+CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptions& opt) {
+  CalibrationResult result;
+  std::string why;
+  if (!opt.IsValid(&why)) {
+    result.error = "invalid options: " + why;
+    return result;
+  }
+  Observations obs;
+  if (!observe(in, opt, &obs, &result)) return result;
+  Parameters p = initialParameters(in, opt, &result.warnings);
+  std::vector<double> sigma(kParamCount, 0.0);
+  for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
+    ceres::Problem problem;
+    addResiduals(in, opt, obs, &p, &problem);
+    if (outer == 0) {
+      const Eigen::MatrixXd J = denseJacobian(problem, p.accel, p.gyro, p.table);
+      result.conditioning = analyseInformation(J, &p.free, opt);
+    }
+    fixNonFree(p, p.accel, kAccelOffset, kTriadSize, &problem);
+    fixNonFree(p, p.gyro, kGyroOffset, kTriadSize, &problem);
+    fixNonFree(p, p.table, kTableOffset, kTableSize, &problem);
+    const std::array<double, kParamCount> before = flatParameters(p);
+    result.outer_iterations = outer + 1;
+    if (!solve(&problem, &result)) return result;
+    if (!parameterSigmas(&problem, &p, &sigma, &result)) return result;
+    if (largestChangeInSigmas(p, before, sigma) < opt.outer_tolerance_sigma) break;
+  }
+  report(in, p, sigma, &result);
+  if (obs.runs.empty()) result.warnings.emplace_back("no usable rotation run: statics only");
   result.ok = true;
   return result;
+}
+
+IndirectJacobian indirectJacobian(const IndirectInput& in, const IndirectOptions& opt) {
+  IndirectJacobian out;
+  CalibrationResult result;
+  Observations obs;
+  if (!opt.IsValid(&result.error) || !observe(in, opt, &obs, &result)) {
+    out.error = result.error;
+    return out;
+  }
+  Parameters p = initialParameters(in, opt, &result.warnings);
+  ceres::Problem problem;
+  addResiduals(in, opt, obs, &p, &problem);
+  const Eigen::MatrixXd J = denseJacobian(problem, p.accel, p.gyro, p.table);
+  for (int g = 0; g < kParamCount; ++g) {
+    if (!p.in_model[static_cast<std::size_t>(g)]) continue;
+    out.names.push_back(parameterName(g));
+    out.jacobian.conservativeResize(J.rows(), out.jacobian.cols() + 1);
+    out.jacobian.col(out.jacobian.cols() - 1) = J.col(g);
+  }
+  out.ok = true;
+  return out;
 }
 
 GyroReferencedTruth toGyroReferenced(const BenchTruth& truth, const TableGeometry& geometry) {
@@ -593,7 +676,7 @@ GyroReferencedTruth toGyroReferenced(const BenchTruth& truth, const TableGeometr
     Mat3 Mn = d.asDiagonal().inverse() * M;
     o.scale = t.scale.cwiseProduct(d);
     o.bias = t.bias.cwiseQuotient(d);
-    o.mis = {Mn(0, 1), -Mn(0, 2), -Mn(1, 0), Mn(1, 2), Mn(2, 0), -Mn(2, 1)};
+    o.mis = misalignmentFrom(model::misalignmentsOf(Mn).data());
     return o;
   };
   out.sensors.accel = mapTriad(truth.sensors.accel);

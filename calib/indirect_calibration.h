@@ -24,6 +24,7 @@
 //   if (!r.ok) ... r.error;   r.coefficients -> interchange JSON with sigma/observable.
 #pragma once
 
+#include <Eigen/Core>
 #include <map>
 #include <optional>
 #include <span>
@@ -131,6 +132,17 @@ struct IndirectOptions {
 // no usable holds or runs, the solver fails (Summary::IsSolutionUsable() false) or the
 // covariance cannot be computed.
 CalibrationResult calibrateIndirect(const IndirectInput& input, const IndirectOptions& options);
+
+// The calibrator's own Jacobian at the start values (whitened residuals of every hold and run
+// w.r.t. the parameters of this table's chain, named "accel.scale.x", ..., in the order of
+// calib/indirect_params.h): what its information analysis sees before the first solve.
+struct IndirectJacobian {
+  bool ok = false;
+  std::string error;
+  std::vector<std::string> names;
+  Eigen::MatrixXd jacobian;
+};
+IndirectJacobian indirectJacobian(const IndirectInput& input, const IndirectOptions& options);
 
 // The truth of a simulated bench mapped into the gyro-referenced frame P of this method (what
 // calibrateIndirect estimates): M_P = M_B * E^T with E = Rz(i0) exp([mu x]) (exact

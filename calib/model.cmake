@@ -1,5 +1,14 @@
 # Forward model and simulator sources: target_sources(imubench_calib PRIVATE ...)
+# calib/model/ holds the templated forward model itself (header-only: sensor equation, table
+# chains, bench physics); the double-precision fronts (sensor_model, table_model, effects) and
+# the simulator below call it. It stays in imubench_calib (one target for calib/) because the
+# templates compile into their callers and the fronts keep their include paths for daemon/,
+# drivers/ and plans/.
 target_sources(imubench_calib PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/model/scalar.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/sensor_equation.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/table_chain.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/bench_physics.h
   ${CMAKE_CURRENT_LIST_DIR}/sensor_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/table_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/effects.cpp

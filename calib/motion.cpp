@@ -9,9 +9,7 @@ AxisState AxisTrajectory::at(double t) const {
   auto it = std::upper_bound(phases_.begin(), phases_.end(), t,
                              [](double tt, const AxisPhase& p) { return tt < p.t0; });
   if (it == phases_.begin()) return {phases_.front().angle0, 0.0, 0.0};
-  const AxisPhase& p = *(it - 1);
-  const double dt = t - p.t0;
-  return {p.angle0 + p.rate0 * dt + 0.5 * p.accel * dt * dt, p.rate0 + p.accel * dt, p.accel};
+  return stateIn(*(it - 1), t);
 }
 
 double Motion::temperatureAt(double t) const {

@@ -35,6 +35,13 @@ struct AxisPhase {
   double accel = 0.0;
 };
 
+// State of an axis following phase p at time t (holds p's starting state before p.t0).
+inline AxisState stateIn(const AxisPhase& p, double t) {
+  if (t < p.t0) return {p.angle0, 0.0, 0.0};
+  const double d = t - p.t0;
+  return {p.angle0 + p.rate0 * d + 0.5 * p.accel * d * d, p.rate0 + p.accel * d, p.accel};
+}
+
 // Piecewise-quadratic angle history of one axis. Phases are sorted by t0; before the first
 // phase the axis holds phase 0's starting state, after the last it follows the last phase.
 class AxisTrajectory {

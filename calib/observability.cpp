@@ -1,5 +1,7 @@
 #include "calib/observability.h"
 
+#include <ceres/jet.h>
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -7,6 +9,8 @@
 #include <sstream>
 
 #include "calib/bench_truth.h"
+#include "calib/model/bench_physics.h"
+#include "calib/model/sensor_equation.h"
 #include "calib/simulator.h"
 #include "calib/table_model.h"
 
@@ -111,12 +115,17 @@ bool PlanObservabilityOptions::IsValid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (!(step > 0.0 && step < 1e-2)) return fail("step must be in (0, 1e-2)");
   if (!(accel_sigma > 0.0) || !(angle_sigma > 0.0)) return fail("sigmas must be > 0");
   return information.IsValid(why);
 }
 
 namespace {
+
+using model::Mat3T;
+using model::Vec3T;
+
+// Parameters the Jets carry (two-axis 33, three-axis 36 with the site errors).
+constexpr int kMaxObservabilityParams = 40;
 
 BenchTruth nominalTruth(TableKind kind) {
   BenchTruth t;
@@ -124,15 +133,6 @@ BenchTruth nominalTruth(TableKind kind) {
   t.extra.enable(EffectId::kGravityError);
   t.extra.enable(EffectId::kLatitudeError);
   return t;
-}
-
-Vec3 readingOf(const TriadModel& t, const Vec3& input) {
-  return t.scale.cwiseProduct(t.M() * input - t.bias);
-}
-
-// Rotation vector -> rotation matrix.
-Mat3 expRot(const Vec3& phi) {
-  return quatFromRotationVector(phi).toRotationMatrix();
 }
 
 struct PlanSegments {
@@ -172,73 +172,153 @@ PlanSegments planSegments(const Motion& m) {
   return p;
 }
 
-TableState unitRate(const TableAngles& a, TableKind kind, int axis) {
-  TableState st;
-  st.outer.angle = a.outer;
-  st.middle.angle = a.middle;
-  st.inner.angle = a.inner;
-  if (axis == 0)
-    st.outer.rate = 1.0;
-  else if (kind == TableKind::kThreeAxis && axis == 1)
-    st.middle.rate = 1.0;
-  else
-    st.inner.rate = 1.0;
-  return st;
+// Where each model quantity sits in the flat parameter vector of observabilityParameterNames
+// (-1: not a parameter of this table kind, held at zero).
+struct ParamIndex {
+  int accel = -1;  // start of the accel triad block (model order: scale, bias, misalignment)
+  int gyro = -1;   // start of the gyro triad block
+  std::array<int, model::kTableAxesSize> axes{};
+  std::array<int, model::kTableDeviceSize> device{};
+  int dg = -1;    // gravity_error.dg_mps2
+  int dlat = -1;  // latitude_error.dlat_rad
+};
+
+ParamIndex paramIndex(const std::vector<std::string>& names) {
+  auto at = [&names](const std::string& n) {
+    const auto it = std::find(names.begin(), names.end(), n);
+    return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+  };
+  ParamIndex ix;
+  // The flat names list each triad in the model's block order, so a block is one offset.
+  ix.accel = at("accel.scale.x");
+  ix.gyro = at("gyro.scale.x");
+  ix.axes[model::kTiltX] = at("table.base_tilt.x");
+  ix.axes[model::kTiltY] = at("table.base_tilt.y");
+  ix.axes[model::kNonorthInnerY] = at("table.nonorthogonality.inner_y");
+  ix.axes[model::kNonorthMiddleX] = at("table.nonorthogonality.middle_x");
+  ix.axes[model::kNonorthMiddleY] = at("table.nonorthogonality.middle_y");
+  ix.device[model::kMountX] = at("table.mounting.x");
+  ix.device[model::kMountY] = at("table.mounting.y");
+  ix.device[model::kZeroOuter] = at("table.encoder_zero.outer");
+  ix.device[model::kZeroMiddle] = at("table.encoder_zero.middle");
+  ix.device[model::kZeroInner] = at("table.encoder_zero.inner");
+  ix.dg = at("extra.gravity_error.dg_mps2");
+  ix.dlat = at("extra.latitude_error.dlat_rad");
+  return ix;
 }
 
-// Measurements the method sees, whitened, for a given true world.
-Eigen::VectorXd measure(const PlanSegments& segs, TableKind kind, const BenchTruth& truth,
-                        CalibrationMethod method, const PlanObservabilityOptions& o) {
-  const nav::Site site = trueSite(o.site, truth.extra);
-  const double g = nav::siteGravity(site);
-  const Vec3 w_ie_L = nav::earthRateL(site.latitude_rad);
-  const TableGeometry geo{kind, o.outer_axis_heading_rad};
-  const TableModel table(geo, truth.table);
-  const TableModel nominal(geo, TableErrors{});
-  const SensorModel& s = truth.sensors;
-  std::vector<double> out;
-  auto push = [&out](const Vec3& v, double sigma) {
-    for (int k = 0; k < 3; ++k) out.push_back(v[k] / sigma);
+// Unit rate of one table axis (the rotation axis in B through the chain's kinematics).
+template <typename T>
+Vec3T<T> axisInBody(const model::ChainFactors<T>& f, const model::ChainErrors<T>& e,
+                    const TableAngles& a, TableKind kind, int axis) {
+  model::JointState<T> o{T(a.outer) + e.zero_outer, T(0.0), T(0.0)};
+  model::JointState<T> m{T(a.middle) + e.zero_middle, T(0.0), T(0.0)};
+  model::JointState<T> i{T(a.inner) + e.zero_inner, T(0.0), T(0.0)};
+  if (axis == 0)
+    o.rate = T(1.0);
+  else if (kind == TableKind::kThreeAxis && axis == 1)
+    m.rate = T(1.0);
+  else
+    i.rate = T(1.0);
+  return model::chainKinematics(f, o, m, i).w_LB_B;
+}
+
+// Measurements the method sees, whitened, for the world x (flat parameters, zero = nominal):
+// the model's sensor equation, table chain and bench physics (calib/model/), templated so the
+// Jacobian comes from automatic differentiation of the very functions the calibrators use.
+template <typename T>
+std::vector<T> measure(const PlanSegments& segs, TableKind kind, const T* x, const ParamIndex& ix,
+                       CalibrationMethod method, const PlanObservabilityOptions& o) {
+  using std::cos;
+  using std::sin;
+  auto param = [x](int i) { return i >= 0 ? x[i] : T(0.0); };
+  // True site: assumed + latitude_error; gravity = normal gravity there + gravity_error. The
+  // normal-gravity change with latitude enters through its derivative (a double function).
+  const double lat0 = o.site.latitude_rad;
+  const double dgdlat = o.site.gravity_mps2 ? 0.0
+                                            : (nav::normalGravity(lat0 + 1e-6, o.site.height_m) -
+                                               nav::normalGravity(lat0 - 1e-6, o.site.height_m)) /
+                                                  2e-6;
+  const T lat = T(lat0) + param(ix.dlat);
+  const T g = T(nav::siteGravity(o.site)) + T(dgdlat) * param(ix.dlat) + param(ix.dg);
+  const Vec3T<T> w_ie_L(T(0.0), T(nav::kEarthRate) * cos(lat), T(nav::kEarthRate) * sin(lat));
+  const Vec3T<T> f_L(T(0.0), T(0.0), g);
+  std::array<T, model::kTableAxesSize> axes;
+  std::array<T, model::kTableDeviceSize> device;
+  for (int k = 0; k < model::kTableAxesSize; ++k) axes[k] = param(ix.axes[k]);
+  for (int k = 0; k < model::kTableDeviceSize; ++k) device[k] = param(ix.device[k]);
+  const model::ChainErrors<T> e = model::chainErrors(kind, axes.data(), device.data());
+  const model::ChainFactors<T> table = model::chainFactors(kind, o.outer_axis_heading_rad, e);
+  const model::ChainFactors<T> nominal =
+      model::chainFactors(kind, o.outer_axis_heading_rad, model::ChainErrors<T>{});
+  auto C_LB = [&](const model::ChainFactors<T>& f, const model::ChainErrors<T>& err,
+                  const TableAngles& a) {
+    return model::chainAttitude(f, T(a.outer) + err.zero_outer, T(a.middle) + err.zero_middle,
+                                T(a.inner) + err.zero_inner);
+  };
+  const model::ChainErrors<T> none;
+  const T* accel = x + ix.accel;
+  const T* gyro = x + ix.gyro;
+  std::vector<T> out;
+  auto push = [&out](const Vec3T<T>& v, double sigma) {
+    for (int k = 0; k < 3; ++k) out.push_back(v[k] / T(sigma));
   };
   if (method == CalibrationMethod::kDirect) {
     for (const TableAngles& a : segs.statics) {
-      const Mat3 C_BL = table.C_LB(a).transpose();
-      push(readingOf(s.accel, C_BL * Vec3(0, 0, g)), o.accel_sigma);
+      const Mat3T<T> C_BL = C_LB(table, e, a).transpose();
+      push(model::reading(accel, Vec3T<T>(C_BL * f_L)), o.accel_sigma);
       // Static gyro mean over a nominal 100 s hold, as an angle.
-      push(readingOf(s.gyro, C_BL * w_ie_L) * 100.0, o.angle_sigma);
+      push(model::reading(gyro, Vec3T<T>(C_BL * w_ie_L)) * T(100.0), o.angle_sigma);
     }
     for (const PlanSegments::Run& r : segs.runs) {
-      const Vec3 axis_B = table.kinematics(unitRate(r.start, kind, r.axis)).w_LB_B;
-      const Vec3 earth = table.C_LB(r.start).transpose() * w_ie_L * r.duration;
-      const Vec3 rate = (axis_B * r.angle + earth) / r.duration;
-      push(readingOf(s.gyro, rate) * r.duration, o.angle_sigma);
+      const Vec3T<T> axis_B = axisInBody(table, e, r.start, kind, r.axis);
+      const Vec3T<T> earth = C_LB(table, e, r.start).transpose() * w_ie_L * T(r.duration);
+      const Vec3T<T> rate = (axis_B * T(r.angle) + earth) / T(r.duration);
+      push(model::reading(gyro, rate) * T(r.duration), o.angle_sigma);
     }
-  } else {
-    // Navigation-based, as calib/indirect_calibration.h measures: at every hold the solution
-    // started from the nominal table setting resolves the specific force and the Earth rate in
-    // L (horizontal apparent acceleration, vertical against gravity, rate against w_ie)...
-    for (const TableAngles& a : segs.statics) {
-      const Mat3 C_BL = table.C_LB(a).transpose();
-      const Mat3 C_LB_nav = nominal.C_LB(a);
-      push(C_LB_nav * readingOf(s.accel, C_BL * Vec3(0, 0, g)), o.accel_sigma);
-      push(C_LB_nav * readingOf(s.gyro, C_BL * w_ie_L) * 100.0, o.angle_sigma);
-    }
-    // ... and through each run it turns with the measured gyro increments and compares the
-    // apparent acceleration in L after and before (horizontal components: the seed's residual).
-    for (const PlanSegments::Run& r : segs.runs) {
-      const Mat3 C_BL0 = table.C_LB(r.start).transpose();
-      const Mat3 C_BL1 = table.C_LB(r.end).transpose();
-      const Vec3 a0 = readingOf(s.accel, C_BL0 * Vec3(0, 0, g));
-      const Vec3 a1 = readingOf(s.accel, C_BL1 * Vec3(0, 0, g));
-      const Vec3 axis_B = table.kinematics(unitRate(r.start, kind, r.axis)).w_LB_B;
-      const Vec3 theta = readingOf(s.gyro, axis_B * r.angle / r.duration) * r.duration;
-      const Mat3 C_LB_nav0 = nominal.C_LB(r.start);
-      const Vec3 d = C_LB_nav0 * (expRot(theta) * a1 - a0);
-      out.push_back(d.x() / o.accel_sigma);
-      out.push_back(d.y() / o.accel_sigma);
-    }
+    return out;
   }
-  return Eigen::Map<Eigen::VectorXd>(out.data(), static_cast<Eigen::Index>(out.size()));
+  // Navigation-based, as calib/indirect_calibration.h measures: at every hold the solution
+  // started from the nominal table setting resolves the specific force and the Earth rate in
+  // L (horizontal apparent acceleration, vertical against gravity, rate against w_ie)...
+  for (const TableAngles& a : segs.statics) {
+    const Mat3T<T> C_BL = C_LB(table, e, a).transpose();
+    const Mat3T<T> C_LB_nav = C_LB(nominal, none, a);
+    push(C_LB_nav * model::reading(accel, Vec3T<T>(C_BL * f_L)), o.accel_sigma);
+    push(C_LB_nav * model::reading(gyro, Vec3T<T>(C_BL * w_ie_L)) * T(100.0), o.angle_sigma);
+  }
+  // ... and through each run it turns with the measured gyro increments and compares the
+  // apparent acceleration in L after and before (horizontal components: the seed's residual).
+  for (const PlanSegments::Run& r : segs.runs) {
+    const Vec3T<T> a0 = model::reading(accel, Vec3T<T>(C_LB(table, e, r.start).transpose() * f_L));
+    const Vec3T<T> a1 = model::reading(accel, Vec3T<T>(C_LB(table, e, r.end).transpose() * f_L));
+    const Vec3T<T> axis_B = axisInBody(table, e, r.start, kind, r.axis);
+    const Vec3T<T> theta =
+        model::reading(gyro, Vec3T<T>(axis_B * T(r.angle / r.duration))) * T(r.duration);
+    const Vec3T<T> d = C_LB(nominal, none, r.start) * (model::smallRotation(theta) * a1 - a0);
+    out.push_back(d.x() / T(o.accel_sigma));
+    out.push_back(d.y() / T(o.accel_sigma));
+  }
+  return out;
+}
+
+// Jacobian of measure() at the nominal world (all errors zero, scales one) by automatic
+// differentiation (ceres::Jet), columns in `names` order.
+Eigen::MatrixXd measurementJacobian(const PlanSegments& segs, TableKind kind,
+                                    const std::vector<std::string>& names,
+                                    const std::vector<double>& x0, CalibrationMethod method,
+                                    const PlanObservabilityOptions& o) {
+  using Jet = ceres::Jet<double, kMaxObservabilityParams>;
+  const ParamIndex ix = paramIndex(names);
+  std::vector<Jet> x(names.size());
+  for (std::size_t k = 0; k < names.size(); ++k) x[k] = Jet(x0[k], static_cast<int>(k));
+  const std::vector<Jet> y = measure(segs, kind, x.data(), ix, method, o);
+  Eigen::MatrixXd J(static_cast<Eigen::Index>(y.size()), static_cast<Eigen::Index>(names.size()));
+  for (std::size_t r = 0; r < y.size(); ++r) {
+    J.row(static_cast<Eigen::Index>(r)) =
+        y[r].v.head(static_cast<Eigen::Index>(names.size())).transpose();
+  }
+  return J;
 }
 
 std::string methodName(CalibrationMethod m) {
@@ -268,19 +348,13 @@ PlanObservability analysePlanObservability(const Motion& motion, CalibrationMeth
   }
   const BenchTruth base = nominalTruth(motion.kind);
   const std::vector<std::string> names = flatNames(base);
-  const Eigen::VectorXd y0 = measure(segs, motion.kind, base, method, o);
-  Eigen::MatrixXd J(y0.size(), static_cast<Eigen::Index>(names.size()));
-  for (std::size_t k = 0; k < names.size(); ++k) {
-    // Relative step for scale factors (about 1), absolute otherwise; gravity in m/s^2.
-    BenchTruth plus = base, minus = base;
-    const double x0 = flatValue(base, names[k]).value_or(0.0);
-    const double h = names[k].find("gravity") != std::string::npos ? 1e-5 : o.step;
-    setFlatValue(&plus, names[k], x0 + h, nullptr);
-    setFlatValue(&minus, names[k], x0 - h, nullptr);
-    J.col(static_cast<Eigen::Index>(k)) = (measure(segs, motion.kind, plus, method, o) -
-                                           measure(segs, motion.kind, minus, method, o)) /
-                                          (2.0 * h);
+  if (names.size() > static_cast<std::size_t>(kMaxObservabilityParams)) {
+    res.analysis.ok = false;
+    res.analysis.reason = "more parameters than the automatic differentiation holds";
+    return res;
   }
+  const Eigen::MatrixXd J =
+      measurementJacobian(segs, motion.kind, names, flatValues(base), method, o);
   res.analysis = analyseInformation(J, names, o.information);
   if (!res.analysis.ok) return res;
   // The method's own parameter set (see PlanObservability::model_analysis).

@@ -7,8 +7,9 @@
 //    the scalar and direct calibrators to say which parameters a badly conditioned solve
 //    blames);
 //  - analysePlanObservability(): for a table Motion (a plan expanded by plans/) and a method,
-//    builds the Jacobian by central differences of the method's measurement model around the
-//    nominal (all errors zero) and analyses it.
+//    builds the Jacobian of the method's measurement model around the nominal (all errors
+//    zero) by automatic differentiation (ceres::Jet) of the forward model in calib/model/ (the
+//    functions the calibrators' costs evaluate) and analyses it.
 #pragma once
 
 #include <Eigen/Core>
@@ -68,9 +69,6 @@ struct PlanObservabilityOptions {
   nav::Site site;  // latitude and gravity of the bench
   // Two-axis outer-axis heading, rad clockwise from North (interchange.md default: East).
   double outer_axis_heading_rad = 0.5 * 3.14159265358979323846;
-  // Central-difference step for the numeric Jacobian, rad or relative: well inside the
-  // linear regime of small-angle errors, well above rounding.
-  double step = 1e-6;
   // Measurement noise (1 sigma) used to whiten rows: accel m/s^2 per static mean, gyro rad
   // per integrated rotation; only ratios matter for null spaces.
   double accel_sigma = 1e-4;

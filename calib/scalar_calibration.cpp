@@ -32,13 +32,6 @@ bool ScalarCalibrationOptions::IsValid(std::string* why) const {
 
 namespace {
 
-// eq.(1) inverse: M^-1 (reading / scale + bias).
-Vec3 triadInput(const TriadModel& t, const Vec3& reading) {
-  Mat3 M;
-  M << 1.0, t.mis.xy, -t.mis.xz, -t.mis.yx, 1.0, t.mis.yz, t.mis.zx, -t.mis.zy, 1.0;
-  return M.lu().solve(reading.cwiseQuotient(t.scale) + t.bias);
-}
-
 // Accelerometer parameters: scale[3], bias[3], upper misalignments [xy, xz, yz].
 struct AccelNormCost {
   Vec3 a;
@@ -348,7 +341,7 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   // ---- Gyro ----
   const Vec3 gyro_offset = gyr_means.front();  // raw reading at rest in the first pose
   std::vector<Vec3> u;
-  for (const Vec3& a : acc_means) u.push_back(triadInput(res.accel(), a).normalized());
+  for (const Vec3& a : acc_means) u.push_back(res.accel().input(a).normalized());
   std::vector<Rotation> rots;
   for (std::size_t k = 0; k + 1 < spans.size(); ++k) {
     Rotation r;
@@ -431,8 +424,7 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
                         bias_sigma[k]);
   // Earth-rate invariant: at rest |w| = 7.29e-5 rad/s in every pose.
   double sc = 0.0;
-  for (const Vec3& gm : gyr_means)
-    sc += (triadInput(gyr, gm) - triadInput(gyr, gyro_offset)).squaredNorm();
+  for (const Vec3& gm : gyr_means) sc += (gyr.input(gm) - gyr.input(gyro_offset)).squaredNorm();
   res.static_rate_scatter = std::sqrt(sc / static_cast<double>(gyr_means.size()));
   res.earth_rate_usable = res.static_rate_scatter < 0.2 * nav::kEarthRate;
   std::ostringstream s;

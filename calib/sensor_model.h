@@ -1,11 +1,12 @@
-// The sensor model of one IMU: eq. (1) of interchange.md for each triad,
-//   reading = diag(scale) * (M * input - bias + noise),
-//   M = [[1, m_xy, -m_xz], [-m_yx, 1, m_yz], [m_zx, -m_zy, 1]].
-// input: specific force (m/s^2) for the accelerometers, angular rate w.r.t. inertial space
-// (rad/s) for the gyros, both in B. Scale is the total factor (about 1.0), not a deviation.
+// The sensor model of one IMU in double precision: named fields for eq. (1) of interchange.md,
+// which calib/model/sensor_equation.h states once (signs, frames, the exact inverse); reading()
+// and input() evaluate it there. Scale is the total factor (about 1.0), not a deviation.
 // Extra physics (temperature, asymmetry, g-sensitivity...) lives in calib/effects.h.
 #pragma once
 
+#include <array>
+
+#include "calib/model/sensor_equation.h"
 #include "nav/rotation.h"
 
 namespace imubench::calib {
@@ -19,6 +20,12 @@ struct Misalignment {
   double zx = 0.0;
   double zy = 0.0;
 };
+
+// From six misalignments in the model's order (calib/model/sensor_equation.h kMisEntries).
+inline Misalignment misalignmentFrom(const double* m) {
+  return {m[model::kMisXY], m[model::kMisXZ], m[model::kMisYX],
+          m[model::kMisYZ], m[model::kMisZX], m[model::kMisZY]};
+}
 
 // M of eq. (1) for the given misalignments.
 Mat3 misalignmentMatrix(const Misalignment& m);
@@ -34,6 +41,10 @@ struct TriadModel {
   Vec3 reading(const Vec3& input) const;
   // The input that produces this reading: the exact inverse of reading() (M^-1 applied).
   Vec3 input(const Vec3& reading) const;
+
+  // The model's parameter block (calib/model/sensor_equation.h offsets) and back.
+  std::array<double, model::kTriadSize> block() const;
+  static TriadModel fromBlock(const double* block);
 };
 
 struct SensorModel {

@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include "calib/model/bench_physics.h"
+
 namespace imubench::calib {
 namespace {
 
@@ -52,18 +54,6 @@ nav::Site trueSite(const nav::Site& assumed, const EffectSet& effects) {
   return s;
 }
 
-PhysicsPoint benchPhysics(const TableModel& table, const nav::Site& true_site,
-                          const TableState& state, double temp_c) {
-  const TableKinematics k = table.kinematics(state);
-  PhysicsPoint p;
-  p.f_B = k.C_LB.transpose() * Vec3(0.0, 0.0, nav::siteGravity(true_site));
-  p.w_IB_B = k.C_LB.transpose() * nav::earthRateL(true_site.latitude_rad) + k.w_LB_B;
-  p.w_LB_B = k.w_LB_B;
-  p.wdot_LB_B = k.wdot_LB_B;
-  p.temp_c = temp_c;
-  return p;
-}
-
 bool SimOptions::IsValid(std::string* why) const {
   auto bad = [&](const char* msg) {
     if (why) *why = msg;
@@ -89,7 +79,7 @@ struct ImuSimulator::Impl {
   SensorModel sensors;
   EffectSet effects;
   NoiseModel noise;
-  Vec3 f_L = Vec3::Zero();     // (0, 0, g) of the true site
+  double gravity = 0.0;        // g of the true site
   Vec3 w_ie_L = Vec3::Zero();  // Earth rate of the true site
   double tau = 0.0;
   double dt = 0.0;
@@ -114,10 +104,7 @@ struct ImuSimulator::Impl {
   }
 
   static AxisState stateOf(const AxisPhase* p, double t) {
-    if (!p) return {};
-    if (t < p->t0) return {p->angle0, 0.0, 0.0};  // before the first phase: hold
-    const double d = t - p->t0;
-    return {p->angle0 + p->rate0 * d + 0.5 * p->accel * d * d, p->rate0 + p->accel * d, p->accel};
+    return p ? stateIn(*p, t) : AxisState{};
   }
 
   Readings readingsAt(const std::array<const AxisPhase*, kMaxAxes>& ph, double t) const {
@@ -131,11 +118,8 @@ struct ImuSimulator::Impl {
       s.inner = stateOf(ph[2], t);
     }
     const TableKinematics k = table.kinematics(s);
-    PhysicsPoint p;
-    p.f_B = k.C_LB.transpose() * f_L;
-    p.w_IB_B = k.C_LB.transpose() * w_ie_L + k.w_LB_B;
-    p.w_LB_B = k.w_LB_B;
-    p.wdot_LB_B = k.wdot_LB_B;
+    const model::Physics<double> m = model::benchPhysics(k, gravity, w_ie_L);
+    PhysicsPoint p{m.f_B, m.w_IB_B, m.w_LB_B, m.wdot_LB_B};
     p.temp_c = motion->temperature.empty() ? 20.0 : motion->temperatureAt(t);
     return forwardReadings(sensors, effects, p);
   }
@@ -215,7 +199,7 @@ std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, cons
   impl->effects = world.truth.extra;
   impl->noise = world.noise;
   const nav::Site site = trueSite(world.site, world.truth.extra);
-  impl->f_L = Vec3(0.0, 0.0, nav::siteGravity(site));
+  impl->gravity = nav::siteGravity(site);
   impl->w_ie_L = nav::earthRateL(site.latitude_rad);
   impl->tau = world.truth.extra.time_delay ? world.truth.extra.time_delay->tau_s : 0.0;
   impl->rate_hz = options.imu_rate_hz;

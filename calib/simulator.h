@@ -4,10 +4,10 @@
 // for increments.
 //
 // Physics at time t (tau = time_delay.tau_s, 0 if absent): the table state of the motion at
-// t_phys = t - tau; C_LB, w_LB_B, wdot_LB_B from the table chain (calib/table_model.h);
-//   w_IB_B = C_BL w_ie_L + w_LB_B,   f_B = C_BL (0, 0, g)   (axes intersection is fixed on
-// Earth; normal gravity includes the centrifugal term), then the effects and the sensor model
-// (calib/effects.h forwardReadings). The true site is the given site shifted by the
+// t_phys = t - tau; C_LB, w_LB_B, wdot_LB_B from the table chain (calib/model/table_chain.h
+// through calib/table_model.h); f_B and w_IB_B from the model's bench physics
+// (calib/model/bench_physics.h), then the effects and the sensor model (calib/effects.h
+// forwardReadings). The true site is the given site shifted by the
 // latitude_error / gravity_error effects.
 //
 // Increments: sample k (k = 1, 2, ...) is stamped t_k = k / imu_rate_hz and integrates the
@@ -83,10 +83,6 @@ struct Simulation {
 // Batch: all samples with t_k <= duration (motion.duration or options.end_time_s).
 Simulation simulate(const SimulatorInput& input, const SimOptions& options);
 
-// Noise-free instantaneous physics at time t_phys (no time delay applied here) for the true
-// site of the world. Used by the simulator and by calibrators that need expected readings.
-PhysicsPoint benchPhysics(const TableModel& table, const nav::Site& true_site,
-                          const TableState& state, double temp_c);
 // The true site: assumed site shifted by the world's latitude_error / gravity_error effects.
 nav::Site trueSite(const nav::Site& assumed, const EffectSet& effects);
 

@@ -5,46 +5,6 @@
 namespace imubench::calib {
 namespace {
 
-// Small error rotation: exact exp([t x]) or literal I + [t x].
-Mat3 smallRotation(const Vec3& t, bool first_order) {
-  if (first_order) return Mat3::Identity() + skew(t);
-  const double a = t.norm();
-  if (a == 0.0) return Mat3::Identity();
-  return Eigen::AngleAxisd(a, t / a).toRotationMatrix();
-}
-
-// Rx / Rz from precomputed sin and cos.
-Mat3 rotX(double c, double s) {
-  Mat3 r;
-  r << 1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c;
-  return r;
-}
-Mat3 rotZ(double c, double s) {
-  Mat3 r;
-  r << c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0;
-  return r;
-}
-
-// Rx(c, s) * m and Rz(c, s) * m without the full product (only two rows mix).
-Mat3 rotXTimes(double c, double s, const Mat3& m) {
-  Mat3 r;
-  r.row(0) = m.row(0);
-  r.row(1) = c * m.row(1) - s * m.row(2);
-  r.row(2) = s * m.row(1) + c * m.row(2);
-  return r;
-}
-Mat3 rotZTimes(double c, double s, const Mat3& m) {
-  Mat3 r;
-  r.row(0) = c * m.row(0) - s * m.row(1);
-  r.row(1) = s * m.row(0) + c * m.row(1);
-  r.row(2) = m.row(2);
-  return r;
-}
-// a * m, skipping an identity a.
-Mat3 times(const Mat3& a, bool a_identity, const Mat3& m) {
-  return a_identity ? m : Mat3(a * m);
-}
-
 // Wraps to (-pi, pi].
 double wrap(double a) {
   a = std::remainder(a, 2.0 * kPi);
@@ -79,84 +39,60 @@ TableAngles tableAnglesFromAxes(TableKind kind, const double* a) {
   return {a[0], a[1], a[2]};
 }
 
-TableModel::TableModel(const TableGeometry& geometry, const TableErrors& errors,
-                       const ChainOptions& options)
-    : geometry_(geometry), errors_(errors), options_(options) {
-  const bool fo = options.first_order_errors;
-  const Vec3 theta(errors.base_tilt.x(), errors.base_tilt.y(), 0.0);
-  const Vec3 mu(errors.mounting.x(), errors.mounting.y(), 0.0);
-  const Nonorthogonality& nu = errors.nonorthogonality;
-  a3_ = smallRotation(mu, fo);
-  if (geometry.kind == TableKind::kTwoAxis) {
-    heading_ = Rz(kPi / 2.0 - geometry.outer_axis_heading_rad);
-    a0_ = smallRotation(theta, fo) * heading_;
-    a1_ = smallRotation(Vec3(0.0, nu.inner_y, 0.0), fo);
-    a2_ = Mat3::Identity();
-  } else {
-    heading_ = Mat3::Identity();
-    a0_ = smallRotation(theta, fo);
-    a1_ = smallRotation(Vec3(nu.middle_x, nu.middle_y, 0.0), fo);
-    a2_ = smallRotation(Vec3(0.0, nu.inner_y, 0.0), fo);
-  }
-  a0_identity_ = a0_ == Mat3::Identity();
-  a1_identity_ = a1_ == Mat3::Identity();
-  a2_identity_ = a2_ == Mat3::Identity();
-  a3_identity_ = a3_ == Mat3::Identity();
+// Both blocks list their entries in offset order (checked here).
+static_assert(model::kTiltX == 0 && model::kTiltY == 1 && model::kNonorthInnerY == 2 &&
+              model::kNonorthMiddleX == 3 && model::kNonorthMiddleY == 4);
+static_assert(model::kMountX == 0 && model::kMountY == 1 && model::kZeroOuter == 2 &&
+              model::kZeroMiddle == 3 && model::kZeroInner == 4);
+
+std::array<double, model::kTableAxesSize> axesBlock(const TableErrors& e) {
+  const Nonorthogonality& nu = e.nonorthogonality;
+  return {e.base_tilt.x(), e.base_tilt.y(), nu.inner_y, nu.middle_x, nu.middle_y};
 }
 
+std::array<double, model::kTableDeviceSize> deviceBlock(const TableErrors& e) {
+  const EncoderZero& z = e.encoder_zero;
+  return {e.mounting.x(), e.mounting.y(), z.outer, z.middle, z.inner};
+}
+
+model::ChainErrors<double> chainErrors(TableKind kind, const TableErrors& e) {
+  const auto axes = axesBlock(e);
+  const auto device = deviceBlock(e);
+  return model::chainErrors(kind, axes.data(), device.data());
+}
+
+TableModel::TableModel(const TableGeometry& geometry, const TableErrors& errors,
+                       const ChainOptions& options)
+    : geometry_(geometry),
+      errors_(errors),
+      options_(options),
+      chain_errors_(chainErrors(geometry.kind, errors)),
+      factors_(model::chainFactors(geometry.kind, geometry.outer_axis_heading_rad, chain_errors_,
+                                   options.first_order_errors)) {}
+
 Mat3 TableModel::C_LB(const TableAngles& a) const {
-  const EncoderZero& z = errors_.encoder_zero;
-  const double o = a.outer + z.outer;
-  const double i = a.inner + z.inner;
-  if (geometry_.kind == TableKind::kTwoAxis) {
-    return a0_ * rotX(std::cos(o), std::sin(o)) * a1_ * rotZ(std::cos(i), std::sin(i)) * a3_;
-  }
-  const double m = a.middle + z.middle;
-  return a0_ * rotZ(std::cos(o), std::sin(o)) * a1_ * rotX(std::cos(m), std::sin(m)) * a2_ *
-         rotZ(std::cos(i), std::sin(i)) * a3_;
+  const model::ChainErrors<double>& e = chain_errors_;
+  return model::chainAttitude(factors_, a.outer + e.zero_outer, a.middle + e.zero_middle,
+                              a.inner + e.zero_inner);
 }
 
 TableKinematics TableModel::kinematics(const TableState& s) const {
-  // C_LB = A0 R1(q1) A1 R2(q2) ... Rn(qn) An. With P_k the product right of joint k, the body
-  // rate is w = sum_k qdot_k u_k with u_k = P_k^T e_k, and its derivative
-  // wdot = sum_k qddot_k u_k + sum_{j<k} qdot_j qdot_k (u_j x u_k).
-  const EncoderZero& z = errors_.encoder_zero;
-  TableKinematics k;
-  const double o = s.outer.angle + z.outer;
-  const double i = s.inner.angle + z.inner;
-  // Joint axes resolved in B, inner to outer.
-  const Vec3 u_inner = a3_.transpose().col(2);  // A3^T e_z
-  const Mat3 p_inner = a3_identity_ ? rotZ(std::cos(i), std::sin(i))
-                                    : rotZTimes(std::cos(i), std::sin(i), a3_);  // R_inner A3
-  if (geometry_.kind == TableKind::kTwoAxis) {
-    const Mat3 right_of_outer = times(a1_, a1_identity_, p_inner);  // P_outer
-    const Vec3 u_outer = right_of_outer.row(0).transpose();         // P_outer^T e_x
-    k.C_LB = times(a0_, a0_identity_, rotXTimes(std::cos(o), std::sin(o), right_of_outer));
-    const double qo = s.outer.rate, qi = s.inner.rate;
-    k.w_LB_B = qo * u_outer + qi * u_inner;
-    k.wdot_LB_B =
-        s.outer.accel * u_outer + s.inner.accel * u_inner + qo * qi * u_outer.cross(u_inner);
-    if (options_.first_order_errors) k.C_LB = C_LB(s.angles());
-    return k;
-  }
-  const double m = s.middle.angle + z.middle;
-  const Mat3 right_of_middle = times(a2_, a2_identity_, p_inner);
-  const Vec3 u_middle = right_of_middle.row(0).transpose();
-  const Mat3 right_of_outer =
-      times(a1_, a1_identity_, rotXTimes(std::cos(m), std::sin(m), right_of_middle));
-  const Vec3 u_outer = right_of_outer.row(2).transpose();
-  k.C_LB = times(a0_, a0_identity_, rotZTimes(std::cos(o), std::sin(o), right_of_outer));
-  const double qo = s.outer.rate, qm = s.middle.rate, qi = s.inner.rate;
-  k.w_LB_B = qo * u_outer + qm * u_middle + qi * u_inner;
-  k.wdot_LB_B = s.outer.accel * u_outer + s.middle.accel * u_middle + s.inner.accel * u_inner +
-                qo * qm * u_outer.cross(u_middle) + qo * qi * u_outer.cross(u_inner) +
-                qm * qi * u_middle.cross(u_inner);
+  const model::ChainErrors<double>& e = chain_errors_;
+  auto joint = [](const AxisState& a, double zero) {
+    return model::JointState<double>{a.angle + zero, a.rate, a.accel};
+  };
+  TableKinematics k =
+      model::chainKinematics(factors_, joint(s.outer, e.zero_outer), joint(s.middle, e.zero_middle),
+                             joint(s.inner, e.zero_inner));
   if (options_.first_order_errors) k.C_LB = C_LB(s.angles());
   return k;
 }
 
 Mat3 TableModel::nominalC_LB(const TableAngles& a) const {
-  if (geometry_.kind == TableKind::kTwoAxis) return heading_ * Rx(a.outer) * Rz(a.inner);
+  if (geometry_.kind == TableKind::kTwoAxis) {
+    return model::headingRotation(geometry_.kind, geometry_.outer_axis_heading_rad) * Rx(a.outer) *
+           Rz(a.inner);
+  }
   return Rz(a.outer) * Rx(a.middle) * Rz(a.inner);
 }
 
@@ -165,7 +101,8 @@ TableInverse TableModel::inverse(const Mat3& C) const {
   if (!C.allFinite()) return r;
   if (geometry_.kind == TableKind::kTwoAxis) {
     // H^T C = Rx(a) Rz(b): third column (0, -sin a, cos a) fixes a, then Rz(b) = Rx(-a) H^T C.
-    const Mat3 c = heading_.transpose() * C;
+    const Mat3 c =
+        model::headingRotation(geometry_.kind, geometry_.outer_axis_heading_rad).transpose() * C;
     r.angles.outer = wrap(std::atan2(-c(1, 2), c(2, 2)));
     const Mat3 rz = Rx(-r.angles.outer) * c;
     r.angles.inner = wrap(std::atan2(rz(1, 0) - rz(0, 1), rz(0, 0) + rz(1, 1)));

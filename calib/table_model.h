@@ -1,25 +1,22 @@
-// Table geometry and geometric error chains, exactly as interchange.md states them:
-//   two-axis:   C_LB = (I+[theta x]) H Rx(outer+o0) (I+[nu x]) Rz(inner+i0) (I+[mu x])
-//   three-axis: C_LB = (I+[theta x]) Rz(outer+o0) (I+[nu1 x]) Rx(middle+m0) (I+[nu2 x])
-//                      Rz(inner+i0) (I+[mu x])
-// with H = Rz(pi/2 - h) for a two-axis table whose outer axis points to heading h (clockwise
-// from North; h = 90 deg = East gives H = I). The base tilt theta is expressed in L (ENU), so
-// H sits to the right of it.
+// A table with its geometric errors, in double precision with the constant chain factors
+// precomputed: a thin front of the one templated chain in calib/model/table_chain.h (which
+// states the chains, frames and signs), plus the table's inverse (angles for an attitude).
 //
 // Small rotations: by default every (I + [t x]) factor is evaluated as the exact rotation
 // exp([t x]) (ChainOptions::first_order_errors = false). The two agree to first order in t
 // (difference O(|t|^2): 2e-8 rad for 30 arcsec), the exact form keeps C_LB orthonormal so the
-// simulator's kinematics are exact; the calibrators linearise anyway. Set first_order_errors
-// to evaluate the interchange chain literally (C_LB is then not orthonormal; kinematics still
-// use the exact rotations).
+// simulator's kinematics are exact. Set first_order_errors to evaluate the interchange chain
+// literally (C_LB is then not orthonormal; kinematics still use the exact rotations).
 //
 // Angles: the motion's axis angles are the encoder readings (nominal angles, calib/motion.h);
 // the physical rotation is reading + encoder zero. Axis order: two-axis [outer, inner],
 // three-axis [outer, middle, inner]; `middle` is unused (0) for a two-axis table.
 #pragma once
 
+#include <array>
 #include <string>
 
+#include "calib/model/table_chain.h"
 #include "calib/motion.h"
 #include "nav/rotation.h"
 
@@ -55,6 +52,12 @@ struct TableErrors {
   EncoderZero encoder_zero;
 };
 
+// The errors as the model's parameter blocks (calib/model/table_chain.h offsets).
+std::array<double, model::kTableAxesSize> axesBlock(const TableErrors& e);
+std::array<double, model::kTableDeviceSize> deviceBlock(const TableErrors& e);
+// The errors as the chain's factors see them.
+model::ChainErrors<double> chainErrors(TableKind kind, const TableErrors& e);
+
 // Angles of the table axes, rad (encoder readings).
 struct TableAngles {
   double outer = 0.0;
@@ -76,12 +79,8 @@ TableState tableStateAt(const Motion& motion, double t);
 // The same from a per-axis array in motion.h order (2 or 3 entries).
 TableAngles tableAnglesFromAxes(TableKind kind, const double* axis_angles);
 
-// Attitude and body kinematics of the platform at one instant.
-struct TableKinematics {
-  Mat3 C_LB = Mat3::Identity();
-  Vec3 w_LB_B = Vec3::Zero();     // angular rate of B relative to L, in B, rad/s
-  Vec3 wdot_LB_B = Vec3::Zero();  // its time derivative (in B), rad/s^2
-};
+// Attitude and body kinematics of the platform at one instant (C_LB, w_LB_B, wdot_LB_B).
+using TableKinematics = model::ChainKinematics<double>;
 
 struct ChainOptions {
   // false: small error rotations evaluated exactly (orthonormal C_LB); true: literally
@@ -123,14 +122,8 @@ class TableModel {
   TableGeometry geometry_;
   TableErrors errors_;
   ChainOptions options_;
-  // C_LB = A0 R_outer A1 [R_middle A2] R_inner A3, constant factors:
-  Mat3 a0_;       // base tilt (and heading for two-axis)
-  Mat3 a1_;       // after outer joint: nu (two-axis) / nu1 (three-axis)
-  Mat3 a2_;       // three-axis: nu2 after the middle joint
-  Mat3 a3_;       // mounting
-  Mat3 heading_;  // H (two-axis), I (three-axis)
-  // Exactly identity factors are skipped in the hot path (error-free tables).
-  bool a0_identity_ = true, a1_identity_ = true, a2_identity_ = true, a3_identity_ = true;
+  model::ChainErrors<double> chain_errors_;
+  model::ChainFactors<double> factors_;  // C_LB = A0 R_outer A1 [R_middle A2] R_inner A3
 };
 
 }  // namespace imubench::calib

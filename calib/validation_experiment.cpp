@@ -74,10 +74,10 @@ bool simulateRun(const BenchTruth& truth, const Motion& motion, const Validation
 
 // Compensated increments: dth_c = G_g dth + h_g dt (exact inverse of eq. 1), same for dv.
 nav::ImuSamples compensate(const nav::ImuSamples& raw, const SensorModel& c, double t_start) {
-  const Mat3 Ga = c.accel.M().inverse() * c.accel.scale.cwiseInverse().asDiagonal();
-  const Vec3 ha = c.accel.M().inverse() * c.accel.bias;
-  const Mat3 Gg = c.gyro.M().inverse() * c.gyro.scale.cwiseInverse().asDiagonal();
-  const Vec3 hg = c.gyro.M().inverse() * c.gyro.bias;
+  Mat3 Ga, Gg;
+  Vec3 ha, hg;
+  model::compensationAffine(c.accel.block().data(), &Ga, &ha);
+  model::compensationAffine(c.gyro.block().data(), &Gg, &hg);
   nav::ImuSamples out(raw.size());
   double t_prev = t_start;
   for (std::size_t k = 0; k < raw.size(); ++k) {

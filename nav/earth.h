@@ -37,9 +37,12 @@ inline Vec3 gravityL(const Site& site) {
   return {0.0, 0.0, -siteGravity(site)};
 }
 
-// Earth rate resolved in L (ENU): (0, W cos(lat), W sin(lat)).
+// Earth rate resolved in L (ENU) from the latitude's cosine and sine: (0, W cos, W sin).
+inline Vec3 earthRateL(double cos_lat, double sin_lat) {
+  return {0.0, kEarthRate * cos_lat, kEarthRate * sin_lat};
+}
 inline Vec3 earthRateL(double latitude_rad) {
-  return {0.0, kEarthRate * std::cos(latitude_rad), kEarthRate * std::sin(latitude_rad)};
+  return earthRateL(std::cos(latitude_rad), std::sin(latitude_rad));
 }
 
 struct Radii {
@@ -47,5 +50,16 @@ struct Radii {
   double prime_vertical = 0.0;  // R_N, east-west radius of curvature, m
 };
 Radii radiiOfCurvature(double latitude_rad);
+
+// Every Earth term the strapdown mechanization needs at one position, from one sincos and one
+// sqrt: the same formulas as normalGravity / radiiOfCurvature (which are computed by it).
+struct EarthTerms {
+  double sin_lat = 0.0;
+  double cos_lat = 1.0;
+  Radii radii;     // R_M, R_N (without the height)
+  double g = 0.0;  // gravity magnitude: gravity_mps2 if given, else WGS-84 normal gravity
+};
+EarthTerms earthTerms(double latitude_rad, double height_m,
+                      std::optional<double> gravity_mps2 = std::nullopt);
 
 }  // namespace imubench::nav

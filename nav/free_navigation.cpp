@@ -68,28 +68,25 @@ FreeNavigator::FreeNavigator(const NavState& initial, const FreeNavOptions& opt)
   next_output_t_ = initial.t + opt_.output_interval_s;
 }
 
-NavErrorPoint FreeNavigator::current() const {
+NavErrorPoint FreeNavigator::pointOf(const NavState& s) const {
   NavErrorPoint p;
-  p.t = state_.t;
-  const Vec3 dv = state_.v_L - opt_.reference_v_L;
+  p.t = s.t;
+  const Vec3 dv = s.v_L - opt_.reference_v_L;
   p.v_E_err = dv.x();
   p.v_N_err = dv.y();
   p.v_U_err = dv.z();
-  p.d_E_m = (state_.lon_rad - initial_.lon_rad) * rn_cos_h0_;
-  p.d_N_m = (state_.lat_rad - initial_.lat_rad) * rm_h0_;
-  p.q_BtoL = state_.q_BtoL;
+  p.d_E_m = (s.lon_rad - initial_.lon_rad) * rn_cos_h0_;
+  p.d_N_m = (s.lat_rad - initial_.lat_rad) * rm_h0_;
+  p.q_BtoL = s.q_BtoL;
   return p;
 }
 
+NavErrorPoint FreeNavigator::current() const {
+  return pointOf(state_);
+}
+
 NavErrorPoint FreeNavigator::initialPoint() const {
-  NavErrorPoint p;
-  p.t = initial_.t;
-  const Vec3 dv = initial_.v_L - opt_.reference_v_L;
-  p.v_E_err = dv.x();
-  p.v_N_err = dv.y();
-  p.v_U_err = dv.z();
-  p.q_BtoL = initial_.q_BtoL;
-  return p;
+  return pointOf(initial_);  // position errors are exactly zero here
 }
 
 FreeNavigator::FeedResult FreeNavigator::feed(const ImuSample& sample) {

@@ -108,6 +108,9 @@ class FreeNavigator {
   NavErrorPoint initialPoint() const;  // the first output point (t0, zero displacement)
 
  private:
+  // Errors of a state against the reference velocity and the initial position.
+  NavErrorPoint pointOf(const NavState& s) const;
+
   FreeNavOptions opt_;
   NavState state_;
   NavState initial_;

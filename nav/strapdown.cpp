@@ -5,39 +5,6 @@
 
 namespace imubench::nav {
 
-namespace {
-
-// Earth terms at one position, computed with one sincos and one sqrt (the same formulas as
-// nav/earth.cpp's normalGravity / radiiOfCurvature, sharing the trig).
-struct EarthTerms {
-  double sin_lat = 0.0;
-  double cos_lat = 1.0;
-  double rm_h = 0.0;  // R_M + h
-  double rn_h = 0.0;  // R_N + h
-  double g = 0.0;     // gravity magnitude
-};
-
-inline EarthTerms earthTerms(double lat, double h, const MechOptions& opt) {
-  using namespace wgs84;
-  EarthTerms e;
-  e.sin_lat = std::sin(lat);
-  e.cos_lat = std::cos(lat);
-  const double s2 = e.sin_lat * e.sin_lat;
-  const double w2 = 1.0 - kE2 * s2;
-  const double w = std::sqrt(w2);
-  e.rm_h = kA * (1.0 - kE2) / (w2 * w) + h;
-  e.rn_h = kA / w + h;
-  if (opt.gravity_mps2) {
-    e.g = *opt.gravity_mps2;
-  } else {
-    const double g0 = kGammaE * (1.0 + kK * s2) / w;
-    e.g = g0 * (1.0 - 2.0 / kA * (1.0 + kF + kM - 2.0 * kF * s2) * h + 3.0 * h * h / (kA * kA));
-  }
-  return e;
-}
-
-}  // namespace
-
 bool MechOptions::IsValid(std::string* why) const {
   if (gravity_mps2 && !(*gravity_mps2 > 9.0 && *gravity_mps2 < 10.5)) {
     if (why) *why = "gravity_mps2 must be an Earth-surface value in (9, 10.5) m/s^2";
@@ -55,10 +22,12 @@ NavState insMech(const NavState& prev, const ImuSample& imu_prev, const ImuSampl
   const double dt = imu_cur.t - prev.t;
   assert(dt > 0.0);
 
-  const EarthTerms e = earthTerms(prev.lat_rad, prev.height_m, opt);
+  const EarthTerms e = earthTerms(prev.lat_rad, prev.height_m, opt.gravity_mps2);
+  const double rm_h = e.radii.meridian + prev.height_m;
+  const double rn_h = e.radii.prime_vertical + prev.height_m;
   const Vec3& v0 = prev.v_L;
-  const Vec3 w_ie_L(0.0, kEarthRate * e.cos_lat, kEarthRate * e.sin_lat);
-  const Vec3 w_el_L(-v0.y() / e.rm_h, v0.x() / e.rn_h, v0.x() * e.sin_lat / (e.cos_lat * e.rn_h));
+  const Vec3 w_ie_L = earthRateL(e.cos_lat, e.sin_lat);
+  const Vec3 w_el_L(-v0.y() / rm_h, v0.x() / rn_h, v0.x() * e.sin_lat / (e.cos_lat * rn_h));
   const Vec3 zeta = (w_ie_L + w_el_L) * dt;
 
   const Vec3& dth = imu_cur.dtheta;
@@ -103,8 +72,8 @@ NavState insMech(const NavState& prev, const ImuSample& imu_prev, const ImuSampl
   const Vec3 v_mid = 0.5 * (v0 + next.v_L);
   next.height_m =
       opt.vertical == VerticalChannel::kHoldHeight ? prev.height_m : prev.height_m + v_mid.z() * dt;
-  next.lat_rad = prev.lat_rad + v_mid.y() * dt / e.rm_h;
-  next.lon_rad = prev.lon_rad + v_mid.x() * dt / (e.rn_h * e.cos_lat);
+  next.lat_rad = prev.lat_rad + v_mid.y() * dt / rm_h;
+  next.lon_rad = prev.lon_rad + v_mid.x() * dt / (rn_h * e.cos_lat);
   return next;
 }
 
