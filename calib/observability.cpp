@@ -242,7 +242,6 @@ std::vector<T> measure(const PlanSegments& segs, TableKind kind, const T* x, con
   const T lat = T(lat0) + param(ix.dlat);
   const T g = T(nav::siteGravity(o.site)) + T(dgdlat) * param(ix.dlat) + param(ix.dg);
   const Vec3T<T> w_ie_L(T(0.0), T(nav::kEarthRate) * cos(lat), T(nav::kEarthRate) * sin(lat));
-  const Vec3T<T> f_L(T(0.0), T(0.0), g);
   std::array<T, model::kTableAxesSize> axes;
   std::array<T, model::kTableDeviceSize> device;
   for (int k = 0; k < model::kTableAxesSize; ++k) axes[k] = param(ix.axes[k]);
@@ -257,6 +256,12 @@ std::vector<T> measure(const PlanSegments& segs, TableKind kind, const T* x, con
                                 T(a.inner) + err.zero_inner);
   };
   const model::ChainErrors<T> none;
+  // What the IMU senses at rest at the given angles (the model's bench physics).
+  auto atRest = [&](const TableAngles& a) {
+    model::ChainKinematics<T> k;
+    k.C_LB = C_LB(table, e, a);
+    return model::benchPhysics(k, g, w_ie_L);
+  };
   const T* accel = x + ix.accel;
   const T* gyro = x + ix.gyro;
   std::vector<T> out;
@@ -265,14 +270,14 @@ std::vector<T> measure(const PlanSegments& segs, TableKind kind, const T* x, con
   };
   if (method == CalibrationMethod::kDirect) {
     for (const TableAngles& a : segs.statics) {
-      const Mat3T<T> C_BL = C_LB(table, e, a).transpose();
-      push(model::reading(accel, Vec3T<T>(C_BL * f_L)), o.accel_sigma);
+      const model::Physics<T> p = atRest(a);
+      push(model::reading(accel, p.f_B), o.accel_sigma);
       // Static gyro mean over a nominal 100 s hold, as an angle.
-      push(model::reading(gyro, Vec3T<T>(C_BL * w_ie_L)) * T(100.0), o.angle_sigma);
+      push(model::reading(gyro, p.w_IB_B) * T(100.0), o.angle_sigma);
     }
     for (const PlanSegments::Run& r : segs.runs) {
       const Vec3T<T> axis_B = axisInBody(table, e, r.start, kind, r.axis);
-      const Vec3T<T> earth = C_LB(table, e, r.start).transpose() * w_ie_L * T(r.duration);
+      const Vec3T<T> earth = atRest(r.start).w_IB_B * T(r.duration);
       const Vec3T<T> rate = (axis_B * T(r.angle) + earth) / T(r.duration);
       push(model::reading(gyro, rate) * T(r.duration), o.angle_sigma);
     }
@@ -282,16 +287,16 @@ std::vector<T> measure(const PlanSegments& segs, TableKind kind, const T* x, con
   // started from the nominal table setting resolves the specific force and the Earth rate in
   // L (horizontal apparent acceleration, vertical against gravity, rate against w_ie)...
   for (const TableAngles& a : segs.statics) {
-    const Mat3T<T> C_BL = C_LB(table, e, a).transpose();
+    const model::Physics<T> p = atRest(a);
     const Mat3T<T> C_LB_nav = C_LB(nominal, none, a);
-    push(C_LB_nav * model::reading(accel, Vec3T<T>(C_BL * f_L)), o.accel_sigma);
-    push(C_LB_nav * model::reading(gyro, Vec3T<T>(C_BL * w_ie_L)) * T(100.0), o.angle_sigma);
+    push(C_LB_nav * model::reading(accel, p.f_B), o.accel_sigma);
+    push(C_LB_nav * model::reading(gyro, p.w_IB_B) * T(100.0), o.angle_sigma);
   }
   // ... and through each run it turns with the measured gyro increments and compares the
   // apparent acceleration in L after and before (horizontal components: the seed's residual).
   for (const PlanSegments::Run& r : segs.runs) {
-    const Vec3T<T> a0 = model::reading(accel, Vec3T<T>(C_LB(table, e, r.start).transpose() * f_L));
-    const Vec3T<T> a1 = model::reading(accel, Vec3T<T>(C_LB(table, e, r.end).transpose() * f_L));
+    const Vec3T<T> a0 = model::reading(accel, atRest(r.start).f_B);
+    const Vec3T<T> a1 = model::reading(accel, atRest(r.end).f_B);
     const Vec3T<T> axis_B = axisInBody(table, e, r.start, kind, r.axis);
     const Vec3T<T> theta =
         model::reading(gyro, Vec3T<T>(axis_B * T(r.angle / r.duration))) * T(r.duration);
