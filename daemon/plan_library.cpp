@@ -1,14 +1,10 @@
 #include "daemon/plan_library.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
 #include <filesystem>
 #include <utility>
+
+#include "io/file_io.h"
 
 namespace imubench::daemon {
 namespace {
@@ -25,37 +21,6 @@ bool inside(const fs::path& p, const fs::path& dir) {
   const fs::path rel = p.lexically_relative(dir);
   if (rel.empty() || rel == ".") return false;
   return *rel.begin() != "..";
-}
-
-struct Fd {
-  int fd = -1;
-  ~Fd() {
-    if (fd >= 0) ::close(fd);
-  }
-};
-
-PlanFile failed(const std::string& path, const std::string& why) {
-  PlanFile f;
-  f.error = path + ": " + why;
-  return f;
-}
-
-// Reads the whole of an open regular file of at most max_bytes (it may grow meanwhile).
-PlanFile readOpen(int fd, const std::string& path, std::size_t max_bytes) {
-  PlanFile f;
-  char buf[64 * 1024];
-  for (;;) {
-    const ssize_t n = ::read(fd, buf, sizeof buf);
-    if (n == 0) break;
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) return failed(path, std::string("read: ") + std::strerror(errno));
-    f.text.append(buf, static_cast<std::size_t>(n));
-    if (f.text.size() > max_bytes)
-      return failed(path,
-                    "longer than the " + std::to_string(max_bytes) + " bytes a plan may have");
-  }
-  f.ok = true;
-  return f;
 }
 
 }  // namespace
@@ -79,28 +44,22 @@ PlanFile readLibraryFile(const std::string& path, const PlanLibraryOptions& opti
     f.error = *why;
     return f;
   }
-  // O_NONBLOCK: opening a FIFO without a writer, or a file under a lease, returns at once.
-  Fd file{::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY)};
-  if (file.fd < 0) {
-    if (errno == EWOULDBLOCK)
-      return failed(path, "held by another process (lease); try again later");
-    return failed(path, std::string("cannot open: ") + std::strerror(errno));
-  }
-  struct stat st {};
-  if (::fstat(file.fd, &st) != 0)
-    return failed(path, std::string("fstat: ") + std::strerror(errno));
-  if (!S_ISREG(st.st_mode)) return failed(path, "not a regular file");
-  if (static_cast<std::size_t>(st.st_size) > options.max_bytes)
-    return failed(path, std::to_string(st.st_size) + " bytes, more than the " +
-                            std::to_string(options.max_bytes) + " bytes a plan may have");
   // The file actually opened (symlinks resolved) must be inside the library too.
-  std::error_code ec_file;
-  std::error_code ec_dir;
-  const fs::path real = fs::read_symlink("/proc/self/fd/" + std::to_string(file.fd), ec_file);
-  const fs::path real_dir = fs::canonical(options.plan_dir, ec_dir);
-  if (ec_file || ec_dir || !inside(real, real_dir))
-    return failed(path, "resolves outside this bench's plan library (" + options.plan_dir + ")");
-  return readOpen(file.fd, path, options.max_bytes);
+  auto resolves_inside = [&options](int fd) -> std::string {
+    std::error_code ec_file;
+    std::error_code ec_dir;
+    const fs::path real = fs::read_symlink("/proc/self/fd/" + std::to_string(fd), ec_file);
+    const fs::path real_dir = fs::canonical(options.plan_dir, ec_dir);
+    if (ec_file || ec_dir || !inside(real, real_dir))
+      return "resolves outside this bench's plan library (" + options.plan_dir + ")";
+    return {};
+  };
+  io::UserFile read = io::readUserFile(path, options.max_bytes, "a plan may have", resolves_inside);
+  PlanFile f;
+  f.ok = read.ok();
+  f.text = std::move(read.text);
+  f.error = std::move(read.message);
+  return f;
 }
 
 std::vector<std::string> listLibraryFiles(const std::string& plan_dir) {

@@ -39,13 +39,10 @@
 // faulted, aborted or interrupted. Without "progress" the percentage is step/count.
 #include "tools/cli_control.h"
 
-#include <fcntl.h>
 #include <sys/ioctl.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -54,6 +51,7 @@
 #include <memory>
 #include <sstream>
 
+#include "io/file_io.h"
 #include "tools/cli_common.h"
 #include "tools/control_client.h"
 
@@ -374,31 +372,10 @@ constexpr std::size_t kMaxRequestBytes = 64 * 1024;
 // The plan file's text, read with the operator's rights: regular files only (a FIFO or device
 // would hang the command), bounded by what one request can carry.
 std::string readPlanText(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-  if (fd < 0 && errno == ENOENT) throw CommandFailed(path + ": no such plan file");
-  if (fd < 0) throw CommandFailed(path + ": cannot read the plan: " + std::strerror(errno));
-  struct stat st {};
-  std::string text;
-  std::string why;
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    why = "not a regular file";
-  } else if (static_cast<std::size_t>(st.st_size) > kMaxRequestBytes) {
-    why = std::to_string(st.st_size) + " bytes, more than a control request carries (" +
-          std::to_string(kMaxRequestBytes) + ")";
-  } else {
-    char buf[16 * 1024];
-    for (ssize_t n; (n = ::read(fd, buf, sizeof buf)) != 0;) {
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) {
-        why = std::string("read: ") + std::strerror(errno);
-        break;
-      }
-      text.append(buf, static_cast<std::size_t>(n));
-    }
-  }
-  ::close(fd);
-  if (!why.empty()) throw CommandFailed(path + ": " + why);
-  return text;
+  io::UserFile f = io::readUserFile(path, kMaxRequestBytes, "a control request carries");
+  if (f.error == io::UserFileError::kMissing) throw CommandFailed(path + ": no such plan file");
+  if (!f.ok()) throw CommandFailed(f.message);
+  return std::move(f.text);
 }
 
 void printQueued(const json& q) {
