@@ -23,8 +23,10 @@ bool nonorthogonalitySignificant(const CalibrationResult& r, double n_sigma) {
   return false;
 }
 
+// The refinement from the direct result d, the table errors starting at those the direct
+// calibration was given (known beforehand, or fed back from the first pass).
 CalibrationResult refine(const BenchCalibrationInput& in, const DirectCalibrationResult& d,
-                         const IndirectOptions& o) {
+                         const TableErrors& known, const IndirectOptions& o) {
   IndirectInput ii;
   ii.site = in.direct.site;
   ii.geometry = in.direct.geometry;
@@ -38,8 +40,8 @@ CalibrationResult refine(const BenchCalibrationInput& in, const DirectCalibratio
   if (!in.navigation.empty()) ii.extra_legs.push_back(direct_leg);
   ii.start = d.report.values.sensors;
   ii.start_uncertainty = d.report.uncertainty;
-  ii.start_base_tilt = d.report.values.table.base_tilt;
-  ii.start_nonorthogonality = d.report.values.table.nonorthogonality;
+  ii.start_base_tilt = known.base_tilt;
+  ii.start_nonorthogonality = known.nonorthogonality;
   return calibrateIndirect(ii, o);
 }
 
@@ -53,8 +55,10 @@ bool BenchCalibrationOptions::IsValid(std::string* why) const {
   return direct.IsValid(why) && indirect.IsValid(why);
 }
 
-BenchCalibrationResult calibrateBench(const BenchCalibrationInput& in,
-                                      const BenchCalibrationOptions& o) {
+namespace {
+
+// The pipeline; calibrateBench adds the status.
+BenchCalibrationResult runBench(const BenchCalibrationInput& in, const BenchCalibrationOptions& o) {
   BenchCalibrationResult r;
   std::string why;
   if (!o.IsValid(&why)) {
@@ -67,7 +71,7 @@ BenchCalibrationResult calibrateBench(const BenchCalibrationInput& in,
     return r;
   }
   r.direct_final = r.direct;
-  r.refined = refine(in, r.direct, o.indirect);
+  r.refined = refine(in, r.direct, o.direct.known_table_errors, o.indirect);
   r.passes = 1;
   if (!r.refined.ok) {
     r.error = "navigation-based refinement: " + r.refined.error;
@@ -85,13 +89,22 @@ BenchCalibrationResult calibrateBench(const BenchCalibrationInput& in,
     r.error = "direct calibration with the estimated nonorthogonality: " + r.direct_final.reason;
     return r;
   }
-  r.refined = refine(in, r.direct_final, o.indirect);
+  r.refined = refine(in, r.direct_final, d2.known_table_errors, o.indirect);
   r.passes = 2;
   if (!r.refined.ok) {
     r.error = "navigation-based refinement (second pass): " + r.refined.error;
     return r;
   }
   r.ok = true;
+  return r;
+}
+
+}  // namespace
+
+BenchCalibrationResult calibrateBench(const BenchCalibrationInput& in,
+                                      const BenchCalibrationOptions& o) {
+  BenchCalibrationResult r = runBench(in, o);
+  r.status = r.ok ? r.refined.status : FitStatus{FitStatusCode::kFailed, r.error, {}, {}};
   return r;
 }
 

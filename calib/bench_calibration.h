@@ -49,6 +49,8 @@ struct BenchCalibrationResult {
   DirectCalibrationResult direct_final;  // the direct calibration the refinement started from
   CalibrationResult refined;             // the final refinement
   int passes = 0;                        // 1, or 2 when the nonorthogonality was fed back
+  // Whether the final coefficients can be used: the refinement's status (kFailed when !ok).
+  FitStatus status;
 };
 
 BenchCalibrationResult calibrateBench(const BenchCalibrationInput& input,

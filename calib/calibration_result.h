@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/fit_quality.h"
 
 namespace imubench::calib {
 
@@ -35,6 +36,9 @@ struct Conditioning {
 struct CalibrationResult {
   bool ok = false;
   std::string error;  // why not, when !ok (bad input, solver failure): names the cause
+  // Whether the coefficients can be used (calib/fit_quality.h): residuals far above the noise
+  // or a coefficient the data do not determine make an unusable result even when ok.
+  FitStatus status;
   CoefficientReport coefficients;
   Conditioning conditioning;
   std::string solver_report;  // Ceres BriefReport of the final solve

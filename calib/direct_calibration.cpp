@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "calib/observability.h"
@@ -18,6 +19,10 @@ bool DirectCalibrationOptions::IsValid(std::string* why) const {
   if (!(static_trim_s >= 0.0)) return fail("static_trim_s must be >= 0");
   if (!(min_static_s > 0.0)) return fail("min_static_s must be > 0");
   if (!(min_rotation_rad > 0.0)) return fail("min_rotation_rad must be > 0");
+  if (!(turn_tolerance_rad >= 0.0)) return fail("turn_tolerance_rad must be >= 0");
+  if (!(accel_residual_floor > 0.0) || !(gyro_residual_floor > 0.0))
+    return fail("the residual floors must be > 0");
+  if (!segment_check.IsValid(why) || !quality.IsValid(why)) return false;
   return checks.IsValid(why);
 }
 
@@ -102,7 +107,7 @@ bool axisPairs(const Rows& rows, int i, std::vector<std::size_t>* up,
 // Per-axis least squares of reading_i = K_i . input + o_i; fills the triad, sigmas and flags.
 void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string& triad,
               TriadModel* out, CoefficientReport* report, std::vector<std::string>* notes,
-              double* rms) {
+              double* rms, double residual_floor, std::vector<double>* row_ss) {
   const Eigen::Index n = static_cast<Eigen::Index>(rows.input.size());
   Eigen::MatrixXd X(n, 4);
   for (Eigen::Index j = 0; j < n; ++j) {
@@ -264,6 +269,11 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
     svd.setThreshold(1e-10);
     const Eigen::VectorXd r = y - X * beta;
     ss += r.squaredNorm();
+    row_ss->resize(static_cast<std::size_t>(n), 0.0);
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double se = std::max(rows.reading_se[static_cast<std::size_t>(j)][i], residual_floor);
+      (*row_ss)[static_cast<std::size_t>(j)] += r(j) * r(j) / (se * se);
+    }
     const double dof = std::max<double>(1.0, static_cast<double>(n - svd.rank()));
     const double s2 = r.squaredNorm() / dof;
     Eigen::Matrix4d cov = Eigen::Matrix4d::Zero();
@@ -298,190 +308,272 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
   *rms = n > 0 ? std::sqrt(ss / (3.0 * static_cast<double>(n))) : 0.0;
 }
 
+// Mean encoder angles over [a, b] (the nearest interpolated angles when no sample falls in).
+TableAngles meanAngles(const std::vector<TableSample>& table, double a, double b) {
+  TableAngles m{0, 0, 0};
+  int cnt = 0;
+  for (const TableSample& ts : table) {
+    if (ts.t < a || ts.t > b) continue;
+    m.outer += ts.angles.outer;
+    m.middle += ts.angles.middle;
+    m.inner += ts.angles.inner;
+    ++cnt;
+  }
+  if (cnt == 0) return anglesAt(table, 0.5 * (a + b));
+  return {m.outer / cnt, m.middle / cnt, m.inner / cnt};
+}
+
+// What every row of the fit is built from: the input, the table as taken, the site.
+struct RowContext {
+  const DirectCalibrationInput& in;
+  const DirectCalibrationOptions& o;
+  TableModel table;  // nominal, or with the errors known beforehand
+  Vec3 up_g;         // (0, 0, g) in L
+  Vec3 w_ie_L;       // Earth rate in L (zero when not used)
+  double dt0;        // first sample's interval
+  double startOf(std::size_t i) const { return i == 0 ? in.imu[0].t - dt0 : in.imu[i - 1].t; }
+};
+
+// All rows of both triads plus what the gyro rows' weights need.
+struct DirectRows {
+  Rows acc, gyr;
+  std::vector<Vec3> gyro_sample_sigma;        // per-sample gyro noise of each hold
+  std::vector<std::size_t> rotation_samples;  // samples in each rotation row
+};
+
+// One static segment -> an accelerometer row and a gyro row (false + note when unusable).
+bool addStaticRow(const RowContext& c, const Segment& seg, DirectRows* rows,
+                  std::vector<std::string>* notes) {
+  const double a = seg.t0 + c.o.static_trim_s, b = seg.t1 - c.o.static_trim_s;
+  if (b - a < c.o.min_static_s) {
+    notes->push_back("static '" + seg.label + "' too short after trimming: skipped");
+    return false;
+  }
+  Vec3 dv = Vec3::Zero(), dth = Vec3::Zero();
+  double T = 0.0;
+  std::size_t i0 = c.in.imu.size(), i1 = 0;
+  for (std::size_t i = 0; i < c.in.imu.size(); ++i) {
+    if (c.startOf(i) < a || c.in.imu[i].t > b) continue;
+    dv += c.in.imu[i].dvel;
+    dth += c.in.imu[i].dtheta;
+    T += c.in.imu[i].t - c.startOf(i);
+    i0 = std::min(i0, i);
+    i1 = i;
+  }
+  if (T < c.o.min_static_s) {
+    notes->push_back("static '" + seg.label + "' has too few IMU samples: skipped");
+    return false;
+  }
+  const Mat3 C_BL = c.table.C_LB(meanAngles(c.in.table, a, b)).transpose();
+  // Per-sample scatter of the readings: the white-noise level of this hold (two-pass).
+  Vec3 va = Vec3::Zero(), vg = Vec3::Zero();
+  const double ns = static_cast<double>(i1 - i0 + 1);
+  for (std::size_t i = i0; i <= i1; ++i) {
+    const double dt = c.in.imu[i].t - c.startOf(i);
+    va += (c.in.imu[i].dvel / dt - dv / T).cwiseAbs2();
+    vg += (c.in.imu[i].dtheta / dt - dth / T).cwiseAbs2();
+  }
+  const Vec3 sa = (va / std::max(ns - 1.0, 1.0)).cwiseSqrt();
+  const Vec3 sg = (vg / std::max(ns - 1.0, 1.0)).cwiseSqrt();
+  rows->gyro_sample_sigma.push_back(sg);
+  for (Rows* r : {&rows->acc, &rows->gyr}) {
+    const bool accel = r == &rows->acc;
+    r->reading_se.push_back((accel ? sa : sg) / std::sqrt(ns));
+    r->input.push_back(C_BL * (accel ? c.up_g : c.w_ie_L));
+    r->reading.push_back((accel ? dv : dth) / T);
+    r->what.push_back(seg.label);
+    r->is_static.push_back(true);
+    r->up_B.push_back(C_BL.col(2));
+  }
+  return true;
+}
+
+// One rotate segment -> a gyro row (false + note when unusable).
+bool addRotationRow(const RowContext& c, const Segment& seg, DirectRows* rows,
+                    std::vector<std::string>* notes) {
+  const TableKind kind = c.in.geometry.kind;
+  if (seg.axis < 0 || seg.axis >= axisCount(kind)) {
+    notes->push_back("rotation '" + seg.label + "' names no table axis: skipped");
+    return false;
+  }
+  std::size_t first = c.in.imu.size(), last = 0;
+  for (std::size_t i = 0; i < c.in.imu.size(); ++i) {
+    if (c.in.imu[i].t > seg.t0 && c.startOf(i) < seg.t1) {
+      first = std::min(first, i);
+      last = i;
+    }
+  }
+  if (first >= c.in.imu.size()) {
+    notes->push_back("rotation '" + seg.label + "' has no IMU samples: skipped");
+    return false;
+  }
+  // The segment holds the whole motion, ramps included, so the table rests on [ta, t0] and
+  // [t1, tb]: the angle turned is read from encoder samples taken at rest on either side
+  // (interpolating at ta and tb would bracket the ramps' quadratic start and end). Whole
+  // turns come from the segment's unwrapped net angle (encoders wrap at 360 deg).
+  const double ta = c.startOf(first), tb = c.in.imu[last].t;
+  const TableAngles a0 = restAngles(c.in.table, seg.t0, true);
+  const TableAngles a1 = restAngles(c.in.table, seg.t1, false);
+  double phi = axisAngle(a1, kind, seg.axis) - axisAngle(a0, kind, seg.axis);
+  if (seg.angle != 0.0 && std::abs(seg.angle - phi) > kPi) {
+    phi += 2.0 * kPi * std::round((seg.angle - phi) / (2.0 * kPi));
+  }
+  if (std::abs(phi) < c.o.min_rotation_rad - c.o.turn_tolerance_rad) {
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), "%.9f deg", phi / kDegToRad);
+    notes->push_back("rotation '" + seg.label + "' turns " + buf +
+                     ", less than min_rotation_rad: skipped");
+    return false;
+  }
+  Vec3 dth = Vec3::Zero(), earth = Vec3::Zero();
+  for (std::size_t i = first; i <= last; ++i) {
+    dth += c.in.imu[i].dtheta;
+    const double tm = 0.5 * (c.startOf(i) + c.in.imu[i].t);
+    earth += c.table.C_LB(anglesAt(c.in.table, tm)).transpose() * c.w_ie_L *
+             (c.in.imu[i].t - c.startOf(i));
+  }
+  const double T = tb - ta;
+  rows->gyr.input.push_back((axisInBody(c.table, a0, seg.axis) * phi + earth) / T);
+  rows->gyr.reading.push_back(dth / T);
+  rows->gyr.reading_se.push_back(Vec3::Zero());  // set by setRowNoise from the holds
+  rows->rotation_samples.push_back(last - first + 1);
+  rows->gyr.what.push_back(seg.label);
+  rows->gyr.is_static.push_back(false);
+  rows->gyr.up_B.push_back(Vec3::Zero());
+  return true;
+}
+
+// A rotation row's mean rate carries the white gyro noise of its samples: the median
+// per-sample level of the holds (motion hides it inside the run itself), floored so that a
+// noise-free recording keeps finite weights.
+void setRowNoise(DirectRows* rows) {
+  Vec3 level = Vec3::Constant(1e-12);
+  for (int k = 0; k < 3; ++k) {
+    std::vector<double> v;
+    for (const Vec3& s : rows->gyro_sample_sigma) v.push_back(s[k]);
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    level[k] = std::max(level[k], v[v.size() / 2]);
+  }
+  std::size_t r = 0;
+  Rows& g = rows->gyr;
+  for (std::size_t j = 0; j < g.reading.size(); ++j) {
+    if (g.is_static[j]) {
+      g.reading_se[j] = g.reading_se[j].cwiseMax(Vec3::Constant(1e-15));
+      continue;
+    }
+    g.reading_se[j] = level / std::sqrt(static_cast<double>(rows->rotation_samples[r++]));
+  }
+  for (Vec3& se : rows->acc.reading_se) se = se.cwiseMax(Vec3::Constant(1e-15));
+}
+
+// The largest normalised residuals by row, "static 'h3' accel: 35 sigma", largest first.
+void largestResiduals(const Rows& rows, const std::vector<double>& row_ss, const char* triad,
+                      std::vector<std::pair<double, std::string>>* out) {
+  for (std::size_t j = 0; j < row_ss.size() && j < rows.what.size(); ++j) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "%s '%s' %s: %.1f sigma",
+                  rows.is_static[j] ? "static" : "rotation", rows.what[j].c_str(), triad,
+                  std::sqrt(row_ss[j] / 3.0));
+    out->push_back({row_ss[j], buf});
+  }
+}
+
+// Fit quality of the result: residuals against the noise, determined and plausible values.
+void judgeDirect(const DirectRows& rows, const std::vector<double>& acc_ss,
+                 const std::vector<double>& gyr_ss, const DirectCalibrationOptions& o,
+                 DirectCalibrationResult* res) {
+  double ss = 0.0;
+  for (double v : acc_ss) ss += v;
+  for (double v : gyr_ss) ss += v;
+  const double nres = 3.0 * static_cast<double>(acc_ss.size() + gyr_ss.size());
+  res->normalised_residual_rms = std::sqrt(ss / std::max(1.0, nres - 24.0));
+  std::vector<std::string> reasons;
+  if (res->normalised_residual_rms > o.quality.max_normalised_rms) {
+    char buf[200];
+    std::snprintf(buf, sizeof(buf),
+                  "normalised residual RMS %.3g (limit %.3g): the model with the table as taken "
+                  "does not fit the data (table errors? give them with --table-errors, or "
+                  "record navigation runs for the pipeline)",
+                  res->normalised_residual_rms, o.quality.max_normalised_rms);
+    reasons.push_back(buf);
+  }
+  if (res->rotations_used == 0) {
+    reasons.push_back(
+        "no usable rate run: the gyro scales and misalignments rest on the Earth "
+        "rate alone");
+  }
+  judgeCoefficients(res->report, o.quality, &reasons);
+  std::vector<std::pair<double, std::string>> worst;
+  largestResiduals(rows.acc, acc_ss, "accel", &worst);
+  largestResiduals(rows.gyr, gyr_ss, "gyro", &worst);
+  std::sort(worst.begin(), worst.end(),
+            [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::string> largest;
+  for (std::size_t k = 0; k < worst.size() && k < 3; ++k) largest.push_back(worst[k].second);
+  res->status = fitStatusFrom(std::move(reasons), std::move(largest));
+}
+
+// Checks of the options and the recording; "" when usable.
+std::string checkInput(const DirectCalibrationInput& in, const DirectCalibrationOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) return "options: " + why;
+  if (in.imu.size() < 2) return "recording has fewer than 2 IMU samples";
+  if (in.table.empty()) return "recording has no table samples";
+  const RecordingCheck check = checkIncrements(in.imu, o.checks, "recording");
+  return check.ok() ? "" : check.reason;
+}
+
 }  // namespace
 
 DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
                                         const DirectCalibrationOptions& o) {
   DirectCalibrationResult res;
-  std::string why;
-  if (!o.IsValid(&why)) {
-    res.reason = "options: " + why;
+  res.reason = checkInput(in, o);
+  if (!res.reason.empty()) {
+    res.status = {FitStatusCode::kFailed, res.reason, {}, {}};
     return res;
   }
-  if (in.imu.size() < 2) {
-    res.reason = "recording has fewer than 2 IMU samples";
-    return res;
-  }
-  if (in.table.empty()) {
-    res.reason = "recording has no table samples";
-    return res;
-  }
-  const RecordingCheck check = checkIncrements(in.imu, o.checks, "recording");
-  if (!check.ok()) {
-    res.reason = check.reason;
-    return res;
-  }
-  // The table as the calibration takes it: nominal, or with the errors known beforehand.
-  const TableModel nominal(in.geometry, o.known_table_errors);
-  const double g = nav::siteGravity(in.site);
-  const Vec3 up_g(0.0, 0.0, g);
-  const Vec3 w_ie_L = o.use_earth_rate ? nav::earthRateL(in.site.latitude_rad) : Vec3::Zero();
-  const TableKind kind = in.geometry.kind;
-  const double dt0 = in.imu[1].t - in.imu[0].t;
-  auto startOf = [&](std::size_t i) { return i == 0 ? in.imu[0].t - dt0 : in.imu[i - 1].t; };
-
-  Rows acc, gyr;
-  std::vector<Vec3> gyro_sample_sigma;        // per-sample gyro noise of each hold
-  std::vector<std::size_t> rotation_samples;  // samples in each rotation row
-  for (const Segment& seg : in.segments) {
+  const RowContext c{in,
+                     o,
+                     TableModel(in.geometry, o.known_table_errors),
+                     Vec3(0.0, 0.0, nav::siteGravity(in.site)),
+                     o.use_earth_rate ? nav::earthRateL(in.site.latitude_rad) : Vec3::Zero(),
+                     in.imu[1].t - in.imu[0].t};
+  // Holds split into settle + hold are one hold; segments contradicting the encoders named.
+  const SegmentCheckResult segs =
+      checkSegments(in.geometry.kind, in.table, in.segments, o.segment_check);
+  res.notes = segs.notes;
+  DirectRows rows;
+  for (const Segment& seg : segs.segments) {
     if (!seg.recording) continue;
-    if (seg.kind == SegmentKind::kStatic) {
-      const double a = seg.t0 + o.static_trim_s, b = seg.t1 - o.static_trim_s;
-      if (b - a < o.min_static_s) {
-        res.notes.push_back("static '" + seg.label + "' too short after trimming: skipped");
-        continue;
-      }
-      Vec3 dv = Vec3::Zero(), dth = Vec3::Zero();
-      double T = 0.0;
-      std::size_t i0 = in.imu.size(), i1 = 0;
-      for (std::size_t i = 0; i < in.imu.size(); ++i) {
-        if (startOf(i) < a || in.imu[i].t > b) continue;
-        dv += in.imu[i].dvel;
-        dth += in.imu[i].dtheta;
-        T += in.imu[i].t - startOf(i);
-        i0 = std::min(i0, i);
-        i1 = i;
-      }
-      if (T < o.min_static_s) {
-        res.notes.push_back("static '" + seg.label + "' has too few IMU samples: skipped");
-        continue;
-      }
-      // Mean encoder angles over the window.
-      TableAngles m{0, 0, 0};
-      int cnt = 0;
-      for (const TableSample& ts : in.table)
-        if (ts.t >= a && ts.t <= b) {
-          m.outer += ts.angles.outer;
-          m.middle += ts.angles.middle;
-          m.inner += ts.angles.inner;
-          ++cnt;
-        }
-      if (cnt == 0) {
-        m = anglesAt(in.table, 0.5 * (a + b));
-      } else {
-        m.outer /= cnt;
-        m.middle /= cnt;
-        m.inner /= cnt;
-      }
-      const Mat3 C_BL = nominal.C_LB(m).transpose();
-      // Per-sample scatter of the readings: the white-noise level of this hold.
-      Vec3 va = Vec3::Zero(), vg = Vec3::Zero();
-      const double ns = static_cast<double>(i1 - i0 + 1);
-      for (std::size_t i = i0; i <= i1 && i0 < in.imu.size(); ++i) {
-        const double dt = in.imu[i].t - startOf(i);
-        va += (in.imu[i].dvel / dt - dv / T).cwiseAbs2();
-        vg += (in.imu[i].dtheta / dt - dth / T).cwiseAbs2();
-      }
-      const Vec3 sa = (va / std::max(ns - 1.0, 1.0)).cwiseSqrt();
-      const Vec3 sg = (vg / std::max(ns - 1.0, 1.0)).cwiseSqrt();
-      gyro_sample_sigma.push_back(sg);
-      acc.reading_se.push_back(sa / std::sqrt(ns));
-      gyr.reading_se.push_back(sg / std::sqrt(ns));
-      acc.input.push_back(C_BL * up_g);
-      acc.reading.push_back(dv / T);
-      acc.what.push_back(seg.label);
-      acc.is_static.push_back(true);
-      acc.up_B.push_back(C_BL.col(2));
-      gyr.input.push_back(C_BL * w_ie_L);
-      gyr.reading.push_back(dth / T);
-      gyr.what.push_back(seg.label);
-      gyr.is_static.push_back(true);
-      gyr.up_B.push_back(C_BL.col(2));
+    if (seg.kind == SegmentKind::kStatic && addStaticRow(c, seg, &rows, &res.notes)) {
       ++res.statics_used;
-    } else if (seg.kind == SegmentKind::kRotate) {
-      if (seg.axis < 0 || seg.axis >= axisCount(kind)) {
-        res.notes.push_back("rotation '" + seg.label + "' names no table axis: skipped");
-        continue;
-      }
-      std::size_t first = in.imu.size(), last = 0;
-      for (std::size_t i = 0; i < in.imu.size(); ++i)
-        if (in.imu[i].t > seg.t0 && startOf(i) < seg.t1) {
-          first = std::min(first, i);
-          last = i;
-        }
-      if (first >= in.imu.size()) {
-        res.notes.push_back("rotation '" + seg.label + "' has no IMU samples: skipped");
-        continue;
-      }
-      // The segment holds the whole motion, ramps included, so the table rests on [ta, t0]
-      // and [t1, tb]: the angle turned is read from encoder samples taken at rest on either
-      // side. Interpolating them linearly at ta and tb instead brackets the ramp's quadratic
-      // start and end and loses up to (accel/2) * (encoder period)^2 per end.
-      const double ta = startOf(first), tb = in.imu[last].t;
-      const TableAngles a0 = restAngles(in.table, seg.t0, true);
-      const TableAngles a1 = restAngles(in.table, seg.t1, false);
-      const double phi = axisAngle(a1, kind, seg.axis) - axisAngle(a0, kind, seg.axis);
-      if (std::abs(phi) < o.min_rotation_rad) {
-        res.notes.push_back("rotation '" + seg.label +
-                            "' turns less than min_rotation_rad: skipped");
-        continue;
-      }
-      Vec3 dth = Vec3::Zero(), earth = Vec3::Zero();
-      for (std::size_t i = first; i <= last; ++i) {
-        dth += in.imu[i].dtheta;
-        const double tm = 0.5 * (startOf(i) + in.imu[i].t);
-        earth +=
-            nominal.C_LB(anglesAt(in.table, tm)).transpose() * w_ie_L * (in.imu[i].t - startOf(i));
-      }
-      const double T = tb - ta;
-      gyr.input.push_back((axisInBody(nominal, a0, seg.axis) * phi + earth) / T);
-      gyr.reading.push_back(dth / T);
-      gyr.reading_se.push_back(Vec3::Zero());  // set below from the holds' noise level
-      rotation_samples.push_back(last - first + 1);
-      gyr.what.push_back(seg.label);
-      gyr.is_static.push_back(false);
-      gyr.up_B.push_back(Vec3::Zero());
+    } else if (seg.kind == SegmentKind::kRotate && addRotationRow(c, seg, &rows, &res.notes)) {
       ++res.rotations_used;
     }
   }
   if (res.statics_used < 4) {
     res.reason = "only " + std::to_string(res.statics_used) +
                  " usable static positions: need >= 4 (12 accelerometer unknowns, 4 per axis)";
+    res.status = {FitStatusCode::kFailed, res.reason, {}, {}};
     return res;
   }
-  // A rotation row's mean rate carries the white gyro noise of its samples: the median
-  // per-sample level of the holds (motion hides it inside the run itself), floored so that a
-  // noise-free simulation keeps finite weights.
-  {
-    Vec3 level = Vec3::Constant(1e-12);
-    for (int k = 0; k < 3; ++k) {
-      std::vector<double> v;
-      for (const Vec3& s : gyro_sample_sigma) v.push_back(s[k]);
-      std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-      level[k] = std::max(level[k], v[v.size() / 2]);
-    }
-    std::size_t r = 0;
-    for (std::size_t j = 0; j < gyr.reading.size(); ++j) {
-      if (gyr.is_static[j]) {
-        gyr.reading_se[j] = gyr.reading_se[j].cwiseMax(Vec3::Constant(1e-15));
-        continue;
-      }
-      gyr.reading_se[j] = level / std::sqrt(static_cast<double>(rotation_samples[r++]));
-    }
-    for (Vec3& se : acc.reading_se) se = se.cwiseMax(Vec3::Constant(1e-15));
-  }
+  setRowNoise(&rows);
   const bool pairwise = o.estimator == DirectEstimator::kAxisPairs;
-  fitTriad(acc, TriadKind::kAccel, pairwise, "accel", &res.report.values.sensors.accel, &res.report,
-           &res.notes, &res.accel_residual_rms);
+  std::vector<double> acc_ss, gyr_ss;
+  fitTriad(rows.acc, TriadKind::kAccel, pairwise, "accel", &res.report.values.sensors.accel,
+           &res.report, &res.notes, &res.accel_residual_rms, o.accel_residual_floor, &acc_ss);
   if (res.rotations_used == 0)
     res.notes.push_back("no rate runs: gyro scales and misalignments rest on the Earth rate alone");
-  fitTriad(gyr, TriadKind::kGyro, pairwise && res.rotations_used >= 3, "gyro",
-           &res.report.values.sensors.gyro, &res.report, &res.notes, &res.gyro_residual_rms);
-  res.report.values.table_kind = kind;
+  fitTriad(rows.gyr, TriadKind::kGyro, pairwise && res.rotations_used >= 3, "gyro",
+           &res.report.values.sensors.gyro, &res.report, &res.notes, &res.gyro_residual_rms,
+           o.gyro_residual_floor, &gyr_ss);
+  res.report.values.table_kind = in.geometry.kind;
   res.notes.push_back(
       "table errors are not estimated by direct calibration: they leak into the coefficients "
       "(mounting into both triads' misalignments, base tilt into the accelerometers')");
   res.ok = true;
+  judgeDirect(rows, acc_ss, gyr_ss, o, &res);
   return res;
 }
 

@@ -17,7 +17,9 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/fit_quality.h"
 #include "calib/motion.h"
+#include "calib/segment_check.h"
 #include "calib/simulator.h"
 #include "calib/static_detection.h"
 #include "calib/table_model.h"
@@ -56,6 +58,20 @@ struct DirectCalibrationOptions {
   // Shortest rotation used, rad: a rate run must turn enough for the angle to dominate
   // encoder and timing errors (the seed uses full turns and 180-degree reversals).
   double min_rotation_rad = kPi / 2.0;
+  // Tolerance on the turn of a run when it is compared with min_rotation_rad, rad (~0.2
+  // arcsec): encoders and other programs' number formatting end a quarter turn at 89.99999985
+  // deg, which is a quarter turn.
+  double turn_tolerance_rad = 1e-6;
+  // How segments are merged (a hold split into settle + hold is one hold) and checked against
+  // the encoders (calib/segment_check.h).
+  SegmentCheckOptions segment_check;
+  // When the result is unusable (calib/fit_quality.h): residuals far above the noise, an
+  // undetermined coefficient, implausible values.
+  FitQualityOptions quality;
+  // Smallest noise sigma of a row's mean when residuals are normalised (m/s^2, rad/s): below
+  // it a residual is numerical round-off (noise-free or finely quantised data).
+  double accel_residual_floor = 1e-6;
+  double gyro_residual_floor = 1e-9;
   // Include the Earth-rate projection in the gyro model (off only for Earth-rate-blind
   // sensors whose bias would otherwise absorb it pose by pose).
   bool use_earth_rate = true;
@@ -70,8 +86,13 @@ struct DirectCalibrationOptions {
 };
 
 struct DirectCalibrationResult {
-  bool ok = false;
+  bool ok = false;     // the fit ran (payload filled); check status before using it
   std::string reason;  // why not, when !ok (bad input, nothing to fit)
+  // Whether the coefficients can be used (ok and status.IsSolutionUsable()): the table taken
+  // as nominal while it has errors, swapped columns or a plan that leaves a coefficient
+  // undetermined give status kUnusable with the reasons and the largest residuals.
+  FitStatus status;
+  double normalised_residual_rms = 0.0;  // static and rotation rows, residual / noise sigma
   // Accel and gyro coefficients (report.values.sensors), sigmas and unobservable flags by
   // flat name; report.values.table stays zero (direct calibration does not estimate it).
   CoefficientReport report;

@@ -5,6 +5,8 @@ target_sources(imubench_calib PRIVATE
   scalar_calibration.cpp
   observability.cpp
   direct_calibration.cpp
+  segment_check.cpp
+  fit_quality.cpp
 )
 # Navigation-based (indirect) calibration, validation experiment, shared result type.
 target_sources(imubench_calib PRIVATE

@@ -230,6 +230,12 @@ bool IndirectOptions::IsValid(std::string* why) const {
   }
   if (!(unobservable_sigma_typical > 0.0)) return fail("unobservable_sigma_typical must be > 0");
   if (!(bad_condition_number > 1.0)) return fail("bad_condition_number must be > 1");
+  if (!(min_accel_mean_sigma > 0.0) || !(min_gyro_mean_sigma > 0.0) ||
+      !(min_run_angle_sigma > 0.0)) {
+    if (why) *why = "the sigma floors must be > 0";
+    return false;
+  }
+  if (!segment_check.IsValid(why) || !quality.IsValid(why)) return false;
   return checks.IsValid(why);
 }
 
@@ -289,8 +295,8 @@ Hold reduceHold(std::span<const nav::ImuSample> imu, std::size_t a, std::size_t 
   for (int i = 0; i < 3; ++i) {
     const double sa = std::max(std::sqrt(var_a[i] / (n - 1)), opt.min_accel_noise);
     const double sg = std::max(std::sqrt(var_g[i] / (n - 1)), opt.min_gyro_noise);
-    h.accel_sigma[i] = sa / std::sqrt(n);
-    h.gyro_sigma[i] = sg / std::sqrt(n);
+    h.accel_sigma[i] = std::max(sa / std::sqrt(n), opt.min_accel_mean_sigma);
+    h.gyro_sigma[i] = std::max(sg / std::sqrt(n), opt.min_gyro_mean_sigma);
     h.gyro_noise = std::max(h.gyro_noise, sg);
   }
   return h;
@@ -436,6 +442,7 @@ Parameters initialParameters(const IndirectInput& in, const IndirectOptions& opt
 
 // What every outer iteration sees: the holds, the runs and the site.
 struct Observations {
+  std::vector<std::vector<Segment>> segments;  // per leg, merged and checked (holds point here)
   std::vector<Hold> holds;
   std::vector<Run> runs;
   double gyro_noise = 0.0;
@@ -444,29 +451,51 @@ struct Observations {
 };
 
 // The residual blocks at the current parameters (the runs re-navigated at them).
+// A residual block with where its data come from (for naming the largest residuals).
+struct LabelledBlock {
+  ceres::ResidualBlockId id = nullptr;
+  std::string where;
+};
+
+std::string holdLabel(const Segment& s, const char* what) {
+  char buf[200];
+  std::snprintf(buf, sizeof(buf), "hold '%s' (%.1f-%.1f s) %s", s.label.c_str(), s.t0, s.t1, what);
+  return buf;
+}
+
 void addResiduals(const IndirectInput& in, const IndirectOptions& opt, const Observations& obs,
-                  Parameters* p, ceres::Problem* problem) {
+                  Parameters* p, ceres::Problem* problem, std::vector<LabelledBlock>* blocks) {
   problem->AddParameterBlock(p->accel, kTriadSize);
   problem->AddParameterBlock(p->gyro, kTriadSize);
   problem->AddParameterBlock(p->table, kTableSize);
   for (const Hold& h : obs.holds) {
-    problem->AddResidualBlock(
-        StaticAccelCost::Create(h.accel_mean, in.geometry, h.angles, obs.gravity, h.accel_sigma),
-        nullptr, p->accel, p->table);
-    problem->AddResidualBlock(
-        StaticGyroCost::Create(h.gyro_mean, in.geometry, h.angles, obs.w_ie_L, h.gyro_sigma),
-        nullptr, p->gyro, p->table);
+    blocks->push_back(
+        {problem->AddResidualBlock(StaticAccelCost::Create(h.accel_mean, in.geometry, h.angles,
+                                                           obs.gravity, h.accel_sigma),
+                                   nullptr, p->accel, p->table),
+         holdLabel(*h.segment, "accel")});
+    blocks->push_back(
+        {problem->AddResidualBlock(
+             StaticGyroCost::Create(h.gyro_mean, in.geometry, h.angles, obs.w_ie_L, h.gyro_sigma),
+             nullptr, p->gyro, p->table),
+         holdLabel(*h.segment, "gyro")});
   }
   for (const Run& r : obs.runs) {
     // Navigate from the start setting at the current table estimate.
     const Mat3 C_LP_start0 = platformAttitude(in.geometry, r.before->angles, p->table);
     const RunPreintegration pre = preintegrateRun(r.imu.subspan(r.first, r.last - r.first),
                                                   r.t_start, C_LP_start0, p->gyro, obs.w_ie_L);
-    const double sigma_angle = std::max(obs.gyro_noise, opt.min_gyro_noise) * pre.duration_s /
-                               std::sqrt(std::max(pre.samples, 1));
-    problem->AddResidualBlock(RunCost::Create(pre, in.geometry, r.before->angles, r.after->angles,
-                                              C_LP_start0, sigma_angle),
-                              nullptr, p->gyro, p->table);
+    const double sigma_angle = std::max(std::max(obs.gyro_noise, opt.min_gyro_noise) *
+                                            pre.duration_s / std::sqrt(std::max(pre.samples, 1)),
+                                        opt.min_run_angle_sigma);
+    char buf[200];
+    std::snprintf(buf, sizeof(buf), "run '%s' (%.1f-%.1f s)", r.segment->label.c_str(),
+                  r.segment->t0, r.segment->t1);
+    blocks->push_back(
+        {problem->AddResidualBlock(RunCost::Create(pre, in.geometry, r.before->angles,
+                                                   r.after->angles, C_LP_start0, sigma_angle),
+                                   nullptr, p->gyro, p->table),
+         buf});
   }
 }
 
@@ -591,9 +620,19 @@ void report(const IndirectInput& in, const Parameters& p, const std::vector<doub
 // Holds, runs and site of the input; false (result->error set) when nothing is usable.
 bool observe(const IndirectInput& in, const IndirectOptions& opt, Observations* obs,
              CalibrationResult* result) {
-  const std::vector<IndirectLeg> legs = legsOf(in);
+  std::vector<IndirectLeg> legs = legsOf(in);
   result->error = checkLegs(legs, opt);
   if (!result->error.empty()) return false;
+  // Holds split into settle + hold are one hold; segments contradicting the encoders named.
+  obs->segments.reserve(legs.size());
+  for (std::size_t l = 0; l < legs.size(); ++l) {
+    SegmentCheckResult c =
+        checkSegments(in.geometry.kind, legs[l].table, legs[l].segments, opt.segment_check);
+    const std::string where = legs.size() > 1 ? "recording " + std::to_string(l + 1) + ": " : "";
+    for (const std::string& n : c.notes) result->warnings.push_back(where + n);
+    obs->segments.push_back(std::move(c.segments));
+    legs[l].segments = obs->segments.back();
+  }
   obs->gravity = nav::siteGravity(in.site);
   obs->w_ie_L = nav::earthRateL(in.site.latitude_rad);
   obs->holds = collectHolds(legs, opt, &result->warnings);
@@ -607,9 +646,49 @@ bool observe(const IndirectInput& in, const IndirectOptions& opt, Observations* 
   return true;
 }
 
-}  // namespace
+// The three largest residual blocks, normalised (RMS over the block's residuals, in sigmas).
+std::vector<std::string> largestResiduals(ceres::Problem* problem,
+                                          const std::vector<LabelledBlock>& blocks) {
+  std::vector<std::pair<double, std::string>> v;
+  for (const LabelledBlock& b : blocks) {
+    double cost = 0.0;
+    if (!problem->EvaluateResidualBlock(b.id, false, &cost, nullptr, nullptr)) continue;
+    const int n = problem->GetCostFunctionForResidualBlock(b.id)->num_residuals();
+    const double rms = std::sqrt(2.0 * cost / std::max(n, 1));
+    char buf[48];
+    std::snprintf(buf, sizeof(buf), ": %.1f sigma", rms);
+    v.push_back({rms, b.where + buf});
+  }
+  std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::string> out;
+  for (std::size_t k = 0; k < v.size() && k < 3; ++k) out.push_back(v[k].second);
+  return out;
+}
 
-CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptions& opt) {
+// Fit quality of the result: residuals against the noise, every coefficient determined and
+// plausible, rotation runs present.
+void judgeIndirect(const Observations& obs, const IndirectOptions& opt,
+                   std::vector<std::string> largest, CalibrationResult* result) {
+  std::vector<std::string> reasons;
+  if (result->rms_normalised_residual > opt.quality.max_normalised_rms) {
+    char buf[200];
+    std::snprintf(buf, sizeof(buf),
+                  "normalised residual RMS %.3g (limit %.3g): the model does not fit the data, "
+                  "the coefficients have absorbed what it lacks",
+                  result->rms_normalised_residual, opt.quality.max_normalised_rms);
+    reasons.push_back(buf);
+  }
+  if (obs.runs.empty()) {
+    reasons.push_back(
+        "no usable rotation run between two holds: the gyro scales are not "
+        "determined by navigation");
+  }
+  judgeCoefficients(result->coefficients, opt.quality, &reasons);
+  result->status = fitStatusFrom(std::move(reasons), std::move(largest));
+}
+
+// The calibration; calibrateIndirect adds the failed status.
+CalibrationResult runIndirect(const IndirectInput& in, const IndirectOptions& opt) {
   CalibrationResult result;
   std::string why;
   if (!opt.IsValid(&why)) {
@@ -620,9 +699,11 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
   if (!observe(in, opt, &obs, &result)) return result;
   Parameters p = initialParameters(in, opt, &result.warnings);
   std::vector<double> sigma(kParamCount, 0.0);
+  std::vector<std::string> largest;
   for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
     ceres::Problem problem;
-    addResiduals(in, opt, obs, &p, &problem);
+    std::vector<LabelledBlock> blocks;
+    addResiduals(in, opt, obs, &p, &problem, &blocks);
     if (outer == 0) {
       const Eigen::MatrixXd J = denseJacobian(problem, p.accel, p.gyro, p.table);
       result.conditioning = analyseInformation(J, &p.free, opt);
@@ -634,12 +715,28 @@ CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptio
     result.outer_iterations = outer + 1;
     if (!solve(&problem, &result)) return result;
     if (!parameterSigmas(&problem, &p, &sigma, &result)) return result;
+    largest = largestResiduals(&problem, blocks);
     if (largestChangeInSigmas(p, before, sigma) < opt.outer_tolerance_sigma) break;
   }
   report(in, p, sigma, &result);
   if (obs.runs.empty()) result.warnings.emplace_back("no usable rotation run: statics only");
+  if (in.geometry.kind == TableKind::kThreeAxis) {
+    result.warnings.emplace_back(
+        "table.nonorthogonality.middle_x is the combination nu1_x + m0 (the middle encoder "
+        "zero turns about the same axis): the data cannot tell the two apart; base tilt and "
+        "middle_y are estimated separately");
+  }
   result.ok = true;
+  judgeIndirect(obs, opt, std::move(largest), &result);
   return result;
+}
+
+}  // namespace
+
+CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptions& opt) {
+  CalibrationResult r = runIndirect(in, opt);
+  if (!r.ok) r.status = {FitStatusCode::kFailed, r.error, {}, {}};
+  return r;
 }
 
 IndirectJacobian indirectJacobian(const IndirectInput& in, const IndirectOptions& opt) {
@@ -652,7 +749,8 @@ IndirectJacobian indirectJacobian(const IndirectInput& in, const IndirectOptions
   }
   Parameters p = initialParameters(in, opt, &result.warnings);
   ceres::Problem problem;
-  addResiduals(in, opt, obs, &p, &problem);
+  std::vector<LabelledBlock> blocks;
+  addResiduals(in, opt, obs, &p, &problem, &blocks);
   const Eigen::MatrixXd J = denseJacobian(problem, p.accel, p.gyro, p.table);
   for (int g = 0; g < kParamCount; ++g) {
     if (!p.in_model[static_cast<std::size_t>(g)]) continue;

@@ -32,7 +32,9 @@
 #include <vector>
 
 #include "calib/calibration_result.h"
+#include "calib/fit_quality.h"
 #include "calib/motion.h"
+#include "calib/segment_check.h"
 #include "calib/sensor_model.h"
 #include "calib/simulator.h"
 #include "calib/static_detection.h"
@@ -102,6 +104,14 @@ struct IndirectOptions {
   // otherwise give zero weights' inverse): m/s^2 and rad/s.
   double min_accel_noise = 1e-6;
   double min_gyro_noise = 1e-9;
+  // Floors of the sigmas of what the residuals compare (a hold's mean specific force, m/s^2,
+  // and rate, rad/s; a run's navigated angle, rad): the resolution of the model itself (the
+  // run navigation's discretisation is ~1e-7 rad at 100 Hz). Noise-free or finely quantised
+  // recordings would otherwise weigh round-off and discretisation as signal; real noise is
+  // far above them.
+  double min_accel_mean_sigma = 2e-7;
+  double min_gyro_mean_sigma = 2e-10;
+  double min_run_angle_sigma = 2e-7;
   // Typical magnitudes of the parameters (a-priori ranges of a navigation-grade IMU and a
   // levelled table): the information matrix is scaled by them, so its eigenvalues compare a
   // combination's sigma with its range, in any units.
@@ -124,6 +134,11 @@ struct IndirectOptions {
   bool estimate_nonorthogonality = true;
   // Refusals of bad recordings (every leg): gaps, non-finite values, samples at the IMU's range.
   IncrementCheckOptions checks;
+  // How segments are merged (a hold split into settle + hold is one hold, so a run finds it)
+  // and checked against the encoders (calib/segment_check.h).
+  SegmentCheckOptions segment_check;
+  // When the result is unusable (CalibrationResult::status, calib/fit_quality.h).
+  FitQualityOptions quality;
 
   bool IsValid(std::string* why) const;
 };

@@ -1,5 +1,6 @@
 // imubench calibrate DIR [--method direct|indirect|scalar] [--json] [--out FILE] [--start FILE]
-//                        [--direct DIRECT_DIR] [--truth T.json] [--db PATH] [--store-result]
+//                        [--direct DIRECT_DIR] [--table-errors FILE] [--truth T.json]
+//                        [--db PATH] [--store-result]
 // imubench calibrate FILE --format imutk --gyro GYRO_FILE [--latitude DEG --height M | --gravity G]
 // imubench calibrate FILE --format imucal [--rate HZ] [--gravity G]
 //
@@ -16,7 +17,10 @@
 // JSON (what --out writes) as a result of kind "coefficients" of the run DIR names, with the
 // recording's IMU serial and mean temperature (IMU temperature, else the chamber's).
 // Reads an imubench-csv/1 recording (or, with --format, a third-party recording without table
-// angles: scalar calibration only) and runs one calibration method:
+// angles: scalar calibration only) and runs one calibration method. Without --method it
+// picks what the recording supports and says why: holds and rotation runs -> the whole
+// pipeline on the one recording (the same answer as --method indirect --direct DIR); holds
+// only -> direct. The methods:
 //   direct    the table-based direct calibration (calib/direct_calibration.h);
 //   indirect  the navigation-based refinement (calib/indirect_calibration.h), started from the
 //             direct calibration of the same recording (or --start FILE, a coefficient file);
@@ -25,19 +29,31 @@
 //             calibration of DIRECT_DIR, refinement over both recordings, second pass when the
 //             table's axes are nonorthogonal;
 //   scalar    the table-free field calibration (calib/scalar_calibration.h).
+// --method indirect without --start runs the pipeline with DIR as its own direct recording.
+// --table-errors FILE (a coefficient/truth file's "table": the table's certification data)
+// gives the table errors known beforehand to every method: direct calibration takes the
+// chain with them, the refinement holds the nonorthogonality at them and starts the base
+// tilt there.
+// Exit codes: 0 usable result; 1 bad input or failed calibration; 2 usage; 3 the calibration
+// ran but its result is unusable (residuals far above the noise, a coefficient the data do
+// not determine, implausible values): the findings and the largest residuals are printed,
+// nothing is written.
 // Prints the coefficients with sigmas in engineering units (ppm, ug, deg/h, arcsec) and what
 // the plan cannot see; --json prints the interchange coefficient JSON instead (with "sigma"
 // and "observable": false), --out FILE writes it.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
 
 #include "calib/bench_calibration.h"
 #include "calib/direct_calibration.h"
+#include "calib/fit_quality.h"
 #include "calib/indirect_calibration.h"
 #include "calib/scalar_calibration.h"
+#include "calib/segment_check.h"
 #include "calib/truth_comparison.h"
 #include "io/import_real.h"
 #include "io/recording.h"
@@ -63,6 +79,7 @@ struct CalibrateOptions {
   std::string start;
   std::string direct_dir;                // indirect: the direct plan's recording (pipeline)
   std::string truth;                     // compare the estimate with this truth file
+  std::string table_errors;              // known table errors (certification data)
   std::optional<double> gyro_range_dps;  // IMU ranges: samples at them are refused
   std::optional<double> accel_range_g;
   std::string db;             // run store for run ids (tools/cli_store.h)
@@ -113,6 +130,26 @@ void storeResult(const CalibrateOptions& o, const ResolvedRecording& src,
        << "\n";
 }
 
+// Exit code of a calibration that ran but whose result must not be used.
+constexpr int kExitUnusable = 3;
+
+// Throws CommandFailed(kExitUnusable) with the findings when the result is unusable.
+void refuseIfUnusable(const calib::FitStatus& s, const std::string& what, const std::string& dir) {
+  if (s.code != calib::FitStatusCode::kUnusable) return;
+  std::string m = what + ": " + s.message;
+  for (const std::string& r : s.reasons) m += "\n  finding: " + r;
+  for (const std::string& r : s.largest_residuals) m += "\n  large residual: " + r;
+  m += "\n  nothing written; `imubench explain " + dir +
+       "` names the effect the model lacks (result unusable, exit 3)";
+  throw CommandFailed(m, kExitUnusable);
+}
+
+// --table-errors: the table section of a coefficient/truth file (zero when not given).
+calib::TableErrors knownTableErrors(const CalibrateOptions& o) {
+  if (o.table_errors.empty()) return {};
+  return loadTruthOrFail(o.table_errors).table;
+}
+
 std::vector<calib::TableSample> tableSamples(const io::Recording& rec) {
   std::vector<calib::TableSample> out;
   out.reserve(rec.table.size());
@@ -132,7 +169,8 @@ calib::TableGeometry geometryOf(const io::Recording& rec) {
 
 calib::DirectCalibrationResult runDirect(const io::Recording& rec,
                                          const std::vector<calib::TableSample>& table,
-                                         const calib::IncrementCheckOptions& checks) {
+                                         const calib::IncrementCheckOptions& checks,
+                                         const calib::TableErrors& known = {}) {
   calib::DirectCalibrationInput in;
   in.geometry = geometryOf(rec);
   in.site = rec.site();
@@ -141,6 +179,7 @@ calib::DirectCalibrationResult runDirect(const io::Recording& rec,
   in.segments = rec.segments;
   calib::DirectCalibrationOptions o;
   o.checks = checks;
+  o.known_table_errors = known;
   return calib::calibrateDirect(in, o);
 }
 
@@ -322,39 +361,162 @@ void printIndirect(std::ostream& info, const std::string& what, const calib::Cal
        << "  " << r.conditioning.describe();
 }
 
-// Direct recording + navigation recording of the same device on the same table.
+// The pipeline (calib/bench_calibration.h): direct calibration of the direct recording,
+// refinement over it and the navigation recording, nonorthogonality pass. direct == nullptr:
+// the one recording src holds both the direct positions and the navigation runs.
 void runPipeline(const CalibrateOptions& o, const ResolvedRecording& src,
-                 const std::vector<calib::TableSample>& table) {
+                 const std::vector<calib::TableSample>& table, const ResolvedRecording* direct) {
   std::ostream& info = o.json ? std::cerr : std::cout;
   const io::Recording& rec = src.recording;
-  const ResolvedRecording direct = loadRunOrDir(o.direct_dir, o.db);
-  const io::Recording& drec = direct.recording;
-  const std::string& dlabel = direct.label;
+  const io::Recording& drec = direct ? direct->recording : rec;
+  const std::string& dlabel = direct ? direct->label : src.label;
   if (drec.table_kind != rec.table_kind) {
     throw CommandFailed(dlabel + " and " + src.label +
                         " were recorded on different table kinds: not the same table");
   }
+  const std::vector<calib::TableSample> dtable = direct ? tableSamples(drec) : table;
   calib::BenchCalibrationInput in;
   in.direct.geometry = geometryOf(drec);
   in.direct.site = drec.site();
   in.direct.imu = drec.imu;
-  in.direct.table = tableSamples(drec);
+  in.direct.table = dtable;
   in.direct.segments = drec.segments;
-  in.navigation.push_back({rec.imu, table, rec.segments});
+  if (direct) in.navigation.push_back({rec.imu, table, rec.segments});
   calib::BenchCalibrationOptions bo;
   bo.direct.checks = bo.indirect.checks = checksOf(o);
+  if (!o.table_errors.empty()) {
+    bo.direct.known_table_errors = knownTableErrors(o);
+    bo.indirect.estimate_nonorthogonality = false;
+    info << "table errors known beforehand: " << o.table_errors
+         << " (direct calibration takes them; the refinement holds the nonorthogonality)\n";
+  }
   const calib::BenchCalibrationResult r = calib::calibrateBench(in, bo);
-  if (!r.ok) throw CommandFailed(src.label + " + " + dlabel + ": " + r.error);
+  const std::string label = direct ? src.label + " + " + dlabel : src.label;
+  if (!r.ok) throw CommandFailed(label + ": " + r.error);
   info << "direct calibration of " << dlabel << ": " << r.direct.statics_used << " statics, "
        << r.direct.rotations_used << " rotations\n";
+  for (const std::string& n : r.direct.notes) {
+    if (n.rfind("static segments joined", 0) == 0 || n.rfind("segments.csv", 0) == 0) {
+      info << "  note: " << n << "\n";
+    }
+  }
   if (r.passes == 2) {
     info << "table axes nonorthogonal: direct calibration repeated with the estimated "
             "nonorthogonality, refinement repeated from it\n";
   }
-  printIndirect(info, "navigation-based calibration of " + src.label + " + " + dlabel, r.refined);
+  printIndirect(info, "navigation-based calibration of " + label, r.refined);
+  refuseIfUnusable(r.status, label, src.label);
   nlohmann::json extra = indirectExtra(r.refined);
   extra["passes"] = r.passes;
+  extra["method"] = "pipeline";
   emit(o, src, r.refined.coefficients, extra, in.direct.geometry, TruthFrame::kGyroReferenced);
+}
+
+// The method for a recording when none is given, with the reason printed.
+std::string chooseMethod(const io::Recording& rec, const std::vector<calib::TableSample>& table,
+                         std::ostream& info) {
+  const calib::SegmentCheckResult c = calib::checkSegments(rec.table_kind, table, rec.segments);
+  int holds = 0, runs = 0;
+  for (const calib::Segment& s : c.segments) {
+    if (!s.recording) continue;
+    holds += s.kind == calib::SegmentKind::kStatic ? 1 : 0;
+    runs += s.kind == calib::SegmentKind::kRotate ? 1 : 0;
+  }
+  const std::string counts = std::to_string(holds) + " holds and " + std::to_string(runs) +
+                             " rotation runs" +
+                             (rec.segments_from_file ? " (segments.csv)" : " (from the encoders)");
+  if (runs > 0) {
+    info << "method: the whole pipeline (direct calibration, navigation-based refinement, "
+            "nonorthogonality pass) on this one recording: it holds "
+         << counts << "\n";
+    return "pipeline";
+  }
+  info << "method: direct: the recording holds " << counts
+       << "; without rotation runs the navigation-based refinement has nothing to navigate\n";
+  return "direct";
+}
+
+void runDirectMethod(const CalibrateOptions& o, const ResolvedRecording& src,
+                     const std::vector<calib::TableSample>& table) {
+  std::ostream& info = o.json ? std::cerr : std::cout;
+  const io::Recording& rec = src.recording;
+  const calib::DirectCalibrationResult r = runDirect(rec, table, checksOf(o), knownTableErrors(o));
+  if (!r.ok) throw CommandFailed(src.label + ": direct calibration failed: " + r.reason);
+  info << "direct calibration of " << src.label << ": " << r.statics_used << " statics, "
+       << r.rotations_used << " rotations, normalised residual RMS " << r.normalised_residual_rms
+       << "\n";
+  for (const std::string& n : r.notes) info << "  note: " << n << "\n";
+  refuseIfUnusable(r.status, src.label + ": direct calibration", src.label);
+  emit(o, src, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
+}
+
+void runScalarMethod(const CalibrateOptions& o, const ResolvedRecording& src) {
+  std::ostream& info = o.json ? std::cerr : std::cout;
+  const io::Recording& rec = src.recording;
+  calib::RawImuData raw;
+  double t_prev = nav::firstIntervalStart(rec.imu);
+  for (const nav::ImuSample& s : rec.imu) {
+    const double dt = s.t - t_prev;
+    t_prev = s.t;
+    raw.t.push_back(s.t - 0.5 * dt);
+    raw.accel.push_back(s.dvel / dt);
+    raw.gyro.push_back(s.dtheta / dt);
+  }
+  calib::ScalarCalibrationOptions so;
+  so.gravity_mps2 = nav::siteGravity(rec.site());
+  so.gyro_scale_guess = 1.0;
+  const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
+  if (!r.status.ok()) throw CommandFailed(src.label + ": scalar calibration: " + r.status.reason);
+  info << "scalar calibration of " << src.label << ": " << r.spans.size()
+       << " static spans, |a|-g RMS " << r.accel_rms_before << " -> " << r.accel_rms_after
+       << " m/s^2\n";
+  for (const std::string& n : r.notes) info << "  note: " << n << "\n";
+  emit(o, src, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
+}
+
+// --method indirect --start FILE: the refinement alone from the given start values.
+void runRefinementFrom(const CalibrateOptions& o, const ResolvedRecording& src,
+                       const std::vector<calib::TableSample>& table) {
+  std::ostream& info = o.json ? std::cerr : std::cout;
+  const io::Recording& rec = src.recording;
+  calib::IndirectInput in;
+  in.site = rec.site();
+  in.geometry = geometryOf(rec);
+  in.imu = rec.imu;
+  in.table = table;
+  in.segments = rec.segments;
+  const io::CoefficientFileResult s = io::readCoefficientFile(o.start);
+  if (!s.status.ok) throw CommandFailed(s.status.message);
+  in.start = s.report.values.sensors;
+  in.start_uncertainty = s.report.uncertainty;
+  in.start_base_tilt = s.report.values.table.base_tilt;
+  calib::IndirectOptions io;
+  io.checks = checksOf(o);
+  if (!o.table_errors.empty()) {
+    const calib::TableErrors known = knownTableErrors(o);
+    in.start_base_tilt = known.base_tilt;
+    in.start_nonorthogonality = known.nonorthogonality;
+    io.estimate_nonorthogonality = false;
+  }
+  info << "start values: " << o.start << "\n";
+  const calib::CalibrationResult r = calib::calibrateIndirect(in, io);
+  if (!r.ok) {
+    for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
+    throw CommandFailed(src.label + ": navigation-based calibration failed: " + r.error);
+  }
+  printIndirect(info, "navigation-based calibration of " + src.label, r);
+  refuseIfUnusable(r.status, src.label, src.label);
+  emit(o, src, r.coefficients, indirectExtra(r), in.geometry, TruthFrame::kGyroReferenced);
+}
+
+// True when two RUN_OR_DIR arguments name the same recording.
+bool sameRecording(const ResolvedRecording& a, const ResolvedRecording& b, const std::string& da,
+                   const std::string& db) {
+  if (a.run_id || b.run_id) return a.run_id == b.run_id;
+  std::error_code ec1, ec2;
+  const auto pa = std::filesystem::weakly_canonical(da, ec1);
+  const auto pb = std::filesystem::weakly_canonical(db, ec2);
+  return !ec1 && !ec2 && pa == pb;
 }
 
 void runCalibrate(const CalibrateOptions& o) {
@@ -367,87 +529,25 @@ void runCalibrate(const CalibrateOptions& o) {
   }
   const ResolvedRecording src = loadRunOrDir(o.dir, o.db);
   checkStoreResult(o, src);
-  const io::Recording& rec = src.recording;
-  const std::string& label = src.label;
-  const std::vector<calib::TableSample> table = tableSamples(rec);
+  const std::vector<calib::TableSample> table = tableSamples(src.recording);
   std::ostream& info = o.json ? std::cerr : std::cout;
-
-  const std::string method = o.method.empty() ? "indirect" : o.method;
-  if (method == "direct") {
-    const calib::DirectCalibrationResult r = runDirect(rec, table, checksOf(o));
-    if (!r.ok) throw CommandFailed(label + ": direct calibration failed: " + r.reason);
-    info << "direct calibration of " << label << ": " << r.statics_used << " statics, "
-         << r.rotations_used << " rotations\n";
-    for (const std::string& n : r.notes) info << "  note: " << n << "\n";
-    emit(o, src, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
-    return;
+  std::string method = o.method;
+  if (method.empty()) {
+    method = o.direct_dir.empty() ? chooseMethod(src.recording, table, info) : "indirect";
   }
-  if (method == "scalar") {
-    calib::RawImuData raw;
-    double t_prev = nav::firstIntervalStart(rec.imu);
-    for (const nav::ImuSample& s : rec.imu) {
-      const double dt = s.t - t_prev;
-      t_prev = s.t;
-      raw.t.push_back(s.t - 0.5 * dt);
-      raw.accel.push_back(s.dvel / dt);
-      raw.gyro.push_back(s.dtheta / dt);
-    }
-    calib::ScalarCalibrationOptions so;
-    so.gravity_mps2 = nav::siteGravity(rec.site());
-    so.gyro_scale_guess = 1.0;
-    const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
-    if (!r.status.ok()) throw CommandFailed(label + ": scalar calibration: " + r.status.reason);
-    info << "scalar calibration of " << label << ": " << r.spans.size()
-         << " static spans, |a|-g RMS " << r.accel_rms_before << " -> " << r.accel_rms_after
-         << " m/s^2\n";
-    for (const std::string& n : r.notes) info << "  note: " << n << "\n";
-    emit(o, src, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
-    return;
+  if (method == "direct") return runDirectMethod(o, src, table);
+  if (method == "scalar") return runScalarMethod(o, src);
+  if (method != "indirect" && method != "pipeline") {
+    throw CommandFailed("unknown method '" + method + "'", 2);
   }
-  if (method != "indirect") throw CommandFailed("unknown method '" + method + "'", 2);
-  if (!o.direct_dir.empty()) {
-    runPipeline(o, src, table);
-    return;
+  if (!o.start.empty()) return runRefinementFrom(o, src, table);
+  if (o.direct_dir.empty()) return runPipeline(o, src, table, nullptr);
+  const ResolvedRecording direct = loadRunOrDir(o.direct_dir, o.db);
+  if (sameRecording(src, direct, o.dir, o.direct_dir)) {
+    info << "--direct names the recording itself: its data are used once\n";
+    return runPipeline(o, src, table, nullptr);
   }
-
-  calib::IndirectInput in;
-  in.site = rec.site();
-  in.geometry = geometryOf(rec);
-  in.imu = rec.imu;
-  in.table = table;
-  in.segments = rec.segments;
-  if (!o.start.empty()) {
-    const io::CoefficientFileResult s = io::readCoefficientFile(o.start);
-    if (!s.status.ok) throw CommandFailed(s.status.message);
-    in.start = s.report.values.sensors;
-    in.start_base_tilt = s.report.values.table.base_tilt;
-    info << "start values: " << o.start << "\n";
-  } else {
-    const calib::DirectCalibrationResult d = runDirect(rec, table, checksOf(o));
-    auto sane = [](const calib::TriadModel& t) {
-      return ((t.scale.array() - 1.0).abs() < 0.01).all() && t.bias.allFinite();
-    };
-    if (d.ok && sane(d.report.values.sensors.accel) && sane(d.report.values.sensors.gyro)) {
-      in.start = d.report.values.sensors;
-      info << "start values: direct calibration of the same recording\n";
-    } else {
-      info << "start values: nominal (the direct calibration of this recording is not usable"
-           << (d.ok ? ": the plan does not determine it" : ": " + d.reason) << ")\n"
-           << "  hint: the runs alone see the gyro misalignments only weakly (the 12-run "
-              "residuals see gyro minus accelerometer misalignments); record the direct plan "
-              "on the same table and pass it with --direct DIR for the seed's gyro-referenced "
-              "result\n";
-    }
-  }
-  calib::IndirectOptions io;
-  io.checks = checksOf(o);
-  const calib::CalibrationResult r = calib::calibrateIndirect(in, io);
-  if (!r.ok) {
-    for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
-    throw CommandFailed(label + ": navigation-based calibration failed: " + r.error);
-  }
-  printIndirect(info, "navigation-based calibration of " + label, r);
-  emit(o, src, r.coefficients, indirectExtra(r), in.geometry, TruthFrame::kGyroReferenced);
+  runPipeline(o, src, table, &direct);
 }
 
 }  // namespace
@@ -460,8 +560,9 @@ void addCalibrateCommand(CLI::App& app) {
                   "--format the recording file")
       ->required();
   sub->add_option("--method", opt->method,
-                  "direct | indirect (navigation-based, default) | scalar (default and only "
-                  "choice with --format imutk/imucal)")
+                  "direct | indirect (the pipeline: direct, navigation-based refinement, "
+                  "nonorthogonality pass) | scalar (default and only choice with --format "
+                  "imutk/imucal); default: what the recording supports")
       ->check(CLI::IsMember({"direct", "indirect", "scalar"}));
   sub->add_flag("--json", opt->json, "Print the interchange coefficient JSON");
   sub->add_option("--out", opt->out, "Write the coefficient JSON to this file");
@@ -483,6 +584,9 @@ void addCalibrateCommand(CLI::App& app) {
                   "indirect: the direct plan's recording of the same device and table; runs "
                   "the full pipeline (direct, refinement over both, nonorthogonality pass); "
                   "a directory or a run id");
+  sub->add_option("--table-errors", opt->table_errors,
+                  "Table errors known beforehand (the \"table\" section of a coefficient or "
+                  "truth file: the table's certification data) for every method");
   addStoreOption(*sub, &opt->db);
   sub->add_flag("--store-result", opt->store_result,
                 "When DIR is a run id: store the coefficient JSON as a result (kind "

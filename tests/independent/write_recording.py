@@ -1,0 +1,412 @@
+#!/usr/bin/env python3
+"""Independent recording writer: imubench-csv/1 recordings of a simulated IMU on a two- or
+three-axis table, derived ONLY from interchange.md (frames, table chains with every geometric
+error, the sensor equation, the recording CSV form, segments, the coefficient/truth file).
+It shares no code with imubench's C++ simulator: its own schedule, timing grid, motion
+profile, integration and segmentation, so the calibrators are tested on the physics, not on
+the conventions of the program that wrote their usual input.
+
+Physics (interchange.md):
+  L = ENU, C_LB maps B to L. Two-axis: C_LB = Th H Rx(o + o0) Nu Rz(i + i0) Mu,
+  H = Rz(pi/2 - heading); three-axis: C_LB = Th Rz(o + o0) Nu1 Rx(m + m0) Nu2 Rz(i + i0) Mu.
+  Every small-error factor (I + [t x]) is taken as the rotation exp([t x]) (a physical table is
+  a rotation; the two agree to first order, and the exact form also holds for 1 degree).
+  At the axes' intersection (no lever arm): f_B = C_LB^T (0, 0, g),
+  w_IB_B = C_LB^T w_ie_L + w_LB_B, w_ie_L = Omega (0, cos lat, sin lat);
+  w_LB_B from C_LB' = C_LB [w_LB_B x]: a joint with rate q' and right-hand product P adds
+  q' P^T e_axis.
+  reading = diag(scale) (M input - bias + noise); the increments are the integral of the
+  reading over the sample interval (Gauss-Legendre quadrature of the smooth motion).
+
+Usage: write_recording.py OUT_DIR --case NAME   (names: see CASES at the bottom)
+"""
+import argparse
+import json
+import os
+
+import numpy as np
+
+EARTH_RATE = 7.292115e-5  # rad/s (interchange.md)
+ARCSEC = np.pi / (180.0 * 3600.0)
+DEG = np.pi / 180.0
+
+
+def normal_gravity(lat_rad, h_m):
+    """WGS-84 normal gravity (Somigliana) with the second-order height correction."""
+    a, f, m = 6378137.0, 1.0 / 298.257223563, 0.00344978650684
+    ge, k, e2 = 9.7803253359, 0.00193185265241, 0.00669437999013
+    s2 = np.sin(lat_rad) ** 2
+    g0 = ge * (1.0 + k * s2) / np.sqrt(1.0 - e2 * s2)
+    return g0 * (1.0 - 2.0 / a * (1.0 + f + m - 2.0 * f * s2) * h_m + 3.0 * h_m**2 / a**2)
+
+
+# ---- rotations (batched: angle arrays of shape (n,) give (n, 3, 3)) ----
+
+def rot(axis, ang):
+    ang = np.asarray(ang, dtype=float)
+    c, s = np.cos(ang), np.sin(ang)
+    R = np.zeros(ang.shape + (3, 3))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    R[..., axis, axis] = 1.0
+    R[..., i, i] = c
+    R[..., j, j] = c
+    R[..., i, j] = -s
+    R[..., j, i] = s
+    return R
+
+
+def exp_rot(v):
+    """exp([v x]) (Rodrigues) of one small rotation vector."""
+    v = np.asarray(v, dtype=float)
+    th = np.linalg.norm(v)
+    K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    if th < 1e-300:
+        return np.eye(3)
+    return np.eye(3) + np.sin(th) / th * K + (1 - np.cos(th)) / th**2 * K @ K
+
+
+# ---- the table ----
+
+class Table:
+    """Chain of interchange.md with every geometric error (rad)."""
+
+    def __init__(self, kind, heading_deg=90.0, theta=(0, 0), nu=(0, 0, 0), mu=(0, 0), zero=(0, 0, 0)):
+        self.kind = kind
+        self.naxes = 2 if kind == "two-axis" else 3
+        self.heading_deg = heading_deg
+        self.theta, self.nu, self.mu, self.zero = (np.array(theta, float), np.array(nu, float),
+                                                   np.array(mu, float), np.array(zero, float))
+        H = rot(2, np.pi / 2 - heading_deg * DEG) if kind == "two-axis" else np.eye(3)
+        self.A0 = exp_rot([theta[0], theta[1], 0.0]) @ H
+        if kind == "two-axis":  # nu = (nu_y,): factor after the outer joint
+            self.A1 = exp_rot([0.0, nu[0], 0.0])
+            self.A2 = np.eye(3)
+        else:  # nu = (nu1_x, nu1_y, nu2_y)
+            self.A1 = exp_rot([nu[0], nu[1], 0.0])
+            self.A2 = exp_rot([0.0, nu[2], 0.0])
+        self.A3 = exp_rot([mu[0], mu[1], 0.0])
+        # joint axes: two-axis (x, z); three-axis (z, x, z)
+        self.joint_axes = [0, 2] if kind == "two-axis" else [2, 0, 2]
+
+    def kinematics(self, q, qdot):
+        """C_LB (n,3,3) and w_LB_B (n,3) for encoder readings q (n, naxes) and rates."""
+        phys = q + self.zero[: self.naxes]
+        if self.kind == "two-axis":
+            factors = [self.A0, None, self.A1, None, self.A3]
+        else:
+            factors = [self.A0, None, self.A1, None, self.A2, None, self.A3]
+        n = q.shape[0]
+        # right-hand products P_k for each joint, built from the right
+        right = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+        w = np.zeros((n, 3))
+        joint = self.naxes - 1
+        for f in reversed(factors):
+            if f is None:
+                ax = self.joint_axes[joint]
+                w += qdot[:, joint, None] * right[:, ax, :]  # P^T e_ax = row ax of P
+                right = rot(ax, phys[:, joint]) @ right
+                joint -= 1
+            else:
+                right = f @ right
+        return right, w
+
+
+# ---- the sensor ----
+
+class Triad:
+    def __init__(self, scale, bias, mis):
+        self.scale = np.array(scale, float)
+        self.bias = np.array(bias, float)
+        self.mis = dict(mis)  # xy, xz, yx, yz, zx, zy
+        m = self.mis
+        self.M = np.array([[1, m["xy"], -m["xz"]], [-m["yx"], 1, m["yz"]], [m["zx"], -m["zy"], 1]])
+
+    def reading(self, inp):
+        return (inp @ self.M.T - self.bias) * self.scale
+
+    def json(self):
+        return {"scale": list(self.scale), "bias": list(self.bias), "misalignment": self.mis}
+
+
+def random_triad(rng, scale_ppm, bias, mis_rad):
+    keys = ["xy", "xz", "yx", "yz", "zx", "zy"]
+    return Triad(1 + rng.uniform(-scale_ppm, scale_ppm, 3) * 1e-6, rng.uniform(-bias, bias, 3),
+                 {k: float(rng.uniform(-mis_rad, mis_rad)) for k in keys})
+
+
+# ---- the schedule: holds and single-axis moves with a smooth (cosine-ramp) rate profile ----
+
+class Schedule:
+    def __init__(self, naxes, t0):
+        self.naxes = naxes
+        self.t = t0
+        self.q = np.zeros(naxes)  # encoder readings, rad
+        self.steps = []  # (t_start, t_end, axis or -1, q_start, delta, rate, ramp)
+
+    def hold(self, dur):
+        self.steps.append((self.t, self.t + dur, -1, self.q.copy(), 0.0, 0.0, 0.0))
+        self.t += dur
+
+    def move(self, axis, delta_deg, rate_dps=20.0, ramp_s=1.0):
+        d = delta_deg * DEG
+        w = min(rate_dps * DEG, abs(d) / ramp_s)
+        dur = 2 * ramp_s + (abs(d) - w * ramp_s) / w
+        self.steps.append((self.t, self.t + dur, axis, self.q.copy(), d, w, ramp_s))
+        self.t += dur
+        self.q[axis] += d
+
+    def state(self, t):
+        """Encoder readings and rates at times t (n,) -> (n, naxes) each."""
+        starts = np.array([s[0] for s in self.steps])
+        idx = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.steps) - 1)
+        q = np.zeros((len(t), self.naxes))
+        qd = np.zeros((len(t), self.naxes))
+        for k in np.unique(idx):
+            sel = idx == k
+            t0, t1, axis, q0, d, w, Tr = self.steps[k]
+            q[sel] = q0
+            if axis < 0:
+                continue
+            tau = np.clip(t[sel] - t0, 0.0, t1 - t0)
+            T = t1 - t0
+            sgn = np.sign(d)
+            # rate: w (1 - cos(pi tau / Tr)) / 2 up, w flat, mirrored down
+            up = w / 2 * (tau - Tr / np.pi * np.sin(np.pi * tau / Tr))
+            r_up = w / 2 * (1 - np.cos(np.pi * tau / Tr))
+            a_ramp = w * Tr / 2
+            flat = a_ramp + w * (tau - Tr)
+            td = T - tau  # time to the end
+            down = abs(d) - w / 2 * (td - Tr / np.pi * np.sin(np.pi * td / Tr))
+            r_down = w / 2 * (1 - np.cos(np.pi * td / Tr))
+            ang = np.where(tau < Tr, up, np.where(td < Tr, down, flat))
+            rate = np.where(tau < Tr, r_up, np.where(td < Tr, r_down, w))
+            q[sel, axis] += sgn * ang
+            qd[sel, axis] = sgn * rate
+        return q, qd
+
+
+# ---- the recording ----
+
+GL_X = np.array([-np.sqrt(3 / 5), 0.0, np.sqrt(3 / 5)])
+GL_W = np.array([5 / 9, 8 / 9, 5 / 9])
+
+
+def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2):
+    """Increments over (t_end - dt, t_end] by Gauss-Legendre (sub sub-intervals x 3 nodes)."""
+    n = len(t_end)
+    h = dt / sub
+    offs = []
+    wts = []
+    for s in range(sub):
+        for x, wgt in zip(GL_X, GL_W):
+            offs.append(-dt + h * s + h * (x + 1) / 2)
+            wts.append(wgt * h / 2)
+    offs, wts = np.array(offs), np.array(wts)
+    dth = np.zeros((n, 3))
+    dv = np.zeros((n, 3))
+    chunk = 20000
+    for a in range(0, n, chunk):
+        tt = (t_end[a:a + chunk, None] + offs[None, :]).ravel()
+        q, qd = sched.state(tt)
+        C_LB, w_LB_B = table.kinematics(q, qd)
+        C_BL = np.transpose(C_LB, (0, 2, 1))
+        f_B = C_BL @ np.array([0.0, 0.0, g])
+        w_IB_B = C_BL @ w_ie_L + w_LB_B
+        ra = accel.reading(f_B).reshape(-1, len(offs), 3)
+        rg = gyro.reading(w_IB_B).reshape(-1, len(offs), 3)
+        dv[a:a + chunk] = np.einsum("nkj,k->nj", ra, wts)
+        dth[a:a + chunk] = np.einsum("nkj,k->nj", rg, wts)
+    return dth, dv
+
+
+def write_case(out, spec):
+    rng = np.random.default_rng(spec.get("seed", 7))
+    kind = spec["kind"]
+    lat, hgt = spec.get("lat_deg", 48.1), spec.get("height_m", 520.0)
+    g = normal_gravity(lat * DEG, hgt)
+    w_ie_L = EARTH_RATE * np.array([0.0, np.cos(lat * DEG), np.sin(lat * DEG)])
+    errs = spec["table_errors"]
+    table = Table(kind, spec.get("heading_deg", 90.0), **errs)
+    accel = random_triad(rng, 500.0, 1e-3, 2e-4)
+    gyro = random_triad(rng, 300.0, 5e-7, 2e-4)
+    sched = Schedule(table.naxes, spec.get("t0", 1000.0))
+    spec["schedule"](sched, spec)
+    rate = spec["rate_hz"]
+    dt = 1.0 / rate
+    n = int((sched.t - sched.steps[0][0]) * rate)
+    t_end = sched.steps[0][0] + dt * np.arange(1, n + 1)
+    dth, dv = integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt)
+    if spec.get("noise", True):
+        # white noise inside the sensor equation: diag(scale) * noise, integrated
+        dv += rng.normal(0, 3e-5 * np.sqrt(dt), (n, 3)) * accel.scale  # 3e-5 m/s/sqrt(s)
+        dth += rng.normal(0, 1e-6 * np.sqrt(dt), (n, 3)) * gyro.scale  # 1e-6 rad/sqrt(s)
+    if "quantum" in spec:  # quantised outputs with the remainder carried (counting sensors)
+        qa, qg = spec["quantum"]
+        dv = np.diff(np.round(np.cumsum(dv, axis=0) / qa), axis=0, prepend=0.0) * qa
+        dth = np.diff(np.round(np.cumsum(dth, axis=0) / qg), axis=0, prepend=0.0) * qg
+    for a, b in spec.get("swap", []):  # columns swapped under a correct header
+        cols = {"dthx": (dth, 0), "dthy": (dth, 1), "dthz": (dth, 2), "dvx": (dv, 0), "dvy": (dv, 1), "dvz": (dv, 2)}
+        (ma, ia), (mb, ib) = cols[a], cols[b]
+        tmp = ma[:, ia].copy()
+        ma[:, ia] = mb[:, ib]
+        mb[:, ib] = tmp
+    os.makedirs(out, exist_ok=True)
+    meta = {"format": "imubench-csv/1", "site": {"latitude_deg": lat, "height_m": hgt},
+            "imu": {"serial": "indep-" + spec["name"], "rate_hz": rate}, "table": {"kind": kind}}
+    if kind == "two-axis":
+        meta["table"]["outer_axis_heading_deg"] = spec.get("heading_deg", 90.0)
+    with open(os.path.join(out, "meta.json"), "w") as f:
+        json.dump(meta, f, indent=1)
+    with open(os.path.join(out, "imu.csv"), "w") as f:
+        f.write("t,dthx,dthy,dthz,dvx,dvy,dvz,temp\n")
+        data = np.column_stack([t_end, dth, dv])
+        np.savetxt(f, data, fmt=["%.6f"] + ["%.12e"] * 6, delimiter=",", newline=",\n")
+    # encoders: their own clock and rate, offset from the IMU's
+    trate = spec.get("table_rate_hz", 50.0)
+    tt = np.arange(sched.steps[0][0] + 0.0037, sched.t, 1.0 / trate)
+    q, _ = sched.state(tt)
+    header = "t,outer,inner" if kind == "two-axis" else "t,outer,middle,inner"
+    np.savetxt(os.path.join(out, "table.csv"), np.column_stack([tt, q / DEG]),
+               fmt=["%.6f"] + ["%.10f"] * table.naxes, delimiter=",", header=header, comments="")
+    write_segments(out, sched, spec)
+    truth = {"accel": accel.json(), "gyro": gyro.json(),
+             "table": {"base_tilt": list(table.theta), "nonorthogonality": list(table.nu),
+                       "mounting": list(table.mu), "encoder_zero": list(table.zero[: table.naxes])}}
+    with open(os.path.join(out, "truth.json"), "w") as f:
+        json.dump(truth, f, indent=1)
+    return truth
+
+
+def write_segments(out, sched, spec):
+    """segments.csv: 'hold' one static per hold, 'settle+hold' a short settle and the hold
+    proper, 'none' no file (derived from the encoders)."""
+    mode = spec.get("segments", "settle+hold")
+    if mode == "none":
+        return
+    rows = []
+    for k, (t0, t1, axis, *_rest) in enumerate(sched.steps):
+        if axis >= 0:
+            rows.append((t0, t1, "rotate", "run-%d" % k))
+        elif mode == "settle+hold" and t1 - t0 > 4.0:
+            rows.append((t0, t0 + 2.0, "static", "settle-%d" % k))
+            rows.append((t0 + 2.0, t1, "static", "hold-%d" % k))
+        else:
+            rows.append((t0, t1, "static", "hold-%d" % k))
+    with open(os.path.join(out, "segments.csv"), "w") as f:
+        f.write("t0,t1,kind,label\n")
+        for r in rows:
+            f.write("%.6f,%.6f,%s,%s\n" % r)
+
+
+# ---- schedules ----
+
+def two_axis_combined(s, spec):
+    """Direct positions (outer, inner in 0/90/180/270: every body axis up and down) and
+    navigation runs (180-degree reversals about horizontal axes, full turns) in one recording."""
+    H, q = spec.get("hold_s", 14.0), spec.get("quarter_deg", 90.0)
+    s.hold(H)
+    for axis, d in [(0, 4 * q), (0, -4 * q), (1, 4 * q), (1, -4 * q), (0, 2 * q), (0, -2 * q)]:
+        s.move(axis, d)
+        s.hold(H)
+    for o in range(4):
+        for i in range(4):
+            s.move(1, q)
+            s.hold(H)
+            if o == 0 and i == 0:  # inner at 90: outer reversals about body -y
+                for d in (2 * q, -2 * q, 4 * q, -4 * q):
+                    s.move(0, d)
+                    s.hold(H)
+            if o == 1 and i == 1:  # platform vertical: inner reversals about a horizontal axis
+                for d in (2 * q, -2 * q):
+                    s.move(1, d)
+                    s.hold(H)
+        s.move(0, q)
+        s.hold(H)
+
+
+def single_orientation(s, spec):
+    s.hold(300.0)
+
+
+def three_axis_combined(s, spec):
+    """Statics at five middle tilts and four inner angles, 180-degree reversals about the middle
+    and inner axes, a rate ladder about the vertical outer axis with each body axis up."""
+    H, q = spec.get("hold_s", 14.0), spec.get("quarter_deg", 90.0)
+    OUT, MID, INN = 0, 1, 2
+    s.hold(H)
+    for m in range(4):
+        for i in range(4):
+            if i in (0, 1) and m in (0, 1):
+                for d in (2 * q, -2 * q):  # middle reversals (about body x, then body y)
+                    s.move(MID, d)
+                    s.hold(H)
+            if i in (0, 1) and m in (0, 1):  # rate ladder about the outer axis
+                for rate, d in ((10.0, 4 * q), (10.0, -4 * q), (40.0, 8 * q), (40.0, -8 * q)):
+                    s.move(OUT, d, rate_dps=rate, ramp_s=2.0)
+                    s.hold(H)
+            s.move(INN, q)
+            s.hold(H)
+            if m == 1 and i == 0:
+                for d in (2 * q, -2 * q):  # inner reversals about a horizontal axis
+                    s.move(INN, d)
+                    s.hold(H)
+        s.move(MID, q)
+        s.hold(H)
+        if spec.get("outer_positions", True):  # the outer angle varied: base tilt vs nu1
+            s.move(OUT, q)
+            s.hold(H)
+    s.move(MID, q / 2)  # fifth tilt: 45 degrees
+    for i in range(4):
+        s.hold(H)
+        s.move(INN, q)
+    s.hold(H)
+
+
+def table_errors(kind, big_tilt=False):
+    a = ARCSEC
+    theta = (1.0 * DEG, -0.4 * DEG) if big_tilt else (35 * a, -22 * a)
+    if kind == "two-axis":
+        return {"theta": theta, "nu": (28 * a,), "mu": (-41 * a, 17 * a), "zero": (19 * a, -33 * a, 0.0)}
+    return {"theta": theta, "nu": (24 * a, -47 * a, 31 * a), "mu": (-38 * a, 15 * a),
+            "zero": (21 * a, 55 * a, -29 * a)}
+
+
+def make_cases():
+    def two(**kw):
+        return {**dict(kind="two-axis", schedule=two_axis_combined, rate_hz=100.0,
+                       table_errors=table_errors("two-axis")), **kw}
+
+    def three(**kw):
+        return {**dict(kind="three-axis", schedule=three_axis_combined, rate_hz=100.0,
+                       table_errors=table_errors("three-axis")), **kw}
+    c = {
+        "two_100hz_settle_hold": two(),
+        "two_400hz_hold": two(rate_hz=400.0, segments="hold", table_rate_hz=100.0),
+        "two_derived_segments": two(segments="none"),
+        "two_noise_free": two(noise=False),
+        "two_quantised": two(noise=False, quantum=(1e-5, 1e-8)),
+        "two_tilt_1deg": two(table_errors=table_errors("two-axis", big_tilt=True)),
+        "two_heading_91": two(heading_deg=91.0),
+        "two_quarter_89.99999985": two(quarter_deg=89.99999985),
+        "two_single_orientation": two(schedule=single_orientation),
+        "two_swapped_gyro_xy": two(swap=[("dthx", "dthy")]),
+        "two_swapped_accel_xz": two(swap=[("dvx", "dvz")]),
+        "three_100hz_settle_hold": three(),
+        "three_derived_segments": three(segments="none"),
+        "three_outer_fixed": three(outer_positions=False),
+    }
+    for name, spec in c.items():
+        spec["name"] = name
+    return c
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("out")
+    ap.add_argument("--case", required=True, choices=sorted(make_cases()))
+    args = ap.parse_args()
+    write_case(args.out, make_cases()[args.case])
+
+
+if __name__ == "__main__":
+    main()
