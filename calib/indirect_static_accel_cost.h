@@ -17,14 +17,26 @@ namespace imubench::calib::indirect {
 class StaticAccelCost {
  public:
   // reading_mean: mean accelerometer reading over the hold (m/s^2); C_LP: nominal attitude;
-  // gravity: site gravity (m/s^2); sigma: standard deviation of each mean component (m/s^2).
+  // gravity: site gravity (m/s^2); sigma: standard deviation of each mean component (m/s^2,
+  // body axes).
   StaticAccelCost(const Vec3& reading_mean, const TableGeometry& geometry,
                   const TableAngles& angles, double gravity, const Vec3& sigma)
       : reading_(reading_mean),
         geometry_(geometry),
         angles_(angles),
         gravity_(gravity),
-        sigma_(sigma) {}
+        sigma_(sigmaInL(geometry, angles, sigma)) {}
+
+  // The residual is in L, the sigmas of the mean are per body axis: each L component's sigma
+  // from the nominal attitude, sigma_L(i)^2 = sum_j C_LP(i, j)^2 sigma_B(j)^2 (a body axis'
+  // noise lands on the L axis it points along; unequal axes, e.g. quantised readings near
+  // zero, would otherwise whiten the vertical residual with a horizontal axis' sigma).
+  static Vec3 sigmaInL(const TableGeometry& geometry, const TableAngles& angles,
+                       const Vec3& sigma_B) {
+    const double zero[kTableSize] = {};
+    const Mat3 C = platformAttitude(geometry, angles, zero);
+    return (C.cwiseAbs2() * sigma_B.cwiseAbs2()).cwiseSqrt();
+  }
 
   template <typename T>
   bool operator()(const T* accel, const T* table, T* residual) const {

@@ -36,6 +36,8 @@ RUNS = [
     ("two_100hz_settle_hold", [], "accept"),
     ("two_100hz_settle_hold", ["--method", "direct"], "either"),
     ("two_100hz_settle_hold", ["--method", "indirect"], "either"),
+    ("two_100hz_settle_hold", ["--method", "direct", "--table-errors", "{rec}/truth.json"], "accept"),
+    ("two_tilt_1deg", ["--method", "direct", "--table-errors", "{rec}/truth.json"], "accept"),
     ("two_400hz_hold", [], "accept"),
     ("two_derived_segments", [], "accept"),
     ("two_noise_free", [], "accept"),
@@ -133,8 +135,9 @@ def main():
         if name not in written:
             written[name] = wr.write_case(rec, cases[name])
         truth = written[name]
+        args = [x.replace("{rec}", rec) for x in args]
         p, out, secs = run_one(a.imubench, rec, args, work)
-        cmd = "calibrate" + ("" if not args else " " + " ".join(args))
+        cmd = "calibrate" + ("" if not args else " " + " ".join(args).replace(rec + "/", ""))
         if p.returncode == 0:
             est = json.load(open(out))
             ok, text = judge(est, truth)
