@@ -145,7 +145,7 @@ def main():
             passed = ok and expect != "refuse"
         else:
             outcome = "refused (exit %d)" % p.returncode
-            text = last_line(p.stderr)
+            text = last_line(p.stderr.replace(rec, name))
             passed = expect != "accept"
         failures += 0 if passed else 1
         rows.append((name, cmd, expect, outcome, "ok" if passed else "FAIL", "%.0f" % secs, text))
