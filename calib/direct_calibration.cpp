@@ -104,7 +104,187 @@ bool axisPairs(const Rows& rows, int i, std::vector<std::size_t>* up,
   return !up->empty() && !down->empty();
 }
 
-// Per-axis least squares of reading_i = K_i . input + o_i; fills the triad, sigmas and flags.
+// Variance of the mean over the rows `idx` of axis i's reading (white sensor noise).
+double meanVar(const Rows& rows, const std::vector<std::size_t>& idx, int i) {
+  double v = 0.0;
+  for (std::size_t j : idx) v += rows.reading_se[j][i] * rows.reading_se[j][i];
+  return v / (static_cast<double>(idx.size()) * static_cast<double>(idx.size()));
+}
+
+// Inverse-variance weights of every row for axis i (1 where no noise level is known).
+Eigen::VectorXd rowWeights(const Rows& rows, int i) {
+  const Eigen::Index n = static_cast<Eigen::Index>(rows.input.size());
+  Eigen::VectorXd w(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double se = rows.reading_se[static_cast<std::size_t>(j)][i];
+    w(j) = se > 0.0 ? 1.0 / (se * se) : 1.0;
+  }
+  return w;
+}
+
+// One axis' data: the design X = [input | 1], the readings y of axis i, its up/down rows.
+struct AxisData {
+  const Rows& rows;
+  const Eigen::MatrixXd& X;
+  const Eigen::VectorXd& y;
+  int i;
+  std::vector<std::size_t> up, down;
+};
+
+// One axis' estimate: beta = (K_i, o_i) and, when the noise propagation gives it, its
+// covariance.
+struct AxisFit {
+  Eigen::Vector4d beta = Eigen::Vector4d::Zero();
+  Eigen::Matrix4d cov = Eigen::Matrix4d::Zero();
+  bool have_cov = false;
+};
+
+// Mean over `idx` of axis i's reading with the input terms of beta removed (except column
+// `skip`).
+double pairMean(const AxisData& d, const std::vector<std::size_t>& idx, const Eigen::Vector4d& b,
+                int skip) {
+  double m = 0.0;
+  for (std::size_t j : idx) {
+    double v = d.y(static_cast<Eigen::Index>(j));
+    for (int c = 0; c < 3; ++c)
+      if (c != skip) v -= b(c) * d.rows.input[j][c];
+    m += v;
+  }
+  return m / static_cast<double>(idx.size());
+}
+
+// Accelerometer axis: scale and offset from the axis-up/axis-down positions (a table error
+// tilts the input there only to second order), the off-diagonal terms from every static
+// position with them held; covariance from the sensor noise (the residual scatter also holds
+// the table errors, which are a bias of the misalignments, not noise).
+void accelPairStep(const AxisData& d, AxisFit* f) {
+  const int i = d.i;
+  const Eigen::Index n = d.X.rows();
+  const double U = pairMean(d, d.up, f->beta, i), D = pairMean(d, d.down, f->beta, i);
+  double gu = 0.0, gd = 0.0;
+  for (std::size_t j : d.up) gu += d.rows.input[j][i] / static_cast<double>(d.up.size());
+  for (std::size_t j : d.down) gd += d.rows.input[j][i] / static_cast<double>(d.down.size());
+  f->beta(i) = (U - D) / (gu - gd);
+  f->beta(3) = U - f->beta(i) * gu;
+  Eigen::MatrixXd A(n, 2);
+  Eigen::VectorXd z(n);
+  const int c1 = (i + 1) % 3, c2 = (i + 2) % 3;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const Vec3& in = d.rows.input[static_cast<std::size_t>(j)];
+    A(j, 0) = in[c1];
+    A(j, 1) = in[c2];
+    z(j) = d.y(j) - f->beta(3) - f->beta(i) * in[i];
+  }
+  const Eigen::Vector2d m2 = A.colPivHouseholderQr().solve(z);
+  f->beta(c1) = m2(0);
+  f->beta(c2) = m2(1);
+  // U, D are means of the up/down rows; the off-diagonal fit adds its own noise and that of
+  // (scale, offset).
+  const double varU = meanVar(d.rows, d.up, i), varD = meanVar(d.rows, d.down, i);
+  const double den = gu - gd;
+  Eigen::Matrix2d J_so;  // d(scale, offset)/d(U, D)
+  J_so << 1.0 / den, -1.0 / den, -gd / den, gu / den;
+  const Eigen::Matrix2d cov_so = J_so * Eigen::Vector2d(varU, varD).asDiagonal() * J_so.transpose();
+  const Eigen::VectorXd w = rowWeights(d.rows, i);
+  const Eigen::Matrix2d Ninv = (A.transpose() * w.asDiagonal() * A).inverse();
+  Eigen::MatrixXd B(n, 2);  // dz/d(scale, offset)
+  for (Eigen::Index j = 0; j < n; ++j) {
+    B(j, 0) = -d.rows.input[static_cast<std::size_t>(j)][i];
+    B(j, 1) = -1.0;
+  }
+  const Eigen::Matrix2d G = Ninv * A.transpose() * w.asDiagonal() * B;
+  const Eigen::Matrix2d cov_m = Ninv + G * cov_so * G.transpose();
+  const Eigen::Matrix2d cov_m_so = G * cov_so;
+  const int idx[4] = {i, 3, c1, c2};
+  Eigen::Matrix4d C = Eigen::Matrix4d::Zero();
+  C.block<2, 2>(0, 0) = cov_so;
+  C.block<2, 2>(2, 2) = cov_m;
+  C.block<2, 2>(2, 0) = cov_m_so;
+  C.block<2, 2>(0, 2) = cov_m_so.transpose();
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) f->cov(idx[a], idx[b]) = C(a, b);
+  f->have_cov = true;
+}
+
+// Gyro axis: offset from the up/down pair (Earth-rate inputs removed with the current K),
+// K_i from the rotation rows with the offset held; covariance from the sensor noise, the
+// offset's uncertainty carried into K_i. False when there are fewer than 3 rotation rows.
+bool gyroPairStep(const AxisData& d, AxisFit* f) {
+  const int i = d.i;
+  f->beta(3) = 0.5 * (pairMean(d, d.up, f->beta, -1) + pairMean(d, d.down, f->beta, -1));
+  std::vector<Eigen::Index> rot;
+  for (Eigen::Index j = 0; j < d.X.rows(); ++j)
+    if (!d.rows.is_static[static_cast<std::size_t>(j)]) rot.push_back(j);
+  if (rot.size() < 3) return false;
+  const Eigen::Index m = static_cast<Eigen::Index>(rot.size());
+  Eigen::MatrixXd A(m, 3);
+  Eigen::VectorXd z(m), w(m);
+  for (Eigen::Index q = 0; q < m; ++q) {
+    const std::size_t j = static_cast<std::size_t>(rot[static_cast<std::size_t>(q)]);
+    A.row(q) = d.rows.input[j].transpose();
+    z(q) = d.y(static_cast<Eigen::Index>(j)) - f->beta(3);
+    const double se = d.rows.reading_se[j][i];
+    w(q) = se > 0.0 ? 1.0 / (se * se) : 0.0;
+  }
+  f->beta.head<3>() = A.colPivHouseholderQr().solve(z);
+  const double var_o = 0.25 * (meanVar(d.rows, d.up, i) + meanVar(d.rows, d.down, i));
+  const Eigen::Matrix3d N = A.transpose() * w.asDiagonal() * A;
+  if (w.minCoeff() > 0.0 && N.determinant() != 0.0) {
+    const Eigen::Matrix3d Ninv = N.inverse();
+    const Eigen::Vector3d g = -Ninv * A.transpose() * w.asDiagonal() * Eigen::VectorXd::Ones(m);
+    f->cov.setZero();
+    f->cov.topLeftCorner<3, 3>() = Ninv + g * g.transpose() * var_o;
+    f->cov.block<3, 1>(0, 3) = g * var_o;
+    f->cov.block<1, 3>(3, 0) = (g * var_o).transpose();
+    f->cov(3, 3) = var_o;
+    f->have_cov = true;
+  }
+  return true;
+}
+
+// The seed's classic estimator for one axis (4 passes: each step uses the others' terms).
+AxisFit fitAxisPairs(const AxisData& d, TriadKind kind) {
+  AxisFit f;
+  f.beta(d.i) = 1.0;
+  for (int iter = 0; iter < 4; ++iter) {
+    if (kind == TriadKind::kAccel) {
+      accelPairStep(d, &f);
+    } else if (!gyroPairStep(d, &f)) {
+      break;
+    }
+  }
+  return f;
+}
+
+// Covariance of the joint least squares: the design's, scaled by the residual scatter.
+Eigen::Matrix4d jointCovariance(const Eigen::MatrixXd& X, const Eigen::VectorXd& r) {
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(X, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  svd.setThreshold(1e-10);
+  const double dof = std::max<double>(1.0, static_cast<double>(X.rows() - svd.rank()));
+  Eigen::Matrix4d cov = Eigen::Matrix4d::Zero();
+  const Eigen::VectorXd sv = svd.singularValues();
+  for (Eigen::Index k = 0; k < sv.size(); ++k)
+    if (sv(k) > 1e-10 * sv(0))
+      cov += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (sv(k) * sv(k));
+  return cov * (r.squaredNorm() / dof);
+}
+
+// Names of K_i's entries: diagonal -> scale, off-diagonal -> misalignment (the model's
+// kMisEntries: which entry of M, with which sign), o -> bias.
+const model::MisalignmentEntry& misEntry(int row, int col) {
+  return model::kMisEntries[static_cast<std::size_t>(model::misalignmentAt(row, col))];
+}
+std::vector<std::string> axisNames(const std::string& triad, int i) {
+  std::vector<std::string> names;
+  for (int c = 0; c < 3; ++c)
+    names.push_back(c == i ? triad + ".scale." + kAxis[static_cast<std::size_t>(i)]
+                           : triad + ".misalignment." + misEntry(i, c).name);
+  names.push_back(triad + ".bias." + kAxis[static_cast<std::size_t>(i)]);
+  return names;
+}
+
+// Per-axis least squares of reading_i = K_i . input + o_i; fills the triad, sigmas and flags,
+// the RMS residual and each row's normalised squared residual (summed over the axes).
 void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string& triad,
               TriadModel* out, CoefficientReport* report, std::vector<std::string>* notes,
               double* rms, double residual_floor, std::vector<double>* row_ss) {
@@ -114,146 +294,20 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
     X.block<1, 3>(j, 0) = rows.input[static_cast<std::size_t>(j)].transpose();
     X(j, 3) = 1.0;
   }
-  // Names of K_i's entries: diagonal -> scale, off-diagonal -> misalignment (the model's
-  // kMisEntries: which entry of M, with which sign), o -> bias.
-  auto misEntry = [](int row, int col) {
-    return model::kMisEntries[static_cast<std::size_t>(model::misalignmentAt(row, col))];
-  };
-  // Variance of the mean over `idx` rows of axis i's reading, and per-row weights.
-  auto meanVar = [&](const std::vector<std::size_t>& idx, int i) {
-    double v = 0.0;
-    for (std::size_t j : idx) v += rows.reading_se[j][i] * rows.reading_se[j][i];
-    return v / (static_cast<double>(idx.size()) * static_cast<double>(idx.size()));
-  };
-  auto rowWeights = [&](int i) {
-    Eigen::VectorXd w(n);
-    for (Eigen::Index j = 0; j < n; ++j) {
-      const double se = rows.reading_se[static_cast<std::size_t>(j)][i];
-      w(j) = se > 0.0 ? 1.0 / (se * se) : 1.0;
-    }
-    return w;
-  };
   double ss = 0.0;
   Mat3 K = Mat3::Identity();
   Vec3 o = Vec3::Zero();
   std::array<double, model::kMisCount> mis{};
+  row_ss->assign(static_cast<std::size_t>(n), 0.0);
   for (int i = 0; i < 3; ++i) {
-    std::vector<std::string> names;
-    for (int c = 0; c < 3; ++c)
-      names.push_back(c == i ? triad + ".scale." + kAxis[static_cast<std::size_t>(i)]
-                             : triad + ".misalignment." + misEntry(i, c).name);
-    names.push_back(triad + ".bias." + kAxis[static_cast<std::size_t>(i)]);
+    const std::vector<std::string> names = axisNames(triad, i);
     Eigen::VectorXd y(n);
     for (Eigen::Index j = 0; j < n; ++j) y(j) = rows.reading[static_cast<std::size_t>(j)][i];
     const InformationAnalysis ia = analyseInformation(X, names);
-    Eigen::Vector4d beta;
-    std::vector<std::size_t> up, down;
-    Eigen::Matrix4d cov_pair = Eigen::Matrix4d::Zero();
-    bool have_cov_pair = false;
-    if (pairwise && axisPairs(rows, i, &up, &down)) {
-      // Scale/offset from the axis-up/axis-down positions (a table error tilts the input
-      // there only to second order), the rest by least squares with them held.
-      auto mean = [&](const std::vector<std::size_t>& idx, const Eigen::Vector4d& b, int skip) {
-        double m = 0.0;
-        for (std::size_t j : idx) {
-          double v = y(static_cast<Eigen::Index>(j));
-          for (int c = 0; c < 3; ++c)
-            if (c != skip) v -= b(c) * rows.input[j][c];
-          m += v;
-        }
-        return m / static_cast<double>(idx.size());
-      };
-      beta.setZero();
-      beta(i) = 1.0;
-      for (int iter = 0; iter < 4; ++iter) {
-        const double U = mean(up, beta, kind == TriadKind::kAccel ? i : -1);
-        const double D = mean(down, beta, kind == TriadKind::kAccel ? i : -1);
-        if (kind == TriadKind::kAccel) {
-          double gu = 0.0, gd = 0.0;
-          for (std::size_t j : up) gu += rows.input[j][i] / static_cast<double>(up.size());
-          for (std::size_t j : down) gd += rows.input[j][i] / static_cast<double>(down.size());
-          beta(i) = (U - D) / (gu - gd);
-          beta(3) = U - beta(i) * gu;
-          // Off-diagonal terms from every static position, scale and offset held.
-          Eigen::MatrixXd A(n, 2);
-          Eigen::VectorXd z(n);
-          const int c1 = (i + 1) % 3, c2 = (i + 2) % 3;
-          for (Eigen::Index j = 0; j < n; ++j) {
-            const Vec3& f = rows.input[static_cast<std::size_t>(j)];
-            A(j, 0) = f[c1];
-            A(j, 1) = f[c2];
-            z(j) = y(j) - beta(3) - beta(i) * f[i];
-          }
-          const Eigen::Vector2d m2 = A.colPivHouseholderQr().solve(z);
-          beta(c1) = m2(0);
-          beta(c2) = m2(1);
-          // Covariance from the sensor noise (the residual scatter also holds the table
-          // errors, which are a bias of the misalignments, not noise): U, D are means of the
-          // up/down rows; the off-diagonal fit adds its own noise and that of (scale, offset).
-          const double varU = meanVar(up, i), varD = meanVar(down, i);
-          const double den = gu - gd;
-          Eigen::Matrix2d J_so;  // d(scale, offset)/d(U, D)
-          J_so << 1.0 / den, -1.0 / den, -gd / den, gu / den;
-          const Eigen::Matrix2d cov_so =
-              J_so * Eigen::Vector2d(varU, varD).asDiagonal() * J_so.transpose();
-          const Eigen::VectorXd w = rowWeights(i);
-          const Eigen::Matrix2d N = A.transpose() * w.asDiagonal() * A;
-          const Eigen::Matrix2d Ninv = N.inverse();
-          Eigen::MatrixXd B(n, 2);  // dz/d(scale, offset)
-          for (Eigen::Index j = 0; j < n; ++j) {
-            B(j, 0) = -rows.input[static_cast<std::size_t>(j)][i];
-            B(j, 1) = -1.0;
-          }
-          const Eigen::Matrix2d G = Ninv * A.transpose() * w.asDiagonal() * B;
-          const Eigen::Matrix2d cov_m = Ninv + G * cov_so * G.transpose();
-          const Eigen::Matrix2d cov_m_so = G * cov_so;
-          const int idx[4] = {i, 3, c1, c2};
-          Eigen::Matrix4d C = Eigen::Matrix4d::Zero();
-          C.block<2, 2>(0, 0) = cov_so;
-          C.block<2, 2>(2, 2) = cov_m;
-          C.block<2, 2>(2, 0) = cov_m_so;
-          C.block<2, 2>(0, 2) = cov_m_so.transpose();
-          for (int a = 0; a < 4; ++a)
-            for (int b = 0; b < 4; ++b) cov_pair(idx[a], idx[b]) = C(a, b);
-          have_cov_pair = true;
-        } else {
-          // Gyro: offset from the pair (Earth-rate inputs removed with the current K), K_i
-          // from the rotation rows with the offset held.
-          beta(3) = 0.5 * (U + D);
-          std::vector<Eigen::Index> rot;
-          for (Eigen::Index j = 0; j < n; ++j)
-            if (!rows.is_static[static_cast<std::size_t>(j)]) rot.push_back(j);
-          if (rot.size() < 3) break;
-          Eigen::MatrixXd A(static_cast<Eigen::Index>(rot.size()), 3);
-          Eigen::VectorXd z(static_cast<Eigen::Index>(rot.size()));
-          for (std::size_t q = 0; q < rot.size(); ++q) {
-            A.row(static_cast<Eigen::Index>(q)) =
-                rows.input[static_cast<std::size_t>(rot[q])].transpose();
-            z(static_cast<Eigen::Index>(q)) = y(rot[q]) - beta(3);
-          }
-          beta.head<3>() = A.colPivHouseholderQr().solve(z);
-          // Covariance from the sensor noise: the offset from the pair means, K_i from the
-          // rotation rows with the offset's uncertainty carried into them.
-          const double var_o = 0.25 * (meanVar(up, i) + meanVar(down, i));
-          Eigen::VectorXd w(static_cast<Eigen::Index>(rot.size()));
-          for (std::size_t q = 0; q < rot.size(); ++q) {
-            const double se = rows.reading_se[static_cast<std::size_t>(rot[q])][i];
-            w(static_cast<Eigen::Index>(q)) = se > 0.0 ? 1.0 / (se * se) : 0.0;
-          }
-          const Eigen::Matrix3d N = A.transpose() * w.asDiagonal() * A;
-          if (w.minCoeff() > 0.0 && N.determinant() != 0.0) {
-            const Eigen::Matrix3d Ninv = N.inverse();
-            const Eigen::Vector3d g = -Ninv * A.transpose() * w.asDiagonal() *
-                                      Eigen::VectorXd::Ones(static_cast<Eigen::Index>(rot.size()));
-            cov_pair.setZero();
-            cov_pair.topLeftCorner<3, 3>() = Ninv + g * g.transpose() * var_o;
-            cov_pair.block<3, 1>(0, 3) = g * var_o;
-            cov_pair.block<1, 3>(3, 0) = (g * var_o).transpose();
-            cov_pair(3, 3) = var_o;
-            have_cov_pair = true;
-          }
-        }
-      }
+    AxisData d{rows, X, y, i, {}, {}};
+    AxisFit f;
+    if (pairwise && axisPairs(rows, i, &d.up, &d.down)) {
+      f = fitAxisPairs(d, kind);
     } else {
       if (pairwise)
         notes->push_back(triad + " axis " + kAxis[static_cast<std::size_t>(i)] +
@@ -261,28 +315,17 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
                          "(table errors may leak into its scale and bias)");
       Eigen::JacobiSVD<Eigen::MatrixXd> svd0(X, Eigen::ComputeThinU | Eigen::ComputeThinV);
       svd0.setThreshold(1e-10);
-      beta = svd0.solve(y);
+      f.beta = svd0.solve(y);
     }
-    // Joint estimator: covariance of the design scaled by the residual scatter. The pairwise
-    // estimator replaces it with the noise propagation above.
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(X, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    svd.setThreshold(1e-10);
+    const Eigen::Vector4d& beta = f.beta;
     const Eigen::VectorXd r = y - X * beta;
     ss += r.squaredNorm();
-    row_ss->resize(static_cast<std::size_t>(n), 0.0);
     for (Eigen::Index j = 0; j < n; ++j) {
       const double se = std::max(rows.reading_se[static_cast<std::size_t>(j)][i], residual_floor);
       (*row_ss)[static_cast<std::size_t>(j)] += r(j) * r(j) / (se * se);
     }
-    const double dof = std::max<double>(1.0, static_cast<double>(n - svd.rank()));
-    const double s2 = r.squaredNorm() / dof;
-    Eigen::Matrix4d cov = Eigen::Matrix4d::Zero();
-    const Eigen::VectorXd sv = svd.singularValues();
-    for (Eigen::Index k = 0; k < sv.size(); ++k)
-      if (sv(k) > 1e-10 * sv(0))
-        cov += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (sv(k) * sv(k));
-    cov *= s2;
-    if (have_cov_pair) cov = cov_pair;
+    // The pairwise estimator's noise propagation replaces the joint covariance.
+    const Eigen::Matrix4d cov = f.have_cov ? f.cov : jointCovariance(X, r);
     K.row(i) = beta.head<3>().transpose();
     o(i) = beta(3);
     const double s = beta(i);
@@ -296,9 +339,9 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
       }
     }
     report->setSigma(names[3], std::sqrt(cov(3, 3)) / std::abs(s));
-    for (const NullDirection& d : ia.null_directions)
+    for (const NullDirection& nd : ia.null_directions)
       notes->push_back(triad + " axis " + kAxis[static_cast<std::size_t>(i)] +
-                       ": the positions cannot separate " + d.description);
+                       ": the positions cannot separate " + nd.description);
     for (std::size_t k = 0; k < names.size(); ++k)
       if (!ia.observable[k]) report->setUnobservable(names[k]);
   }
