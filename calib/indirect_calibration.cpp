@@ -687,6 +687,64 @@ void judgeIndirect(const Observations& obs, const IndirectOptions& opt,
   result->status = fitStatusFrom(std::move(reasons), std::move(largest));
 }
 
+// Outer iterations: re-navigate the runs at the current parameters and re-solve until no
+// parameter moves by more than outer_tolerance_sigma; false (result->error) on failure.
+bool solveOuter(const IndirectInput& in, const IndirectOptions& opt, const Observations& obs,
+                Parameters* p, std::vector<double>* sigma, CalibrationResult* result,
+                std::vector<std::string>* largest) {
+  for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
+    ceres::Problem problem;
+    std::vector<LabelledBlock> blocks;
+    addResiduals(in, opt, obs, p, &problem, &blocks);
+    if (outer == 0) {
+      const Eigen::MatrixXd J = denseJacobian(problem, p->accel, p->gyro, p->table);
+      result->conditioning = analyseInformation(J, &p->free, opt);
+    }
+    fixNonFree(*p, p->accel, kAccelOffset, kTriadSize, &problem);
+    fixNonFree(*p, p->gyro, kGyroOffset, kTriadSize, &problem);
+    fixNonFree(*p, p->table, kTableOffset, kTableSize, &problem);
+    const std::array<double, kParamCount> before = flatParameters(*p);
+    result->outer_iterations += 1;
+    if (!solve(&problem, result)) return false;
+    if (!parameterSigmas(&problem, p, sigma, result)) return false;
+    *largest = largestResiduals(&problem, blocks);
+    if (largestChangeInSigmas(*p, before, *sigma) < opt.outer_tolerance_sigma) break;
+  }
+  return true;
+}
+
+// Gyro scales the runs determine much worse than the start values do (the direct calibration's
+// rate runs: a turn about a vertical axis leaves no horizontal acceleration to navigate on)
+// are held at the start values, with their sigma, and named; true when any was.
+// "Much better": the start's sigma below a third of the runs' (comparable sigmas mean both
+// sources see the scale; the refinement, which also sees the table errors, is then kept).
+constexpr double kStartMuchBetter = 3.0;
+
+bool holdBetterStartGyroScales(const IndirectInput& in, Parameters* p,
+                               const std::vector<double>& sigma,
+                               std::vector<std::string>* warnings) {
+  if (!in.start) return false;
+  const auto start = in.start->gyro.block();
+  bool any = false;
+  for (int i = 0; i < 3; ++i) {
+    const int g = kGyroOffset + kScale + i;
+    const std::size_t gi = static_cast<std::size_t>(g);
+    const auto it = in.start_uncertainty.find(parameterName(g));
+    if (!p->free[gi] || it == in.start_uncertainty.end() || !it->second.observable ||
+        !it->second.sigma || !(kStartMuchBetter * *it->second.sigma < sigma[gi])) {
+      continue;
+    }
+    p->gyro[kScale + i] = start[static_cast<std::size_t>(kScale + i)];
+    p->hold(g);
+    warn(warnings,
+         "%s: the runs determine it to %.3g, the start values (direct rate runs) to "
+         "%.3g: the start value is kept",
+         parameterName(g).c_str(), sigma[gi], *it->second.sigma);
+    any = true;
+  }
+  return any;
+}
+
 // The calibration; calibrateIndirect adds the failed status.
 CalibrationResult runIndirect(const IndirectInput& in, const IndirectOptions& opt) {
   CalibrationResult result;
@@ -700,23 +758,9 @@ CalibrationResult runIndirect(const IndirectInput& in, const IndirectOptions& op
   Parameters p = initialParameters(in, opt, &result.warnings);
   std::vector<double> sigma(kParamCount, 0.0);
   std::vector<std::string> largest;
-  for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
-    ceres::Problem problem;
-    std::vector<LabelledBlock> blocks;
-    addResiduals(in, opt, obs, &p, &problem, &blocks);
-    if (outer == 0) {
-      const Eigen::MatrixXd J = denseJacobian(problem, p.accel, p.gyro, p.table);
-      result.conditioning = analyseInformation(J, &p.free, opt);
-    }
-    fixNonFree(p, p.accel, kAccelOffset, kTriadSize, &problem);
-    fixNonFree(p, p.gyro, kGyroOffset, kTriadSize, &problem);
-    fixNonFree(p, p.table, kTableOffset, kTableSize, &problem);
-    const std::array<double, kParamCount> before = flatParameters(p);
-    result.outer_iterations = outer + 1;
-    if (!solve(&problem, &result)) return result;
-    if (!parameterSigmas(&problem, &p, &sigma, &result)) return result;
-    largest = largestResiduals(&problem, blocks);
-    if (largestChangeInSigmas(p, before, sigma) < opt.outer_tolerance_sigma) break;
+  if (!solveOuter(in, opt, obs, &p, &sigma, &result, &largest)) return result;
+  if (opt.prefer_start_gyro_scale && holdBetterStartGyroScales(in, &p, sigma, &result.warnings)) {
+    if (!solveOuter(in, opt, obs, &p, &sigma, &result, &largest)) return result;
   }
   report(in, p, sigma, &result);
   if (obs.runs.empty()) result.warnings.emplace_back("no usable rotation run: statics only");

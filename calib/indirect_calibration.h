@@ -127,6 +127,11 @@ struct IndirectOptions {
   // The solve is reported as badly conditioned when the scaled information's condition
   // number exceeds this (weak directions are named either way).
   double bad_condition_number = 1e10;
+  // Hold a gyro scale at its start value (with the start's sigma, named in the warnings) when
+  // the start determines it much better (sigma below a third) than the runs do: the direct
+  // calibration measures gyro scales from encoder-timed rate runs, free of table errors, while
+  // navigation sees no scale error of a turn about the vertical. Never a weaker source.
+  bool prefer_start_gyro_scale = true;
   // Estimate the base tilt (false: hold it at start_base_tilt).
   bool estimate_base_tilt = true;
   // Estimate the axis nonorthogonality (two-axis: inner_y; three-axis: middle_x, middle_y,

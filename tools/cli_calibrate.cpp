@@ -43,7 +43,6 @@
 // and "observable": false), --out FILE writes it.
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -509,14 +508,22 @@ void runRefinementFrom(const CalibrateOptions& o, const ResolvedRecording& src,
   emit(o, src, r.coefficients, indirectExtra(r), in.geometry, TruthFrame::kGyroReferenced);
 }
 
-// True when two RUN_OR_DIR arguments name the same recording.
-bool sameRecording(const ResolvedRecording& a, const ResolvedRecording& b, const std::string& da,
-                   const std::string& db) {
-  if (a.run_id || b.run_id) return a.run_id == b.run_id;
-  std::error_code ec1, ec2;
-  const auto pa = std::filesystem::weakly_canonical(da, ec1);
-  const auto pb = std::filesystem::weakly_canonical(db, ec2);
-  return !ec1 && !ec2 && pa == pb;
+// True when two RUN_OR_DIR arguments hold the same recording (a directory and the run stored
+// from it included): the same IMU samples and encoder samples.
+bool sameRecording(const io::Recording& a, const io::Recording& b) {
+  if (a.imu.size() != b.imu.size() || a.table.size() != b.table.size()) return false;
+  for (std::size_t k = 0; k < a.imu.size(); ++k) {
+    if (a.imu[k].t != b.imu[k].t || a.imu[k].dtheta != b.imu[k].dtheta ||
+        a.imu[k].dvel != b.imu[k].dvel) {
+      return false;
+    }
+  }
+  for (std::size_t k = 0; k < a.table.size(); ++k) {
+    if (a.table[k].t != b.table[k].t || a.table[k].angles_deg != b.table[k].angles_deg) {
+      return false;
+    }
+  }
+  return true;
 }
 
 void runCalibrate(const CalibrateOptions& o) {
@@ -543,7 +550,7 @@ void runCalibrate(const CalibrateOptions& o) {
   if (!o.start.empty()) return runRefinementFrom(o, src, table);
   if (o.direct_dir.empty()) return runPipeline(o, src, table, nullptr);
   const ResolvedRecording direct = loadRunOrDir(o.direct_dir, o.db);
-  if (sameRecording(src, direct, o.dir, o.direct_dir)) {
+  if (sameRecording(src.recording, direct.recording)) {
     info << "--direct names the recording itself: its data are used once\n";
     return runPipeline(o, src, table, nullptr);
   }

@@ -56,11 +56,12 @@ for f in $(cat "$work/files.rec"); do
 done
 echo "export of run $run: $(wc -l < "$work/files.rec") files byte-identical to the original"
 
-# calibrate on the run id = calibrate on the directory (direct method: quick).
-"$bin" calibrate "$work/rec" --method direct --json > "$work/coef_dir.json" 2> /dev/null
-"$bin" calibrate "$run" --db "$db" --method direct --json > "$work/coef_run.json" 2> /dev/null
+# calibrate on the run id = calibrate on the directory (direct method: quick; the simulated
+# table has errors, given with --table-errors, without which direct calibration is unusable).
+"$bin" calibrate "$work/rec" --method direct --table-errors "$truth" --json > "$work/coef_dir.json" 2> /dev/null
+"$bin" calibrate "$run" --db "$db" --method direct --table-errors "$truth" --json > "$work/coef_run.json" 2> /dev/null
 cmp "$work/coef_dir.json" "$work/coef_run.json" || fail "calibrate $run differs from calibrate DIR"
-IMUBENCH_DB="$db" "$bin" calibrate "run:$run" --method direct --json > "$work/coef_env.json" \
+IMUBENCH_DB="$db" "$bin" calibrate "run:$run" --method direct --table-errors "$truth" --json > "$work/coef_env.json" \
   2> /dev/null
 cmp "$work/coef_dir.json" "$work/coef_env.json" || fail "calibrate run:$run via IMUBENCH_DB differs"
 # The indirect method's --direct takes a run id as well (same recording both ways here).
@@ -72,7 +73,7 @@ echo "calibrate on run $run (N, run:N, IMUBENCH_DB, --direct) = calibrate on the
 
 # --store-result: stored as kind "coefficients" with the serial and mean temperature.
 expect 0 "coefficients stored as result [0-9]+ of run $run in " \
-  "$bin" calibrate "$run" --db "$db" --method direct --store-result
+  "$bin" calibrate "$run" --db "$db" --method direct --table-errors "$truth" --store-result
 "$bin" export "$run" --csv "$work/out2" --db "$db" --results "$work/results.json"
 python3 - "$work/results.json" "$work/coef_dir.json" "$work/rec/meta.json" "$run" <<'PY'
 import json, sys
@@ -88,7 +89,7 @@ assert r["json"] == coef, "stored coefficients differ from calibrate --json"
 print("stored result:", r["kind"], r["imu_serial"], r["temperature_c"], "degC")
 PY
 expect 2 "--store-result needs a run id" \
-  "$bin" calibrate "$work/rec" --db "$db" --method direct --store-result
+  "$bin" calibrate "$work/rec" --db "$db" --method direct --table-errors "$truth" --store-result
 
 # Errors name what they refuse.
 expect 1 "run 999 not found" "$bin" calibrate 999 --db "$db" --method direct
