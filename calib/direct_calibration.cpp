@@ -131,6 +131,10 @@ struct AxisData {
   std::vector<std::size_t> up, down;
 };
 
+// Layout of one axis' unknowns beta = (K_i0, K_i1, K_i2, o_i): the gain-row entries at the
+// input column they multiply, the offset (-scale * bias) after them.
+constexpr int kOffsetCol = 3;
+
 // One axis' estimate: beta = (K_i, o_i) and, when the noise propagation gives it, its
 // covariance.
 struct AxisFit {
@@ -165,7 +169,7 @@ void accelPairStep(const AxisData& d, AxisFit* f) {
   for (std::size_t j : d.up) gu += d.rows.input[j][i] / static_cast<double>(d.up.size());
   for (std::size_t j : d.down) gd += d.rows.input[j][i] / static_cast<double>(d.down.size());
   f->beta(i) = (U - D) / (gu - gd);
-  f->beta(3) = U - f->beta(i) * gu;
+  f->beta(kOffsetCol) = U - f->beta(i) * gu;
   Eigen::MatrixXd A(n, 2);
   Eigen::VectorXd z(n);
   const int c1 = (i + 1) % 3, c2 = (i + 2) % 3;
@@ -173,7 +177,7 @@ void accelPairStep(const AxisData& d, AxisFit* f) {
     const Vec3& in = d.rows.input[static_cast<std::size_t>(j)];
     A(j, 0) = in[c1];
     A(j, 1) = in[c2];
-    z(j) = d.y(j) - f->beta(3) - f->beta(i) * in[i];
+    z(j) = d.y(j) - f->beta(kOffsetCol) - f->beta(i) * in[i];
   }
   const Eigen::Vector2d m2 = A.colPivHouseholderQr().solve(z);
   f->beta(c1) = m2(0);
@@ -195,7 +199,7 @@ void accelPairStep(const AxisData& d, AxisFit* f) {
   const Eigen::Matrix2d G = Ninv * A.transpose() * w.asDiagonal() * B;
   const Eigen::Matrix2d cov_m = Ninv + G * cov_so * G.transpose();
   const Eigen::Matrix2d cov_m_so = G * cov_so;
-  const int idx[4] = {i, 3, c1, c2};
+  const int idx[4] = {i, kOffsetCol, c1, c2};
   Eigen::Matrix4d C = Eigen::Matrix4d::Zero();
   C.block<2, 2>(0, 0) = cov_so;
   C.block<2, 2>(2, 2) = cov_m;
@@ -211,7 +215,7 @@ void accelPairStep(const AxisData& d, AxisFit* f) {
 // offset's uncertainty carried into K_i. False when there are fewer than 3 rotation rows.
 bool gyroPairStep(const AxisData& d, AxisFit* f) {
   const int i = d.i;
-  f->beta(3) = 0.5 * (pairMean(d, d.up, f->beta, -1) + pairMean(d, d.down, f->beta, -1));
+  f->beta(kOffsetCol) = 0.5 * (pairMean(d, d.up, f->beta, -1) + pairMean(d, d.down, f->beta, -1));
   std::vector<Eigen::Index> rot;
   for (Eigen::Index j = 0; j < d.X.rows(); ++j)
     if (!d.rows.is_static[static_cast<std::size_t>(j)]) rot.push_back(j);
@@ -222,7 +226,7 @@ bool gyroPairStep(const AxisData& d, AxisFit* f) {
   for (Eigen::Index q = 0; q < m; ++q) {
     const std::size_t j = static_cast<std::size_t>(rot[static_cast<std::size_t>(q)]);
     A.row(q) = d.rows.input[j].transpose();
-    z(q) = d.y(static_cast<Eigen::Index>(j)) - f->beta(3);
+    z(q) = d.y(static_cast<Eigen::Index>(j)) - f->beta(kOffsetCol);
     const double se = d.rows.reading_se[j][i];
     w(q) = se > 0.0 ? 1.0 / (se * se) : 0.0;
   }
@@ -234,9 +238,9 @@ bool gyroPairStep(const AxisData& d, AxisFit* f) {
     const Eigen::Vector3d g = -Ninv * A.transpose() * w.asDiagonal() * Eigen::VectorXd::Ones(m);
     f->cov.setZero();
     f->cov.topLeftCorner<3, 3>() = Ninv + g * g.transpose() * var_o;
-    f->cov.block<3, 1>(0, 3) = g * var_o;
-    f->cov.block<1, 3>(3, 0) = (g * var_o).transpose();
-    f->cov(3, 3) = var_o;
+    f->cov.block<3, 1>(0, kOffsetCol) = g * var_o;
+    f->cov.block<1, 3>(kOffsetCol, 0) = (g * var_o).transpose();
+    f->cov(kOffsetCol, kOffsetCol) = var_o;
     f->have_cov = true;
   }
   return true;
@@ -327,7 +331,7 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
     // The pairwise estimator's noise propagation replaces the joint covariance.
     const Eigen::Matrix4d cov = f.have_cov ? f.cov : jointCovariance(X, r);
     K.row(i) = beta.head<3>().transpose();
-    o(i) = beta(3);
+    o(i) = beta(kOffsetCol);
     const double s = beta(i);
     for (int c = 0; c < 3; ++c) {
       if (c == i) {
@@ -338,7 +342,7 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
         report->setSigma(names[static_cast<std::size_t>(c)], std::sqrt(cov(c, c)) / std::abs(s));
       }
     }
-    report->setSigma(names[3], std::sqrt(cov(3, 3)) / std::abs(s));
+    report->setSigma(names[kOffsetCol], std::sqrt(cov(kOffsetCol, kOffsetCol)) / std::abs(s));
     for (const NullDirection& nd : ia.null_directions)
       notes->push_back(triad + " axis " + kAxis[static_cast<std::size_t>(i)] +
                        ": the positions cannot separate " + nd.description);
