@@ -27,6 +27,12 @@ bool ScalarCalibrationOptions::IsValid(std::string* why) const {
   if (min_poses_diagonal_accel < 6 || min_poses_full_accel < 9)
     return fail("pose minimums below the number of unknowns (6 diagonal, 9 full)");
   if (!(span_trim_s >= 0.0)) return fail("span_trim_s must be >= 0");
+  if (!(si_gravity_tolerance > 0.0 && si_gravity_tolerance < 1.0))
+    return fail("si_gravity_tolerance must be in (0, 1)");
+  if (!(max_static_scatter_g > 0.0)) return fail("max_static_scatter_g must be > 0");
+  if (!(min_axis_span >= 0.0 && min_axis_span <= 2.0))
+    return fail("min_axis_span must be in [0, 2]");
+  if (!(max_gyro_rms_rad > 0.0)) return fail("max_gyro_rms_rad must be > 0");
   return detection.IsValid(why) && checks.IsValid(why);
 }
 
@@ -183,6 +189,60 @@ Eigen::VectorXd sigmasAndNotes(ceres::Problem& problem, double final_cost, int n
   return sig;
 }
 
+// Physical-unit data: every static pose's |f| near g, else the columns are not what the header
+// says (or the unit is wrong).
+RecordingCheck checkSiGravity(const std::vector<Vec3>& acc_means,
+                              const std::vector<StaticSpan>& spans, double g, double tol) {
+  for (std::size_t k = 0; k < acc_means.size(); ++k) {
+    const double n = acc_means[k].norm();
+    if (std::abs(n - g) > tol * g) {
+      std::ostringstream s;
+      s << "static pose at t = " << spans[k].t0 << " .. " << spans[k].t1 << " s reads |f| = " << n
+        << " m/s^2, far from g = " << g << " (tolerance " << tol * 100.0
+        << " %): the accelerometer columns hold something else (swapped columns or a wrong "
+           "unit?)";
+      return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+    }
+  }
+  return RecordingCheck::Ok();
+}
+
+// The fitted accelerometer must be well conditioned by the poses: the static scatter in the
+// calibrated unit small against g, and every axis tilted both ways.
+RecordingCheck checkAccelGeometry(const RawImuData& data, const std::vector<StaticSpan>& spans,
+                                  const std::vector<Vec3>& acc_means, const TriadModel& acc,
+                                  const ScalarCalibrationOptions& o) {
+  double sum2 = 0.0;
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < spans.size(); ++k)
+    for (std::size_t i = spans[k].begin; i < spans[k].end; ++i, ++n)
+      sum2 += (acc.input(data.accel[i]) - acc.input(acc_means[k])).squaredNorm() / 3.0;
+  const double scatter = n > 0 ? std::sqrt(sum2 / static_cast<double>(n)) : 0.0;
+  std::ostringstream s;
+  if (scatter > o.max_static_scatter_g * o.gravity_mps2) {
+    s << "the static readings scatter by " << scatter << " m/s^2 per sample in the fitted unit ("
+      << scatter / o.gravity_mps2 * 100.0
+      << " % of g): the poses hardly change the gravity direction (one orientation, or the "
+         "columns are not the accelerometer's), so the scales would be fitted to noise";
+    return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+  }
+  Vec3 lo = Vec3::Constant(2.0), hi = Vec3::Constant(-2.0);
+  for (const Vec3& a : acc_means) {
+    const Vec3 u = acc.input(a).normalized();
+    lo = lo.cwiseMin(u);
+    hi = hi.cwiseMax(u);
+  }
+  for (int k = 0; k < 3; ++k)
+    if (hi[k] - lo[k] < o.min_axis_span) {
+      s << "accelerometer axis "
+        << "xyz"[k] << " sees gravity components only in [" << lo[k] << ", " << hi[k]
+        << "] g over the static poses (span " << hi[k] - lo[k] << " < " << o.min_axis_span
+        << "): its scale and bias cannot be told apart; tilt that axis up and down";
+      return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+    }
+  return RecordingCheck::Ok();
+}
+
 }  // namespace
 
 ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCalibrationOptions& o,
@@ -231,6 +291,10 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
 
   // ---- Accelerometer ----
   const double g = o.gravity_mps2;
+  if (accel_unit_is_si) {
+    res.status = checkSiGravity(acc_means, spans, g, o.si_gravity_tolerance);
+    if (!res.status.ok()) return res;
+  }
   Vec3 lo = acc_means[0], hi = acc_means[0];
   for (const Vec3& a : acc_means) {
     lo = lo.cwiseMin(a);
@@ -337,6 +401,8 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
         "the instrument frame is defined by the accelerometers (z axis, y in the yz plane)");
     res.accel_rms_after = accRms(s_acc, b_acc, m_acc);
   }
+  res.status = checkAccelGeometry(data, spans, acc_means, res.accel(), o);
+  if (!res.status.ok()) return res;
 
   // ---- Gyro ----
   const Vec3 gyro_offset = gyr_means.front();  // raw reading at rest in the first pose
@@ -410,6 +476,15 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     gyr.scale = Vec3(s_g[0], s_g[1], s_g[2]);
     gyr.mis = Misalignment{m_g[0], m_g[1], m_g[2], m_g[3], m_g[4], m_g[5]};
     res.gyro_rms_after = std::sqrt(2.0 * sum.final_cost / n_dir);
+    if (res.gyro_rms_after > o.max_gyro_rms_rad) {
+      std::ostringstream s;
+      s << "the integrated gyro rotations miss the gravity-direction changes by "
+        << res.gyro_rms_after
+        << " rad RMS after the fit: the gyro axes do not match the accelerometer's (swapped or "
+           "mirrored columns?) or the motion between poses is not captured";
+      res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+      return res;
+    }
   }
   // reading = s (M w - b) with w ~ 0 at rest: b = -offset / s (Earth rate neglected).
   TriadModel& gyr = res.report.values.sensors.gyro;

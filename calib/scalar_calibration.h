@@ -41,6 +41,23 @@ struct ScalarCalibrationOptions {
   // (hand placement repeats a face within a few degrees; distinct faces differ by >= 30).
   double same_pose_angle_deg = 10.0;
   int min_poses_diagonal_accel = 6;
+  // Physical-unit accelerometer data (accel_unit_is_si): every static pose's |f| must be
+  // within this fraction of gravity. Sensor errors are percent-level at worst; a pose far off
+  // means swapped columns, a wrong unit or motion taken for rest.
+  double si_gravity_tolerance = 0.1;
+  // Largest acceptable per-sample scatter of the static readings in the calibrated unit, as a
+  // fraction of g. A real accelerometer's white noise is far below 1 % of g; a scatter this
+  // large means the poses did not change the gravity direction (one orientation, or the
+  // columns are not the accelerometer's) and the scales would be fitted to noise.
+  double max_static_scatter_g = 0.05;
+  // Each calibrated axis must see gravity components spanning at least this range (of the
+  // unit sphere, -1..1): scale and bias of an axis are separable only when it is tilted well
+  // both ways (a six-face session spans 2).
+  double min_axis_span = 1.0;
+  // Largest acceptable RMS mismatch, rad, between the integrated gyro rotation and the
+  // gravity-direction change of each rotation: far above the noise (mrad) means the gyro is not
+  // the accelerometer's companion in the same frame (swapped or mirrored axes).
+  double max_gyro_rms_rad = 0.05;
   // Readings of static samples are skipped this long at each span end, s (settling).
   double span_trim_s = 0.1;
   StaticDetectionOptions detection;
