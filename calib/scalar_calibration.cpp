@@ -243,6 +243,31 @@ RecordingCheck checkAccelGeometry(const RawImuData& data, const std::vector<Stat
   return RecordingCheck::Ok();
 }
 
+// Honest sigma of the gyro bias taken from the first pose: the white noise of its mean, the
+// part of the Earth rate the pose cannot tell from the bias (the horizontal part, unknown
+// heading; all of it when the latitude is unknown), and the bias drift seen between poses
+// (the scatter of every pose's rest reading about the first, which the single bias cannot
+// follow), added in quadrature, in rad/s.
+Vec3 gyroBiasSigma(const TriadModel& gyr, const Vec3& white_mean_reading,
+                   const std::vector<Vec3>& gyr_means, const Vec3& up_B,
+                   const ScalarCalibrationOptions& o) {
+  Vec3 var = white_mean_reading.cwiseQuotient(gyr.scale).cwiseAbs2();
+  for (int k = 0; k < 3; ++k) {
+    const double earth_var = o.latitude_rad
+                                 ? std::pow(nav::kEarthRate * std::cos(*o.latitude_rad), 2) *
+                                       (1.0 - up_B[k] * up_B[k]) / 2.0
+                                 : nav::kEarthRate * nav::kEarthRate / 3.0;
+    var[k] += earth_var;
+  }
+  if (gyr_means.size() > 1) {
+    Vec3 drift = Vec3::Zero();
+    for (const Vec3& gm : gyr_means)
+      drift += (gm - gyr_means.front()).cwiseQuotient(gyr.scale).cwiseAbs2();
+    var += drift / static_cast<double>(gyr_means.size() - 1);
+  }
+  return var.cwiseSqrt();
+}
+
 }  // namespace
 
 ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCalibrationOptions& o,
@@ -411,8 +436,16 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   std::vector<Rotation> rots;
   for (std::size_t k = 0; k + 1 < spans.size(); ++k) {
     Rotation r;
+    // The gyro bias drifts between poses (MEMS: 0.1-1 mrad/s over a session): during the
+    // rotation it is taken as the straight line between the rest readings of the poses before
+    // and after, each of which holds that pose's bias (and its small Earth-rate projection).
+    const double ta = data.t[spans[k].end - 1], tb = data.t[spans[k + 1].begin];
     for (std::size_t i = spans[k].end; i <= spans[k + 1].begin && i < data.size(); ++i) {
-      r.rates.push_back(data.gyro[i] - gyro_offset);
+      const double w = tb > ta ? std::clamp((data.t[i] - ta) / (tb - ta), 0.0, 1.0) : 0.0;
+      const Vec3 offset = o.interpolate_gyro_bias
+                              ? Vec3((1.0 - w) * gyr_means[k] + w * gyr_means[k + 1])
+                              : gyro_offset;
+      r.rates.push_back(data.gyro[i] - offset);
       r.dts.push_back(data.t[i] - data.t[i - 1]);
     }
     r.u0 = u[k];
@@ -489,11 +522,18 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   // reading = s (M w - b) with w ~ 0 at rest: b = -offset / s (Earth rate neglected).
   TriadModel& gyr = res.report.values.sensors.gyro;
   gyr.bias = -gyro_offset.cwiseQuotient(gyr.scale);
+  if (o.latitude_rad) {
+    // At rest the gyro senses the Earth rate; its vertical part, Omega sin(lat) along the
+    // sensed "up" (the first pose's specific force), is known and leaves the bias.
+    const Vec3 up_B = res.accel().input(acc_means.front()).normalized();
+    gyr.bias += gyr.M() * (nav::kEarthRate * std::sin(*o.latitude_rad) * up_B);
+  }
   const double n0 = static_cast<double>(spans.front().end - spans.front().begin);
   Vec3 var = Vec3::Zero();
   for (std::size_t i = spans.front().begin; i < spans.front().end; ++i)
     var += (data.gyro[i] - gyro_offset).cwiseAbs2();
-  const Vec3 bias_sigma = (var / n0).cwiseSqrt().cwiseQuotient(gyr.scale) / std::sqrt(n0);
+  const Vec3 bias_sigma = gyroBiasSigma(gyr, (var / n0).cwiseSqrt() / std::sqrt(n0), gyr_means,
+                                        res.accel().input(acc_means.front()).normalized(), o);
   for (int k = 0; k < 3; ++k)
     res.report.setSigma(std::string("gyro.bias.") + kAxisNames[static_cast<std::size_t>(k)],
                         bias_sigma[k]);
@@ -506,8 +546,12 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   s << "static gyro rates after removing the first-pose bias scatter by " << res.static_rate_scatter
     << " rad/s RMS vs Earth rate " << nav::kEarthRate << " rad/s: "
     << (res.earth_rate_usable ? "Earth-rate invariant usable"
-                              : "bias instability/noise hides the Earth rate, invariant not used; "
-                                "gyro bias includes the Earth-rate projection of the first pose");
+                              : "bias instability/noise hides the Earth rate, invariant not used")
+    << (o.latitude_rad ? "; the vertical Earth rate is removed from the gyro bias, the horizontal "
+                         "part (unknown heading) and the drift between poses are in its sigma"
+                       : "; the gyro bias includes the Earth-rate projection of the first pose "
+                         "(give the latitude to remove its vertical part); the Earth rate and the "
+                         "drift between poses are in its sigma");
   res.notes.push_back(s.str());
   return res;
 }

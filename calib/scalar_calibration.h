@@ -6,7 +6,9 @@
 // Accelerometer: |f| = g cannot see a rotation of the whole triad, so the instrument frame is
 // fixed to the accelerometer triad (z along accel z, y in the accel yz plane): m_yx = m_zx =
 // m_zy = 0, reported "observable": false. Gyro: all six misalignments are relative to that
-// frame. Gyro bias comes from the first static interval (Earth rate neglected, see result).
+// frame. Gyro bias comes from the first static interval, less the vertical Earth rate when the
+// latitude is known; its sigma includes the Earth rate it cannot separate and the bias drift
+// between poses. During each rotation the bias is interpolated between the poses around it.
 // With too few distinct poses the misalignments are fixed and flagged rather than fitted.
 #pragma once
 
@@ -58,6 +60,14 @@ struct ScalarCalibrationOptions {
   // gravity-direction change of each rotation: far above the noise (mrad) means the gyro is not
   // the accelerometer's companion in the same frame (swapped or mirrored axes).
   double max_gyro_rms_rad = 0.05;
+  // Site latitude, rad, when known: the vertical Earth rate in the first pose is removed from
+  // the gyro bias, and only the horizontal part (unknown heading) widens its sigma. Unset: all
+  // of the Earth rate widens the bias sigma.
+  std::optional<double> latitude_rad;
+  // Gyro bias during each rotation: the straight line between the rest readings of the poses
+  // before and after (true, default: MEMS biases move by 0.1-1 mrad/s between poses), or the
+  // first pose's rest reading throughout (false: imu_tk's assumption).
+  bool interpolate_gyro_bias = true;
   // Readings of static samples are skipped this long at each span end, s (settling).
   double span_trim_s = 0.1;
   StaticDetectionOptions detection;

@@ -275,6 +275,7 @@ void runCalibrateReal(const CalibrateOptions& o) {
     accel_si = true;
   }
   if (!in.ok) throw CommandFailed(in.error);
+  if (o.latitude_deg) so.latitude_rad = *o.latitude_deg * kDegToRad;
   if (o.gravity) {
     so.gravity_mps2 = *o.gravity;
   } else if (o.latitude_deg) {
@@ -400,6 +401,7 @@ void runCalibrate(const CalibrateOptions& o) {
     }
     calib::ScalarCalibrationOptions so;
     so.gravity_mps2 = nav::siteGravity(rec.site());
+    so.latitude_rad = rec.site().latitude_rad;
     so.gyro_scale_guess = 1.0;
     const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
     if (!r.status.ok()) throw CommandFailed(label + ": scalar calibration: " + r.status.reason);
