@@ -27,6 +27,12 @@ bool ScalarCalibrationOptions::IsValid(std::string* why) const {
   if (min_poses_diagonal_accel < 6 || min_poses_full_accel < 9)
     return fail("pose minimums below the number of unknowns (6 diagonal, 9 full)");
   if (!(span_trim_s >= 0.0)) return fail("span_trim_s must be >= 0");
+  if (!(si_gravity_tolerance > 0.0 && si_gravity_tolerance < 1.0))
+    return fail("si_gravity_tolerance must be in (0, 1)");
+  if (!(max_static_scatter_g > 0.0)) return fail("max_static_scatter_g must be > 0");
+  if (!(min_axis_span >= 0.0 && min_axis_span <= 2.0))
+    return fail("min_axis_span must be in [0, 2]");
+  if (!(max_gyro_rms_rad > 0.0)) return fail("max_gyro_rms_rad must be > 0");
   return detection.IsValid(why) && checks.IsValid(why);
 }
 
@@ -183,6 +189,85 @@ Eigen::VectorXd sigmasAndNotes(ceres::Problem& problem, double final_cost, int n
   return sig;
 }
 
+// Physical-unit data: every static pose's |f| near g, else the columns are not what the header
+// says (or the unit is wrong).
+RecordingCheck checkSiGravity(const std::vector<Vec3>& acc_means,
+                              const std::vector<StaticSpan>& spans, double g, double tol) {
+  for (std::size_t k = 0; k < acc_means.size(); ++k) {
+    const double n = acc_means[k].norm();
+    if (std::abs(n - g) > tol * g) {
+      std::ostringstream s;
+      s << "static pose at t = " << spans[k].t0 << " .. " << spans[k].t1 << " s reads |f| = " << n
+        << " m/s^2, far from g = " << g << " (tolerance " << tol * 100.0
+        << " %): the accelerometer columns hold something else (swapped columns or a wrong "
+           "unit?)";
+      return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+    }
+  }
+  return RecordingCheck::Ok();
+}
+
+// The fitted accelerometer must be well conditioned by the poses: the static scatter in the
+// calibrated unit small against g, and every axis tilted both ways.
+RecordingCheck checkAccelGeometry(const RawImuData& data, const std::vector<StaticSpan>& spans,
+                                  const std::vector<Vec3>& acc_means, const TriadModel& acc,
+                                  const ScalarCalibrationOptions& o) {
+  double sum2 = 0.0;
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < spans.size(); ++k)
+    for (std::size_t i = spans[k].begin; i < spans[k].end; ++i, ++n)
+      sum2 += (acc.input(data.accel[i]) - acc.input(acc_means[k])).squaredNorm() / 3.0;
+  const double scatter = n > 0 ? std::sqrt(sum2 / static_cast<double>(n)) : 0.0;
+  std::ostringstream s;
+  if (scatter > o.max_static_scatter_g * o.gravity_mps2) {
+    s << "the static readings scatter by " << scatter << " m/s^2 per sample in the fitted unit ("
+      << scatter / o.gravity_mps2 * 100.0
+      << " % of g): the poses hardly change the gravity direction (one orientation, or the "
+         "columns are not the accelerometer's), so the scales would be fitted to noise";
+    return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+  }
+  Vec3 lo = Vec3::Constant(2.0), hi = Vec3::Constant(-2.0);
+  for (const Vec3& a : acc_means) {
+    const Vec3 u = acc.input(a).normalized();
+    lo = lo.cwiseMin(u);
+    hi = hi.cwiseMax(u);
+  }
+  for (int k = 0; k < 3; ++k)
+    if (hi[k] - lo[k] < o.min_axis_span) {
+      s << "accelerometer axis "
+        << "xyz"[k] << " sees gravity components only in [" << lo[k] << ", " << hi[k]
+        << "] g over the static poses (span " << hi[k] - lo[k] << " < " << o.min_axis_span
+        << "): its scale and bias cannot be told apart; tilt that axis up and down";
+      return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+    }
+  return RecordingCheck::Ok();
+}
+
+// Honest sigma of the gyro bias taken from the first pose: the white noise of its mean, the
+// part of the Earth rate the pose cannot tell from the bias (the horizontal part, unknown
+// heading; all of it when the latitude is unknown), and the bias drift seen between poses
+// (the scatter of every pose's rest reading about the first, which the single bias cannot
+// follow), added in quadrature, in rad/s.
+Vec3 gyroBiasSigma(const TriadModel& gyr, const Vec3& white_mean_reading,
+                   const std::vector<Vec3>& gyr_means, const Vec3& up_B,
+                   const ScalarCalibrationOptions& o) {
+  Vec3 var = white_mean_reading.cwiseQuotient(gyr.scale).cwiseAbs2();
+  for (int k = 0; k < 3; ++k) {
+    const double earth_var = o.latitude_rad
+                                 ? std::pow(nav::kEarthRate * std::cos(*o.latitude_rad), 2) *
+                                       (1.0 - up_B[k] * up_B[k]) / 2.0
+                                 : nav::kEarthRate * nav::kEarthRate / 3.0;
+    var[k] += earth_var;
+  }
+  if (gyr_means.size() > 1) {
+    Vec3 drift = Vec3::Zero();
+    for (const Vec3& gm : gyr_means)
+      drift += (gm - gyr_means.front()).cwiseQuotient(gyr.scale).cwiseAbs2();
+    var += drift / static_cast<double>(gyr_means.size() - 1);
+  }
+  return var.cwiseSqrt();
+}
+
 }  // namespace
 
 ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCalibrationOptions& o,
@@ -231,6 +316,10 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
 
   // ---- Accelerometer ----
   const double g = o.gravity_mps2;
+  if (accel_unit_is_si) {
+    res.status = checkSiGravity(acc_means, spans, g, o.si_gravity_tolerance);
+    if (!res.status.ok()) return res;
+  }
   Vec3 lo = acc_means[0], hi = acc_means[0];
   for (const Vec3& a : acc_means) {
     lo = lo.cwiseMin(a);
@@ -337,6 +426,8 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
         "the instrument frame is defined by the accelerometers (z axis, y in the yz plane)");
     res.accel_rms_after = accRms(s_acc, b_acc, m_acc);
   }
+  res.status = checkAccelGeometry(data, spans, acc_means, res.accel(), o);
+  if (!res.status.ok()) return res;
 
   // ---- Gyro ----
   const Vec3 gyro_offset = gyr_means.front();  // raw reading at rest in the first pose
@@ -345,8 +436,16 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   std::vector<Rotation> rots;
   for (std::size_t k = 0; k + 1 < spans.size(); ++k) {
     Rotation r;
+    // The gyro bias drifts between poses (MEMS: 0.1-1 mrad/s over a session): during the
+    // rotation it is taken as the straight line between the rest readings of the poses before
+    // and after, each of which holds that pose's bias (and its small Earth-rate projection).
+    const double ta = data.t[spans[k].end - 1], tb = data.t[spans[k + 1].begin];
     for (std::size_t i = spans[k].end; i <= spans[k + 1].begin && i < data.size(); ++i) {
-      r.rates.push_back(data.gyro[i] - gyro_offset);
+      const double w = tb > ta ? std::clamp((data.t[i] - ta) / (tb - ta), 0.0, 1.0) : 0.0;
+      const Vec3 offset = o.interpolate_gyro_bias
+                              ? Vec3((1.0 - w) * gyr_means[k] + w * gyr_means[k + 1])
+                              : gyro_offset;
+      r.rates.push_back(data.gyro[i] - offset);
       r.dts.push_back(data.t[i] - data.t[i - 1]);
     }
     r.u0 = u[k];
@@ -410,15 +509,31 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     gyr.scale = Vec3(s_g[0], s_g[1], s_g[2]);
     gyr.mis = Misalignment{m_g[0], m_g[1], m_g[2], m_g[3], m_g[4], m_g[5]};
     res.gyro_rms_after = std::sqrt(2.0 * sum.final_cost / n_dir);
+    if (res.gyro_rms_after > o.max_gyro_rms_rad) {
+      std::ostringstream s;
+      s << "the integrated gyro rotations miss the gravity-direction changes by "
+        << res.gyro_rms_after
+        << " rad RMS after the fit: the gyro axes do not match the accelerometer's (swapped or "
+           "mirrored columns?) or the motion between poses is not captured";
+      res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+      return res;
+    }
   }
   // reading = s (M w - b) with w ~ 0 at rest: b = -offset / s (Earth rate neglected).
   TriadModel& gyr = res.report.values.sensors.gyro;
   gyr.bias = -gyro_offset.cwiseQuotient(gyr.scale);
+  if (o.latitude_rad) {
+    // At rest the gyro senses the Earth rate; its vertical part, Omega sin(lat) along the
+    // sensed "up" (the first pose's specific force), is known and leaves the bias.
+    const Vec3 up_B = res.accel().input(acc_means.front()).normalized();
+    gyr.bias += gyr.M() * (nav::kEarthRate * std::sin(*o.latitude_rad) * up_B);
+  }
   const double n0 = static_cast<double>(spans.front().end - spans.front().begin);
   Vec3 var = Vec3::Zero();
   for (std::size_t i = spans.front().begin; i < spans.front().end; ++i)
     var += (data.gyro[i] - gyro_offset).cwiseAbs2();
-  const Vec3 bias_sigma = (var / n0).cwiseSqrt().cwiseQuotient(gyr.scale) / std::sqrt(n0);
+  const Vec3 bias_sigma = gyroBiasSigma(gyr, (var / n0).cwiseSqrt() / std::sqrt(n0), gyr_means,
+                                        res.accel().input(acc_means.front()).normalized(), o);
   for (int k = 0; k < 3; ++k)
     res.report.setSigma(std::string("gyro.bias.") + kAxisNames[static_cast<std::size_t>(k)],
                         bias_sigma[k]);
@@ -431,8 +546,12 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   s << "static gyro rates after removing the first-pose bias scatter by " << res.static_rate_scatter
     << " rad/s RMS vs Earth rate " << nav::kEarthRate << " rad/s: "
     << (res.earth_rate_usable ? "Earth-rate invariant usable"
-                              : "bias instability/noise hides the Earth rate, invariant not used; "
-                                "gyro bias includes the Earth-rate projection of the first pose");
+                              : "bias instability/noise hides the Earth rate, invariant not used")
+    << (o.latitude_rad ? "; the vertical Earth rate is removed from the gyro bias, the horizontal "
+                         "part (unknown heading) and the drift between poses are in its sigma"
+                       : "; the gyro bias includes the Earth-rate projection of the first pose "
+                         "(give the latitude to remove its vertical part); the Earth rate and the "
+                         "drift between poses are in its sigma");
   res.notes.push_back(s.str());
   return res;
 }

@@ -6,7 +6,9 @@
 // Accelerometer: |f| = g cannot see a rotation of the whole triad, so the instrument frame is
 // fixed to the accelerometer triad (z along accel z, y in the accel yz plane): m_yx = m_zx =
 // m_zy = 0, reported "observable": false. Gyro: all six misalignments are relative to that
-// frame. Gyro bias comes from the first static interval (Earth rate neglected, see result).
+// frame. Gyro bias comes from the first static interval, less the vertical Earth rate when the
+// latitude is known; its sigma includes the Earth rate it cannot separate and the bias drift
+// between poses. During each rotation the bias is interpolated between the poses around it.
 // With too few distinct poses the misalignments are fixed and flagged rather than fitted.
 #pragma once
 
@@ -41,6 +43,31 @@ struct ScalarCalibrationOptions {
   // (hand placement repeats a face within a few degrees; distinct faces differ by >= 30).
   double same_pose_angle_deg = 10.0;
   int min_poses_diagonal_accel = 6;
+  // Physical-unit accelerometer data (accel_unit_is_si): every static pose's |f| must be
+  // within this fraction of gravity. Sensor errors are percent-level at worst; a pose far off
+  // means swapped columns, a wrong unit or motion taken for rest.
+  double si_gravity_tolerance = 0.1;
+  // Largest acceptable per-sample scatter of the static readings in the calibrated unit, as a
+  // fraction of g. A real accelerometer's white noise is far below 1 % of g; a scatter this
+  // large means the poses did not change the gravity direction (one orientation, or the
+  // columns are not the accelerometer's) and the scales would be fitted to noise.
+  double max_static_scatter_g = 0.05;
+  // Each calibrated axis must see gravity components spanning at least this range (of the
+  // unit sphere, -1..1): scale and bias of an axis are separable only when it is tilted well
+  // both ways (a six-face session spans 2).
+  double min_axis_span = 1.0;
+  // Largest acceptable RMS mismatch, rad, between the integrated gyro rotation and the
+  // gravity-direction change of each rotation: far above the noise (mrad) means the gyro is not
+  // the accelerometer's companion in the same frame (swapped or mirrored axes).
+  double max_gyro_rms_rad = 0.05;
+  // Site latitude, rad, when known: the vertical Earth rate in the first pose is removed from
+  // the gyro bias, and only the horizontal part (unknown heading) widens its sigma. Unset: all
+  // of the Earth rate widens the bias sigma.
+  std::optional<double> latitude_rad;
+  // Gyro bias during each rotation: the straight line between the rest readings of the poses
+  // before and after (true, default: MEMS biases move by 0.1-1 mrad/s between poses), or the
+  // first pose's rest reading throughout (false: imu_tk's assumption).
+  bool interpolate_gyro_bias = true;
   // Readings of static samples are skipped this long at each span end, s (settling).
   double span_trim_s = 0.1;
   StaticDetectionOptions detection;

@@ -1,6 +1,7 @@
 #include "io/import_real.h"
 
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -40,6 +41,24 @@ bool toDouble(const std::string& s, double* v) {
   return ec == std::errc() && ptr == s.data() + e;
 }
 
+// Parses every field of a row as a finite number; on failure names the column (1-based or by
+// header name) and whether it is not a number or NaN/infinite.
+bool rowValues(const std::vector<std::string>& f, const std::vector<std::string>& names, double* x,
+               std::string* why) {
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    const std::string col = k < names.size() ? names[k] : std::to_string(k + 1);
+    if (!toDouble(f[k], &x[k])) {
+      *why = "column " + col + " '" + f[k] + "' is not a number";
+      return false;
+    }
+    if (!std::isfinite(x[k])) {
+      *why = "column " + col + " is NaN or infinite ('" + f[k] + "')";
+      return false;
+    }
+  }
+  return true;
+}
+
 struct Rows {
   std::vector<double> t;
   std::vector<Vec3> v;
@@ -63,13 +82,11 @@ bool readTxyz(const std::string& path, Rows* rows, std::string* err) {
       return false;
     }
     double x[4];
-    for (int k = 0; k < 4; ++k)
-      if (!toDouble(f[static_cast<std::size_t>(k)], &x[k])) {
-        *err = at(path, n,
-                  "column " + std::to_string(k + 1) + " '" + f[static_cast<std::size_t>(k)] +
-                      "' is not a number");
-        return false;
-      }
+    std::string why;
+    if (!rowValues(f, {}, x, &why)) {
+      *err = at(path, n, why);
+      return false;
+    }
     if (!rows->t.empty() && !(x[0] > rows->t.back())) {
       *err = at(path, n, "time does not increase");
       return false;
@@ -103,8 +120,57 @@ RealImport readImuTkPair(const std::string& accel_path, const std::string& gyro_
   r.data.t = std::move(a.t);
   r.data.accel = std::move(a.v);
   r.data.gyro = std::move(g.v);
-  r.accel_unit = "count";
-  r.gyro_unit = "count";
+  // imu_tk's own files hold 16-bit unsigned counts; the same layout from other loggers often
+  // holds signed counts or physical units, where a negative reading is ordinary.
+  r.unsigned_counts = true;
+  for (std::size_t i = 0; i < r.data.t.size() && r.unsigned_counts; ++i)
+    r.unsigned_counts = r.data.accel[i].minCoeff() >= 0.0 && r.data.gyro[i].minCoeff() >= 0.0;
+  r.accel_unit = r.unsigned_counts ? "count" : "reading";
+  r.gyro_unit = r.unsigned_counts ? "count" : "reading";
+  r.ok = true;
+  return r;
+}
+
+RealImport readSixColumnLog(const std::string& path, double rate_hz) {
+  RealImport r;
+  if (!(rate_hz > 0.0)) {
+    r.error = path + ": sampling rate must be > 0";
+    return r;
+  }
+  std::ifstream in(path);
+  if (!in) {
+    r.error = path + ": cannot open";
+    return r;
+  }
+  const std::vector<std::string> names = {"ax", "ay", "az", "wx", "wy", "wz"};
+  std::string line;
+  std::size_t n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    const auto f = fields(line, ' ');
+    if (f.empty()) continue;
+    if (f.size() != names.size()) {
+      r.error = at(path, n,
+                   "expected 6 columns (ax ay az wx wy wz), found " + std::to_string(f.size()) +
+                       (in.eof() ? " (truncated?)" : ""));
+      return r;
+    }
+    double x[6];
+    std::string why;
+    if (!rowValues(f, names, x, &why)) {
+      r.error = at(path, n, why);
+      return r;
+    }
+    r.data.t.push_back(static_cast<double>(r.data.t.size()) / rate_hz);
+    r.data.accel.emplace_back(x[0], x[1], x[2]);
+    r.data.gyro.emplace_back(x[3], x[4], x[5]);
+  }
+  if (r.data.t.empty()) {
+    r.error = path + ": no data rows";
+    return r;
+  }
+  r.accel_unit = "m/s^2";
+  r.gyro_unit = "rad/s";
   r.ok = true;
   return r;
 }
@@ -144,13 +210,11 @@ RealImport readImucalCsv(const std::string& path, double rate_hz) {
       return r;
     }
     double x[7];
-    for (int k = 0; k < 7; ++k)
-      if (!toDouble(f[static_cast<std::size_t>(k)], &x[k])) {
-        r.error = at(path, n,
-                     "column " + expected[static_cast<std::size_t>(k)] + " '" +
-                         f[static_cast<std::size_t>(k)] + "' is not a number");
-        return r;
-      }
+    std::string why;
+    if (!rowValues(f, expected, x, &why)) {
+      r.error = at(path, n, why);
+      return r;
+    }
     if (!(x[0] > last)) {
       r.error = at(path, n, "n_samples does not increase");
       return r;

@@ -70,6 +70,7 @@ struct CalibrateOptions {
   std::string format = "imubench";
   std::string gyro_file;                      // imutk: the gyro file of the pair
   double rate_hz = io::kImucalExampleRateHz;  // imucal: sampling rate
+  bool rate_hz_given = false;                 // --rate on the command line (mikov: 100 Hz)
   std::optional<double> gravity;              // m/s^2; else from --latitude/--height
   std::optional<double> latitude_deg;
   double height_m = 0.0;
@@ -300,13 +301,19 @@ void runCalibrateReal(const CalibrateOptions& o) {
     if (o.gyro_file.empty()) throw CommandFailed("--format imutk needs --gyro FILE", 2);
     in = io::readImuTkPair(o.dir, o.gyro_file);
     so.min_initial_static_s = 30.0;  // imu_tk records a long initial static for the gyro bias
-    so.checks.accel_min = so.checks.gyro_min = 0.0;  // 16-bit unsigned raw counts
-    so.checks.accel_max = so.checks.gyro_max = 65535.0;
+    if (in.unsigned_counts) {        // 16-bit unsigned raw counts: the rails are saturation
+      so.checks.accel_min = so.checks.gyro_min = 0.0;
+      so.checks.accel_max = so.checks.gyro_max = 65535.0;
+    }
+  } else if (o.format == "mikov") {
+    in = io::readSixColumnLog(o.dir, o.rate_hz_given ? o.rate_hz : io::kSixColumnLogRateHz);
+    accel_si = true;
   } else {
     in = io::readImucalCsv(o.dir, o.rate_hz);
     accel_si = true;
   }
   if (!in.ok) throw CommandFailed(in.error);
+  if (o.latitude_deg) so.latitude_rad = *o.latitude_deg * kDegToRad;
   if (o.gravity) {
     so.gravity_mps2 = *o.gravity;
   } else if (o.latitude_deg) {
@@ -463,6 +470,7 @@ void runScalarMethod(const CalibrateOptions& o, const ResolvedRecording& src) {
   }
   calib::ScalarCalibrationOptions so;
   so.gravity_mps2 = nav::siteGravity(rec.site());
+  so.latitude_rad = rec.site().latitude_rad;
   so.gyro_scale_guess = 1.0;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
   if (!r.status.ok()) throw CommandFailed(src.label + ": scalar calibration: " + r.status.reason);
@@ -600,10 +608,13 @@ void addCalibrateCommand(CLI::App& app) {
                 "\"coefficients\") of that run, with its IMU serial and mean temperature");
   sub->add_option("--format", opt->format,
                   "imubench (recording directory, default) | imutk (imu_tk text pair: "
-                  "accelerometer file + --gyro) | imucal (imucal Ferraris CSV)")
-      ->check(CLI::IsMember({"imubench", "imutk", "imucal"}));
+                  "accelerometer file + --gyro) | imucal (imucal Ferraris CSV) | mikov "
+                  "(imu-calib six-column log ax ay az wx wy wz, SI, no time column)")
+      ->check(CLI::IsMember({"imubench", "imutk", "imucal", "mikov"}));
   sub->add_option("--gyro", opt->gyro_file, "imutk: the gyro file of the pair");
-  sub->add_option("--rate", opt->rate_hz, "imucal: sampling rate, Hz (default 102.4)");
+  sub->add_option("--rate", opt->rate_hz,
+                  "imucal/mikov: sampling rate, Hz (default 102.4 imucal, 100 mikov)")
+      ->each([opt](const std::string&) { opt->rate_hz_given = true; });
   sub->add_option("--gravity", opt->gravity, "scalar on --format: local gravity, m/s^2");
   sub->add_option("--latitude", opt->latitude_deg,
                   "scalar on --format: site latitude, deg (WGS-84 normal gravity)");
