@@ -133,6 +133,16 @@ void storeResult(const CalibrateOptions& o, const ResolvedRecording& src,
 // Exit code of a calibration that ran but whose result must not be used.
 constexpr int kExitUnusable = 3;
 
+// A scalar calibration that did not give a result: the data cannot determine the coefficients
+// (too few or too similar poses, readings that contradict gravity) is "result unusable" (exit
+// 3); malformed data (NaN, gaps, time going back) is a plain error (exit 1).
+CommandFailed scalarRefusal(const std::string& label, const calib::RecordingCheck& status) {
+  const bool unusable = status.code == calib::RecordingStatusCode::kTooFewStatics ||
+                        status.code == calib::RecordingStatusCode::kTooShortStatic;
+  return CommandFailed(label + ": scalar calibration: " + status.reason,
+                       unusable ? kExitUnusable : 1);
+}
+
 // Throws CommandFailed(kExitUnusable) with the findings when the result is unusable.
 void refuseIfUnusable(const calib::FitStatus& s, const std::string& what, const std::string& dir) {
   if (s.code != calib::FitStatusCode::kUnusable) return;
@@ -322,7 +332,7 @@ void runCalibrateReal(const CalibrateOptions& o) {
   std::string why;
   if (!so.IsValid(&why)) throw CommandFailed("options: " + why, 2);
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, so, accel_si);
-  if (!r.status.ok()) throw CommandFailed(o.dir + ": scalar calibration: " + r.status.reason);
+  if (!r.status.ok()) throw scalarRefusal(o.dir, r.status);
   std::ostream& info = o.json ? std::cerr : std::cout;
   info << "scalar calibration of " << o.dir << " (" << in.data.size() << " samples, accel in "
        << in.accel_unit << ", gyro in " << in.gyro_unit << ", g = " << so.gravity_mps2
@@ -473,7 +483,7 @@ void runScalarMethod(const CalibrateOptions& o, const ResolvedRecording& src) {
   so.latitude_rad = rec.site().latitude_rad;
   so.gyro_scale_guess = 1.0;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
-  if (!r.status.ok()) throw CommandFailed(src.label + ": scalar calibration: " + r.status.reason);
+  if (!r.status.ok()) throw scalarRefusal(src.label, r.status);
   info << "scalar calibration of " << src.label << ": " << r.spans.size()
        << " static spans, |a|-g RMS " << r.accel_rms_before << " -> " << r.accel_rms_after
        << " m/s^2\n";
