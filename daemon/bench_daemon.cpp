@@ -878,6 +878,16 @@ json BenchDaemon::tableJson() const {
             {"fault", r.fault},
             {"state", drivers::deviceStateName(table_->state())}};
   if (!port_->lastTableError().empty()) t["error"] = port_->lastTableError();
+  if (!r.axes.empty()) {  // the last read's axes (none after a read that got no answer)
+    json angles = json::array();
+    bool moving = false;
+    for (const drivers::TableAxisReading& a : r.axes) {
+      angles.push_back(a.angle * kRadToDeg);
+      moving = moving || a.moving;
+    }
+    t["angles_deg"] = angles;
+    t["moving"] = moving;
+  }
   return t;
 }
 
