@@ -353,6 +353,9 @@ void BenchDaemon::reportImuProblems() {
 
 void BenchDaemon::onPoll() {
   if (!run_) return;
+  // Frames already in the socket count before the IMU's silence is judged (the loop may have
+  // been held up, and the poll timer may be served before the socket in one wake).
+  onImuReadable();
   BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
   obs.plan_time_s = imu_last_t_;
   if (imu_last_t_ && (!run_->last_table_t || *imu_last_t_ > *run_->last_table_t) && obs.table_ok) {
