@@ -1,10 +1,10 @@
 // Storage of bench runs in one SQLite database (the daemon's embedded default): the run's plan
 // and meta data, its samples (IMU, table, chamber), segments, events, and calibration results.
 //
-// The database runs in WAL mode with synchronous=NORMAL: a committed transaction survives a
-// crash of the process (kill -9); only a power loss can drop the last few commits. Samples are
-// written in batches (RunWriter), one transaction per batch, so a killed daemon loses at most
-// the unflushed tail (StoreOptions::max_unflushed_s of sample time).
+// The database runs in WAL mode with synchronous=FULL: a committed transaction survives a
+// crash of the process (kill -9) and a power loss (the WAL is synced at every commit). Samples
+// are written in batches (RunWriter), one transaction per batch, so a killed daemon or a power
+// loss loses at most the unflushed tail (StoreOptions::max_unflushed_s of sample time).
 //
 // loadRecording(run) rebuilds the exact io::Recording value (doubles bit-exact, -0.0 included), so
 // writeRecording() exports a run as imubench-csv/1 and the calibrators run on a run id.
