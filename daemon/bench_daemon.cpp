@@ -294,8 +294,9 @@ io::IoStatus BenchDaemon::run() {
 void BenchDaemon::stop() {
   loop_.post([this] {
     stopping_ = true;
+    // Motion stops and the interrupted step re-runs on `resume RUN` after the restart.
     if (run_ && run_->runner->state() == RunnerState::kRunning) {
-      run_->runner->abort(wallNow());
+      run_->runner->pause(wallNow());
       publish(run_->runner->takeEvents());
     }
     if (run_) closeRun();
@@ -352,6 +353,9 @@ void BenchDaemon::reportImuProblems() {
 
 void BenchDaemon::onPoll() {
   if (!run_) return;
+  // Frames already in the socket count before the IMU's silence is judged (the loop may have
+  // been held up, and the poll timer may be served before the socket in one wake).
+  onImuReadable();
   BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
   obs.plan_time_s = imu_last_t_;
   if (imu_last_t_ && (!run_->last_table_t || *imu_last_t_ > *run_->last_table_t) && obs.table_ok) {
@@ -399,6 +403,9 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
       if (seg.t1 > seg.t0) {
         if (auto st = run_->writer->appendSegment(seg); !st.ok) log_.error("store: " + st.message);
       }
+      // The stored step_finished event is the crash-resume checkpoint: the step's samples and
+      // segment are committed before it.
+      if (auto st = run_->writer->flush(); !st.ok) log_.error("store: " + st.message);
     }
     RunEvent stored;
     stored.run_id = run_->id;
@@ -442,8 +449,17 @@ void BenchDaemon::closeRun() {
   std::string reason = runExitName(r.exit());
   if (r.exit() == RunExit::kCompleted) state = RunState::kFinished;
   if (r.exit() == RunExit::kAborted) state = RunState::kAborted;
-  if (r.state() != RunnerState::kFinished && r.state() != RunnerState::kFaulted) {
-    reason = "daemon stopped during the run";
+  if (r.state() == RunnerState::kAborting) {
+    state = RunState::kAborted;  // the operator's abort, cut short by the daemon's stop
+    reason = "aborted; the daemon stopped before the table came to rest";
+  } else if (r.state() != RunnerState::kFinished && r.state() != RunnerState::kFaulted) {
+    // Stopped (SIGTERM) while running or paused: resumable with `imubench resume RUN`.
+    state = RunState::kInterrupted;
+    reason = "the daemon stopped during the run";
+    const ResumePoint point = store_->resumePoint(run_->id);
+    if (point.last_imu_t) {
+      reason += "; last stored sample at t = " + std::to_string(*point.last_imu_t) + " s";
+    }
   }
   if (auto st = store_->finishRun(run_->id, state, reason); !st.ok) {
     log_.error("store: " + st.message);
@@ -625,6 +641,76 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
                       {"planned_s", run_->runner->plannedTotalS()}});
 }
 
+// Crash resume: run `run_id` (interrupted by a crash, a power loss or a stop) goes on from
+// the step after its last finished one, on the same bench and IMU and one time axis; the rows
+// already stored stay, the new ones append to the same run.
+Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id) {
+  const json& id = request.id;
+  const std::string which = "run " + std::to_string(run_id);
+  if (run_) return busyReply(request);
+  const RunInfoResult info = store_->runInfo(run_id);
+  if (!info.status.ok) return errorReply(id, ErrorCode::kNotFound, info.status.message);
+  const RunInfo& run = info.run;
+  if (run.state != RunState::kInterrupted) {
+    return errorReply(id, ErrorCode::kBadState,
+                      which + " is " + runStateName(run.state) +
+                          "; only an interrupted run can be resumed (a paused one: resume)");
+  }
+  if (run.start.bench_name != bench_.name || run.start.imu_serial != bench_.imu.serial) {
+    return errorReply(id, ErrorCode::kBadState,
+                      which + " ran on bench '" + run.start.bench_name + "' with IMU '" +
+                          run.start.imu_serial + "'; this is bench '" + bench_.name +
+                          "' with IMU '" + bench_.imu.serial + "'");
+  }
+  std::string why;
+  const auto loaded = loadPlan(run.start.plan_name, run.start.plan_toml, bench_, &why);
+  if (!loaded) return errorReply(id, ErrorCode::kBadPlan, which + ": " + why);
+  const ResumePoint point = store_->resumePoint(run_id);
+  if (!point.status.ok) return errorReply(id, ErrorCode::kInternal, point.status.message);
+  // One time axis: the IMU must still count on from where the run's samples end.
+  if (!imu_last_t_ || (point.last_imu_t && !(*imu_last_t_ > *point.last_imu_t))) {
+    return errorReply(
+        id, ErrorCode::kBadState,
+        which + ": the IMU " +
+            (imu_last_t_ ? "time restarted since the run was interrupted (" +
+                               std::to_string(*imu_last_t_) + " s, the run ends at " +
+                               std::to_string(*point.last_imu_t) + " s); start a new run"
+                         : std::string("is silent; resume when it streams")));
+  }
+  auto runner = makeRunner(*loaded);
+  const int next = point.last_finished_step + 1;
+  const bool done = next >= static_cast<int>(runner->steps().size());
+  if (!done) {
+    if (const CommandResult started = runner->startAt(wallNow(), next); !started.ok) {
+      return errorReply(id, ErrorCode::kBadState, which + ": " + started.message);
+    }
+  }
+  if (auto st = store_->resumeRun(run_id); !st.ok) {
+    return errorReply(id, ErrorCode::kInternal, st.message);
+  }
+  if (done) {  // every step had finished; only the closing was cut off
+    if (auto st = store_->finishRun(run_id, RunState::kFinished, "completed"); !st.ok)
+      return errorReply(id, ErrorCode::kInternal, st.message);
+    return okReply(id, {{"run", run_id}, {"state", "finished"}, {"from_step", next}});
+  }
+  auto active = std::make_unique<ActiveRun>();
+  active->id = run_id;
+  active->plan_name = run.start.plan_name;
+  active->runner = std::move(runner);
+  active->writer = std::make_unique<RunWriter>(*store_, run_id, point);
+  active->last_table_t = point.last_table_t;
+  active->last_chamber_t = point.last_chamber_t;
+  run_ = std::move(active);
+  server_->broadcast(Topic::kRun, "resumed", {{"run", run_id}, {"from_step", next}});
+  publish(run_->runner->takeEvents());
+  log_.info(which + " resumed at step " + std::to_string(next + 1) + "/" +
+            std::to_string(run_->runner->steps().size()) + " (plan '" + run_->plan_name + "')");
+  return okReply(id, {{"run", run_id},
+                      {"state", runnerStateName(run_->runner->state())},
+                      {"from_step", next},
+                      {"steps", run_->runner->steps().size()}});
+}
+
 // ---- the plan queue (stored: it survives a restart) -----------------------------------------
 
 // A validated plan appended to the queue; it starts when the runs before it have completed.
@@ -741,6 +827,10 @@ Reply BenchDaemon::runnerCommand(const Request& request) {
     }
     return okReply(request.id, {{"stopped", true}});
   }
+  if (request.command == Command::kResume) {
+    const std::optional<std::int64_t> which = std::get<ResumeArgs>(request.args).run;
+    if (which && (!run_ || run_->id != *which)) return resumeInterrupted(request, *which);
+  }
   if (!run_) return errorReply(request.id, ErrorCode::kBadState, "no run in progress");
   CommandResult r;
   if (request.command == Command::kPause) r = run_->runner->pause(now);
@@ -791,6 +881,16 @@ json BenchDaemon::tableJson() const {
             {"fault", r.fault},
             {"state", drivers::deviceStateName(table_->state())}};
   if (!port_->lastTableError().empty()) t["error"] = port_->lastTableError();
+  if (!r.axes.empty()) {  // the last read's axes (none after a read that got no answer)
+    json angles = json::array();
+    bool moving = false;
+    for (const drivers::TableAxisReading& a : r.axes) {
+      angles.push_back(a.angle * kRadToDeg);
+      moving = moving || a.moving;
+    }
+    t["angles_deg"] = angles;
+    t["moving"] = moving;
+  }
   return t;
 }
 

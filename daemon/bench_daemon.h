@@ -91,6 +91,8 @@ class BenchDaemon {
   Reply startLoaded(const Request& request, const std::string& name, const std::string& text);
   std::unique_ptr<PlanRunner> makeRunner(const LoadedPlan& loaded);
   Reply launch(const LoadedPlan& loaded, const nlohmann::json& id);
+  // `resume RUN`: an interrupted run goes on from its last finished step (crash resume).
+  Reply resumeInterrupted(const Request& request, std::int64_t run_id);
   Reply enqueue(const Request& request, const std::string& name, const LoadedPlan& loaded);
   Reply startQueued(const nlohmann::json& id);
   void advanceQueue();

@@ -1,6 +1,26 @@
 #include "daemon/bench_port.h"
 
+#include <chrono>
+
 namespace imubench::daemon {
+
+namespace {
+
+double steadyNowS() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// After a polling read: counts the unanswered ones in a row; a silent device makes one
+// attempt per command and waits kSilentRetryPeriodS before its next read.
+template <class Driver>
+void afterPollingRead(bool answered, Driver* driver, int* reads, double* retry_at_s) {
+  *reads = answered ? 0 : *reads + 1;
+  const bool silent = *reads >= DriverBenchPort::kSilentReads;
+  driver->setSingleAttempt(silent);
+  if (silent) *retry_at_s = steadyNowS() + DriverBenchPort::kSilentRetryPeriodS;
+}
+
+}  // namespace
 
 DriverBenchPort::DriverBenchPort(drivers::TableDriver& table, drivers::ChamberDriver* chamber)
     : table_(table),
@@ -25,6 +45,9 @@ drivers::Status DriverBenchPort::prepare() {
     if (auto st = chamber_->connect(); !st.ok) return st;
   }
   for (auto& m : modes_) m.reset();
+  // An operator's start or re-arm: the device file's whole retry chain.
+  table_.setSingleAttempt(false);
+  if (chamber_ != nullptr) chamber_->setSingleAttempt(false);
   if (auto st = table_.interlock(drivers::InterlockCommand::kClose); !st.ok) return st;
   // An emergency stop or a trip stays until someone resets it at the bench on purpose: a
   // plan does not start on a table that is not cleared.
@@ -79,12 +102,18 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
   BenchObservation o;
   o.now_s = now_s;
   o.imu_last_frame_s = imu_last_frame_s;
+  o.table_last_ok_s = table_last_ok_s_;
+  o.chamber_temp_c = chamber_temp_c_;
+  if (steadyNowS() < table_silence_.retry_at_s) return o;  // silent: next attempt later
   reading_ = drivers::TableReading{};
+  table_.setSingleAttempt(true);  // a polling read: the next poll is its retry
   const drivers::Status st = table_.read(&reading_);
   table_error_ = st.ok ? std::string() : st.message;
   // A controller that reports a tripped interlock, an emergency stop or a fault answered:
   // that is a fault to raise now, not a silence to wait out.
   const bool answered_fault = reading_.interlock_tripped || reading_.estop || reading_.fault;
+  afterPollingRead(st.ok || answered_fault, &table_, &table_silence_.reads,
+                   &table_silence_.retry_at_s);
   o.table_ok = st.ok || answered_fault;
   if (answered_fault) o.table_fault = st.ok ? "controller reports a fault" : st.message;
   if (st.ok) o.interlock_closed = reading_.interlock_closed;
@@ -94,17 +123,19 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
     o.angles.push_back(a.angle);
     o.moving = o.moving || a.moving;
   }
-  o.chamber_temp_c = chamber_temp_c_;
   return o;
 }
 
 bool DriverBenchPort::readChamber(drivers::ChamberReading* out) {
   chamber_temp_c_.reset();
-  if (chamber_ == nullptr) return false;
+  if (chamber_ == nullptr || steadyNowS() < chamber_silence_.retry_at_s) return false;
   *out = drivers::ChamberReading{};
+  chamber_->setSingleAttempt(true);  // a polling read: the next poll is its retry
   // An alarm still fills the reading; a communication error does not.
   const drivers::Status st = chamber_->read(out);
-  if (!st.ok && out->alarms_raw == 0) return false;
+  const bool answered = st.ok || out->alarms_raw != 0;
+  afterPollingRead(answered, chamber_, &chamber_silence_.reads, &chamber_silence_.retry_at_s);
+  if (!answered) return false;
   chamber_temp_c_ = out->temperature_c;
   return true;
 }

@@ -30,14 +30,27 @@ class DriverBenchPort : public BenchPort {
   drivers::Status emergencyStop() override;
   drivers::Status chamberSetpoint(double setpoint_c) override;
 
+  // A device that does not answer would block its caller for the device file's whole retry
+  // chain (timeout x attempts) on every call. The polling reads make one attempt each (the
+  // next poll is the retry; comm_timeout judges silence). After kSilentReads unanswered reads
+  // in a row the device counts as silent: commands get one attempt too (setSingleAttempt;
+  // the retry chain again once it answers), and it is read again only kSilentRetryPeriodS
+  // after each read ended (wall time, measured here). So no call blocks the daemon's loop
+  // longer than one reply timeout, and the loop stays free between the attempts to find a
+  // silent device back (status, IMU recording); a single lost reply changes nothing.
+  static constexpr int kSilentReads = 3;
+  static constexpr double kSilentRetryPeriodS = 1.0;
+
   // Reads the table and fills what the runner needs, with the chamber temperature of the
   // last readChamber(). now_s: the daemon's monotonic time; imu_last_frame_s: when the IMU
   // last delivered a sample (same clock). The last driver errors are kept for the alarm text
-  // (lastTableError()).
+  // (lastTableError()). A silent table is not read again before kSilentRetryPeriodS has
+  // passed (table_ok false meanwhile).
   BenchObservation observe(double now_s, double imu_last_frame_s);
   // Reads the chamber (the daemon does on the chamber's own, slower timer). True when *out
   // holds a temperature: also with an active alarm (over-temperature is the runner's to
-  // judge), not after a communication error (the driver's sink has it). No chamber: false.
+  // judge), not after a communication error (the driver's sink has it), nor while a silent
+  // chamber waits for its next attempt (kSilentRetryPeriodS). No chamber: false.
   bool readChamber(drivers::ChamberReading* out);
   const drivers::TableReading& lastReading() const { return reading_; }
   const std::string& lastTableError() const { return table_error_; }
@@ -51,6 +64,13 @@ class DriverBenchPort : public BenchPort {
   drivers::TableReading reading_;
   std::string table_error_;
   double table_last_ok_s_ = 0.0;
+  // Unanswered polling reads in a row, and the steady-clock seconds before which a silent
+  // device is not read again.
+  struct Silence {
+    int reads = 0;
+    double retry_at_s = 0.0;
+  };
+  Silence table_silence_, chamber_silence_;
   std::optional<double> chamber_temp_c_;  // the last chamber read's, none after a failed one
 };
 

@@ -351,6 +351,13 @@ bool readArgs(const json& obj, Command c, RequestArgs* out, ProtocolError* err) 
     case Command::kQueueMove:
     case Command::kQueueRemove:
       return readQueueArgs(obj, c, owner, out, err);
+    case Command::kResume: {
+      if (!refuseUnknownFields(obj, {"id", "cmd", "run"}, "", owner, err)) return false;
+      ResumeArgs a;
+      if (!readRunId(obj, "run", false, &a.run, err)) return false;
+      *out = a;
+      return true;
+    }
     default:
       *out = NoArgs{};
       return refuseUnknownFields(obj, {"id", "cmd"}, "", owner, err);
@@ -427,6 +434,9 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //   {"id":2,"cmd":"start","plan":{"toml":"[plan]\nname = \"x\"\n...","name":"/home/op/x.toml"},
 //    "options":{"dry_run":true,"label":"unit 42","out_dir":"/var/lib/imubench/runs/42"}}
 //   {"id":3,"cmd":"pause"}      {"id":4,"cmd":"resume"}     {"id":5,"cmd":"abort"}
+//   {"id":16,"cmd":"resume","run":42}  (run 42 was interrupted by a daemon crash or stop: it
+//                                goes on from its last finished step, appending to the run;
+//                                without "run": the paused run goes on)
 //   {"id":6,"cmd":"stop"}       (emergency stop)            {"id":7,"cmd":"status"}
 //   {"id":15,"cmd":"rearm"}     (close the table's interlock again after a controller
 //                                restart; no run, or a paused one; then "resume")

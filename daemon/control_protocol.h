@@ -22,7 +22,7 @@ namespace imubench::daemon {
 enum class Command {
   kStart,         // run a plan
   kPause,         // hold the run at the next safe point
-  kResume,        // continue a paused run
+  kResume,        // continue a paused run, or ("run") an interrupted one
   kAbort,         // stop the run in an orderly way (table to rest, recording closed)
   kStop,          // emergency stop: halt all motion now
   kRearm,         // close the table's interlock again (after a controller restart)
@@ -108,6 +108,11 @@ struct ExportArgs {
   // database): one name of [A-Za-z0-9._-], not starting with '.'. Empty: "run-<id>".
   std::string dir;
 };
+struct ResumeArgs {
+  // absent: the paused run goes on; set: this interrupted run (daemon crash, stop) continues
+  // from its last finished step
+  std::optional<std::int64_t> run;
+};
 struct QueueMoveArgs {
   std::int64_t entry = 0;  // the queue entry's id (queue_list)
   int position = 1;        // 1-based; 1 = next to start
@@ -117,7 +122,7 @@ struct QueueRemoveArgs {
 };
 using RequestArgs =
     std::variant<NoArgs, StartArgs, SubscribeArgs, UnsubscribeArgs, ValidatePlanArgs, ResultsArgs,
-                 ExportArgs, QueueMoveArgs, QueueRemoveArgs>;
+                 ExportArgs, QueueMoveArgs, QueueRemoveArgs, ResumeArgs>;
 
 struct Request {
   nlohmann::json id;  // null when the client sent none; echoed in the reply

@@ -199,16 +199,24 @@ std::vector<RunnerEvent> PlanRunner::takeEvents() {
 }
 
 CommandResult PlanRunner::start(double now_s) {
+  return startAt(now_s, 0);
+}
+
+CommandResult PlanRunner::startAt(double now_s, int first_step) {
   if (state_ != RunnerState::kIdle) {
     return {false, std::string("busy: the runner is ") + runnerStateName(state_)};
   }
   if (steps_.empty()) return {false, "the plan has no steps"};
+  if (first_step < 0 || first_step >= static_cast<int>(steps_.size())) {
+    return {false, "step " + std::to_string(first_step) + " is outside the plan's " +
+                       std::to_string(steps_.size()) + " steps"};
+  }
   if (const drivers::Status st = port_.prepare(); !st.ok) {
     return {false, "the bench is not ready: " + st.message};
   }
-  step_ = 0;
+  step_ = first_step;
   phase_ = Phase::kBegin;
-  step_interrupted_ = false;
+  step_interrupted_ = first_step > 0;
   setState(RunnerState::kRunning, now_s);
   return {};
 }
@@ -238,6 +246,11 @@ CommandResult PlanRunner::resume(double now_s) {
   }
   if (last_ && now_s - last_->imu_last_frame_s > options_.imu_timeout_s) {
     return {false, "the IMU is silent: resume when its frames arrive again"};
+  }
+  if (last_ && last_->chamber_temp_c && options_.chamber_over_temperature_c &&
+      *last_->chamber_temp_c > *options_.chamber_over_temperature_c) {
+    return {false, "the chamber is still over temperature: resume when it is back below " +
+                       std::to_string(*options_.chamber_over_temperature_c) + " degC"};
   }
   setState(RunnerState::kRunning, now_s);
   return {};

@@ -135,6 +135,10 @@ class PlanRunner {
   PlanRunner(std::vector<RunStep> steps, RunnerOptions options, BenchPort& port);
 
   CommandResult start(double now_s);
+  // A run interrupted by a daemon crash or stop goes on at `first_step` (the step after its
+  // last finished one): the table returns to that step's start and it runs whole; the steps
+  // before it count as done. first_step == 0 is start().
+  CommandResult startAt(double now_s, int first_step);
   CommandResult pause(double now_s);
   CommandResult resume(double now_s);
   CommandResult abort(double now_s);

@@ -114,6 +114,9 @@ CREATE INDEX queue_by_pos ON queue(pos);
 constexpr const char* kSetSchemaVersionSql = "PRAGMA user_version=2";
 static_assert(kStoreSchemaVersion == 2, "kSetSchemaVersionSql writes version 2");
 
+// The newest stored IMU sample of run ?1 (NULL: none).
+constexpr const char* kLastImuTSql = "SELECT max(t) FROM imu_samples WHERE run_id = ?1";
+
 // All runs (?1 NULL) or one; read by Store::Impl::readRun.
 constexpr const char* kSelectRunsSql =
     "SELECT id, plan_name, plan_toml, bench_name, imu_serial, imu_rate_hz, latitude_deg, "
@@ -346,6 +349,8 @@ struct Store::Impl {
   io::IoStatus migrateSchema();
   io::IoStatus queueIds(std::vector<std::int64_t>* ids);
   io::IoStatus runState(std::int64_t run_id, RunState* state);
+  // A one-value query on run ?1 (a max(...)); NULL leaves *out unset.
+  io::IoStatus lastTime(const char* sql, std::int64_t run_id, std::optional<double>* out);
   io::IoStatus requireRunning(std::int64_t run_id);
   io::IoStatus insertRun(const RunStart& start, RunState state, std::int64_t* run_id);
   io::IoStatus insertEvent(const RunEvent& event);
@@ -405,9 +410,10 @@ io::IoStatus Store::Impl::configure() {
     if (mode != "wal" && mode != "memory")
       return error("cannot switch to WAL mode (journal mode stays '" + mode + "')");
   }
-  // NORMAL in WAL mode: commits survive a process crash, only power loss may lose the last
-  // ones; FULL would fsync every commit for nothing the bench needs.
-  if (st = execSql("PRAGMA synchronous=NORMAL", "cannot set synchronous"); !st.ok) return st;
+  // FULL in WAL mode: every commit is synced, so a power loss (not only a process crash) loses
+  // at most the writer's unflushed tail. With NORMAL the WAL is synced only at checkpoints: a
+  // power loss could drop a minute of samples. The writer commits twice a second: cheap.
+  if (st = execSql("PRAGMA synchronous=FULL", "cannot set synchronous"); !st.ok) return st;
   return execSql("PRAGMA foreign_keys=ON", "cannot enable foreign keys");
 }
 
@@ -462,6 +468,17 @@ io::IoStatus Store::Impl::runState(std::int64_t run_id, RunState* state) {
   const auto s = runStateFromName(q.text(0));
   if (!s) return error(runLabel(run_id) + " has an unknown state '" + q.text(0) + "'");
   *state = *s;
+  return io::IoStatus::Ok();
+}
+
+io::IoStatus Store::Impl::lastTime(const char* sql, std::int64_t run_id,
+                                   std::optional<double>* out) {
+  io::IoStatus st;
+  Bound q = use(sql, &st);
+  if (!q) return st;
+  q.bind(1, run_id);
+  if (q.step() != SQLITE_ROW) return sqlError("cannot read the end of " + runLabel(run_id));
+  *out = q.optReal(0);
   return io::IoStatus::Ok();
 }
 
@@ -869,15 +886,20 @@ CountResult Store::markInterruptedRuns() {
       while ((rc = q.step()) == SQLITE_ROW) ids.push_back(q.integer(0));
       if (rc != SQLITE_DONE) return impl_->sqlError("cannot list running runs");
     }
-    const std::string reason = "the daemon stopped while the run was active (found at start-up)";
     for (const std::int64_t id : ids) {
+      std::optional<double> last_t;
+      if (st = impl_->lastTime(kLastImuTSql, id, &last_t); !st.ok) return st;
+      std::string reason = "the daemon stopped while the run was active (found at start-up)";
+      reason += last_t ? "; last stored sample at t = " + std::to_string(*last_t) + " s"
+                       : "; no sample stored";
       Bound q =
           impl_->use("UPDATE runs SET state = 'interrupted', exit_reason = ?2 WHERE id = ?1", &st);
       if (!q) return st;
       q.bind(1, id);
       q.bind(2, reason);
       if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot mark " + runLabel(id));
-      const nlohmann::json details = {{"reason", reason}};
+      nlohmann::json details = {{"reason", reason}};
+      if (last_t) details["last_sample_t"] = *last_t;
       st = impl_->insertEvent(
           {id, nowUnixS(), EventSeverity::kWarning, "interrupted", details.dump()});
       if (!st.ok) return st;
@@ -887,6 +909,45 @@ CountResult Store::markInterruptedRuns() {
   });
   if (!r.status.ok) r.count = 0;
   return r;
+}
+
+io::IoStatus Store::resumeRun(std::int64_t run_id) {
+  return impl_->transaction("cannot resume " + runLabel(run_id), [&]() {
+    RunState state{};
+    if (auto st = impl_->runState(run_id, &state); !st.ok) return st;
+    if (state != RunState::kInterrupted) {
+      return impl_->error(runLabel(run_id) + " is " + runStateName(state) +
+                          "; only an interrupted run can be resumed");
+    }
+    io::IoStatus st;
+    Bound q = impl_->use(
+        "UPDATE runs SET state = 'running', exit_reason = '', finished_unix_s = NULL "
+        "WHERE id = ?1",
+        &st);
+    if (!q) return st;
+    q.bind(1, run_id);
+    if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot resume " + runLabel(run_id));
+    return impl_->insertEvent({run_id, nowUnixS(), EventSeverity::kInfo, "resumed", "{}"});
+  });
+}
+
+ResumePoint Store::resumePoint(std::int64_t run_id) {
+  ResumePoint p;
+  RunState state{};
+  if (p.status = impl_->runState(run_id, &state); !p.status.ok) return p;
+  std::optional<double> step;
+  for (const auto& [sql, out] :
+       {std::pair{kLastImuTSql, &p.last_imu_t},
+        std::pair{"SELECT max(t) FROM table_samples WHERE run_id = ?1", &p.last_table_t},
+        std::pair{"SELECT max(t) FROM chamber_samples WHERE run_id = ?1", &p.last_chamber_t},
+        std::pair{"SELECT max(t1) FROM segments WHERE run_id = ?1", &p.last_segment_t1},
+        std::pair{"SELECT max(json_extract(json, '$.step')) FROM events "
+                  "WHERE run_id = ?1 AND kind = 'step_finished'",
+                  &step}}) {
+    if (p.status = impl_->lastTime(sql, run_id, out); !p.status.ok) return p;
+  }
+  if (step) p.last_finished_step = static_cast<int>(*step);
+  return p;
 }
 
 RunListResult Store::listRuns() {
@@ -1159,6 +1220,14 @@ io::IoStatus Store::integrityCheck() {
 // RunWriter
 
 RunWriter::RunWriter(Store& store, std::int64_t run_id) : store_(&store), run_id_(run_id) {}
+
+RunWriter::RunWriter(Store& store, std::int64_t run_id, const ResumePoint& point)
+    : store_(&store),
+      run_id_(run_id),
+      last_imu_t_(point.last_imu_t),
+      last_table_t_(point.last_table_t),
+      last_chamber_t_(point.last_chamber_t),
+      last_segment_t1_(point.last_segment_t1) {}
 
 RunWriter::~RunWriter() {
   (void)flush();

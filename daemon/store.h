@@ -1,10 +1,10 @@
 // Storage of bench runs in one SQLite database (the daemon's embedded default): the run's plan
 // and meta data, its samples (IMU, table, chamber), segments, events, and calibration results.
 //
-// The database runs in WAL mode with synchronous=NORMAL: a committed transaction survives a
-// crash of the process (kill -9); only a power loss can drop the last few commits. Samples are
-// written in batches (RunWriter), one transaction per batch, so a killed daemon loses at most
-// the unflushed tail (StoreOptions::max_unflushed_s of sample time).
+// The database runs in WAL mode with synchronous=FULL: a committed transaction survives a
+// crash of the process (kill -9) and a power loss (the WAL is synced at every commit). Samples
+// are written in batches (RunWriter), one transaction per batch, so a killed daemon or a power
+// loss loses at most the unflushed tail (StoreOptions::max_unflushed_s of sample time).
 //
 // loadRecording(run) rebuilds the exact io::Recording value (doubles bit-exact, -0.0 included), so
 // writeRecording() exports a run as imubench-csv/1 and the calibrators run on a run id.
@@ -174,6 +174,17 @@ struct CountResult {
   io::IoStatus status;
   int count = 0;
 };
+// Where an interrupted run stands (Store::resumePoint): the last step whose step_finished
+// event was stored (its segment is committed before the event), and the newest stored row of
+// each stream, so the resumed run's rows continue after them.
+struct ResumePoint {
+  io::IoStatus status;
+  int last_finished_step = -1;  // -1: no step finished yet
+  std::optional<double> last_imu_t;
+  std::optional<double> last_table_t;
+  std::optional<double> last_chamber_t;
+  std::optional<double> last_segment_t1;
+};
 
 class Store {
  public:
@@ -193,8 +204,13 @@ class Store {
   // Ends a running run; `state` must not be kRunning.
   io::IoStatus finishRun(std::int64_t run_id, RunState state, const std::string& reason);
   // Daemon start-up: every run still `running` was cut off by a crash or kill; it becomes
-  // `interrupted` with an event. Returns how many.
+  // `interrupted` with an event naming the time of its last stored IMU sample. Returns how many.
   CountResult markInterruptedRuns();
+  // An interrupted run goes on (imubench resume RUN): back to `running`, with a "resumed"
+  // event. Refuses any other state.
+  io::IoStatus resumeRun(std::int64_t run_id);
+  // The checkpoint an interrupted run resumes from.
+  ResumePoint resumePoint(std::int64_t run_id);
   RunListResult listRuns();
   RunInfoResult runInfo(std::int64_t run_id);
 
@@ -241,6 +257,8 @@ class Store {
 class RunWriter {
  public:
   RunWriter(Store& store, std::int64_t run_id);
+  // A resumed run: its new rows must come after what is stored (point from resumePoint).
+  RunWriter(Store& store, std::int64_t run_id, const ResumePoint& point);
   // Best-effort flush; call flush() first to see its status.
   ~RunWriter();
   RunWriter(const RunWriter&) = delete;

@@ -31,6 +31,8 @@ class ChamberDriver {
   virtual Status read(ChamberReading* out) = 0;
   virtual DeviceState state() const = 0;
   virtual const ChamberDeviceSpec& spec() const = 0;
+  // As TableDriver::setSingleAttempt: one attempt per request while on.
+  virtual void setSingleAttempt(bool on) = 0;
 };
 
 std::unique_ptr<ChamberDriver> makeChamberDriver(const ChamberDeviceSpec& spec, EventSink sink);

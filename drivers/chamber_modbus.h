@@ -16,6 +16,7 @@ class ModbusChamber final : public ChamberDriver {
   Status read(ChamberReading* out) override;
   DeviceState state() const override;
   const ChamberDeviceSpec& spec() const override { return spec_; }
+  void setSingleAttempt(bool on) override { link_.setSingleAttempt(on); }
 
  private:
   ChamberDeviceSpec spec_;

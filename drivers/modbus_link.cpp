@@ -87,7 +87,7 @@ Status ModbusLink::connect() {
 
 Status ModbusLink::transact(std::string_view what, const std::function<int(_modbus*)>& attempt,
                             bool retry) {
-  const int attempts = retry ? 1 + tr_.retry.retries : 1;
+  const int attempts = retry && !single_attempt_ ? 1 + tr_.retry.retries : 1;
   std::string why;
   for (int k = 1; k <= attempts; ++k) {
     if (!connected_) {

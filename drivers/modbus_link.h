@@ -36,6 +36,9 @@ class ModbusLink {
   // retry=false for commands that must not run twice (a relative rotation whose reply was
   // lost may have been executed): a failure then goes straight to kFault.
   Status writeCode(const RegisterField& f, std::string_view what, int code, bool retry = true);
+  // On: every request gets one attempt, not the retry policy's chain (TableDriver::
+  // setSingleAttempt: a caller polling a device that does not answer).
+  void setSingleAttempt(bool on) { single_attempt_ = on; }
 
  private:
   // Runs one request with the retry policy; `attempt` returns libmodbus' rc (-1: errno set).
@@ -53,6 +56,7 @@ class ModbusLink {
   EventSink sink_;
   _modbus* ctx_ = nullptr;
   bool connected_ = false;
+  bool single_attempt_ = false;
   DeviceState state_ = DeviceState::kOffline;
 };
 

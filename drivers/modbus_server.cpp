@@ -134,9 +134,10 @@ void ModbusServer::answer(_modbus* ctx, const uint8_t* query, int rc) {
     if (!waitWall(delay)) return;
   }
   model_.refresh(mapping_);
+  // modbus_reply stores a write in the mapping before it sends the reply: a controller acts
+  // on a command it received even when its late reply finds the client gone.
   if (modbus_reply(ctx, query, rc, mapping_) == -1) {
     emit(std::string("virtual Modbus server: reply failed: ") + modbus_strerror(errno));
-    return;
   }
   int address = 0, count = 0;
   if (writeRange(query, modbus_get_header_length(ctx), &address, &count)) {

@@ -67,6 +67,10 @@ class TableDriver {
   virtual Status read(TableReading* out) = 0;
   virtual DeviceState state() const = 0;
   virtual const TableDeviceSpec& spec() const = 0;
+  // On: each request gets one attempt instead of the device file's retry chain. For a caller
+  // that polls a device which stopped answering: the next poll is the retry, and no call
+  // blocks longer than one reply timeout. Off (the default) when it answers again.
+  virtual void setSingleAttempt(bool on) = 0;
 };
 
 // Makes the driver the device file's transport asks for (not yet connected).

@@ -21,6 +21,7 @@ class ModbusTable final : public TableDriver {
   Status read(TableReading* out) override;
   DeviceState state() const override;
   const TableDeviceSpec& spec() const override { return spec_; }
+  void setSingleAttempt(bool on) override { link_.setSingleAttempt(on); }
 
  private:
   // Motion needs a closed, untripped interlock: checked on the controller first so a refusal

@@ -42,7 +42,7 @@ Status SerialTable::exchange(const SerialCommand& c, int axis, double value, std
                              std::string* reply, bool retry) {
   const std::string text = formatCommand(c.text, axis + spec_.commands.axis_base, value);
   const double timeout = c.timeout_s > 0 ? c.timeout_s : spec_.transport.retry.timeout_s;
-  const int attempts = retry ? 1 + spec_.transport.retry.retries : 1;
+  const int attempts = retry && !single_attempt_ ? 1 + spec_.transport.retry.retries : 1;
   const bool want_line = reply != nullptr || !spec_.commands.ack.empty();
   std::string why;
   for (int k = 1; k <= attempts; ++k) {

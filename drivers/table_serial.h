@@ -26,6 +26,7 @@ class SerialTable final : public TableDriver {
   Status read(TableReading* out) override;
   DeviceState state() const override;
   const TableDeviceSpec& spec() const override { return spec_; }
+  void setSingleAttempt(bool on) override { single_attempt_ = on; }
 
  private:
   // Sends a command and, if `reply` is set, reads the answer line (queries), else the ack.
@@ -42,6 +43,7 @@ class SerialTable final : public TableDriver {
   SerialPort port_;
   DeviceState state_ = DeviceState::kOffline;
   bool status_fault_ = false;
+  bool single_attempt_ = false;
 };
 
 }  // namespace imubench::drivers

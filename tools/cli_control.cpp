@@ -11,6 +11,8 @@
 //   imubench queue resume                   start the queue's head now (after an abort, a
 //                                           fault or a daemon restart the queue holds)
 //   imubench pause | resume | abort | stop          (stop = emergency stop)
+//   imubench resume RUN          run RUN, interrupted by a daemon crash, power loss or stop,
+//                                goes on from its last finished step (appending to the run)
 //   imubench status [--json]     imubench results [RUN] [--json]     imubench watch [--json]
 // Every command takes --socket PATH (default $IMUBENCH_SOCKET, else /run/imubench/control.sock).
 // Human output by default; --json prints the daemon's raw reply (watch: the raw event lines).
@@ -516,6 +518,22 @@ void runSimple(const ControlOptions& o, const std::string& cmd, const std::strin
   });
 }
 
+// ---- resume: the paused run, or an interrupted one by id ----
+void runResume(const ControlOptions& o, std::optional<long long> run) {
+  json req = {{"cmd", "resume"}};
+  if (run) req["run"] = *run;
+  withClient(o, [&](ControlClient& c) {
+    const json r = exchange(o, c, req);
+    if (o.json) return;
+    std::cout << (run ? "run " + std::to_string(*run) + " resumed" : std::string("resumed"));
+    if (const auto step = r.find("from_step"); step != r.end() && step->is_number_integer()) {
+      std::cout << " at step " << step->get<long long>() + 1;
+    }
+    if (auto st = textField(r, "state")) std::cout << " (state " << *st << ")";
+    std::cout << "\n";
+  });
+}
+
 // ---- results ----
 struct ResultsOptions {
   ControlOptions ctl;
@@ -566,7 +584,6 @@ void addControlCommands(CLI::App& app) {
   };
   for (const Simple& s :
        {Simple{"pause", "hold the run at the next safe point", "pause requested"},
-        Simple{"resume", "continue a paused run", "resumed"},
         Simple{"abort", "stop the run in an orderly way", "abort requested"},
         Simple{"stop", "EMERGENCY STOP: halt all motion now", "emergency stop sent"},
         Simple{"rearm",
@@ -580,6 +597,19 @@ void addControlCommands(CLI::App& app) {
     const std::string cmd = s.name;
     const std::string done = s.done;
     sub->callback([o, cmd, done] { runSimple(*o, cmd, done); });
+  }
+  {
+    auto o = std::make_shared<ControlOptions>();
+    auto run = std::make_shared<std::optional<long long>>();
+    CLI::App* sub = app.add_subcommand(
+        "resume",
+        "continue the paused run; with RUN: continue run RUN, interrupted by a daemon crash, "
+        "power loss or stop, from its last finished step");
+    sub->group(group);
+    sub->add_option("RUN", *run, "an interrupted run's id (imubench results lists them)")
+        ->check(CLI::PositiveNumber);
+    addControlOptions(*sub, o.get());
+    sub->callback([o, run] { runResume(*o, *run); });
   }
   {
     auto o = std::make_shared<ControlOptions>();

@@ -9,9 +9,12 @@
 // command line, or while running by signal: SIGUSR1 drops every Modbus TCP connection,
 // SIGUSR2 trips the table interlock, SIGRTMIN restarts the table controller (connections
 // dropped, axes braked, modes off, interlock open; see VirtualTable::restart), SIGRTMIN+1
-// restarts the IMU (silent, then its counter and time stamp from 0). Announcements go to
-// stdout (one line each, for scripts);
-// events to syslog and stderr. Stops on SIGINT/SIGTERM.
+// restarts the IMU (silent, then its counter and time stamp from 0), SIGRTMIN+2 toggles a
+// delay of every Modbus reply (--fault-signal-reply-delay-ms; table and chamber),
+// SIGRTMIN+3 toggles the IMU's silence (no frames; its clock runs on), SIGRTMIN+4 sends the
+// chamber towards --fault-chamber-runaway (a setpoint changed behind the controller's back,
+// as a front panel or a controller fault would). Announcements go to stdout (one line each,
+// for scripts); events to syslog and stderr. Stops on SIGINT/SIGTERM.
 #include <signal.h>
 
 #include <CLI/CLI.hpp>
@@ -65,6 +68,8 @@ struct Args {
   double imu_restart_after_s = -1.0;
   double imu_restart_silence_s = 0.2;
   double imu_wrap_at_s = -1.0;
+  double signal_reply_delay_ms = 2000.0;  // SIGRTMIN+2 toggles this delay
+  double chamber_runaway_c = 120.0;       // SIGRTMIN+4: where the chamber heads
 };
 
 void announce(const std::string& line) {
@@ -84,6 +89,14 @@ class ImuStreamer {
   }
   // Restarts the IMU at its next sample (thread-safe).
   void requestRestart() { can_->requestRestart(); }
+  // Silent: samples are made (the IMU's clock runs on) but no frame is sent. Returns the new
+  // state (thread-safe).
+  bool toggleSilence() {
+    bool was = silent_.load();
+    while (!silent_.compare_exchange_weak(was, !was)) {
+    }
+    return !was;
+  }
   void stop() {
     if (!thread_.joinable()) return;
     {
@@ -103,6 +116,7 @@ class ImuStreamer {
         while (sim_->nextTime() <= now) batch.push_back(sim_->next());
         return 0;
       });
+      if (silent_) batch.clear();
       if (!batch.empty()) {
         const Status s = can_->sendSamples(batch);
         if (!s.ok && !reported) log_.error("virtual IMU: " + s.message);
@@ -122,6 +136,7 @@ class ImuStreamer {
   std::mutex mu_;
   std::condition_variable cv_;
   bool stopping_ = false;
+  std::atomic<bool> silent_{false};
 };
 
 // The signals the virtual bench waits for (blocked in main before any thread starts):
@@ -129,7 +144,10 @@ class ImuStreamer {
 sigset_t benchSignals() {
   sigset_t set;
   sigemptyset(&set);
-  for (int sig : {SIGINT, SIGTERM, SIGUSR1, SIGUSR2, SIGRTMIN, SIGRTMIN + 1}) sigaddset(&set, sig);
+  for (int sig : {SIGINT, SIGTERM, SIGUSR1, SIGUSR2, SIGRTMIN, SIGRTMIN + 1, SIGRTMIN + 2,
+                  SIGRTMIN + 3, SIGRTMIN + 4}) {
+    sigaddset(&set, sig);
+  }
   return set;
 }
 
@@ -234,8 +252,34 @@ struct FaultTargets {
   VirtualWorld& world;
   ModbusServer& table_tcp;
   ModbusServer& chamber_tcp;
-  ImuStreamer* imu;  // null without an IMU
+  ImuStreamer* imu;   // null without an IMU
+  LinkFaults& links;  // the Modbus servers' (table and chamber)
 };
+
+// SIGRTMIN+2, +3, +4: reply delay on/off, IMU silence on/off, chamber runaway.
+void injectToggled(int sig, const Args& a, const FaultTargets& f, const daemon::Logger& log) {
+  if (sig == SIGRTMIN + 2) {
+    const bool on = f.links.reply_delay_s == 0.0;
+    f.links.reply_delay_s = on ? a.signal_reply_delay_ms / 1000.0 : 0.0;
+    log.warning(on ? "fault injection: every Modbus reply delayed by " +
+                         std::to_string(static_cast<int>(a.signal_reply_delay_ms)) + " ms"
+                   : std::string("fault injection: Modbus replies on time again"));
+  }
+  if (sig == SIGRTMIN + 3 && f.imu != nullptr) {
+    log.warning(f.imu->toggleSilence() ? "fault injection: the IMU goes silent"
+                                       : "fault injection: the IMU sends again");
+  }
+  if (sig == SIGRTMIN + 4) {
+    f.world.withChamber([&](VirtualChamber& c, double now) {
+      c.setRampRate(now, 0.0);
+      c.setSetpoint(now, a.chamber_runaway_c);
+      c.run(now, true);
+      return 0;
+    });
+    log.warning("fault injection: the chamber runs away towards " +
+                std::to_string(a.chamber_runaway_c) + " degC");
+  }
+}
 
 // Waits for SIGINT/SIGTERM, carrying out the fault-injection signals and the scheduled
 // interlock trip (--fault-trip-after) on the way.
@@ -264,6 +308,7 @@ void serveUntilStopped(const Args& a, const FaultTargets& f, const daemon::Logge
       f.chamber_tcp.dropConnections();
     }
     if (sig == SIGUSR2) trip();
+    injectToggled(sig, a, f, log);
     if (sig == SIGRTMIN + 1 && f.imu != nullptr) {
       log.warning("fault injection: IMU restart (silent, then counter and time stamp from 0)");
       f.imu->requestRestart();
@@ -329,7 +374,7 @@ int run(const Args& a) {
     if (!imu) return fail(why);
   }
   announce("ready time-scale " + std::to_string(a.time_scale));
-  serveUntilStopped(a, FaultTargets{world, table_tcp, chamber_tcp, imu.get()}, log);
+  serveUntilStopped(a, FaultTargets{world, table_tcp, chamber_tcp, imu.get(), faults}, log);
   log.info("stopping");
   if (imu) imu->stop();
   return 0;
@@ -373,6 +418,11 @@ int main(int argc, char** argv) {
   app.add_option("--fault-reply-delay-ms", a.reply_delay_ms, "delay every Modbus/serial reply")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--fault-drop-replies", a.drop_replies, "never answer Modbus/serial requests");
+  app.add_option("--fault-signal-reply-delay-ms", a.signal_reply_delay_ms,
+                 "the reply delay SIGRTMIN+2 switches on and off, ms (default 2000)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--fault-chamber-runaway", a.chamber_runaway_c,
+                 "where SIGRTMIN+4 sends the chamber, degC (default 120)");
   app.add_option("--fault-trip-after", a.trip_after_s,
                  "trip the table interlock at this simulated time, s");
   app.add_option("--fault-imu-drop-every", a.imu_drop_every, "drop a frame of every Nth sample");

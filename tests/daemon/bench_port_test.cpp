@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <memory>
 #include <string>
@@ -187,6 +188,39 @@ TEST_F(RunnerOverModbus, TableControllerGoneStopsThePlanWithAnAlarm) {
       << a;
   EXPECT_FALSE(port_->lastTableError().empty());
   EXPECT_FALSE(runner_->resume(wallNow()).ok);
+}
+
+// Replies later than the table's 300 ms reply timeout: no call of the port blocks longer than
+// about one reply timeout (a polling read makes one attempt; after kSilentReads unanswered
+// reads the table's commands too, and it is read only once per kSilentRetryPeriodS); the run
+// pauses with an alarm, and once the replies are on time the table is read every poll again.
+TEST_F(RunnerOverModbus, LateRepliesBlockEachCallForOneReplyTimeoutAtMost) {
+  ASSERT_TRUE(runner_->start(wallNow()).ok);
+  ASSERT_TRUE(pollUntil([&] { return runner_->currentStep() >= 1; }, 60.0));
+  faults_.reply_delay_s = 0.6;
+  double slowest = 0.0;
+  int reads_skipped = 0;
+  const double end = wallNow() + 4.0;
+  while (wallNow() < end) {
+    const double t0 = wallNow();
+    const BenchObservation o = port_->observe(t0, t0);
+    runner_->tick(o);
+    for (auto& e : runner_->takeEvents()) events_.push_back(std::move(e));
+    const double took = wallNow() - t0;
+    slowest = std::max(slowest, took);
+    reads_skipped += !o.table_ok && took < 0.05 ? 1 : 0;
+  }
+  EXPECT_EQ(runner_->state(), RunnerState::kPaused);
+  EXPECT_NE(alarms().find("table not answering"), std::string::npos) << alarms();
+  // One attempt of 300 ms (plus the stop commands of the alarm, one attempt each).
+  EXPECT_LT(slowest, 0.3 * 2 + 0.35) << "a call blocked for " << slowest << " s";
+  EXPECT_GT(reads_skipped, 10) << "a silent table is not read on every poll";
+  EXPECT_FALSE(runner_->resume(wallNow()).ok);
+  faults_.reply_delay_s = 0.0;
+  ASSERT_TRUE(pollUntil([&] { return runner_->resume(wallNow()).ok; }, 30.0)) << alarms();
+  ASSERT_TRUE(pollUntil([&] { return runner_->state() == RunnerState::kFinished; }, 120.0))
+      << alarms();
+  EXPECT_EQ(runner_->exit(), RunExit::kCompleted);
 }
 
 }  // namespace

@@ -29,9 +29,9 @@ ProtocolError parseErr(const std::string& line, ErrorCode code) {
 
 TEST(ControlProtocol, CommandsWithoutArguments) {
   const std::pair<const char*, Command> cases[] = {
-      {"pause", Command::kPause}, {"resume", Command::kResume}, {"abort", Command::kAbort},
-      {"stop", Command::kStop},   {"status", Command::kStatus}, {"list_plans", Command::kListPlans},
-      {"ping", Command::kPing},   {"rearm", Command::kRearm}};
+      {"pause", Command::kPause},   {"abort", Command::kAbort},          {"stop", Command::kStop},
+      {"status", Command::kStatus}, {"list_plans", Command::kListPlans}, {"ping", Command::kPing},
+      {"rearm", Command::kRearm}};
   for (const auto& [name, cmd] : cases) {
     const Request r = parseOk(std::string("{\"id\":3,\"cmd\":\"") + name + "\"}");
     EXPECT_EQ(r.command, cmd);
@@ -42,6 +42,21 @@ TEST(ControlProtocol, CommandsWithoutArguments) {
     const ProtocolError e =
         parseErr(std::string("{\"cmd\":\"") + name + "\",\"force\":true}", ErrorCode::kBadArgument);
     EXPECT_NE(e.message.find("force: unknown field of command"), std::string::npos) << e.message;
+  }
+}
+
+// resume: the paused run (no argument), or an interrupted run by id.
+TEST(ControlProtocol, ResumeThePausedRunOrAnInterruptedOne) {
+  Request r = parseOk(R"({"id":1,"cmd":"resume"})");
+  EXPECT_EQ(r.command, Command::kResume);
+  ASSERT_TRUE(std::holds_alternative<ResumeArgs>(r.args));
+  EXPECT_FALSE(std::get<ResumeArgs>(r.args).run);
+  r = parseOk(R"({"id":2,"cmd":"resume","run":42})");
+  ASSERT_TRUE(std::holds_alternative<ResumeArgs>(r.args));
+  EXPECT_EQ(std::get<ResumeArgs>(r.args).run, 42);
+  for (const char* bad : {R"({"cmd":"resume","run":0})", R"({"cmd":"resume","run":"x"})",
+                          R"({"cmd":"resume","force":true})"}) {
+    parseErr(bad, ErrorCode::kBadArgument);
   }
 }
 

@@ -313,6 +313,30 @@ TEST(PlanRunner, ChamberOverTemperatureGoesToTheSafeSetpointAndPauses) {
   ASSERT_FALSE(h.bench.setpoints.empty());
   EXPECT_EQ(h.bench.setpoints.back(), 23.0);
   EXPECT_NE(h.lastAlarm().find("over temperature"), std::string::npos) << h.lastAlarm();
+  // Resume is refused while it is still too hot, accepted once it is back below the limit.
+  const CommandResult hot = h.runner.resume(h.now);
+  EXPECT_FALSE(hot.ok);
+  EXPECT_NE(hot.message.find("over temperature"), std::string::npos) << hot.message;
+  h.bench.chamber_temp = 30.0;
+  h.tick();
+  EXPECT_TRUE(h.runner.resume(h.now).ok);
+}
+
+// Crash resume: a run started at step k runs k..end, each once, the steps before never.
+TEST(PlanRunner, StartAtAStepRunsOnlyTheStepsFromIt) {
+  Harness h;
+  const int first = 5;
+  ASSERT_FALSE(h.runner.startAt(h.now, static_cast<int>(h.steps.size())).ok);
+  ASSERT_TRUE(h.runner.startAt(h.now, first).ok);
+  EXPECT_EQ(h.runner.currentStep(), first);
+  EXPECT_GT(h.runner.progress(), 0.0);  // the steps before count as done
+  ASSERT_TRUE(h.until([&] { return h.finished(); }, 3.0 * h.runner.plannedTotalS()));
+  EXPECT_EQ(h.runner.exit(), RunExit::kCompleted);
+  for (int k = 0; k < static_cast<int>(h.steps.size()); ++k) {
+    EXPECT_EQ(h.count(RunnerEvent::Kind::kStepStarted, k), k < first ? 0 : 1) << k;
+    EXPECT_EQ(h.count(RunnerEvent::Kind::kStepFinished, k), k < first ? 0 : 1) << k;
+  }
+  EXPECT_EQ(h.count(RunnerEvent::Kind::kAlarm), 0) << h.lastAlarm();
 }
 
 // A controller restart opens the interlock without a fault: the run pauses with an alarm that

@@ -291,6 +291,69 @@ TEST(Store, RunLifeCycleEventsAndResults) {
   EXPECT_EQ(store->results().results.size(), 3u);
 }
 
+// Crash resume: an interrupted run names its last stored sample, resumes from the last
+// step_finished event, and its writer continues after the stored rows (never before them).
+TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
+  ScratchDir dir;
+  auto store = openOrFail(dir.file("bench.db"));
+  ASSERT_TRUE(store);
+  const auto run = store->beginRun(benchStart("SN-R"));
+  ASSERT_TRUE(run.status.ok);
+  {
+    RunWriter w(*store, run.run_id);
+    nav::ImuSamples imu(10);
+    for (std::size_t i = 0; i < imu.size(); ++i) imu[i].t = 0.1 * static_cast<double>(i + 1);
+    ASSERT_TRUE(w.appendImu(imu).ok);
+    calib::Segment seg;
+    seg.t0 = 0.1;
+    seg.t1 = 0.5;
+    seg.label = "h1";
+    ASSERT_TRUE(w.appendSegment(seg).ok);
+    ASSERT_TRUE(w.flush().ok);
+  }
+  for (int step : {0, 1}) {
+    RunEvent e{run.run_id, 1.0, EventSeverity::kInfo, "step_finished",
+               "{\"step\":" + std::to_string(step) + "}"};
+    ASSERT_TRUE(store->addEvent(e).ok);
+  }
+  EXPECT_FALSE(store->resumeRun(run.run_id).ok) << "a running run is not resumable";
+  ASSERT_EQ(store->markInterruptedRuns().count, 1);
+  const RunInfoResult info = store->runInfo(run.run_id);
+  ASSERT_TRUE(info.status.ok);
+  EXPECT_EQ(info.run.state, RunState::kInterrupted);
+  EXPECT_NE(info.run.exit_reason.find("last stored sample at t = 1.0"), std::string::npos)
+      << info.run.exit_reason;
+
+  const ResumePoint point = store->resumePoint(run.run_id);
+  ASSERT_TRUE(point.status.ok) << point.status.message;
+  EXPECT_EQ(point.last_finished_step, 1);
+  ASSERT_TRUE(point.last_imu_t && point.last_segment_t1);
+  EXPECT_DOUBLE_EQ(*point.last_imu_t, 1.0);
+  EXPECT_DOUBLE_EQ(*point.last_segment_t1, 0.5);
+  EXPECT_FALSE(point.last_table_t);
+
+  const io::IoStatus resumed = store->resumeRun(run.run_id);
+  ASSERT_TRUE(resumed.ok) << resumed.message;
+  EXPECT_FALSE(store->resumeRun(run.run_id).ok) << "resumed twice";
+  RunWriter w(*store, run.run_id, point);
+  nav::ImuSample old;
+  old.t = 1.0;
+  EXPECT_FALSE(w.appendImu(std::span(&old, 1)).ok) << "a row at the stored end is refused";
+  nav::ImuSample next;
+  next.t = 5.0;
+  ASSERT_TRUE(w.appendImu(std::span(&next, 1)).ok);
+  ASSERT_TRUE(w.flush().ok);
+  ASSERT_TRUE(store->finishRun(run.run_id, RunState::kFinished, "completed").ok);
+  const auto rec = store->loadRecording(run.run_id);
+  ASSERT_TRUE(rec.status.ok);
+  EXPECT_EQ(rec.recording.imu.size(), 11u);
+  const EventListResult events = store->events(run.run_id);
+  ASSERT_TRUE(events.status.ok);
+  bool saw_resumed = false;
+  for (const RunEvent& e : events.events) saw_resumed = saw_resumed || e.kind == "resumed";
+  EXPECT_TRUE(saw_resumed);
+}
+
 TEST(Store, UnknownRunIsAnError) {
   ScratchDir dir;
   auto store = openOrFail(dir.file("bench.db"));

@@ -345,8 +345,12 @@ class Client:
     def pause(self):
         return self.call("pause")
 
-    def resume(self):
-        return self.call("resume")
+    def resume(self, run=None):
+        """The paused run goes on; with run: that run, interrupted by a daemon crash or stop,
+        goes on from its last finished step."""
+        if run is None:
+            return self.call("resume")
+        return self.call("resume", run=run)
 
     def abort(self):
         return self.call("abort")

@@ -4,7 +4,9 @@
 # off). Checks, through the real imubenchd: the run pauses with an alarm that names the open
 # interlock; `status` shows the interlock open; `resume` is refused until the operator
 # re-arms (`imubench rearm`, the CLI); after it `status` shows it closed, `resume` re-runs the
-# interrupted step and the plan completes with every step's segment stored.
+# interrupted step and the plan completes with every step's segment stored. Also (issue 15,
+# tests/daemon/e2e/fault_checks.py): the alarm is in the log, the table is at rest while
+# paused, and the IMU recording has no gap through the fault.
 # Usage: table_restart.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
@@ -16,6 +18,7 @@ e2e_start_daemon
 e2e_py "$VPID" "$CLI" "$SRC/tests/daemon/data/smoke_plan.toml" <<'PY' || fail "table restart checks"
 import os, signal, subprocess, sys, time
 from e2e_client import Client, check, plan_file
+from fault_checks import alarm_logged, motion_stopped, recording_intact
 
 work, vpid, cli, plan = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
 c = Client(work + "/control.sock")
@@ -30,6 +33,8 @@ c.wait_event(lambda e: e["event"] == "state" and e["state"] == "paused", "pause 
 alarm = c.wait_event(lambda e: e["event"] == "alarm" and "interlock open" in e["message"],
                      "interlock alarm", limit=30)
 check("rearm" in alarm["message"], "the alarm says how to go on: " + alarm["message"])
+alarm_logged(work, "interlock open")
+motion_stopped(c)
 
 def table():
     st = c.reply({"cmd": "status"})
@@ -56,6 +61,7 @@ check(fin["state"] == "finished" and fin["exit"] == "completed", "the plan compl
 
 exp = c.reply({"cmd": "results", "run": run})
 check(exp["ok"] and exp["result"]["state"] == "finished", "stored as finished")
+recording_intact(work, cli, run, ["h1", "r1", "h2"])
 PY
 out=$("$CLI" status) || fail "imubench status"
 grep -q "interlock" <<<"$out" || fail "imubench status does not show the interlock: $out"
