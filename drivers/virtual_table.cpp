@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calib/model/motion_profile.h"
 #include "nav/rotation.h"
 
 namespace imubench::drivers {
 
 namespace {
-constexpr double kRestRate = 1e-9;    // rad/s: below this an axis is at rest
+using calib::model::kRestRate;        // rad/s: below this an axis is at rest
 constexpr double kInPosition = 1e-6;  // rad: position-mode target reached
 double wrapPi(double a) {
   double w = std::remainder(a, 2.0 * kPi);
@@ -76,56 +77,14 @@ bool VirtualTable::setAccelLimit(int i, double accel, std::string* why) {
   return true;
 }
 
+// The table's profile (calib/model/motion_profile.h): a rate change at acceleration a.
 void VirtualTable::planRate(double t, int i, double r, double a) {
-  const calib::AxisState s = stateAt(t, i);
-  const double dv = r - s.rate;
-  std::vector<calib::AxisPhase> ph;
-  if (std::abs(dv) < kRestRate) {
-    ph.push_back({t, s.angle, r, 0.0});
-  } else {
-    const double acc = dv > 0 ? a : -a;
-    const double t1 = std::abs(dv) / a;
-    ph.push_back({t, s.angle, s.rate, acc});
-    ph.push_back({t + t1, s.angle + s.rate * t1 + 0.5 * acc * t1 * t1, r, 0.0});
-  }
-  replan(t, i, std::move(ph));
+  replan(t, i, calib::model::rateProfile(t, stateAt(t, i), r, a));
 }
 
+// The table's profile: from the current state to rest at x1 within the axis' limits.
 void VirtualTable::planMove(double t, int i, double x1) {
-  const calib::AxisState s = stateAt(t, i);
-  const double a = accelLimit(i);
-  const double vmax = rateLimit(i);
-  const double x0 = s.angle, v0 = s.rate;
-  const double d = x1 - x0;
-  const double stop_dist = v0 * std::abs(v0) / (2.0 * a);
-  std::vector<calib::AxisPhase> ph;
-  if (std::abs(d) < 1e-12 && std::abs(v0) < kRestRate) {
-    ph.push_back({t, x1, 0.0, 0.0});
-    replan(t, i, std::move(ph));
-    return;
-  }
-  const double dir = (d - stop_dist) >= 0 ? 1.0 : -1.0;
-  // Peak speed of an accelerate-then-brake profile covering d, capped by the rate limit.
-  double vp = std::sqrt(std::max(0.0, (2.0 * a * dir * d + v0 * v0) / 2.0));
-  vp = std::min(vp, vmax);
-  const double dv1 = dir * vp - v0;
-  const double acc1 = dv1 >= 0 ? a : -a;
-  const double t1 = std::abs(dv1) / a;
-  const double x_after1 = x0 + v0 * t1 + 0.5 * acc1 * t1 * t1;
-  const double brake = dir * vp * vp / (2.0 * a);
-  const double cruise = (vp > 0) ? std::max(0.0, (x1 - brake - x_after1) * dir / vp) : 0.0;
-  const double t3 = vp / a;
-  double tt = t;
-  ph.push_back({tt, x0, v0, acc1});
-  tt += t1;
-  if (cruise > 0) {
-    ph.push_back({tt, x_after1, dir * vp, 0.0});
-    tt += cruise;
-  }
-  ph.push_back({tt, x1 - brake, dir * vp, -dir * a});
-  tt += t3;
-  ph.push_back({tt, x1, 0.0, 0.0});
-  replan(t, i, std::move(ph));
+  replan(t, i, calib::model::moveProfile(t, stateAt(t, i), x1, {rateLimit(i), accelLimit(i)}));
 }
 
 bool VirtualTable::motionAllowed(std::string* why) const {

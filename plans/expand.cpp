@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calib/model/motion_profile.h"
 #include "nav/rotation.h"
 
 namespace imubench::plans {
@@ -18,53 +19,44 @@ bool ExpandOptions::IsValid(std::string* why) const {
 }
 
 double profileDuration(double delta, double max_rate, double max_accel) {
-  const double d = std::abs(delta);
-  if (d == 0.0) return 0.0;
-  if (d >= max_rate * max_rate / max_accel)
-    return 2.0 * max_rate / max_accel + (d - max_rate * max_rate / max_accel) / max_rate;
-  return 2.0 * std::sqrt(d / max_accel);
-}
-
-double appendProfile(calib::AxisTrajectory& axis, double t0, double angle0, double delta,
-                     double max_rate, double max_accel) {
-  if (delta == 0.0) return 0.0;
-  const double s = delta > 0.0 ? 1.0 : -1.0;
-  const double d = std::abs(delta);
-  double t_acc = 0.0;     // time to reach the peak rate
-  double t_cruise = 0.0;  // time at the peak rate
-  double peak = 0.0;
-  if (d >= max_rate * max_rate / max_accel) {  // trapezoid
-    peak = max_rate;
-    t_acc = max_rate / max_accel;
-    t_cruise = (d - max_rate * max_rate / max_accel) / max_rate;
-  } else {  // triangle: the turn is too short to reach max_rate
-    peak = std::sqrt(d * max_accel);
-    t_acc = peak / max_accel;
-  }
-  const double d_acc = 0.5 * max_accel * t_acc * t_acc;
-  axis.append({t0, angle0, 0.0, s * max_accel});
-  if (t_cruise > 0.0) axis.append({t0 + t_acc, angle0 + s * d_acc, s * peak, 0.0});
-  axis.append({t0 + t_acc + t_cruise, angle0 + s * (d - d_acc), s * peak, -s * max_accel});
-  const double total = 2.0 * t_acc + t_cruise;
-  axis.append({t0 + total, angle0 + delta, 0.0, 0.0});
-  return total;
+  return calib::model::moveDuration(delta, {max_rate, max_accel});
 }
 
 namespace {
 
-// Constant-rate run: ramp to `rate` (signed), hold it for `duration`, ramp down. Returns the
-// total time; *turned receives the signed angle turned.
+// The model's rest-to-rest move from angle0 to `target` appended to `axis`; its duration.
+double appendProfileTo(calib::AxisTrajectory& axis, double t0, double angle0, double target,
+                       double max_rate, double max_accel) {
+  if (target == angle0) return 0.0;
+  const auto phases = calib::model::moveProfile(t0, calib::AxisState{angle0, 0.0, 0.0}, target,
+                                                {max_rate, max_accel});
+  for (const calib::AxisPhase& p : phases) axis.append(p);
+  return calib::model::profileDuration(phases);
+}
+
+}  // namespace
+
+double appendProfile(calib::AxisTrajectory& axis, double t0, double angle0, double delta,
+                     double max_rate, double max_accel) {
+  if (delta == 0.0) return 0.0;
+  return appendProfileTo(axis, t0, angle0, angle0 + delta, max_rate, max_accel);
+}
+
+namespace {
+
+// Constant-rate run, as the table does it when told: change to `rate` (signed), hold it for
+// `duration` after reaching it, change back to 0. Returns the total time; *turned receives
+// the signed angle turned.
 double appendRateRun(calib::AxisTrajectory& axis, double t0, double angle0, double rate,
                      double duration, double max_accel, double* turned) {
-  const double s = rate > 0.0 ? 1.0 : -1.0;
-  const double t_acc = std::abs(rate) / max_accel;
-  const double d_acc = 0.5 * rate * t_acc;  // signed
-  axis.append({t0, angle0, 0.0, s * max_accel});
-  axis.append({t0 + t_acc, angle0 + d_acc, rate, 0.0});
-  axis.append({t0 + t_acc + duration, angle0 + d_acc + rate * duration, rate, -s * max_accel});
-  *turned = rate * (t_acc + duration);
-  axis.append({t0 + 2.0 * t_acc + duration, angle0 + *turned, 0.0, 0.0});
-  return 2.0 * t_acc + duration;
+  const auto up = calib::model::rateProfile(t0, {angle0, 0.0, 0.0}, rate, max_accel);
+  const double t_stop = up.back().t0 + duration;
+  const auto down =
+      calib::model::rateProfile(t_stop, calib::model::profileSample(up, t_stop), 0.0, max_accel);
+  for (const calib::AxisPhase& p : up) axis.append(p);
+  for (const calib::AxisPhase& p : down) axis.append(p);
+  *turned = down.back().angle0 - angle0;
+  return down.back().t0 - t0;
 }
 
 constexpr long kMaxSegments = 10000000;  // beyond this a plan is surely a typo'd repeat count
@@ -191,9 +183,10 @@ class Expander {
           const bool limited = limitsFor(plan_.table, i).limited;
           double delta = target.angle.value - angle_[ui];
           if (!limited) delta = std::remainder(delta, 2.0 * kPi);  // shortest way
-          const double d = appendProfile(m_.axes[ui], t_, angle_[ui], delta, rate, accel);
           // Keep the angle continuous; on limited axes land exactly on the written target.
-          angle_[ui] = limited ? target.angle.value : angle_[ui] + delta;
+          const double to = limited ? target.angle.value : angle_[ui] + delta;
+          const double d = appendProfileTo(m_.axes[ui], t_, angle_[ui], to, rate, accel);
+          angle_[ui] = to;
           if (delta != 0.0) {
             ++moved;
             moved_axis = i;
@@ -232,7 +225,7 @@ class Expander {
         double turned = 0.0;
         const double d = appendRateRun(m_.axes[ui], t_, angle_[ui], s.rate->value, s.duration.value,
                                        accel, &turned);
-        angle_[ui] += turned;
+        angle_[ui] = m_.axes[ui].phases().back().angle0;  // where the table stops
         addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, turned);
         t_ += d;
         return true;

@@ -1,10 +1,12 @@
 // Expansion of a (validated) plan into calib::Motion: exact acceleration-limited axis
 // profiles, labelled segments, temperature knots. Pure: no files, clocks or printing.
 //
-// Profiles: every move / rotate / rate step is a trapezoid (accelerate at `accel` to `rate`,
-// cruise, decelerate) or a triangle when the turn is too short to reach `rate`. Each phase is
-// one calib::AxisPhase with constant acceleration, so angle(t) is exact; the last phase of a
-// profile starts at exactly the target angle with zero rate (no rounding drift).
+// Profiles: every move / rotate / rate step is the table's own motion profile
+// (calib/model/motion_profile.h, the one the virtual table executes): a trapezoid (accelerate
+// at `accel` to `rate`, cruise, decelerate) or a triangle when the turn is too short to reach
+// `rate`; a rate step changes the rate at `accel`, holds it for the step's duration and changes
+// it back to 0. Each phase is one calib::AxisPhase with constant acceleration, so angle(t) is
+// exact; the last phase of a move starts at exactly the target angle with zero rate.
 // Position moves take the shortest way (|delta| <= 180 deg) on continuous axes and the direct
 // way on limited axes; all axes of one move start together, the segment ends when the last
 // one arrives. Angles are continuous (never wrapped): two +180 rotations end at 360 deg.
@@ -50,14 +52,14 @@ struct ExpandResult {
 // first problem found (run the validator for the full list).
 ExpandResult expand(const Plan& plan, const ExpandOptions& options = {});
 
-// One acceleration-limited profile (exposed for drivers and tests): turns by `delta` (rad,
-// signed) starting at rest at `angle0` at time `t0`, with |rate| <= max_rate and
+// The model's rest-to-rest profile (calib::model::moveProfile) appended to a trajectory: turns by
+// `delta` (rad, signed) starting at rest at `angle0` at time `t0`, with |rate| <= max_rate and
 // |accel| = max_accel (both > 0). Appends its phases (the final one at rest on the target)
 // to `axis` and returns the profile's duration (0 and nothing appended when delta == 0).
 double appendProfile(calib::AxisTrajectory& axis, double t0, double angle0, double delta,
                      double max_rate, double max_accel);
 
-// Duration of that profile without building it.
+// Duration of that profile (calib::model::moveDuration).
 double profileDuration(double delta, double max_rate, double max_accel);
 
 }  // namespace imubench::plans
