@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "calib/model/motion_profile.h"
+#include "calib/model/thermal_lag.h"
 #include "nav/rotation.h"
 
 namespace imubench::plans {
@@ -12,6 +13,12 @@ bool ExpandOptions::IsValid(std::string* why) const {
   for (double a : initial_angles) {
     if (!std::isfinite(a)) {
       if (why) *why = "initial_angles must be finite";
+      return false;
+    }
+  }
+  for (double tau : {thermal.chamber_tau_s, thermal.sensor_tau_s}) {
+    if (!std::isfinite(tau) || tau < 0.0) {
+      if (why) *why = "thermal time constants must be finite and non-negative";
       return false;
     }
   }
@@ -63,7 +70,7 @@ constexpr long kMaxSegments = 10000000;  // beyond this a plan is surely a typo'
 
 class Expander {
  public:
-  Expander(const Plan& plan, const ExpandOptions& options) : plan_(plan) {
+  Expander(const Plan& plan, const ExpandOptions& options) : plan_(plan), lag_(options.thermal) {
     const int n = calib::axisCount(plan.table.kind);
     m_.kind = plan.table.kind;
     m_.axes.resize(static_cast<size_t>(n));
@@ -76,8 +83,9 @@ class Expander {
     }
     recording_ = plan.recording_at_start;
     if (plan.chamber) {
-      temp_ = plan.chamber->initial.value;
-      m_.temperature.push_back({0.0, temp_});
+      goal_ = plan.chamber->initial.value;
+      therm_ = calib::model::thermalAtRest(goal_);
+      m_.temperature.push_back({0.0, goal_});
     }
   }
 
@@ -85,7 +93,7 @@ class Expander {
     if (!steps(plan_.steps, "", error)) return false;
     m_.duration = t_;
     if (!m_.temperature.empty() && m_.temperature.back().t < t_) {
-      m_.temperature.push_back({t_, temp_});
+      m_.temperature.push_back({t_, therm_.sensor_c});
     }
     return true;
   }
@@ -97,16 +105,21 @@ class Expander {
   calib::Motion m_;
   std::vector<double> angle_;  // current angle per axis, rad (continuous)
   double t_ = 0.0;
-  double temp_ = 20.0;
+  // The chamber (plans with [chamber] only): the model's state, its goal and ramp rate.
+  calib::model::ThermalLag lag_;
+  calib::model::ThermalState therm_;
+  double goal_ = 20.0;  // degC
+  double ramp_ = 0.0;   // degC/s
   bool recording_ = true;
 
   static std::string where(const Step& s) {
     return "line " + std::to_string(s.where.line) + " (" + stepTypeName(s.type) + ")";
   }
 
-  void addSegment(double t0, double t1, calib::SegmentKind kind, const std::string& label,
-                  int axis = -1, double angle = 0.0) {
-    if (t1 <= t0) return;
+  // The new segment, or nullptr when it has no length (left out).
+  calib::Segment* addSegment(double t0, double t1, calib::SegmentKind kind,
+                             const std::string& label, int axis = -1, double angle = 0.0) {
+    if (t1 <= t0) return nullptr;
     calib::Segment seg;
     seg.t0 = t0;
     seg.t1 = t1;
@@ -116,6 +129,35 @@ class Expander {
     seg.axis = axis;
     seg.angle = angle;
     m_.segments.push_back(std::move(seg));
+    return &m_.segments.back();
+  }
+
+  // A temperature knot now (the IMU's temperature), unless there is one already.
+  void addKnot() {
+    if (m_.temperature.empty() || m_.temperature.back().t < t_) {
+      m_.temperature.push_back({t_, therm_.sensor_c});
+    }
+  }
+
+  // Time runs on to t1; with a chamber its model (calib/model/thermal_lag.h) runs along,
+  // leaving knots at the end of every ramp and, while a lag still settles, every
+  // kThermalKnotSpacing (the virtual chamber's history spacing).
+  void advanceTime(double t1) {
+    const bool lagging = lag_.chamber_tau_s > 0.0 || lag_.sensor_tau_s > 0.0;
+    while (plan_.chamber && t_ < t1) {
+      const double ramp_end = t_ + calib::model::rampTime(therm_, goal_, ramp_);
+      const bool settling = lagging && !calib::model::thermalSettled(therm_, goal_);
+      double tn = ramp_end > t_ ? std::min(t1, ramp_end) : t1;
+      if (settling) {
+        const double spacing = calib::model::kThermalKnotSpacing;
+        const double next = std::max(m_.temperature.back().t + spacing, t_ + 1e-3 * spacing);
+        tn = std::min(tn, next);
+      }
+      therm_ = calib::model::advanceThermal(therm_, goal_, ramp_, lag_, tn - t_);
+      t_ = tn;
+      if (settling || t_ == ramp_end) addKnot();
+    }
+    t_ = t1;
   }
 
   bool limits(const Step& s, int axis, double* rate, double* accel, std::string* error) {
@@ -165,7 +207,7 @@ class Expander {
           return false;
         }
         addSegment(t_, t_ + s.duration.value, calib::SegmentKind::kStatic, label);
-        t_ += s.duration.value;
+        advanceTime(t_ + s.duration.value);
         return true;
       }
       case StepType::kMove: {
@@ -199,7 +241,7 @@ class Expander {
         } else {
           addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label);
         }
-        t_ += longest;
+        advanceTime(t_ + longest);
         return true;
       }
       case StepType::kRotate: {
@@ -210,7 +252,7 @@ class Expander {
         const double d = appendProfile(m_.axes[ui], t_, angle_[ui], s.angle.value, rate, accel);
         angle_[ui] += s.angle.value;
         addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, s.angle.value);
-        t_ += d;
+        advanceTime(t_ + d);
         return true;
       }
       case StepType::kRate: {
@@ -227,7 +269,7 @@ class Expander {
                                        accel, &turned);
         angle_[ui] = m_.axes[ui].phases().back().angle0;  // where the table stops
         addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, turned);
-        t_ += d;
+        advanceTime(t_ + d);
         return true;
       }
       case StepType::kChamber: {
@@ -240,14 +282,15 @@ class Expander {
           *error = where(s) + ": ramp must be positive and soak non-negative";
           return false;
         }
-        const double t_ramp = std::abs(s.setpoint.value - temp_) / ramp;
-        if (m_.temperature.empty() || m_.temperature.back().t < t_) {
-          m_.temperature.push_back({t_, temp_});
+        const double t_ramp = calib::model::rampTime(therm_, s.setpoint.value, ramp);
+        addKnot();
+        goal_ = s.setpoint.value;
+        ramp_ = ramp;
+        if (calib::Segment* seg =
+                addSegment(t_, t_ + t_ramp + s.soak.value, calib::SegmentKind::kSoak, label)) {
+          seg->setpoint_c = goal_;
         }
-        if (t_ramp > 0.0) m_.temperature.push_back({t_ + t_ramp, s.setpoint.value});
-        temp_ = s.setpoint.value;
-        addSegment(t_, t_ + t_ramp + s.soak.value, calib::SegmentKind::kSoak, label);
-        t_ += t_ramp + s.soak.value;
+        advanceTime(t_ + t_ramp + s.soak.value);
         return true;
       }
       case StepType::kRecord:

@@ -22,14 +22,20 @@
 // iteration are prefixed: "<repeat label>#<k>/<step label>" (k 1-based, "#k" only when
 // count > 1; repeat label defaults to "repeat").
 //
-// Temperature: knots at t = 0 ([chamber] initial, default 20 degC), at the start and end of
-// every chamber ramp, and at the end; linear in between (first-order chamber lag is a later
-// refinement). A plan without [chamber] gets no knots (Motion: constant 20 degC).
+// Temperature (plans with [chamber]; without, no knots: Motion's constant 20 degC): the bench's
+// thermal model (calib/model/thermal_lag.h, the one the virtual chamber runs) from [chamber]
+// initial at rest: every chamber step ramps the chamber's program to its setpoint at its ramp
+// rate, the air and the IMU lag it by options.thermal. Knots (the IMU's temperature) at t = 0,
+// at every chamber step, at the end of every ramp, every kThermalKnotSpacing while a lag
+// settles, and at the end; linear in between (exact without lag: the ramp itself). kSoak
+// segments carry their setpoint (Segment::setpoint_c). The soak is timed from the end of the
+// program's ramp, as a chamber controller times it.
 #pragma once
 
 #include <string>
 #include <vector>
 
+#include "calib/model/thermal_lag.h"
 #include "calib/motion.h"
 #include "plans/plan.h"
 
@@ -38,6 +44,10 @@ namespace imubench::plans {
 struct ExpandOptions {
   // Table angles at t = 0, rad, one per axis in axis order; empty: all zero.
   std::vector<double> initial_angles;
+  // The chamber's and the IMU's thermal time constants. Default none (the air follows the
+  // ramp exactly): the plan does not know its chamber; a caller with the chamber's device
+  // file passes its time_constant as chamber_tau_s.
+  calib::model::ThermalLag thermal;
 
   bool IsValid(std::string* why) const;
 };

@@ -1,12 +1,16 @@
 // A plan's predicted motion (plans/expand) and the virtual table executing the same commands
 // at the same times (drivers/virtual_table) are one motion profile (calib/model/
-// motion_profile.h): they agree sample for sample.
+// motion_profile.h): they agree sample for sample. Likewise the plan's predicted temperature
+// and the virtual chamber are one thermal model (calib/model/thermal_lag.h).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
+#include "calib/model/thermal_lag.h"
 #include "calib/motion.h"
+#include "drivers/virtual_chamber.h"
 #include "drivers/virtual_table.h"
 #include "nav/rotation.h"
 #include "plans/expand.h"
@@ -137,6 +141,131 @@ TEST(PlanOnVirtualTable, MotionEqualsThePlanExpandersProfileSampleForSample) {
   EXPECT_NEAR(m.axes[0].at(m.segments[2].t0).angle, -kPi / 2, 1e-12);
   EXPECT_LT(m.axes[0].at(m.duration).angle, -kPi / 2 - 7.0 * 15 * kDegToRad * 0.99);
   EXPECT_NEAR(m.axes[1].at(m.duration).angle, -197 * kDegToRad, 1e-12);
+}
+
+const char* const kChamberPlan = R"(
+[plan]
+name = "thermal"
+[table]
+kind = "two-axis"
+max_rate = "20 deg/s"
+max_accel = "10 deg/s^2"
+[chamber]
+min_temp = "-40 degC"
+max_temp = "85 degC"
+max_ramp = "4 degC/min"
+initial = "20 degC"
+[[step]]
+type = "chamber"
+setpoint = "40 degC"
+soak = "5 min"
+[[step]]
+type = "hold"
+duration = "100 s"
+[[step]]
+type = "chamber"
+setpoint = "-10 degC"
+ramp = "3 degC/min"
+soak = "2 min"
+[[step]]
+type = "chamber"
+setpoint = "-5 degC"
+soak = "15 min"
+)";
+
+// The chamber steps' ramp rates, degC/s, in order.
+std::vector<double> chamberRamps(const plans::Plan& plan) {
+  std::vector<double> out;
+  for (const plans::Step& s : plan.steps) {
+    if (s.type != plans::StepType::kChamber) continue;
+    out.push_back(s.ramp ? s.ramp->value : plan.chamber->max_ramp.value);
+  }
+  return out;
+}
+
+TEST(PlanOnVirtualChamber, PredictedTemperatureEqualsTheVirtualChambers) {
+  const plans::Plan plan = parseValid(kChamberPlan);
+  const ChamberDeviceSpec spec = testing::chamberSpec("watlow-f4-style.toml");
+  ASSERT_NEAR(spec.time_constant_s, 180.0, 1e-9);
+  plans::ExpandOptions options;
+  options.thermal.chamber_tau_s = spec.time_constant_s;
+  const plans::ExpandResult ex = plans::expand(plan, options);
+  ASSERT_TRUE(ex.ok) << ex.error;
+  const calib::Motion& m = ex.motion;
+
+  // The chamber's commands at the planned times: each soak's ramp rate and setpoint.
+  struct Command {
+    double t, ramp, setpoint;
+  };
+  std::vector<Command> commands;
+  const std::vector<double> ramps = chamberRamps(plan);
+  for (const calib::Segment& seg : m.segments) {
+    if (seg.kind != calib::SegmentKind::kSoak) continue;
+    ASSERT_LT(commands.size(), ramps.size());
+    commands.push_back({seg.t0, ramps[commands.size()], seg.setpoint_c});
+  }
+  ASSERT_EQ(commands.size(), 3u);
+  EXPECT_EQ(commands[0].setpoint, 40.0);
+  EXPECT_EQ(commands[1].setpoint, -10.0);
+
+  // Run the chamber through the plan; every predicted knot is its temperature at that time.
+  VirtualChamber chamber(spec, 20.0, 0.0);
+  chamber.run(0.0, true);
+  ASSERT_GT(m.temperature.size(), 500u) << "knots while the lag settles";
+  size_t next = 0;
+  for (const calib::TemperatureKnot& knot : m.temperature) {
+    for (; next < commands.size() && commands[next].t <= knot.t; ++next) {
+      chamber.setRampRate(commands[next].t, commands[next].ramp);
+      chamber.setSetpoint(commands[next].t, commands[next].setpoint);
+    }
+    ASSERT_NEAR(chamber.temperature(knot.t), knot.temp_c, 1e-9) << "t " << knot.t;
+  }
+  EXPECT_EQ(next, commands.size());
+  // Between knots the prediction interpolates the chamber's history closely.
+  for (const calib::TemperatureKnot& knot : chamber.history(m.duration)) {
+    EXPECT_NEAR(m.temperatureAt(knot.t), knot.temp_c, 2e-3) << "t " << knot.t;
+  }
+  // The air lags the ramp: at the end of the 20 -> 40 degC ramp (300 s at 4 degC/min) it is
+  // a time constant's worth of ramp (12 degC) behind, less the start-up transient.
+  const double lag = (4.0 / 60.0) * 180.0 * (1.0 - std::exp(-300.0 / 180.0));
+  EXPECT_NEAR(m.temperatureAt(300.0), 40.0 - lag, 1e-3);
+}
+
+// The thermal model's closed form against a fine numerical integration of its equations
+// (program ramp, air lag tau1, sensor lag tau2), also with equal time constants.
+calib::model::ThermalState integrate(calib::model::ThermalState s, double goal, double ramp,
+                                     const calib::model::ThermalLag& lag, double h) {
+  const int n = 200000;
+  const double dt = h / n;
+  for (int i = 0; i < n; ++i) {  // midpoint rule on the two lags, exact program
+    const double step = ramp * dt;
+    const double next = s.program_c + std::clamp(goal - s.program_c, -step, step);
+    const double u = 0.5 * (s.program_c + next);
+    const double x_mid = s.air_c + 0.5 * dt * (u - s.air_c) / lag.chamber_tau_s;
+    const double y_mid = s.sensor_c + 0.5 * dt * (s.air_c - s.sensor_c) / lag.sensor_tau_s;
+    s.air_c += dt * (u - x_mid) / lag.chamber_tau_s;
+    s.sensor_c += dt * (x_mid - y_mid) / lag.sensor_tau_s;
+    s.program_c = next;
+  }
+  return s;
+}
+
+TEST(ThermalModel, ClosedFormMatchesTheEquations) {
+  for (const calib::model::ThermalLag lag :
+       {calib::model::ThermalLag{120.0, 40.0}, calib::model::ThermalLag{60.0, 60.0}}) {
+    const calib::model::ThermalState s0{20.0, 22.0, 25.0};
+    // 600 s: a 500 s ramp (to 45 degC at 0.05 degC/s), then 100 s on the goal.
+    const auto exact = calib::model::advanceThermal(s0, 45.0, 0.05, lag, 600.0);
+    const auto numeric = integrate(s0, 45.0, 0.05, lag, 600.0);
+    EXPECT_EQ(exact.program_c, 45.0);
+    EXPECT_NEAR(exact.air_c, numeric.air_c, 1e-6) << lag.sensor_tau_s;
+    EXPECT_NEAR(exact.sensor_c, numeric.sensor_c, 1e-6) << lag.sensor_tau_s;
+    EXPECT_LT(exact.sensor_c, exact.air_c);  // the IMU lags the air
+    // Composition: two steps equal one.
+    const auto half = calib::model::advanceThermal(s0, 45.0, 0.05, lag, 250.0);
+    const auto two = calib::model::advanceThermal(half, 45.0, 0.05, lag, 350.0);
+    EXPECT_NEAR(two.sensor_c, exact.sensor_c, 1e-10);
+  }
 }
 
 }  // namespace
