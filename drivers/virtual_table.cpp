@@ -117,13 +117,29 @@ bool VirtualTable::setMode(double t, int i, AxisMode mode, std::string* why) {
   return true;
 }
 
-bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
-  if (!motionAllowed(why)) return false;
-  auto& ax = axes_[static_cast<size_t>(i)];
-  if (ax.mode != AxisMode::kPosition) {
-    *why = "axis not in position mode";
-    return false;
+VirtualTable::Axis* VirtualTable::commandable(int i, AxisMode mode, std::string* why) {
+  if (!motionAllowed(why)) return nullptr;
+  if (i < 0 || i >= spec_.axisCount()) {
+    *why = "no axis " + std::to_string(i);
+    return nullptr;
   }
+  Axis& ax = axes_[static_cast<size_t>(i)];
+  if (ax.mode != mode) {
+    *why = mode == AxisMode::kRate ? "axis not in rate mode" : "axis not in position mode";
+    return nullptr;
+  }
+  return &ax;
+}
+
+void VirtualTable::goTo(double t, int i, double x1) {
+  Axis& ax = axes_[static_cast<size_t>(i)];
+  ax.has_target = true;
+  ax.target = x1;
+  planMove(t, i, x1);
+}
+
+bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
+  if (commandable(i, AxisMode::kPosition, why) == nullptr) return false;
   const calib::AxisState s = stateAt(t, i);
   double x1 = angle;
   if (!spec_.limits.limited_travel) {
@@ -132,39 +148,26 @@ bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
     *why = "target outside the travel range";
     return false;
   }
-  ax.has_target = true;
-  ax.target = x1;
-  planMove(t, i, x1);
+  goTo(t, i, x1);
   return true;
 }
 
 bool VirtualTable::rotateBy(double t, int i, double delta, std::string* why) {
-  if (!motionAllowed(why)) return false;
-  auto& ax = axes_[static_cast<size_t>(i)];
-  if (ax.mode != AxisMode::kPosition) {
-    *why = "axis not in position mode";
-    return false;
-  }
-  const double base = ax.has_target ? ax.target : stateAt(t, i).angle;
+  const Axis* ax = commandable(i, AxisMode::kPosition, why);
+  if (ax == nullptr) return false;
+  const double base = ax->has_target ? ax->target : stateAt(t, i).angle;
   const double x1 = base + delta;
   if (spec_.limits.limited_travel &&
       (x1 < spec_.limits.position_min || x1 > spec_.limits.position_max)) {
     *why = "rotation would leave the travel range";
     return false;
   }
-  ax.has_target = true;
-  ax.target = x1;
-  planMove(t, i, x1);
+  goTo(t, i, x1);
   return true;
 }
 
 bool VirtualTable::setRate(double t, int i, double rate, std::string* why) {
-  if (!motionAllowed(why)) return false;
-  auto& ax = axes_[static_cast<size_t>(i)];
-  if (ax.mode != AxisMode::kRate) {
-    *why = "axis not in rate mode";
-    return false;
-  }
+  if (commandable(i, AxisMode::kRate, why) == nullptr) return false;
   if (std::abs(rate) > spec_.limits.max_rate * (1 + 1e-9)) {
     *why = "rate above the limit";
     return false;

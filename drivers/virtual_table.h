@@ -86,6 +86,11 @@ class VirtualTable {
   // Change to a constant rate r with acceleration a.
   void planRate(double t, int i, double r, double a);
   bool motionAllowed(std::string* why) const;
+  // Axis i when it may take a command of `mode` now (motion allowed, the axis in that mode);
+  // nullptr and *why otherwise.
+  Axis* commandable(int i, AxisMode mode, std::string* why);
+  // Position target x1 (continuous angle) set and the move there planned.
+  void goTo(double t, int i, double x1);
   void brakeAll(double t);
 
   TableDeviceSpec spec_;

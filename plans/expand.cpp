@@ -160,26 +160,84 @@ class Expander {
     t_ = t1;
   }
 
-  bool limits(const Step& s, int axis, double* rate, double* accel, std::string* error) {
-    const EffectiveLimits lim = limitsFor(plan_.table, axis);
+  // The axis a step names and the profile it moves with: the step's rate/accel, else the
+  // table's limits for that axis.
+  struct AxisProfile {
+    int axis = 0;
+    size_t ui = 0;  // the same, as an index
+    double rate = 0.0;
+    double accel = 0.0;
+  };
+  bool profileOf(const Step& s, const std::string& name, AxisProfile* out, std::string* error) {
+    const auto i = axisIndex(plan_.table.kind, name);
+    if (!i) {
+      *error = where(s) + ": unknown axis \"" + name + "\"";
+      return false;
+    }
+    const EffectiveLimits lim = limitsFor(plan_.table, *i);
     const auto r = s.rate ? std::optional<double>(std::abs(s.rate->value)) : lim.max_rate;
     const auto a = s.accel ? std::optional<double>(s.accel->value) : lim.max_accel;
     if (!r || !a || !(*r > 0.0) || !(*a > 0.0)) {
       *error = where(s) + ": no usable rate/accel limit for this axis (validate the plan)";
       return false;
     }
-    *rate = *r;
-    *accel = *a;
+    *out = {*i, static_cast<size_t>(*i), *r, *a};
     return true;
   }
 
-  bool axisOf(const Step& s, const std::string& name, int* idx, std::string* error) {
-    auto i = axisIndex(plan_.table.kind, name);
-    if (!i) {
-      *error = where(s) + ": unknown axis \"" + name + "\"";
-      return false;
+  // move: every named axis from where it is to its target at once; done when the last arrives.
+  bool move(const Step& s, const std::string& label, std::string* error) {
+    double longest = 0.0;
+    int moved = 0;
+    int moved_axis = -1;
+    double moved_delta = 0.0;
+    for (const AxisTarget& target : s.targets) {
+      AxisProfile p;
+      if (!profileOf(s, target.axis, &p, error)) return false;
+      const bool limited = limitsFor(plan_.table, p.axis).limited;
+      double delta = target.angle.value - angle_[p.ui];
+      if (!limited) delta = std::remainder(delta, 2.0 * kPi);  // shortest way
+      // Keep the angle continuous; on limited axes land exactly on the written target.
+      const double to = limited ? target.angle.value : angle_[p.ui] + delta;
+      const double d = appendProfileTo(m_.axes[p.ui], t_, angle_[p.ui], to, p.rate, p.accel);
+      angle_[p.ui] = to;
+      if (delta != 0.0) {
+        ++moved;
+        moved_axis = p.axis;
+        moved_delta = delta;
+      }
+      longest = std::max(longest, d);
     }
-    *idx = *i;
+    if (moved == 1) {
+      addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label, moved_axis, moved_delta);
+    } else {
+      addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label);
+    }
+    advanceTime(t_ + longest);
+    return true;
+  }
+
+  // rotate (by an angle) and rate (a constant-rate run): one axis turns.
+  bool turn(const Step& s, const std::string& label, std::string* error) {
+    AxisProfile p;
+    if (!profileOf(s, s.axis, &p, error)) return false;
+    double d = 0.0;
+    double turned = 0.0;
+    if (s.type == StepType::kRotate) {
+      d = appendProfile(m_.axes[p.ui], t_, angle_[p.ui], s.angle.value, p.rate, p.accel);
+      turned = s.angle.value;
+      angle_[p.ui] += turned;
+    } else {
+      if (!(s.duration.value > 0.0) || !s.rate || s.rate->value == 0.0) {
+        *error = where(s) + ": rate run needs a nonzero rate and a positive duration";
+        return false;
+      }
+      d = appendRateRun(m_.axes[p.ui], t_, angle_[p.ui], s.rate->value, s.duration.value, p.accel,
+                        &turned);
+      angle_[p.ui] = m_.axes[p.ui].phases().back().angle0;  // where the table stops
+    }
+    addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, p.axis, turned);
+    advanceTime(t_ + d);
     return true;
   }
 
@@ -210,68 +268,11 @@ class Expander {
         advanceTime(t_ + s.duration.value);
         return true;
       }
-      case StepType::kMove: {
-        double longest = 0.0;
-        int moved = 0;
-        int moved_axis = -1;
-        double moved_delta = 0.0;
-        for (const AxisTarget& target : s.targets) {
-          int i = 0;
-          double rate = 0.0, accel = 0.0;
-          if (!axisOf(s, target.axis, &i, error) || !limits(s, i, &rate, &accel, error)) {
-            return false;
-          }
-          const auto ui = static_cast<size_t>(i);
-          const bool limited = limitsFor(plan_.table, i).limited;
-          double delta = target.angle.value - angle_[ui];
-          if (!limited) delta = std::remainder(delta, 2.0 * kPi);  // shortest way
-          // Keep the angle continuous; on limited axes land exactly on the written target.
-          const double to = limited ? target.angle.value : angle_[ui] + delta;
-          const double d = appendProfileTo(m_.axes[ui], t_, angle_[ui], to, rate, accel);
-          angle_[ui] = to;
-          if (delta != 0.0) {
-            ++moved;
-            moved_axis = i;
-            moved_delta = delta;
-          }
-          longest = std::max(longest, d);
-        }
-        if (moved == 1) {
-          addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label, moved_axis, moved_delta);
-        } else {
-          addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label);
-        }
-        advanceTime(t_ + longest);
-        return true;
-      }
-      case StepType::kRotate: {
-        int i = 0;
-        double rate = 0.0, accel = 0.0;
-        if (!axisOf(s, s.axis, &i, error) || !limits(s, i, &rate, &accel, error)) return false;
-        const auto ui = static_cast<size_t>(i);
-        const double d = appendProfile(m_.axes[ui], t_, angle_[ui], s.angle.value, rate, accel);
-        angle_[ui] += s.angle.value;
-        addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, s.angle.value);
-        advanceTime(t_ + d);
-        return true;
-      }
-      case StepType::kRate: {
-        int i = 0;
-        double rate = 0.0, accel = 0.0;
-        if (!axisOf(s, s.axis, &i, error) || !limits(s, i, &rate, &accel, error)) return false;
-        if (!(s.duration.value > 0.0) || !s.rate || s.rate->value == 0.0) {
-          *error = where(s) + ": rate run needs a nonzero rate and a positive duration";
-          return false;
-        }
-        const auto ui = static_cast<size_t>(i);
-        double turned = 0.0;
-        const double d = appendRateRun(m_.axes[ui], t_, angle_[ui], s.rate->value, s.duration.value,
-                                       accel, &turned);
-        angle_[ui] = m_.axes[ui].phases().back().angle0;  // where the table stops
-        addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, turned);
-        advanceTime(t_ + d);
-        return true;
-      }
+      case StepType::kMove:
+        return move(s, label, error);
+      case StepType::kRotate:
+      case StepType::kRate:
+        return turn(s, label, error);
       case StepType::kChamber: {
         if (!plan_.chamber) {
           *error = where(s) + ": chamber step without a [chamber] section";

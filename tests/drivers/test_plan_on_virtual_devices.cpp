@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <string_view>
 
 #include "calib/model/thermal_lag.h"
 #include "calib/motion.h"
@@ -27,13 +28,18 @@ constexpr double kAccel = 10 * kDegToRad;
 constexpr double kSpin = -15 * kDegToRad;  // the rate step's signed rate
 constexpr double kSpinAccel = 8 * kDegToRad;
 
-const char* const kMotionPlan = R"(
+// The plans' header: a two-axis table at the limits above.
+constexpr std::string_view kTableHeader = R"(
 [plan]
-name = "profile"
+name = "on_virtual_devices"
 [table]
 kind = "two-axis"
 max_rate = "20 deg/s"
 max_accel = "10 deg/s^2"
+)";
+
+std::string motionPlan() {
+  return std::string(kTableHeader) + R"(
 [[step]]
 type = "hold"
 duration = "2 s"
@@ -56,6 +62,7 @@ direction = "-"
 accel = "8 deg/s^2"
 duration = "7 s"
 )";
+}
 
 plans::Plan parseValid(const std::string& text) {
   io::Diagnostics diag("profile.toml");
@@ -97,7 +104,7 @@ void drive(VirtualTable& table, const calib::Motion& m) {
 }
 
 TEST(PlanOnVirtualTable, MotionEqualsThePlanExpandersProfileSampleForSample) {
-  const plans::ExpandResult ex = plans::expand(parseValid(kMotionPlan));
+  const plans::ExpandResult ex = plans::expand(parseValid(motionPlan()));
   ASSERT_TRUE(ex.ok) << ex.error;
   const calib::Motion& m = ex.motion;
   ASSERT_EQ(m.segments.size(), 5u);  // hold, move, rotate, hold, rate
@@ -143,13 +150,8 @@ TEST(PlanOnVirtualTable, MotionEqualsThePlanExpandersProfileSampleForSample) {
   EXPECT_NEAR(m.axes[1].at(m.duration).angle, -197 * kDegToRad, 1e-12);
 }
 
-const char* const kChamberPlan = R"(
-[plan]
-name = "thermal"
-[table]
-kind = "two-axis"
-max_rate = "20 deg/s"
-max_accel = "10 deg/s^2"
+std::string chamberPlan() {
+  return std::string(kTableHeader) + R"(
 [chamber]
 min_temp = "-40 degC"
 max_temp = "85 degC"
@@ -172,6 +174,7 @@ type = "chamber"
 setpoint = "-5 degC"
 soak = "15 min"
 )";
+}
 
 // The chamber steps' ramp rates, degC/s, in order.
 std::vector<double> chamberRamps(const plans::Plan& plan) {
@@ -184,7 +187,7 @@ std::vector<double> chamberRamps(const plans::Plan& plan) {
 }
 
 TEST(PlanOnVirtualChamber, PredictedTemperatureEqualsTheVirtualChambers) {
-  const plans::Plan plan = parseValid(kChamberPlan);
+  const plans::Plan plan = parseValid(chamberPlan());
   const ChamberDeviceSpec spec = testing::chamberSpec("watlow-f4-style.toml");
   ASSERT_NEAR(spec.time_constant_s, 180.0, 1e-9);
   plans::ExpandOptions options;
