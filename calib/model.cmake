@@ -9,6 +9,8 @@ target_sources(imubench_calib PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/model/sensor_equation.h
   ${CMAKE_CURRENT_LIST_DIR}/model/table_chain.h
   ${CMAKE_CURRENT_LIST_DIR}/model/bench_physics.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/motion_profile.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/thermal_lag.h
   ${CMAKE_CURRENT_LIST_DIR}/sensor_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/table_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/effects.cpp

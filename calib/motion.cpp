@@ -2,14 +2,12 @@
 
 #include <algorithm>
 
+#include "calib/model/motion_profile.h"
+
 namespace imubench::calib {
 
 AxisState AxisTrajectory::at(double t) const {
-  if (phases_.empty()) return {};
-  auto it = std::upper_bound(phases_.begin(), phases_.end(), t,
-                             [](double tt, const AxisPhase& p) { return tt < p.t0; });
-  if (it == phases_.begin()) return {phases_.front().angle0, 0.0, 0.0};
-  return stateIn(*(it - 1), t);
+  return model::profileSample(phases_, t);
 }
 
 double Motion::temperatureAt(double t) const {

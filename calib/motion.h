@@ -88,9 +88,11 @@ struct Segment {
   // signed: the direction is explicit, a 180-degree reversal is +pi or -pi).
   int axis = -1;
   double angle = 0.0;
+  // For kSoak: the chamber setpoint (degC) the soak holds (the temperature history lags it).
+  double setpoint_c = 0.0;
 };
 
-// Temperature history as (t, degC) knots, linear in between, held outside.
+// Temperature history of the IMU as (t, degC) knots, linear in between, held outside.
 struct TemperatureKnot {
   double t = 0.0;
   double temp_c = 0.0;

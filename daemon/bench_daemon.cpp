@@ -130,11 +130,26 @@ Reply exportToStateDir(const std::string& db, std::int64_t run, const std::strin
   }
   if (auto st = io::writeRecording(dir, rec.recording); !st.ok)
     return errorReply(id, ErrorCode::kInternal, st.message);
-  return okReply(id, {{"run", run}, {"dir", dir}, {"imu_samples", rec.recording.imu.size()}});
+  return okReply(id, toJson(ExportReply{run, dir, rec.recording.imu.size()}));
 }
 
-json stepJson(const RunStep& s) {
-  return {{"index", s.index}, {"label", s.label}, {"kind", calib::segmentKindName(s.kind)}};
+// A runner event as its protocol event (daemon/control_protocol.h); exit: the run's, if ended.
+json runnerEventFields(const RunnerEvent& e, std::int64_t run, RunExit exit) {
+  const StepRef at{run, e.step, e.label};
+  switch (e.kind) {
+    case RunnerEvent::Kind::kState: {
+      RunStateEvent ev{at, e.message, std::nullopt};
+      if (exit != RunExit::kNone) ev.exit = runExitName(exit);  // how a run ended
+      return toJson(ev);
+    }
+    case RunnerEvent::Kind::kStepStarted:
+      return toJson(StepStartedEvent{at});
+    case RunnerEvent::Kind::kStepFinished:
+      return toJson(StepFinishedEvent{at});
+    case RunnerEvent::Kind::kAlarm:
+      return toJson(AlarmEvent{at, e.message});
+  }
+  return toJson(at);
 }
 
 }  // namespace
@@ -337,18 +352,18 @@ void BenchDaemon::reportImuProblems() {
   if (counters.restarts == imu_restarts_reported_) return;
   imu_restarts_reported_ = counters.restarts;
   limited_.report("IMU restart", LogLevel::kWarning, decoder.lastRestart(), wallNow());
-  json fields = {{"restarts", counters.restarts}, {"message", decoder.lastRestart()}};
+  ImuRestartEvent event{counters.restarts, decoder.lastRestart(), std::nullopt};
   if (run_) {
-    fields["run"] = run_->id;
+    event.run = run_->id;
     RunEvent stored;
     stored.run_id = run_->id;
     stored.wall_unix_s = unixNow();
     stored.severity = EventSeverity::kWarning;
-    stored.kind = "imu_restart";
-    stored.json = fields.dump();
+    stored.kind = ImuRestartEvent::kEvent;
+    stored.json = toJson(event).dump();
     if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
   }
-  server_->broadcast(Topic::kRun, "imu_restart", fields);
+  server_->broadcast(event);
 }
 
 void BenchDaemon::onPoll() {
@@ -381,14 +396,8 @@ void BenchDaemon::onPoll() {
 // Runner events: a segment per finished step, the run's event log, subscribers, syslog.
 void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
   for (const RunnerEvent& e : events) {
-    json fields = {{"run", run_->id}, {"step", e.step}, {"label", e.label}};
+    const json fields = runnerEventFields(e, run_->id, run_->runner->exit());
     const char* name = runnerEventKindName(e.kind);
-    if (e.kind == RunnerEvent::Kind::kState) {
-      fields["state"] = e.message;
-      const RunExit exit = run_->runner->exit();
-      if (exit != RunExit::kNone) fields["exit"] = runExitName(exit);  // how a run ended
-    }
-    if (e.kind == RunnerEvent::Kind::kAlarm) fields["message"] = e.message;
     if (e.kind == RunnerEvent::Kind::kStepStarted) run_->segment_t0 = imu_last_t_;
     if (e.kind == RunnerEvent::Kind::kStepFinished && run_->segment_t0 && imu_last_t_) {
       const RunStep& s = run_->runner->steps()[static_cast<std::size_t>(e.step)];
@@ -464,8 +473,7 @@ void BenchDaemon::closeRun() {
   if (auto st = store_->finishRun(run_->id, state, reason); !st.ok) {
     log_.error("store: " + st.message);
   }
-  server_->broadcast(Topic::kRun, "run_finished",
-                     {{"run", run_->id}, {"state", runStateName(state)}, {"exit", reason}});
+  server_->broadcast(RunFinishedEvent{run_->id, runStateName(state), reason});
   log_.info("run " + std::to_string(run_->id) + " closed: " + runStateName(state));
   run_.reset();
   notifier_.status("idle");
@@ -480,13 +488,8 @@ void BenchDaemon::onStatusTimer() {
   const PlanRunner& r = *run_->runner;
   const RunStep& s = r.displayedStep();
   const int k = s.index;
-  server_->broadcast(Topic::kStatus, "progress",
-                     {{"run", run_->id},
-                      {"state", runnerStateName(r.state())},
-                      {"progress", r.progress()},
-                      {"eta_s", r.etaS()},
-                      {"step", k},
-                      {"label", s.label}});
+  server_->broadcast(
+      ProgressEvent{run_->id, runnerStateName(r.state()), r.progress(), r.etaS(), k, s.label});
   std::ostringstream ss;
   ss << run_->plan_name << ": " << runnerStateName(r.state()) << ", step " << k + 1 << "/"
      << r.steps().size() << " (" << s.label << "), " << std::lround(100.0 * r.progress()) << " %";
@@ -576,10 +579,10 @@ Reply BenchDaemon::startLoaded(const Request& request, const std::string& name,
   auto loaded = loadPlan(name, text, bench_, &why);
   if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
   if (args.options.dry_run) {
-    return okReply(request.id, {{"dry_run", true},
-                                {"plan", loaded->plan.name},
-                                {"steps", runSteps(loaded->motion).size()},
-                                {"planned_s", loaded->motion.duration}});
+    const PlanSummary summary{loaded->plan.name,
+                              static_cast<std::int64_t>(runSteps(loaded->motion).size()),
+                              loaded->motion.duration};
+    return okReply(request.id, toJson(DryRunReply{true, summary}));
   }
   if (args.options.queue) {
     const auto waiting = store_->queueList();
@@ -635,10 +638,10 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   run_ = std::move(run);
   publish(run_->runner->takeEvents());
   log_.info("run " + std::to_string(run_->id) + " started: plan '" + run_->plan_name + "'");
-  return okReply(id, {{"run", run_->id},
-                      {"plan", run_->plan_name},
-                      {"steps", run_->runner->steps().size()},
-                      {"planned_s", run_->runner->plannedTotalS()}});
+  const PlanSummary summary{run_->plan_name,
+                            static_cast<std::int64_t>(run_->runner->steps().size()),
+                            run_->runner->plannedTotalS()};
+  return okReply(id, toJson(StartReply{run_->id, summary, std::nullopt}));
 }
 
 // Crash resume: run `run_id` (interrupted by a crash, a power loss or a stop) goes on from
@@ -723,12 +726,11 @@ Reply BenchDaemon::enqueue(const Request& request, const std::string& name,
   entry.label = std::get<StartArgs>(request.args).options.label;
   const QueueAddResult added = store_->queueAdd(entry);
   if (!added.status.ok) return errorReply(request.id, ErrorCode::kInternal, added.status.message);
-  const json queued = {
-      {"entry", added.entry_id}, {"position", added.position}, {"plan", entry.plan_name}};
+  const QueuedEvent queued{added.entry_id, added.position, entry.plan_name};
   log_.info("plan '" + entry.plan_name + "' queued: entry " + std::to_string(added.entry_id) +
             ", position " + std::to_string(added.position));
-  server_->broadcast(Topic::kRun, "queued", queued);
-  return okReply(request.id, {{"queued", queued}});
+  server_->broadcast(queued);
+  return okReply(request.id, toJson(QueuedReply{queued}));
 }
 
 // The queue's head started now (no run going). It leaves the queue only once it has started;
@@ -754,9 +756,8 @@ Reply BenchDaemon::startQueued(const json& id) {
     return r;
   }
   if (auto st = store_->queueRemove(head.id); !st.ok) log_.error("store: " + st.message);
-  r.result["entry"] = head.id;
-  server_->broadcast(Topic::kRun, "queue_started",
-                     {{"entry", head.id}, {"run", run_->id}, {"plan", run_->plan_name}});
+  r.result["entry"] = head.id;  // StartReply::entry
+  server_->broadcast(QueueStartedEvent{head.id, run_->id, run_->plan_name});
   log_.info(which + " started as run " + std::to_string(run_->id));
   return r;
 }
@@ -767,23 +768,19 @@ void BenchDaemon::advanceQueue() {
   const Reply r = startQueued(nullptr);
   if (r.ok || r.error.code == ErrorCode::kNotFound) return;
   log_.warning("queue held: " + r.error.message);
-  server_->broadcast(Topic::kRun, "queue_held", {{"reason", r.error.message}});
+  server_->broadcast(QueueHeldEvent{r.error.message});
 }
 
 Reply BenchDaemon::queueReply(const json& id) {
   const QueueListResult list = store_->queueList();
   if (!list.status.ok) return errorReply(id, ErrorCode::kInternal, list.status.message);
-  json entries = json::array();
+  QueueReply reply;
   for (std::size_t i = 0; i < list.entries.size(); ++i) {
     const QueueEntry& e = list.entries[i];
-    entries.push_back({{"entry", e.id},
-                       {"position", i + 1},
-                       {"plan", e.plan_name},
-                       {"name", e.source},
-                       {"label", e.label},
-                       {"added_unix_s", e.added_unix_s}});
+    reply.queue.push_back(
+        {e.id, static_cast<std::int64_t>(i + 1), e.plan_name, e.source, e.label, e.added_unix_s});
   }
-  return okReply(id, {{"queue", entries}});
+  return okReply(id, toJson(reply));
 }
 
 // queue_move and queue_remove; the reply is the queue as it is now.
@@ -825,7 +822,7 @@ Reply BenchDaemon::runnerCommand(const Request& request) {
       const drivers::Status st = port_->emergencyStop();
       log_.warning("emergency stop (no run)" + (st.ok ? std::string() : ": " + st.message));
     }
-    return okReply(request.id, {{"stopped", true}});
+    return okReply(request.id, toJson(StopReply{true}));
   }
   if (request.command == Command::kResume) {
     const std::optional<std::int64_t> which = std::get<ResumeArgs>(request.args).run;
@@ -839,7 +836,7 @@ Reply BenchDaemon::runnerCommand(const Request& request) {
   publish(run_->runner->takeEvents());
   if (!r.ok) return errorReply(request.id, ErrorCode::kBadState, r.message);
   return okReply(request.id,
-                 {{"run", run_->id}, {"state", runnerStateName(run_->runner->state())}});
+                 toJson(RunCommandReply{run_->id, runnerStateName(run_->runner->state())}));
 }
 
 // After a controller restart (interlock open, modes lost) the run stays paused until the
@@ -863,65 +860,64 @@ Reply BenchDaemon::rearm(const Request& request) {
     stored.run_id = run_->id;
     stored.wall_unix_s = unixNow();
     stored.severity = EventSeverity::kInfo;
-    stored.kind = "rearmed";
-    stored.json = json({{"run", run_->id}}).dump();
+    stored.kind = RearmedEvent::kEvent;
+    stored.json = toJson(RearmedEvent{run_->id}).dump();
     if (auto added = store_->addEvent(stored); !added.ok) log_.error("store: " + added.message);
-    server_->broadcast(Topic::kRun, "rearmed", {{"run", run_->id}});
+    server_->broadcast(RearmedEvent{run_->id});
     onPoll();  // a fresh observation, so a resume right after sees the closed interlock
   }
-  return okReply(request.id, {{"table", tableJson()}});
+  return okReply(request.id, toJson(RearmReply{tableStatus()}));
 }
 
 // The table as last read: what the operator needs to see to re-arm or clear it.
-json BenchDaemon::tableJson() const {
+TableStatus BenchDaemon::tableStatus() const {
   const drivers::TableReading& r = port_->lastReading();
   const char* interlock = r.interlock_tripped ? "tripped" : r.interlock_closed ? "closed" : "open";
-  json t = {{"interlock", interlock},
-            {"estop", r.estop},
-            {"fault", r.fault},
-            {"state", drivers::deviceStateName(table_->state())}};
-  if (!port_->lastTableError().empty()) t["error"] = port_->lastTableError();
+  TableStatus t{interlock, r.estop, r.fault, drivers::deviceStateName(table_->state()),
+                std::nullopt, std::nullopt, std::nullopt};
+  if (!port_->lastTableError().empty()) t.error = port_->lastTableError();
   if (!r.axes.empty()) {  // the last read's axes (none after a read that got no answer)
-    json angles = json::array();
+    std::vector<double> angles;
     bool moving = false;
     for (const drivers::TableAxisReading& a : r.axes) {
       angles.push_back(a.angle * kRadToDeg);
       moving = moving || a.moving;
     }
-    t["angles_deg"] = angles;
-    t["moving"] = moving;
+    t.angles_deg = angles;
+    t.moving = moving;
   }
   return t;
 }
 
 Reply BenchDaemon::status() const {
-  json s = {{"bench", bench_.name},
-            {"state", run_ ? runnerStateName(run_->runner->state()) : "idle"}};
-  if (imu_last_t_) s["imu_time_s"] = *imu_last_t_;
-  s["imu_lost_samples"] = imu_->decoder().counters().lost_samples;
-  s["imu_bad_frames"] = imu_->decoder().counters().badFrames();
-  s["imu_restarts"] = imu_->decoder().counters().restarts;
-  s["table"] = tableJson();
+  StatusReply s;
+  s.bench = bench_.name;
+  s.state = run_ ? runnerStateName(run_->runner->state()) : "idle";
+  s.imu_time_s = imu_last_t_;
+  s.imu_lost_samples = imu_->decoder().counters().lost_samples;
+  s.imu_bad_frames = imu_->decoder().counters().badFrames();
+  s.imu_restarts = imu_->decoder().counters().restarts;
+  s.table = tableStatus();
   if (const auto waiting = store_->queueList(); waiting.status.ok) {
-    s["queued"] = waiting.entries.size();  // plans in the queue (queue_list)
+    s.queued = waiting.entries.size();  // plans in the queue (queue_list)
   }
   if (run_) {
     const PlanRunner& r = *run_->runner;
-    s["run"] = run_->id;
-    s["plan"] = run_->plan_name;
-    s["progress"] = r.progress();
-    s["eta_s"] = r.etaS();
-    json step = stepJson(r.displayedStep());
-    step["count"] = r.steps().size();
-    s["step"] = step;
+    const RunStep& shown = r.displayedStep();
+    s.run = run_->id;
+    s.plan = run_->plan_name;
+    s.progress = r.progress();
+    s.eta_s = r.etaS();
+    s.step = StatusStep{shown.index, shown.label, calib::segmentKindName(shown.kind),
+                        static_cast<std::int64_t>(r.steps().size())};
   }
-  return okReply(nullptr, s);
+  return okReply(nullptr, toJson(s));
 }
 
 // The plan library's directory is read off the loop too (it may sit on a network share).
 std::optional<Reply> BenchDaemon::listPlans(const Request& request, ClientId client) {
   auto done = [this, client, id = request.id](std::vector<std::string> files) {
-    server_->sendReply(client, okReply(id, {{"plan_dir", bench_.plan_dir}, {"plans", files}}));
+    server_->sendReply(client, okReply(id, toJson(PlanListReply{bench_.plan_dir, files})));
   };
   std::string why;
   if (!plans_->list(done, &why)) return errorReply(request.id, ErrorCode::kBusy, why);
@@ -934,9 +930,11 @@ std::optional<Reply> BenchDaemon::validatePlan(const Request& request, ClientId 
                         std::string why;
                         const auto loaded = loadPlan(name, text, bench_, &why);
                         if (!loaded) return errorReply(request.id, ErrorCode::kBadPlan, why);
-                        return okReply(request.id, {{"plan", loaded->plan.name},
-                                                    {"steps", loaded->motion.segments.size()},
-                                                    {"planned_s", loaded->motion.duration}});
+                        const PlanSummary summary{
+                            loaded->plan.name,
+                            static_cast<std::int64_t>(loaded->motion.segments.size()),
+                            loaded->motion.duration};
+                        return okReply(request.id, toJson(ValidatePlanReply{summary}));
                       });
 }
 
@@ -945,29 +943,25 @@ Reply BenchDaemon::results(const Request& request) {
   if (!args.run) {
     const auto runs = store_->listRuns();
     if (!runs.status.ok) return errorReply(request.id, ErrorCode::kInternal, runs.status.message);
-    json list = json::array();
+    RunListReply list;
     for (const RunInfo& r : runs.runs) {
-      list.push_back({{"run", r.id},
-                      {"plan", r.start.plan_name},
-                      {"state", runStateName(r.state)},
-                      {"exit", r.exit_reason},
-                      {"started_unix_s", r.started_unix_s}});
+      list.runs.push_back(
+          {r.id, r.start.plan_name, runStateName(r.state), r.exit_reason, r.started_unix_s});
     }
-    return okReply(request.id, {{"runs", list}});
+    return okReply(request.id, toJson(list));
   }
   const auto info = store_->runInfo(*args.run);
   if (!info.status.ok) return errorReply(request.id, ErrorCode::kNotFound, info.status.message);
   ResultFilter filter;
   filter.run_id = *args.run;
   const auto stored = store_->results(filter);
-  json list = json::array();
+  RunResultsReply reply{*args.run, runStateName(info.run.state), info.run.exit_reason, {}};
   for (const StoredResult& r : stored.results) {
-    list.push_back({{"kind", r.kind}, {"json", json::parse(r.json, nullptr, false)}});
+    json doc = json::parse(r.json, nullptr, false);
+    if (doc.is_discarded()) doc = nullptr;  // unreadable stored text: null, never invalid JSON
+    reply.results.push_back({r.kind, std::move(doc)});
   }
-  return okReply(request.id, {{"run", *args.run},
-                              {"state", runStateName(info.run.state)},
-                              {"exit", info.run.exit_reason},
-                              {"results", list}});
+  return okReply(request.id, toJson(reply));
 }
 
 // Exports go only to a new directory under exports/ next to the database (the client names

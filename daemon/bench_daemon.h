@@ -106,7 +106,7 @@ class BenchDaemon {
   std::optional<Reply> exportRun(const Request& request, ClientId client);
   Reply runnerCommand(const Request& request);
   Reply rearm(const Request& request);
-  nlohmann::json tableJson() const;
+  TableStatus tableStatus() const;
 
   void onImuReadable();
   void onPoll();

@@ -386,7 +386,7 @@ std::optional<Reply> ControlServer::answer(Client& c, const Request& request) {
   }
   switch (request.command) {
     case Command::kPing:
-      return okReply(request.id, {{"pong", true}});
+      return okReply(request.id, toJson(PingReply{true}));
     case Command::kSubscribe:
     case Command::kUnsubscribe: {
       const bool on = request.command == Command::kSubscribe;
@@ -394,10 +394,11 @@ std::optional<Reply> ControlServer::answer(Client& c, const Request& request) {
                               : std::get<UnsubscribeArgs>(request.args).topics;
       if (!on && topics.empty()) c.topics.reset();
       for (const Topic t : topics) c.topics.set(static_cast<std::size_t>(t), on);
-      nlohmann::json now = nlohmann::json::array();
+      TopicsReply now;
       for (int t = 0; t < kTopicCount; ++t)
-        if (c.topics.test(static_cast<std::size_t>(t))) now.push_back(topicName(Topic(t)));
-      return okReply(request.id, {{"topics", now}});
+        if (c.topics.test(static_cast<std::size_t>(t)))
+          now.topics.emplace_back(topicName(Topic(t)));
+      return okReply(request.id, toJson(now));
     }
     default:
       break;

@@ -105,6 +105,11 @@ class ControlServer {
 
   // Sends an event to every client subscribed to topic (serialized once).
   void broadcast(Topic topic, std::string_view name, const nlohmann::json& fields = nullptr);
+  // The same for an event struct of daemon/control_protocol.h (its kTopic and kEvent).
+  template <class E>
+  void broadcast(const E& event) {
+    broadcast(E::kTopic, E::kEvent, toJson(event));
+  }
   // Queues a complete line (newline-terminated) for one client, e.g. a late reply. false when
   // the client is gone or was disconnected because its queue overflowed.
   bool send(ClientId client, std::string_view line);

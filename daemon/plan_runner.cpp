@@ -109,7 +109,8 @@ std::vector<RunStep> runSteps(const calib::Motion& motion) {
       s.axis = seg.axis;
       s.delta = seg.angle;
     }
-    s.setpoint_c = motion.temperatureAt(seg.t1);
+    s.setpoint_c =
+        seg.kind == calib::SegmentKind::kSoak ? seg.setpoint_c : motion.temperatureAt(seg.t1);
     s.recording = seg.recording;
     out.push_back(std::move(s));
   }

@@ -4,6 +4,8 @@
 #include <initializer_list>
 #include <set>
 #include <sstream>
+#include <string_view>
+#include <utility>
 
 namespace imubench::drivers {
 
@@ -36,6 +38,24 @@ void readInt(const toml::table& t, std::string_view key, int& out, Diagnostics& 
 }
 
 // Jerk ("deg/s^3") has no io::Dimension: parse it as an angular acceleration with one more /s.
+// A string field that must name one of `choices` (wire name -> value); anything else is an
+// error at the field listing the names (`what` prefixes it, default "<key> must be").
+template <class V>
+std::optional<V> choiceField(const toml::table& t, std::string_view key,
+                             std::initializer_list<std::pair<std::string_view, V>> choices,
+                             Diagnostics& diag, bool required, const std::string& what = "") {
+  auto s = strField(t, key, diag, required);
+  if (!s) return std::nullopt;
+  std::string names;
+  for (const auto& [name, value] : choices) {
+    if (*s == name) return value;
+    names += (names.empty() ? "\"" : ", \"") + std::string(name) + "\"";
+  }
+  diag.error(t.get(key)->source(),
+             (what.empty() ? std::string(key) + " must be" : what) + " one of " + names);
+  return std::nullopt;
+}
+
 std::optional<double> jerkField(const toml::table& t, std::string_view key, Diagnostics& diag) {
   const toml::node* n = t.get(key);
   if (!n) return std::nullopt;
@@ -112,29 +132,15 @@ void parseTransport(const toml::table& root, TransportSpec& tr, bool allow_seria
     }
     tr.baud = static_cast<int>(*b);
   }
-  if (auto p = strField(*t, "parity", diag, false)) {
-    if (*p == "none") {
-      tr.parity = 'N';
-    } else if (*p == "even") {
-      tr.parity = 'E';
-    } else if (*p == "odd") {
-      tr.parity = 'O';
-    } else {
-      diag.error(t->get("parity")->source(), "parity must be \"none\", \"even\" or \"odd\"");
-    }
+  if (auto p = choiceField<char>(*t, "parity", {{"none", 'N'}, {"even", 'E'}, {"odd", 'O'}}, diag,
+                                 false)) {
+    tr.parity = *p;
   }
   readInt(*t, "data_bits", tr.data_bits, diag, 5, 8);
   readInt(*t, "stop_bits", tr.stop_bits, diag, 1, 2);
-  if (auto term = strField(*t, "terminator", diag, false)) {
-    if (*term == "lf") {
-      tr.terminator = "\n";
-    } else if (*term == "cr") {
-      tr.terminator = "\r";
-    } else if (*term == "crlf") {
-      tr.terminator = "\r\n";
-    } else {
-      diag.error(t->get("terminator")->source(), "terminator must be \"lf\", \"cr\" or \"crlf\"");
-    }
+  if (auto term = choiceField<std::string_view>(
+          *t, "terminator", {{"lf", "\n"}, {"cr", "\r"}, {"crlf", "\r\n"}}, diag, false)) {
+    tr.terminator = std::string(*term);
   }
   parseRetry(*t, tr.retry, diag);
 }
@@ -165,30 +171,19 @@ void parseRegister(const toml::table& parent, const FieldRule& rule, RegisterFie
             "register \"" + std::string(rule.key) + "\"", diag);
   const size_t before = diag.items().size();
   if (auto a = intField(*t, "address", diag, true, 0, 65535)) f.address = static_cast<int>(*a);
-  if (auto ty = strField(*t, "type", diag, true)) {
-    if (*ty == "u16") {
-      f.type = RegisterType::kU16;
-    } else if (*ty == "i16") {
-      f.type = RegisterType::kI16;
-    } else if (*ty == "u32") {
-      f.type = RegisterType::kU32;
-    } else if (*ty == "i32") {
-      f.type = RegisterType::kI32;
-    } else if (*ty == "f32") {
-      f.type = RegisterType::kF32;
-    } else {
-      diag.error(t->get("type")->source(),
-                 "unknown register type \"" + *ty + "\": expected u16, i16, u32, i32 or f32");
-    }
+  if (auto ty = choiceField<RegisterType>(*t, "type",
+                                          {{"u16", RegisterType::kU16},
+                                           {"i16", RegisterType::kI16},
+                                           {"u32", RegisterType::kU32},
+                                           {"i32", RegisterType::kI32},
+                                           {"f32", RegisterType::kF32}},
+                                          diag, true, "unknown register type: type must be")) {
+    f.type = *ty;
   }
-  if (auto b = strField(*t, "bank", diag, false)) {
-    if (*b == "holding") {
-      f.bank = RegisterBank::kHolding;
-    } else if (*b == "input") {
-      f.bank = RegisterBank::kInput;
-    } else {
-      diag.error(t->get("bank")->source(), "bank must be \"holding\" or \"input\"");
-    }
+  if (auto b = choiceField<RegisterBank>(
+          *t, "bank", {{"holding", RegisterBank::kHolding}, {"input", RegisterBank::kInput}}, diag,
+          false)) {
+    f.bank = *b;
   }
   const toml::node* unit = t->get("unit");
   const toml::node* lsb = t->get("lsb");
@@ -236,12 +231,11 @@ void parseRegister(const toml::table& parent, const FieldRule& rule, RegisterFie
 }
 
 WordOrder parseWordOrder(const toml::table& t, Diagnostics& diag) {
-  auto w = strField(t, "word_order", diag, true);
-  if (!w) return WordOrder::kHighFirst;
-  if (*w == "high-first") return WordOrder::kHighFirst;
-  if (*w == "low-first") return WordOrder::kLowFirst;
-  diag.error(t.get("word_order")->source(), "word_order must be \"high-first\" or \"low-first\"");
-  return WordOrder::kHighFirst;
+  return choiceField<WordOrder>(
+             t, "word_order",
+             {{"high-first", WordOrder::kHighFirst}, {"low-first", WordOrder::kLowFirst}}, diag,
+             true)
+      .value_or(WordOrder::kHighFirst);
 }
 
 // Registers may not overlap: two fields sharing a register is a typo in the map.

@@ -49,7 +49,7 @@ void grow(const RegisterField& f, int* holding, int* input) {
 
 VirtualTableRegisters::VirtualTableRegisters(VirtualWorld& world, const TableDeviceSpec& spec,
                                              EventSink sink)
-    : world_(world), spec_(spec), sink_(std::move(sink)) {
+    : VirtualRegisters(world, spec, std::move(sink)) {
   const auto& r = spec_.registers;
   grow(r.status, &holding_, &input_);
   grow(r.control, &holding_, &input_);
@@ -145,7 +145,7 @@ void VirtualTableRegisters::written(modbus_mapping_t* m, int address, int count)
 
 VirtualChamberRegisters::VirtualChamberRegisters(VirtualWorld& world, const ChamberDeviceSpec& spec,
                                                  EventSink sink)
-    : world_(world), spec_(spec), sink_(std::move(sink)) {
+    : VirtualRegisters(world, spec, std::move(sink)) {
   const auto& r = spec_.registers;
   for (const RegisterField* f : {&r.setpoint, &r.temperature, &r.ramp_rate, &r.run, &r.alarms}) {
     grow(*f, &holding_, &input_);

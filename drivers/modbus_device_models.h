@@ -2,39 +2,42 @@
 // the driver uses says where each value lives and how it is scaled.
 #pragma once
 
+#include <utility>
+
 #include "drivers/modbus_server.h"
 #include "drivers/virtual_world.h"
 
 namespace imubench::drivers {
 
-class VirtualTableRegisters final : public ModbusDeviceModel {
+// What the virtual devices' register maps share: the world they serve, their device file,
+// where refusals are reported, and the register counts their map needs.
+template <class Spec>
+class VirtualRegisters : public ModbusDeviceModel {
  public:
-  VirtualTableRegisters(VirtualWorld& world, const TableDeviceSpec& spec, EventSink sink);
   int holdingCount() const override { return holding_; }
   int inputCount() const override { return input_; }
-  void refresh(_modbus_mapping_t* m) override;
-  void written(_modbus_mapping_t* m, int address, int count) override;
 
- private:
+ protected:
+  VirtualRegisters(VirtualWorld& world, const Spec& spec, EventSink sink)
+      : world_(world), spec_(spec), sink_(std::move(sink)) {}
   VirtualWorld& world_;
-  TableDeviceSpec spec_;
+  Spec spec_;
   EventSink sink_;
-  int holding_ = 0, input_ = 0;
+  int holding_ = 0, input_ = 0;  // set by the derived constructor from the map
 };
 
-class VirtualChamberRegisters final : public ModbusDeviceModel {
+class VirtualTableRegisters final : public VirtualRegisters<TableDeviceSpec> {
  public:
-  VirtualChamberRegisters(VirtualWorld& world, const ChamberDeviceSpec& spec, EventSink sink);
-  int holdingCount() const override { return holding_; }
-  int inputCount() const override { return input_; }
+  VirtualTableRegisters(VirtualWorld& world, const TableDeviceSpec& spec, EventSink sink);
   void refresh(_modbus_mapping_t* m) override;
   void written(_modbus_mapping_t* m, int address, int count) override;
+};
 
- private:
-  VirtualWorld& world_;
-  ChamberDeviceSpec spec_;
-  EventSink sink_;
-  int holding_ = 0, input_ = 0;
+class VirtualChamberRegisters final : public VirtualRegisters<ChamberDeviceSpec> {
+ public:
+  VirtualChamberRegisters(VirtualWorld& world, const ChamberDeviceSpec& spec, EventSink sink);
+  void refresh(_modbus_mapping_t* m) override;
+  void written(_modbus_mapping_t* m, int address, int count) override;
 };
 
 }  // namespace imubench::drivers

@@ -1,7 +1,6 @@
 #include "drivers/virtual_chamber.h"
 
 #include <algorithm>
-#include <cmath>
 
 namespace imubench::drivers {
 
@@ -9,33 +8,22 @@ VirtualChamber::VirtualChamber(const ChamberDeviceSpec& spec, double ambient_c, 
     : spec_(spec),
       ambient_c_(ambient_c),
       t_(t0),
-      temp_c_(ambient_c),
-      ramp_target_c_(ambient_c),
+      lag_{spec.time_constant_s, 0.0},
+      state_(calib::model::thermalAtRest(ambient_c)),
       setpoint_(ambient_c) {
   history_.push_back({t0, ambient_c});
 }
 
+// The chamber model (calib/model/thermal_lag.h) run to t, exactly, in steps that end on the
+// history's knot times.
 void VirtualChamber::advance(double t) {
-  if (t <= t_) return;
-  const double tau = spec_.time_constant_s;
-  // Sub-steps short against the time constant; the lag is integrated exactly per step with
-  // the ramp target held at the step's midpoint value.
-  const double max_step = std::min(1.0, tau / 20.0);
+  const double goal = running_ ? setpoint_ : ambient_c_;
   while (t_ < t) {
-    const double h = std::min(max_step, t - t_);
-    const double goal = running_ ? setpoint_ : ambient_c_;
-    double target_mid = goal;
-    if (ramp_ > 0) {
-      const double step = ramp_ * h;
-      const double next = ramp_target_c_ + std::clamp(goal - ramp_target_c_, -step, step);
-      target_mid = 0.5 * (ramp_target_c_ + next);
-      ramp_target_c_ = next;
-    } else {
-      ramp_target_c_ = goal;
-    }
-    temp_c_ = target_mid + (temp_c_ - target_mid) * std::exp(-h / tau);
-    t_ += h;
-    if (t_ - history_.back().t >= kKnotSpacing) history_.push_back({t_, temp_c_});
+    const double next_knot = history_.back().t + calib::model::kThermalKnotSpacing;
+    const double t1 = std::min(t, next_knot);
+    state_ = calib::model::advanceThermal(state_, goal, ramp_, lag_, t1 - t_);
+    t_ = t1;
+    if (t_ >= next_knot) history_.push_back({t_, state_.sensor_c});
   }
 }
 
@@ -51,7 +39,7 @@ void VirtualChamber::setRampRate(double t, double degc_per_s) {
 
 void VirtualChamber::run(double t, bool on) {
   advance(t);
-  if (on && !running_) ramp_target_c_ = temp_c_;  // the ramp starts from where the air is
+  if (on && !running_) state_.program_c = state_.air_c;  // the ramp starts from the air
   running_ = on;
 }
 
@@ -62,7 +50,7 @@ void VirtualChamber::setSensorBreak(double t, bool broken) {
 
 double VirtualChamber::temperature(double t) {
   advance(t);
-  return sensor_break_ ? spec_.temp_max_c + 50.0 : temp_c_;  // open thermocouple reads high
+  return sensor_break_ ? spec_.temp_max_c + 50.0 : state_.air_c;  // open thermocouple reads high
 }
 
 uint32_t VirtualChamber::alarmWord(double t) {
@@ -70,8 +58,8 @@ uint32_t VirtualChamber::alarmWord(double t) {
   const auto& b = spec_.alarm_bits;
   uint32_t w = 0;
   if (sensor_break_) w |= 1u << b.sensor;
-  if (!sensor_break_ && temp_c_ > spec_.temp_max_c + 2.0) w |= 1u << b.high;
-  if (!sensor_break_ && temp_c_ < spec_.temp_min_c - 2.0) w |= 1u << b.low;
+  if (!sensor_break_ && state_.air_c > spec_.temp_max_c + 2.0) w |= 1u << b.high;
+  if (!sensor_break_ && state_.air_c < spec_.temp_min_c - 2.0) w |= 1u << b.low;
   return w;
 }
 

@@ -1,11 +1,14 @@
-// The virtual thermal chamber: the setpoint is approached along the commanded ramp and the
+// The virtual thermal chamber: the bench's thermal model (calib/model/thermal_lag.h, the one
+// the plan expander predicts with): the setpoint is approached along the commanded ramp and the
 // chamber air follows with a first-order lag (time constant from the device file). Pure model
-// driven by explicit times; its temperature history becomes calib::TemperatureKnot entries.
+// driven by explicit times; its history (the IMU's temperature: the air's, as no file states
+// the IMU's own lag yet) becomes calib::TemperatureKnot entries.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
+#include "calib/model/thermal_lag.h"
 #include "calib/motion.h"
 #include "drivers/device_file.h"
 
@@ -21,12 +24,12 @@ class VirtualChamber {
   // Fault injection: sensor break (alarm bit, temperature reads the sensor's rail).
   void setSensorBreak(double t, bool broken);
 
-  double temperature(double t);
+  double temperature(double t);  // the chamber air (what its sensor reads)
   double setpoint() const { return setpoint_; }
   double rampRate() const { return ramp_; }
   bool running() const { return running_; }
   uint32_t alarmWord(double t);
-  // (t, degC) knots, at most one per `knot_spacing_s` plus every command.
+  // (t, degC) knots, one every calib::model::kThermalKnotSpacing.
   const std::vector<calib::TemperatureKnot>& history(double t);
   const ChamberDeviceSpec& spec() const { return spec_; }
 
@@ -35,15 +38,14 @@ class VirtualChamber {
 
   ChamberDeviceSpec spec_;
   double ambient_c_;
-  double t_ = 0.0;        // time the state below belongs to
-  double temp_c_;         // chamber air temperature
-  double ramp_target_c_;  // where the ramp generator is now
+  double t_ = 0.0;  // time the state below belongs to
+  calib::model::ThermalLag lag_;
+  calib::model::ThermalState state_;  // ramp generator, air and IMU at t_
   double setpoint_;
   double ramp_ = 0.0;
   bool running_ = false;
   bool sensor_break_ = false;
   std::vector<calib::TemperatureKnot> history_;
-  static constexpr double kKnotSpacing = 1.0;  // s
 };
 
 }  // namespace imubench::drivers

@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calib/model/motion_profile.h"
 #include "nav/rotation.h"
 
 namespace imubench::drivers {
 
 namespace {
-constexpr double kRestRate = 1e-9;    // rad/s: below this an axis is at rest
+using calib::model::kRestRate;        // rad/s: below this an axis is at rest
 constexpr double kInPosition = 1e-6;  // rad: position-mode target reached
 double wrapPi(double a) {
   double w = std::remainder(a, 2.0 * kPi);
@@ -76,56 +77,14 @@ bool VirtualTable::setAccelLimit(int i, double accel, std::string* why) {
   return true;
 }
 
+// The table's profile (calib/model/motion_profile.h): a rate change at acceleration a.
 void VirtualTable::planRate(double t, int i, double r, double a) {
-  const calib::AxisState s = stateAt(t, i);
-  const double dv = r - s.rate;
-  std::vector<calib::AxisPhase> ph;
-  if (std::abs(dv) < kRestRate) {
-    ph.push_back({t, s.angle, r, 0.0});
-  } else {
-    const double acc = dv > 0 ? a : -a;
-    const double t1 = std::abs(dv) / a;
-    ph.push_back({t, s.angle, s.rate, acc});
-    ph.push_back({t + t1, s.angle + s.rate * t1 + 0.5 * acc * t1 * t1, r, 0.0});
-  }
-  replan(t, i, std::move(ph));
+  replan(t, i, calib::model::rateProfile(t, stateAt(t, i), r, a));
 }
 
+// The table's profile: from the current state to rest at x1 within the axis' limits.
 void VirtualTable::planMove(double t, int i, double x1) {
-  const calib::AxisState s = stateAt(t, i);
-  const double a = accelLimit(i);
-  const double vmax = rateLimit(i);
-  const double x0 = s.angle, v0 = s.rate;
-  const double d = x1 - x0;
-  const double stop_dist = v0 * std::abs(v0) / (2.0 * a);
-  std::vector<calib::AxisPhase> ph;
-  if (std::abs(d) < 1e-12 && std::abs(v0) < kRestRate) {
-    ph.push_back({t, x1, 0.0, 0.0});
-    replan(t, i, std::move(ph));
-    return;
-  }
-  const double dir = (d - stop_dist) >= 0 ? 1.0 : -1.0;
-  // Peak speed of an accelerate-then-brake profile covering d, capped by the rate limit.
-  double vp = std::sqrt(std::max(0.0, (2.0 * a * dir * d + v0 * v0) / 2.0));
-  vp = std::min(vp, vmax);
-  const double dv1 = dir * vp - v0;
-  const double acc1 = dv1 >= 0 ? a : -a;
-  const double t1 = std::abs(dv1) / a;
-  const double x_after1 = x0 + v0 * t1 + 0.5 * acc1 * t1 * t1;
-  const double brake = dir * vp * vp / (2.0 * a);
-  const double cruise = (vp > 0) ? std::max(0.0, (x1 - brake - x_after1) * dir / vp) : 0.0;
-  const double t3 = vp / a;
-  double tt = t;
-  ph.push_back({tt, x0, v0, acc1});
-  tt += t1;
-  if (cruise > 0) {
-    ph.push_back({tt, x_after1, dir * vp, 0.0});
-    tt += cruise;
-  }
-  ph.push_back({tt, x1 - brake, dir * vp, -dir * a});
-  tt += t3;
-  ph.push_back({tt, x1, 0.0, 0.0});
-  replan(t, i, std::move(ph));
+  replan(t, i, calib::model::moveProfile(t, stateAt(t, i), x1, {rateLimit(i), accelLimit(i)}));
 }
 
 bool VirtualTable::motionAllowed(std::string* why) const {
@@ -158,13 +117,29 @@ bool VirtualTable::setMode(double t, int i, AxisMode mode, std::string* why) {
   return true;
 }
 
-bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
-  if (!motionAllowed(why)) return false;
-  auto& ax = axes_[static_cast<size_t>(i)];
-  if (ax.mode != AxisMode::kPosition) {
-    *why = "axis not in position mode";
-    return false;
+VirtualTable::Axis* VirtualTable::commandable(int i, AxisMode mode, std::string* why) {
+  if (!motionAllowed(why)) return nullptr;
+  if (i < 0 || i >= spec_.axisCount()) {
+    *why = "no axis " + std::to_string(i);
+    return nullptr;
   }
+  Axis& ax = axes_[static_cast<size_t>(i)];
+  if (ax.mode != mode) {
+    *why = mode == AxisMode::kRate ? "axis not in rate mode" : "axis not in position mode";
+    return nullptr;
+  }
+  return &ax;
+}
+
+void VirtualTable::goTo(double t, int i, double x1) {
+  Axis& ax = axes_[static_cast<size_t>(i)];
+  ax.has_target = true;
+  ax.target = x1;
+  planMove(t, i, x1);
+}
+
+bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
+  if (commandable(i, AxisMode::kPosition, why) == nullptr) return false;
   const calib::AxisState s = stateAt(t, i);
   double x1 = angle;
   if (!spec_.limits.limited_travel) {
@@ -173,39 +148,26 @@ bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
     *why = "target outside the travel range";
     return false;
   }
-  ax.has_target = true;
-  ax.target = x1;
-  planMove(t, i, x1);
+  goTo(t, i, x1);
   return true;
 }
 
 bool VirtualTable::rotateBy(double t, int i, double delta, std::string* why) {
-  if (!motionAllowed(why)) return false;
-  auto& ax = axes_[static_cast<size_t>(i)];
-  if (ax.mode != AxisMode::kPosition) {
-    *why = "axis not in position mode";
-    return false;
-  }
-  const double base = ax.has_target ? ax.target : stateAt(t, i).angle;
+  const Axis* ax = commandable(i, AxisMode::kPosition, why);
+  if (ax == nullptr) return false;
+  const double base = ax->has_target ? ax->target : stateAt(t, i).angle;
   const double x1 = base + delta;
   if (spec_.limits.limited_travel &&
       (x1 < spec_.limits.position_min || x1 > spec_.limits.position_max)) {
     *why = "rotation would leave the travel range";
     return false;
   }
-  ax.has_target = true;
-  ax.target = x1;
-  planMove(t, i, x1);
+  goTo(t, i, x1);
   return true;
 }
 
 bool VirtualTable::setRate(double t, int i, double rate, std::string* why) {
-  if (!motionAllowed(why)) return false;
-  auto& ax = axes_[static_cast<size_t>(i)];
-  if (ax.mode != AxisMode::kRate) {
-    *why = "axis not in rate mode";
-    return false;
-  }
+  if (commandable(i, AxisMode::kRate, why) == nullptr) return false;
   if (std::abs(rate) > spec_.limits.max_rate * (1 + 1e-9)) {
     *why = "rate above the limit";
     return false;

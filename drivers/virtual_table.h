@@ -1,5 +1,6 @@
 // The virtual turntable's controller physics, as a pure model driven by explicit times: every
-// command at time t plans acceleration-limited motion from the axis' current state and the
+// command at time t plans the table's motion profile (calib/model/motion_profile.h, the one
+// the plan expander predicts with) from the axis' current state and the
 // motion becomes calib::AxisPhase entries of a growing calib::Motion (so the simulator can
 // run on exactly what the table did). Phases are kept pending until their start time has
 // passed, so a new command can replace the rest of a plan.
@@ -85,6 +86,11 @@ class VirtualTable {
   // Change to a constant rate r with acceleration a.
   void planRate(double t, int i, double r, double a);
   bool motionAllowed(std::string* why) const;
+  // Axis i when it may take a command of `mode` now (motion allowed, the axis in that mode);
+  // nullptr and *why otherwise.
+  Axis* commandable(int i, AxisMode mode, std::string* why);
+  // Position target x1 (continuous angle) set and the move there planned.
+  void goTo(double t, int i, double x1);
   void brakeAll(double t);
 
   TableDeviceSpec spec_;

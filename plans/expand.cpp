@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calib/model/motion_profile.h"
+#include "calib/model/thermal_lag.h"
 #include "nav/rotation.h"
 
 namespace imubench::plans {
@@ -14,64 +16,61 @@ bool ExpandOptions::IsValid(std::string* why) const {
       return false;
     }
   }
+  for (double tau : {thermal.chamber_tau_s, thermal.sensor_tau_s}) {
+    if (!std::isfinite(tau) || tau < 0.0) {
+      if (why) *why = "thermal time constants must be finite and non-negative";
+      return false;
+    }
+  }
   return true;
 }
 
 double profileDuration(double delta, double max_rate, double max_accel) {
-  const double d = std::abs(delta);
-  if (d == 0.0) return 0.0;
-  if (d >= max_rate * max_rate / max_accel)
-    return 2.0 * max_rate / max_accel + (d - max_rate * max_rate / max_accel) / max_rate;
-  return 2.0 * std::sqrt(d / max_accel);
-}
-
-double appendProfile(calib::AxisTrajectory& axis, double t0, double angle0, double delta,
-                     double max_rate, double max_accel) {
-  if (delta == 0.0) return 0.0;
-  const double s = delta > 0.0 ? 1.0 : -1.0;
-  const double d = std::abs(delta);
-  double t_acc = 0.0;     // time to reach the peak rate
-  double t_cruise = 0.0;  // time at the peak rate
-  double peak = 0.0;
-  if (d >= max_rate * max_rate / max_accel) {  // trapezoid
-    peak = max_rate;
-    t_acc = max_rate / max_accel;
-    t_cruise = (d - max_rate * max_rate / max_accel) / max_rate;
-  } else {  // triangle: the turn is too short to reach max_rate
-    peak = std::sqrt(d * max_accel);
-    t_acc = peak / max_accel;
-  }
-  const double d_acc = 0.5 * max_accel * t_acc * t_acc;
-  axis.append({t0, angle0, 0.0, s * max_accel});
-  if (t_cruise > 0.0) axis.append({t0 + t_acc, angle0 + s * d_acc, s * peak, 0.0});
-  axis.append({t0 + t_acc + t_cruise, angle0 + s * (d - d_acc), s * peak, -s * max_accel});
-  const double total = 2.0 * t_acc + t_cruise;
-  axis.append({t0 + total, angle0 + delta, 0.0, 0.0});
-  return total;
+  return calib::model::moveDuration(delta, {max_rate, max_accel});
 }
 
 namespace {
 
-// Constant-rate run: ramp to `rate` (signed), hold it for `duration`, ramp down. Returns the
-// total time; *turned receives the signed angle turned.
+// The model's rest-to-rest move from angle0 to `target` appended to `axis`; its duration.
+double appendProfileTo(calib::AxisTrajectory& axis, double t0, double angle0, double target,
+                       double max_rate, double max_accel) {
+  if (target == angle0) return 0.0;
+  const auto phases = calib::model::moveProfile(t0, calib::AxisState{angle0, 0.0, 0.0}, target,
+                                                {max_rate, max_accel});
+  for (const calib::AxisPhase& p : phases) axis.append(p);
+  return calib::model::profileDuration(phases);
+}
+
+}  // namespace
+
+double appendProfile(calib::AxisTrajectory& axis, double t0, double angle0, double delta,
+                     double max_rate, double max_accel) {
+  if (delta == 0.0) return 0.0;
+  return appendProfileTo(axis, t0, angle0, angle0 + delta, max_rate, max_accel);
+}
+
+namespace {
+
+// Constant-rate run, as the table does it when told: change to `rate` (signed), hold it for
+// `duration` after reaching it, change back to 0. Returns the total time; *turned receives
+// the signed angle turned.
 double appendRateRun(calib::AxisTrajectory& axis, double t0, double angle0, double rate,
                      double duration, double max_accel, double* turned) {
-  const double s = rate > 0.0 ? 1.0 : -1.0;
-  const double t_acc = std::abs(rate) / max_accel;
-  const double d_acc = 0.5 * rate * t_acc;  // signed
-  axis.append({t0, angle0, 0.0, s * max_accel});
-  axis.append({t0 + t_acc, angle0 + d_acc, rate, 0.0});
-  axis.append({t0 + t_acc + duration, angle0 + d_acc + rate * duration, rate, -s * max_accel});
-  *turned = rate * (t_acc + duration);
-  axis.append({t0 + 2.0 * t_acc + duration, angle0 + *turned, 0.0, 0.0});
-  return 2.0 * t_acc + duration;
+  const auto up = calib::model::rateProfile(t0, {angle0, 0.0, 0.0}, rate, max_accel);
+  const double t_stop = up.back().t0 + duration;
+  const auto down =
+      calib::model::rateProfile(t_stop, calib::model::profileSample(up, t_stop), 0.0, max_accel);
+  for (const calib::AxisPhase& p : up) axis.append(p);
+  for (const calib::AxisPhase& p : down) axis.append(p);
+  *turned = down.back().angle0 - angle0;
+  return down.back().t0 - t0;
 }
 
 constexpr long kMaxSegments = 10000000;  // beyond this a plan is surely a typo'd repeat count
 
 class Expander {
  public:
-  Expander(const Plan& plan, const ExpandOptions& options) : plan_(plan) {
+  Expander(const Plan& plan, const ExpandOptions& options) : plan_(plan), lag_(options.thermal) {
     const int n = calib::axisCount(plan.table.kind);
     m_.kind = plan.table.kind;
     m_.axes.resize(static_cast<size_t>(n));
@@ -84,8 +83,9 @@ class Expander {
     }
     recording_ = plan.recording_at_start;
     if (plan.chamber) {
-      temp_ = plan.chamber->initial.value;
-      m_.temperature.push_back({0.0, temp_});
+      goal_ = plan.chamber->initial.value;
+      therm_ = calib::model::thermalAtRest(goal_);
+      m_.temperature.push_back({0.0, goal_});
     }
   }
 
@@ -93,7 +93,7 @@ class Expander {
     if (!steps(plan_.steps, "", error)) return false;
     m_.duration = t_;
     if (!m_.temperature.empty() && m_.temperature.back().t < t_) {
-      m_.temperature.push_back({t_, temp_});
+      m_.temperature.push_back({t_, therm_.sensor_c});
     }
     return true;
   }
@@ -105,16 +105,21 @@ class Expander {
   calib::Motion m_;
   std::vector<double> angle_;  // current angle per axis, rad (continuous)
   double t_ = 0.0;
-  double temp_ = 20.0;
+  // The chamber (plans with [chamber] only): the model's state, its goal and ramp rate.
+  calib::model::ThermalLag lag_;
+  calib::model::ThermalState therm_;
+  double goal_ = 20.0;  // degC
+  double ramp_ = 0.0;   // degC/s
   bool recording_ = true;
 
   static std::string where(const Step& s) {
     return "line " + std::to_string(s.where.line) + " (" + stepTypeName(s.type) + ")";
   }
 
-  void addSegment(double t0, double t1, calib::SegmentKind kind, const std::string& label,
-                  int axis = -1, double angle = 0.0) {
-    if (t1 <= t0) return;
+  // The new segment, or nullptr when it has no length (left out).
+  calib::Segment* addSegment(double t0, double t1, calib::SegmentKind kind,
+                             const std::string& label, int axis = -1, double angle = 0.0) {
+    if (t1 <= t0) return nullptr;
     calib::Segment seg;
     seg.t0 = t0;
     seg.t1 = t1;
@@ -124,28 +129,115 @@ class Expander {
     seg.axis = axis;
     seg.angle = angle;
     m_.segments.push_back(std::move(seg));
+    return &m_.segments.back();
   }
 
-  bool limits(const Step& s, int axis, double* rate, double* accel, std::string* error) {
-    const EffectiveLimits lim = limitsFor(plan_.table, axis);
+  // A temperature knot now (the IMU's temperature), unless there is one already.
+  void addKnot() {
+    if (m_.temperature.empty() || m_.temperature.back().t < t_) {
+      m_.temperature.push_back({t_, therm_.sensor_c});
+    }
+  }
+
+  // Time runs on to t1; with a chamber its model (calib/model/thermal_lag.h) runs along,
+  // leaving knots at the end of every ramp and, while a lag still settles, every
+  // kThermalKnotSpacing (the virtual chamber's history spacing).
+  void advanceTime(double t1) {
+    const bool lagging = lag_.chamber_tau_s > 0.0 || lag_.sensor_tau_s > 0.0;
+    while (plan_.chamber && t_ < t1) {
+      const double ramp_end = t_ + calib::model::rampTime(therm_, goal_, ramp_);
+      const bool settling = lagging && !calib::model::thermalSettled(therm_, goal_);
+      double tn = ramp_end > t_ ? std::min(t1, ramp_end) : t1;
+      if (settling) {
+        const double spacing = calib::model::kThermalKnotSpacing;
+        const double next = std::max(m_.temperature.back().t + spacing, t_ + 1e-3 * spacing);
+        tn = std::min(tn, next);
+      }
+      therm_ = calib::model::advanceThermal(therm_, goal_, ramp_, lag_, tn - t_);
+      t_ = tn;
+      if (settling || t_ == ramp_end) addKnot();
+    }
+    t_ = t1;
+  }
+
+  // The axis a step names and the profile it moves with: the step's rate/accel, else the
+  // table's limits for that axis.
+  struct AxisProfile {
+    int axis = 0;
+    size_t ui = 0;  // the same, as an index
+    double rate = 0.0;
+    double accel = 0.0;
+  };
+  bool profileOf(const Step& s, const std::string& name, AxisProfile* out, std::string* error) {
+    const auto i = axisIndex(plan_.table.kind, name);
+    if (!i) {
+      *error = where(s) + ": unknown axis \"" + name + "\"";
+      return false;
+    }
+    const EffectiveLimits lim = limitsFor(plan_.table, *i);
     const auto r = s.rate ? std::optional<double>(std::abs(s.rate->value)) : lim.max_rate;
     const auto a = s.accel ? std::optional<double>(s.accel->value) : lim.max_accel;
     if (!r || !a || !(*r > 0.0) || !(*a > 0.0)) {
       *error = where(s) + ": no usable rate/accel limit for this axis (validate the plan)";
       return false;
     }
-    *rate = *r;
-    *accel = *a;
+    *out = {*i, static_cast<size_t>(*i), *r, *a};
     return true;
   }
 
-  bool axisOf(const Step& s, const std::string& name, int* idx, std::string* error) {
-    auto i = axisIndex(plan_.table.kind, name);
-    if (!i) {
-      *error = where(s) + ": unknown axis \"" + name + "\"";
-      return false;
+  // move: every named axis from where it is to its target at once; done when the last arrives.
+  bool move(const Step& s, const std::string& label, std::string* error) {
+    double longest = 0.0;
+    int moved = 0;
+    int moved_axis = -1;
+    double moved_delta = 0.0;
+    for (const AxisTarget& target : s.targets) {
+      AxisProfile p;
+      if (!profileOf(s, target.axis, &p, error)) return false;
+      const bool limited = limitsFor(plan_.table, p.axis).limited;
+      double delta = target.angle.value - angle_[p.ui];
+      if (!limited) delta = std::remainder(delta, 2.0 * kPi);  // shortest way
+      // Keep the angle continuous; on limited axes land exactly on the written target.
+      const double to = limited ? target.angle.value : angle_[p.ui] + delta;
+      const double d = appendProfileTo(m_.axes[p.ui], t_, angle_[p.ui], to, p.rate, p.accel);
+      angle_[p.ui] = to;
+      if (delta != 0.0) {
+        ++moved;
+        moved_axis = p.axis;
+        moved_delta = delta;
+      }
+      longest = std::max(longest, d);
     }
-    *idx = *i;
+    if (moved == 1) {
+      addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label, moved_axis, moved_delta);
+    } else {
+      addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label);
+    }
+    advanceTime(t_ + longest);
+    return true;
+  }
+
+  // rotate (by an angle) and rate (a constant-rate run): one axis turns.
+  bool turn(const Step& s, const std::string& label, std::string* error) {
+    AxisProfile p;
+    if (!profileOf(s, s.axis, &p, error)) return false;
+    double d = 0.0;
+    double turned = 0.0;
+    if (s.type == StepType::kRotate) {
+      d = appendProfile(m_.axes[p.ui], t_, angle_[p.ui], s.angle.value, p.rate, p.accel);
+      turned = s.angle.value;
+      angle_[p.ui] += turned;
+    } else {
+      if (!(s.duration.value > 0.0) || !s.rate || s.rate->value == 0.0) {
+        *error = where(s) + ": rate run needs a nonzero rate and a positive duration";
+        return false;
+      }
+      d = appendRateRun(m_.axes[p.ui], t_, angle_[p.ui], s.rate->value, s.duration.value, p.accel,
+                        &turned);
+      angle_[p.ui] = m_.axes[p.ui].phases().back().angle0;  // where the table stops
+    }
+    addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, p.axis, turned);
+    advanceTime(t_ + d);
     return true;
   }
 
@@ -173,70 +265,14 @@ class Expander {
           return false;
         }
         addSegment(t_, t_ + s.duration.value, calib::SegmentKind::kStatic, label);
-        t_ += s.duration.value;
+        advanceTime(t_ + s.duration.value);
         return true;
       }
-      case StepType::kMove: {
-        double longest = 0.0;
-        int moved = 0;
-        int moved_axis = -1;
-        double moved_delta = 0.0;
-        for (const AxisTarget& target : s.targets) {
-          int i = 0;
-          double rate = 0.0, accel = 0.0;
-          if (!axisOf(s, target.axis, &i, error) || !limits(s, i, &rate, &accel, error)) {
-            return false;
-          }
-          const auto ui = static_cast<size_t>(i);
-          const bool limited = limitsFor(plan_.table, i).limited;
-          double delta = target.angle.value - angle_[ui];
-          if (!limited) delta = std::remainder(delta, 2.0 * kPi);  // shortest way
-          const double d = appendProfile(m_.axes[ui], t_, angle_[ui], delta, rate, accel);
-          // Keep the angle continuous; on limited axes land exactly on the written target.
-          angle_[ui] = limited ? target.angle.value : angle_[ui] + delta;
-          if (delta != 0.0) {
-            ++moved;
-            moved_axis = i;
-            moved_delta = delta;
-          }
-          longest = std::max(longest, d);
-        }
-        if (moved == 1) {
-          addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label, moved_axis, moved_delta);
-        } else {
-          addSegment(t_, t_ + longest, calib::SegmentKind::kMove, label);
-        }
-        t_ += longest;
-        return true;
-      }
-      case StepType::kRotate: {
-        int i = 0;
-        double rate = 0.0, accel = 0.0;
-        if (!axisOf(s, s.axis, &i, error) || !limits(s, i, &rate, &accel, error)) return false;
-        const auto ui = static_cast<size_t>(i);
-        const double d = appendProfile(m_.axes[ui], t_, angle_[ui], s.angle.value, rate, accel);
-        angle_[ui] += s.angle.value;
-        addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, s.angle.value);
-        t_ += d;
-        return true;
-      }
-      case StepType::kRate: {
-        int i = 0;
-        double rate = 0.0, accel = 0.0;
-        if (!axisOf(s, s.axis, &i, error) || !limits(s, i, &rate, &accel, error)) return false;
-        if (!(s.duration.value > 0.0) || !s.rate || s.rate->value == 0.0) {
-          *error = where(s) + ": rate run needs a nonzero rate and a positive duration";
-          return false;
-        }
-        const auto ui = static_cast<size_t>(i);
-        double turned = 0.0;
-        const double d = appendRateRun(m_.axes[ui], t_, angle_[ui], s.rate->value, s.duration.value,
-                                       accel, &turned);
-        angle_[ui] += turned;
-        addSegment(t_, t_ + d, calib::SegmentKind::kRotate, label, i, turned);
-        t_ += d;
-        return true;
-      }
+      case StepType::kMove:
+        return move(s, label, error);
+      case StepType::kRotate:
+      case StepType::kRate:
+        return turn(s, label, error);
       case StepType::kChamber: {
         if (!plan_.chamber) {
           *error = where(s) + ": chamber step without a [chamber] section";
@@ -247,14 +283,15 @@ class Expander {
           *error = where(s) + ": ramp must be positive and soak non-negative";
           return false;
         }
-        const double t_ramp = std::abs(s.setpoint.value - temp_) / ramp;
-        if (m_.temperature.empty() || m_.temperature.back().t < t_) {
-          m_.temperature.push_back({t_, temp_});
+        const double t_ramp = calib::model::rampTime(therm_, s.setpoint.value, ramp);
+        addKnot();
+        goal_ = s.setpoint.value;
+        ramp_ = ramp;
+        if (calib::Segment* seg =
+                addSegment(t_, t_ + t_ramp + s.soak.value, calib::SegmentKind::kSoak, label)) {
+          seg->setpoint_c = goal_;
         }
-        if (t_ramp > 0.0) m_.temperature.push_back({t_ + t_ramp, s.setpoint.value});
-        temp_ = s.setpoint.value;
-        addSegment(t_, t_ + t_ramp + s.soak.value, calib::SegmentKind::kSoak, label);
-        t_ += t_ramp + s.soak.value;
+        advanceTime(t_ + t_ramp + s.soak.value);
         return true;
       }
       case StepType::kRecord:

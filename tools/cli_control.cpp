@@ -19,26 +19,16 @@
 // An ok=false reply prints "error (code): message" and exits 1; so does a daemon that cannot
 // be reached (naming the socket). watch exits 0 when the run completed, 1 otherwise.
 //
-// ASSUMED daemon fields (the protocol fixes requests and the reply/event envelope, not yet
-// what status and the run events carry). Everything is optional: what is missing is not shown.
-//   status result: {"state":"running","run":12,"plan":"name",
-//                   "step":{"index":3,"count":45,"label":"..."},"progress":0.31,"eta_s":812.5}
-//                  (a finished run may add "exit":"completed"|"aborted"|"emergency_stop", the
-//                  RunExit names of daemon/plan_runner.h; "step" may also be a bare index)
-//   start result:  {"run":12,"plan":"name"} (anything else is printed as key: value)
-//   results:       printed generically (key: value; arrays one element per line)
-//   events, topic "run":
-//     {"event":"state","state":"paused"}  (finished runs: + "exit"; states are the
-//                                            RunnerState names: idle running paused aborting
-//                                            finished faulted)
-//     {"event":"step_started","step":3,"label":"..."}   {"event":"step_finished","step":3,...}
-//     {"event":"alarm","message":"..."}
-//   events, topic "status":
-//     {"event":"progress","progress":0.31,"eta_s":812.5,"step":3,"label":"..."}
-//     {"event":"estimate","parameter":"gyro.bias.x","value":1.2e-5,"sigma":3e-7[,"unit":".."]}
-//     {"event":"status",...}  (a periodic snapshot shaped like the status result)
+// The daemon's replies and events are the typed structs of daemon/control_protocol.h, read with
+// its fromJson / parseEvent (the daemon builds them with the same structs): status ->
+// StatusReply, start -> StartReply / DryRunReply / QueuedReply, queue commands -> QueueReply,
+// pause/resume/abort -> RunCommandReply; the watch fold reads the events RunStateEvent,
+// StepStartedEvent, StepFinishedEvent, ProgressEvent, AlarmEvent and RunFinishedEvent. A reply
+// that does not read is an error naming the field; an unreadable alarm is still shown.
+// results is printed generically (key: value; arrays one element per line). "estimate" and
+// "log" events are not part of the protocol yet and are shown as text when they come.
 // The run has ended when its state is finished (completed unless "exit" says otherwise),
-// faulted, aborted or interrupted. Without "progress" the percentage is step/count.
+// faulted, aborted or interrupted. Without a progress figure the percentage is step/count.
 #include "tools/cli_control.h"
 
 #include <sys/ioctl.h>
@@ -53,6 +43,7 @@
 #include <memory>
 #include <sstream>
 
+#include "daemon/control_protocol.h"
 #include "io/file_io.h"
 #include "tools/cli_common.h"
 #include "tools/control_client.h"
@@ -65,13 +56,6 @@ namespace {
 
 std::string dumpJson(const json& j) {
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
-}
-
-std::optional<long long> intField(const json& j, const char* key) {
-  const auto it = j.find(key);
-  if (it == j.end() || !it->is_number()) return std::nullopt;
-  if (it->is_number_float()) return static_cast<long long>(std::llround(it->get<double>()));
-  return it->get<long long>();
 }
 
 std::optional<double> numField(const json& j, const char* key) {
@@ -93,27 +77,17 @@ bool isEndState(const std::string& state) {
   return state == "finished" || state == "faulted" || state == "aborted" || state == "interrupted";
 }
 
-// The fields status results, progress and status events share.
-void applyCommon(WatchState& s, const json& j) {
-  if (!j.is_object()) return;
-  if (!s.ended()) {
-    if (auto v = textField(j, "state")) s.state = *v;
-    if (auto v = textField(j, "exit")) s.exit = *v;
-  }
-  if (auto v = intField(j, "run")) s.run = v;
-  if (auto v = textField(j, "plan")) s.plan = *v;
-  if (auto v = numField(j, "progress")) s.progress = std::clamp(*v, 0.0, 1.0);
-  if (auto v = numField(j, "eta_s")) s.eta_s = std::max(*v, 0.0);
-  if (auto v = textField(j, "label")) s.label = *v;
-  if (auto v = intField(j, "count")) s.count = v;
-  const auto step = j.find("step");
-  if (step != j.end() && step->is_object()) {
-    if (auto v = intField(*step, "index")) s.step = v;
-    if (auto v = intField(*step, "count")) s.count = v;
-    if (auto v = textField(*step, "label")) s.label = *v;
-  } else if (auto v = intField(j, "step")) {
-    s.step = v;
-  }
+// A run's state (and exit), unless the run has ended already: an end state sticks.
+void applyState(WatchState& s, const std::string& state, const std::optional<std::string>& exit) {
+  if (s.ended()) return;
+  s.state = state;
+  if (exit) s.exit = *exit;
+}
+
+void applyStep(WatchState& s, const daemon::StepRef& at) {
+  s.run = at.run;
+  s.step = at.step;
+  s.label = at.label;
 }
 
 std::string formatNumber(double v) {
@@ -134,29 +108,72 @@ bool WatchState::completed() const {
 }
 
 void applyStatus(WatchState& s, const json& result) {
-  applyCommon(s, result);
+  const auto st = daemon::fromJson<daemon::StatusReply>(result, nullptr);
+  if (!st) return;  // not a status reply: nothing to fold
+  applyState(s, st->state, std::nullopt);
+  if (st->run) s.run = *st->run;
+  if (st->plan) s.plan = *st->plan;
+  if (st->progress) s.progress = std::clamp(*st->progress, 0.0, 1.0);
+  if (st->eta_s) s.eta_s = std::max(*st->eta_s, 0.0);
+  if (st->step) {
+    s.step = st->step->index;
+    s.count = st->step->count;
+    s.label = st->step->label;
+  }
 }
+
+namespace {
+
+// The run events that move the bar; false when name is none of them.
+bool applyRunEvent(WatchState& s, const std::string& name, const json& event) {
+  using namespace daemon;
+  if (name == RunStateEvent::kEvent) {
+    if (auto e = parseEvent<RunStateEvent>(event, nullptr)) {
+      applyStep(s, e->at);
+      applyState(s, e->state, e->exit);
+    }
+  } else if (name == StepStartedEvent::kEvent) {
+    if (auto e = parseEvent<StepStartedEvent>(event, nullptr)) applyStep(s, e->at);
+  } else if (name == StepFinishedEvent::kEvent) {
+    if (auto e = parseEvent<StepFinishedEvent>(event, nullptr)) {
+      applyStep(s, e->at);
+      // The steps done so far (indices are 0-based) until the next progress event.
+      if (s.count && *s.count > 0) {
+        s.progress = std::clamp(static_cast<double>(e->at.step + 1) / static_cast<double>(*s.count),
+                                0.0, 1.0);
+      }
+    }
+  } else if (name == ProgressEvent::kEvent) {
+    if (auto e = parseEvent<ProgressEvent>(event, nullptr)) {
+      s.run = e->run;
+      applyState(s, e->state, std::nullopt);
+      s.progress = std::clamp(e->progress, 0.0, 1.0);
+      s.eta_s = std::max(e->eta_s, 0.0);
+      s.step = e->step;
+      s.label = e->label;
+    }
+  } else if (name == RunFinishedEvent::kEvent) {
+    if (auto e = parseEvent<RunFinishedEvent>(event, nullptr)) {
+      s.run = e->run;
+      applyState(s, e->state, e->exit);
+    }
+  } else {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
 
 void applyEvent(WatchState& s, const json& event, std::vector<std::string>* notes) {
   if (!event.is_object() || !event.contains("event") || !event["event"].is_string()) return;
   const std::string name = event["event"].get<std::string>();
-  if (name == "state" || name == "progress" || name == "status" || name == "step_started" ||
-      name == "step_finished") {
-    applyCommon(s, event);
-    if (name == "step_finished" && !event.contains("progress") && s.step && s.count &&
-        *s.count > 0) {
-      // Without a progress field: the steps done so far (indices taken as 0-based).
-      s.progress =
-          std::clamp(static_cast<double>(*s.step + 1) / static_cast<double>(*s.count), 0.0, 1.0);
-    }
-    return;
-  }
+  if (applyRunEvent(s, name, event)) return;
   if (notes == nullptr) return;
-  if (name == "alarm") {
-    std::string line = "ALARM";
-    if (auto step = intField(event, "step")) line += " at step " + std::to_string(*step);
-    line += ": " + textField(event, "message").value_or("(no message)");
-    notes->push_back(line);
+  if (name == daemon::AlarmEvent::kEvent) {
+    std::string why;
+    const auto e = daemon::parseEvent<daemon::AlarmEvent>(event, &why);
+    notes->push_back("ALARM: " + (e ? e->message : "(unreadable: " + why + ")"));
   } else if (name == "estimate") {
     std::string line = "estimate " + textField(event, "parameter").value_or("?");
     if (auto v = numField(event, "value")) line += " = " + formatNumber(*v);
@@ -260,6 +277,15 @@ json exchange(const ControlOptions& o, ControlClient& c, json req) {
   return reply.contains("result") ? reply["result"] : json::object();
 }
 
+// A reply's result as the protocol's struct R; one that does not read fails the command.
+template <class R>
+R readReply(const json& result, const char* cmd) {
+  std::string why;
+  auto r = daemon::fromJson<R>(result, &why);
+  if (!r) throw CommandFailed(std::string("imubenchd's reply to ") + cmd + ": " + why);
+  return std::move(*r);
+}
+
 // A result the CLI has no special layout for: "key: value" lines; arrays one element a line.
 void printGeneric(const json& j, const std::string& indent = "") {
   if (!j.is_object()) {
@@ -292,31 +318,26 @@ void printGeneric(const json& j, const std::string& indent = "") {
 }
 
 void printStatus(const json& r) {
+  const auto st = readReply<daemon::StatusReply>(r, "status");
   WatchState s;
   applyStatus(s, r);
-  std::cout << "state: " << (s.state.empty() ? "?" : s.state);
-  if (!s.exit.empty()) std::cout << " (" << s.exit << ")";
-  std::cout << "\n";
-  if (s.run || !s.plan.empty()) {
-    std::cout << (s.run ? "run " + std::to_string(*s.run) : std::string("run"));
-    if (!s.plan.empty()) std::cout << ", plan " << s.plan;
+  std::cout << "state: " << st.state << "\n";
+  if (st.run) std::cout << "run " << *st.run << ", plan " << st.plan.value_or("?") << "\n";
+  if (st.step) {
+    std::cout << "step " << st.step->index << "/" << st.step->count << " (" << st.step->kind << ")";
+    if (!st.step->label.empty()) std::cout << ": " << st.step->label;
     std::cout << "\n";
   }
-  if (s.step) {
-    std::cout << "step " << *s.step;
-    if (s.count) std::cout << "/" << *s.count;
-    if (!s.label.empty()) std::cout << ": " << s.label;
-    std::cout << "\n";
-  }
-  if (s.progress || s.eta_s) {
-    std::cout << formatProgressLine(s, 0) << "\n";
-  }
-  // What this CLI does not know yet is still shown.
-  json rest = r.is_object() ? r : json::object();
-  for (const char* k : {"state", "exit", "run", "plan", "step", "progress", "eta_s", "label"}) {
-    rest.erase(k);
-  }
-  printGeneric(rest);
+  if (st.progress || st.eta_s) std::cout << formatProgressLine(s, 0) << "\n";
+  if (st.queued) std::cout << "queued plans: " << *st.queued << "\n";
+  const daemon::TableStatus& t = st.table;
+  std::cout << "bench " << st.bench << ": table " << t.state << ", interlock " << t.interlock
+            << (t.estop ? ", EMERGENCY STOP" : "") << (t.fault ? ", FAULT" : "");
+  if (t.error) std::cout << " (" << *t.error << ")";
+  std::cout << "\nimu: ";
+  if (st.imu_time_s) std::cout << "t " << formatNumber(*st.imu_time_s) << " s, ";
+  std::cout << "lost samples " << st.imu_lost_samples << ", bad frames " << st.imu_bad_frames
+            << ", restarts " << st.imu_restarts << "\n";
 }
 
 int terminalWidth() {
@@ -380,10 +401,9 @@ std::string readPlanText(const std::string& path) {
   return std::move(f.text);
 }
 
-void printQueued(const json& q) {
-  std::cout << "queued as entry " << textField(q, "entry").value_or("?") << " at position "
-            << textField(q, "position").value_or("?");
-  if (auto plan = textField(q, "plan")) std::cout << " (plan " << *plan << ")";
+void printQueued(const daemon::QueuedEvent& q) {
+  std::cout << "queued as entry " << q.entry << " at position " << q.position << " (plan " << q.plan
+            << ")";
   std::cout << "; it starts when the runs before it have completed\n";
 }
 
@@ -415,27 +435,30 @@ void runStart(const StartOptions& o) {
     if (o.watch) subscribeForWatch(c, o.ctl);  // before start: no event of the run is missed
     const json r = exchange(o.ctl, c, req);
     if (r.contains("queued")) {
-      if (!o.ctl.json) printQueued(r["queued"]);
+      const auto q = readReply<daemon::QueuedReply>(r, "start");
+      if (!o.ctl.json) printQueued(q.queued);
       return;  // a queued plan has no run to watch yet
     }
-    if (!o.ctl.json) {
-      WatchState s;
-      applyStatus(s, r);
-      if (o.dry_run) {
-        std::cout << "dry run: " << plan.string() << " accepted\n";
-      } else {
-        std::cout << "started " << (s.run ? "run " + std::to_string(*s.run) : std::string("run"));
-        if (!s.plan.empty()) std::cout << " (plan " << s.plan << ")";
-        if (!o.label.empty()) std::cout << " label \"" << o.label << "\"";
-        std::cout << "\n";
+    if (o.dry_run) {
+      const auto d = readReply<daemon::DryRunReply>(r, "start");
+      if (!o.ctl.json) {
+        std::cout << "dry run: " << plan.string() << " accepted: plan " << d.summary.plan << ", "
+                  << d.summary.steps << " steps, " << formatDuration(d.summary.planned_s)
+                  << " planned\n";
       }
-      json rest = r;
-      for (const char* k : {"run", "plan"}) rest.erase(k);
-      printGeneric(rest, "  ");
+      return;
+    }
+    const auto started = readReply<daemon::StartReply>(r, "start");
+    if (!o.ctl.json) {
+      std::cout << "started run " << started.run << " (plan " << started.summary.plan << ")";
+      if (!o.label.empty()) std::cout << " label \"" << o.label << "\"";
+      std::cout << ": " << started.summary.steps << " steps, "
+                << formatDuration(started.summary.planned_s) << " planned\n";
     }
     if (!o.watch) return;
     WatchState s;
-    applyStatus(s, r);
+    s.run = started.run;
+    s.plan = started.summary.plan;
     applyStatus(s, exchange(ControlOptions{o.ctl.socket, false}, c, {{"cmd", "status"}}));
     followRun(c, s, o.ctl.json);
   });
@@ -443,18 +466,15 @@ void runStart(const StartOptions& o) {
 
 // ---- the plan queue ----
 void printQueue(const json& r) {
-  const json entries = r.value("queue", json::array());
-  if (entries.empty()) {
+  const auto q = readReply<daemon::QueueReply>(r, "queue");
+  if (q.queue.empty()) {
     std::cout << "the queue is empty\n";
     return;
   }
   std::cout << "pos  entry  plan  (file)  label\n";
-  for (const json& e : entries) {
-    std::cout << textField(e, "position").value_or("?") << "  "
-              << textField(e, "entry").value_or("?") << "  " << textField(e, "plan").value_or("?");
-    if (auto name = textField(e, "name")) std::cout << "  (" << *name << ")";
-    if (auto label = textField(e, "label"); label && !label->empty())
-      std::cout << "  \"" << *label << "\"";
+  for (const daemon::QueueListEntry& e : q.queue) {
+    std::cout << e.position << "  " << e.entry << "  " << e.plan << "  (" << e.name << ")";
+    if (!e.label.empty()) std::cout << "  \"" << e.label << "\"";
     std::cout << "\n";
   }
 }
@@ -495,11 +515,11 @@ void addQueueCommands(CLI::App& app, const std::string& group) {
       "resume", "start the queue's head now (no run going; after an abort or a restart)");
   resume->callback([o] {
     withClient(o->ctl, [&](ControlClient& c) {
-      const json r = exchange(o->ctl, c, {{"cmd", "queue_resume"}});
+      const auto r =
+          readReply<daemon::StartReply>(exchange(o->ctl, c, {{"cmd", "queue_resume"}}), "queue");
       if (o->ctl.json) return;
-      std::cout << "started queue entry " << textField(r, "entry").value_or("?") << " as run "
-                << textField(r, "run").value_or("?") << " (plan "
-                << textField(r, "plan").value_or("?") << ")\n";
+      std::cout << "started queue entry " << (r.entry ? std::to_string(*r.entry) : "?")
+                << " as run " << r.run << " (plan " << r.summary.plan << ")\n";
     });
   });
   q->callback([o, q] {
@@ -513,7 +533,13 @@ void runSimple(const ControlOptions& o, const std::string& cmd, const std::strin
     const json r = exchange(o, c, {{"cmd", cmd}});
     if (o.json) return;
     std::cout << done;
-    if (auto st = textField(r, "state")) std::cout << " (state " << *st << ")";
+    if (cmd == "pause" || cmd == "resume" || cmd == "abort") {
+      const auto rc = readReply<daemon::RunCommandReply>(r, cmd.c_str());
+      std::cout << " (run " << rc.run << ", state " << rc.state << ")";
+    } else if (cmd == "rearm") {
+      std::cout << " (interlock " << readReply<daemon::RearmReply>(r, "rearm").table.interlock
+                << ")";
+    }
     std::cout << "\n";
   });
 }

@@ -298,5 +298,122 @@ TEST(ControlProtocol, RandomAndMutatedLinesNeverThrow) {
   EXPECT_GT(accepted, 0);  // some mutations stay valid (e.g. inside a string)
 }
 
+// ---- replies and events: build -> serialize -> parse -> equal, for every type ----
+
+// A reply's result through the wire: okReply -> serializeReply -> JSON line -> fromJson.
+template <class R>
+void expectReplyRoundTrip(const R& result) {
+  const std::string line = serializeReply(okReply(7, toJson(result)));
+  const json j = json::parse(line);
+  std::string why;
+  const auto back = fromJson<R>(j["result"], &why);
+  ASSERT_TRUE(back.has_value()) << why << " in " << line;
+  EXPECT_TRUE(*back == result) << line;
+}
+
+// An event through the wire: serializeEvent -> JSON line -> parseEvent.
+template <class E>
+void expectEventRoundTrip(const E& event) {
+  const std::string line = serializeEvent(event);
+  const json j = json::parse(line);
+  EXPECT_EQ(j["event"], std::string(E::kEvent));
+  EXPECT_EQ(j["topic"], std::string(topicName(E::kTopic)));
+  std::string why;
+  const auto back = parseEvent<E>(j, &why);
+  ASSERT_TRUE(back.has_value()) << why << " in " << line;
+  EXPECT_TRUE(*back == event) << line;
+}
+
+TEST(ControlProtocol, EveryEventRoundTrips) {
+  const StepRef at{12, 3, "run01_x_p1"};
+  expectEventRoundTrip(RunStateEvent{at, "finished", "completed"});
+  expectEventRoundTrip(RunStateEvent{at, "paused", std::nullopt});
+  expectEventRoundTrip(StepStartedEvent{at});
+  expectEventRoundTrip(StepFinishedEvent{at});
+  expectEventRoundTrip(AlarmEvent{at, "chamber 0.4 degC over setpoint"});
+  expectEventRoundTrip(ImuRestartEvent{2, "counter jumped 17 -> 3", 12});
+  expectEventRoundTrip(ImuRestartEvent{1, "time stamp went back", std::nullopt});
+  expectEventRoundTrip(RunFinishedEvent{12, "aborted", "aborted"});
+  expectEventRoundTrip(QueuedEvent{5, 2, "thermal"});
+  expectEventRoundTrip(QueueStartedEvent{5, 13, "thermal"});
+  expectEventRoundTrip(QueueHeldEvent{"queue entry 5: interlock open"});
+  expectEventRoundTrip(RearmedEvent{12});
+  expectEventRoundTrip(ProgressEvent{12, "running", 0.25, 812.5, 3, "run01_x_p1"});
+}
+
+TEST(ControlProtocol, EveryReplyRoundTrips) {
+  const PlanSummary plan{"two_axis_12run", 45, 1234.5};
+  const TableStatus table{"closed", false, true, "connected", "timeout on read"};
+  expectReplyRoundTrip(PingReply{true});
+  expectReplyRoundTrip(TopicsReply{{"run", "status"}});
+  expectReplyRoundTrip(TopicsReply{});
+  expectReplyRoundTrip(StartReply{12, plan, std::nullopt});
+  expectReplyRoundTrip(StartReply{12, plan, 5});
+  expectReplyRoundTrip(DryRunReply{true, plan});
+  expectReplyRoundTrip(QueuedReply{QueuedEvent{5, 2, "thermal"}});
+  expectReplyRoundTrip(StopReply{true});
+  expectReplyRoundTrip(RunCommandReply{12, "paused"});
+  expectReplyRoundTrip(RearmReply{table});
+  expectReplyRoundTrip(RearmReply{TableStatus{"open", true, false, "connected", std::nullopt}});
+  StatusReply idle{"bench-1",
+                   "idle",
+                   std::nullopt,
+                   0,
+                   0,
+                   0,
+                   table,
+                   std::nullopt,
+                   std::nullopt,
+                   std::nullopt,
+                   std::nullopt,
+                   std::nullopt,
+                   std::nullopt};
+  expectReplyRoundTrip(idle);
+  StatusReply running = idle;
+  running.state = "running";
+  running.imu_time_s = 123.25;
+  running.imu_lost_samples = 4;
+  running.imu_bad_frames = 1;
+  running.imu_restarts = 2;
+  running.queued = 3;
+  running.run = 12;
+  running.plan = "two_axis_12run";
+  running.progress = 0.31;
+  running.eta_s = 812.5;
+  running.step = StatusStep{3, "run01_x_p1", "rotate", 45};
+  expectReplyRoundTrip(running);
+  expectReplyRoundTrip(PlanListReply{"/etc/imubench/plans", {"a.toml", "sub/b.toml"}});
+  expectReplyRoundTrip(ValidatePlanReply{plan});
+  expectReplyRoundTrip(RunListReply{{{12, "p", "finished", "completed", 1.7e9},
+                                     {13, "q", "faulted", "emergency_stop", 1.7e9 + 60}}});
+  expectReplyRoundTrip(RunListReply{});
+  expectReplyRoundTrip(RunResultsReply{
+      12, "finished", "completed", {{"direct", json{{"gyro", {1, 2, 3}}}}, {"bad", nullptr}}});
+  expectReplyRoundTrip(ExportReply{12, "/var/lib/imubench/exports/run-12", 360000});
+  expectReplyRoundTrip(QueueReply{{{5, 1, "thermal", "thermal.toml", "T=+20C", 1.7e9}}});
+}
+
+TEST(ControlProtocol, ReadersNameTheFieldAndIgnoreUnknownOnes) {
+  std::string why;
+  // A missing field, and a field of the wrong type, nested: named with its path.
+  EXPECT_FALSE(fromJson<RunCommandReply>(json{{"state", "paused"}}, &why));
+  EXPECT_EQ(why, "run: missing");
+  json status = toJson(StatusReply{});
+  status["step"] = {{"index", "three"}, {"label", "x"}, {"kind", "rotate"}, {"count", 4}};
+  EXPECT_FALSE(fromJson<StatusReply>(status, &why));
+  EXPECT_EQ(why, "step.index: must be an integer, got string");
+  EXPECT_FALSE(fromJson<TopicsReply>(json{{"topics", {"run", 3}}}, &why));
+  EXPECT_EQ(why, "topics[1]: must be a string, got number");
+  EXPECT_FALSE(fromJson<PingReply>(json::array(), &why));
+  // Another event's line is not this event.
+  EXPECT_FALSE(parseEvent<AlarmEvent>(json::parse(serializeEvent(RearmedEvent{1})), &why));
+  // A newer daemon's extra fields are ignored.
+  json extra = toJson(RunCommandReply{12, "paused"});
+  extra["since_unix_s"] = 1.7e9;
+  const auto read = fromJson<RunCommandReply>(extra, &why);
+  ASSERT_TRUE(read.has_value()) << why;
+  EXPECT_EQ(read->run, 12);
+}
+
 }  // namespace
 }  // namespace imubench::daemon

@@ -22,10 +22,48 @@ Errors are exceptions, all subclasses of ControlError:
 Plans: start(path) and validate_plan(path) read the file here, with the caller's rights, and
 send its text (the daemon reads only its own plan library: start(library=...) names one).
 
-The fields of status results and run events are not fixed by the daemon yet; this module
-assumes the ones documented at the top of tools/cli_control.cpp (state, run, plan, step,
-progress, eta_s; events "state", "step_started", "step_finished", "alarm", "progress",
-"estimate") and treats all of them as optional.
+Replies' results and events are the typed structs of daemon/control_protocol.h (the daemon
+builds them and the C++ CLI reads them with the same code); their fields, as plain dicts here
+([..] = may be absent; a newer daemon may add fields, ignore what you do not know):
+
+Replies (the "result" object):
+    ping                         {"pong": true}
+    subscribe, unsubscribe       {"topics": ["run", "status", ...]}
+    start                        {"run", "plan", "steps", "planned_s"}
+      with dry_run               {"dry_run": true, "plan", "steps", "planned_s"}
+      with queue, when queued    {"queued": {"entry", "position", "plan"}}
+    queue_resume                 as start, plus "entry"
+    pause, resume, abort         {"run", "state"}
+    stop                         {"stopped": true}
+    rearm                        {"table": TABLE}
+    status                       {"bench", "state", ["imu_time_s"], "imu_lost_samples",
+                                  "imu_bad_frames", "imu_restarts", "table": TABLE, ["queued"],
+                                  ["run"], ["plan"], ["progress"], ["eta_s"],
+                                  ["step": {"index", "label", "kind", "count"}]}
+                                 state is "idle" or the run's (running, paused, ...)
+    list_plans                   {"plan_dir", "plans": [path, ...]}
+    validate_plan                {"plan", "steps", "planned_s"}
+    results                      {"runs": [{"run", "plan", "state", "exit", "started_unix_s"}]}
+    results(run)                 {"run", "state", "exit", "results": [{"kind", "json"}]}
+    export                       {"run", "dir", "imu_samples"}
+    queue_list, queue_move,      {"queue": [{"entry", "position", "plan", "name", "label",
+      queue_remove                           "added_unix_s"}]}
+    TABLE = {"interlock": "closed"|"open"|"tripped", "estop", "fault", "state", ["error"]}
+
+Events ({"event": name, "topic": topic, ...fields}):
+    topic run:     state          {"run", "step", "label", "state", ["exit"]}
+                   step_started   {"run", "step", "label"}
+                   step_finished  {"run", "step", "label"}
+                   alarm          {"run", "step", "label", "message"}
+                   imu_restart    {"restarts", "message", ["run"]}
+                   run_finished   {"run", "state", "exit"}
+                   queued         {"entry", "position", "plan"}
+                   queue_started  {"entry", "run", "plan"}
+                   queue_held     {"reason"}
+                   rearmed        {"run"}
+    topic status:  progress       {"run", "state", "progress", "eta_s", "step", "label"}
+step is the 0-based step index; a run has ended when its state is finished (completed unless
+"exit" says otherwise), faulted, aborted or interrupted.
 """
 
 import json
