@@ -35,6 +35,9 @@ using nlohmann::json;
 
 // Exports in progress at once: each holds a whole run in memory while it writes it.
 constexpr std::size_t kMaxPendingExports = 2;
+// Calibrations in progress at once: a run's estimate (one at a time per run), the previous
+// run's end-of-plan calibration, and the next queued run's first estimate.
+constexpr std::size_t kMaxPendingCalibrations = 3;
 
 double unixNow() {
   timespec ts{};
@@ -145,7 +148,9 @@ struct BenchDaemon::ActiveRun {
   std::string plan_name;
   std::unique_ptr<PlanRunner> runner;
   std::unique_ptr<RunWriter> writer;
-  std::optional<double> segment_t0;  // IMU time the current step's command went out
+  std::optional<OnlineSetup> calibration;  // the plan names a calibration
+  std::unique_ptr<OnlineEngine> engine;    // with it
+  std::optional<double> segment_t0;        // IMU time the current step's command went out
   std::optional<double> last_table_t;
   std::optional<double> last_chamber_t;
 };
@@ -281,6 +286,7 @@ io::IoStatus BenchDaemon::startControl(std::string* socket_path) {
   if (ec) return io::IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
   plans_ = std::make_unique<PlanLibrary>(&loop_, library);
   exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
+  calibrations_ = std::make_unique<OffLoop>(&loop_, kMaxPendingCalibrations);
   if (auto st = server_->start(); !st.ok)
     return io::IoStatus::Error("control socket: " + st.message);
   *socket_path = server_options.socket_path;
@@ -319,7 +325,11 @@ void BenchDaemon::onImuReadable() {
   if (!run_) return;
   samples_.clear();
   for (const auto& d : decoded_) samples_.push_back(d.sample);
-  if (auto st = run_->writer->appendImu(samples_); !st.ok) log_.error("store: " + st.message);
+  if (auto st = run_->writer->appendImu(samples_); !st.ok) {
+    log_.error("store: " + st.message);
+    return;
+  }
+  if (run_->engine) run_->engine->addImu(samples_);
 }
 
 // Lost samples go to the log; a restart also to the run's event log and the socket.
@@ -362,6 +372,8 @@ void BenchDaemon::onPoll() {
     }
     if (auto st = run_->writer->appendTable(std::span(&ts, 1)); !st.ok) {
       log_.error("store: " + st.message);
+    } else if (run_->engine) {
+      run_->engine->addTable(ts);
     }
     run_->last_table_t = ts.t;
   }
@@ -385,7 +397,14 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
       if (exit != RunExit::kNone) fields["exit"] = runExitName(exit);  // how a run ended
     }
     if (e.kind == RunnerEvent::Kind::kAlarm) fields["message"] = e.message;
-    if (e.kind == RunnerEvent::Kind::kStepStarted) run_->segment_t0 = imu_last_t_;
+    if (e.kind == RunnerEvent::Kind::kStepStarted) {
+      run_->segment_t0 = imu_last_t_;
+      if (run_->engine) {
+        run_->engine->stepStarted(e.step,
+                                  run_->runner->steps()[static_cast<std::size_t>(e.step)].kind);
+      }
+    }
+    std::optional<calib::Segment> stored_segment;
     if (e.kind == RunnerEvent::Kind::kStepFinished && run_->segment_t0 && imu_last_t_) {
       const RunStep& s = run_->runner->steps()[static_cast<std::size_t>(e.step)];
       calib::Segment seg;
@@ -397,8 +416,15 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
       seg.axis = s.axis;
       seg.angle = s.delta;
       if (seg.t1 > seg.t0) {
-        if (auto st = run_->writer->appendSegment(seg); !st.ok) log_.error("store: " + st.message);
+        if (auto st = run_->writer->appendSegment(seg); !st.ok) {
+          log_.error("store: " + st.message);
+        } else {
+          stored_segment = seg;
+        }
       }
+    }
+    if (e.kind == RunnerEvent::Kind::kStepFinished && run_->engine) {
+      fields["stats"] = run_->engine->stepFinished(stored_segment, e.label);
     }
     RunEvent stored;
     stored.run_id = run_->id;
@@ -450,6 +476,7 @@ void BenchDaemon::closeRun() {
   }
   server_->broadcast(Topic::kRun, "run_finished",
                      {{"run", run_->id}, {"state", runStateName(state)}, {"exit", reason}});
+  if (state == RunState::kFinished && run_->calibration) startFinalCalibration(*run_->calibration);
   log_.info("run " + std::to_string(run_->id) + " closed: " + runStateName(state));
   run_.reset();
   notifier_.status("idle");
@@ -589,6 +616,9 @@ std::unique_ptr<PlanRunner> BenchDaemon::makeRunner(const LoadedPlan& loaded) {
 // Starts a validated plan now (no run going): the runner, then the run's record. The reply to
 // the request with id `id`.
 Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
+  std::string why;
+  std::optional<OnlineSetup> calibration = calibrationSetup(loaded, &why);
+  if (!why.empty()) return errorReply(id, ErrorCode::kBadState, why);
   auto runner = makeRunner(loaded);
   // Started before the run is recorded: a bench that cannot move (controller unreachable,
   // emergency stop not cleared) gets no run record, nothing was attempted. The runner's
@@ -616,6 +646,13 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   run->plan_name = loaded.plan.name;
   run->runner = std::move(runner);
   run->writer = std::make_unique<RunWriter>(*store_, begun.run_id);
+  if (calibration) {
+    calibration->run_id = begun.run_id;
+    run->calibration = calibration;
+    run->engine = std::make_unique<OnlineEngine>(
+        *calibration, calibrations_.get(),
+        [this, run_id = begun.run_id](const json& fields) { publishEstimate(run_id, fields); });
+  }
   run_ = std::move(run);
   publish(run_->runner->takeEvents());
   log_.info("run " + std::to_string(run_->id) + " started: plan '" + run_->plan_name + "'");
@@ -623,6 +660,105 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
                       {"plan", run_->plan_name},
                       {"steps", run_->runner->steps().size()},
                       {"planned_s", run_->runner->plannedTotalS()}});
+}
+
+// ---- calibration (daemon/online_engine.h) ---------------------------------------------------
+
+std::optional<OnlineSetup> BenchDaemon::calibrationSetup(const LoadedPlan& loaded,
+                                                         std::string* why) {
+  const plans::Plan& plan = loaded.plan;
+  if (plan.calibration == plans::CalibrationMethod::kNone) return std::nullopt;
+  OnlineSetup setup;
+  setup.method = plan.calibration;
+  setup.db_path = db_path_;
+  setup.acceptance = bench_.acceptance;
+  io::Recording& meta = setup.meta;
+  meta.latitude_deg = bench_.site.latitude_rad * kRadToDeg;
+  meta.height_m = bench_.site.height_m;
+  meta.gravity_mps2 = bench_.site.gravity_mps2;
+  meta.imu_serial = bench_.imu.serial;
+  meta.imu_rate_hz = 1.0 / bench_.imu.layout.sample_period_s;
+  meta.table_kind = bench_.table.kind;
+  if (meta.table_kind == calib::TableKind::kTwoAxis)
+    meta.outer_axis_heading_deg = bench_.outer_axis_heading_rad * kRadToDeg;
+  meta.segments_from_file = true;
+  if (plan.calibration != plans::CalibrationMethod::kPipeline) return setup;
+  // The pipeline's direct part: the newest completed run of direct_plan for this IMU.
+  const auto runs = store_->listRuns();
+  if (!runs.status.ok) {
+    *why = "store: " + runs.status.message;
+    return std::nullopt;
+  }
+  for (auto it = runs.runs.rbegin(); it != runs.runs.rend(); ++it) {
+    if (it->state == RunState::kFinished && it->exit_reason == runExitName(RunExit::kCompleted) &&
+        it->start.plan_name == plan.direct_plan && it->start.imu_serial == bench_.imu.serial) {
+      setup.direct_run = it->id;
+      return setup;
+    }
+  }
+  *why = "plan '" + plan.name + "' (calibration = \"pipeline\") needs a completed run of plan '" +
+         plan.direct_plan + "' for IMU serial '" + bench_.imu.serial +
+         "' on this bench: run that plan first";
+  return std::nullopt;
+}
+
+// An estimate of the online engine: the run's event log, subscribers (topic "run"), the log.
+void BenchDaemon::publishEstimate(std::int64_t run, const json& fields) {
+  RunEvent stored;
+  stored.run_id = run;
+  stored.wall_unix_s = unixNow();
+  stored.severity = EventSeverity::kInfo;
+  stored.kind = "estimate";
+  stored.json = fields.dump();
+  if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
+  server_->broadcast(Topic::kRun, "estimate", fields);
+  log_.info("run " + std::to_string(run) + ": estimate after " +
+            fields.value("summary", std::string("a step")));
+}
+
+// The full calibration of a completed run, off the loop; the results are stored on the loop.
+void BenchDaemon::startFinalCalibration(const OnlineSetup& setup) {
+  auto job = [this, setup]() -> std::function<void()> {
+    FinalCalibration f = finalCalibration(setup);
+    return [this, setup, f = std::move(f)] { storeFinalCalibration(setup, f); };
+  };
+  auto failed = [this, run = setup.run_id](const std::string& what) {
+    log_.error("run " + std::to_string(run) + ": calibration failed: " + what);
+    server_->broadcast(Topic::kRun, "results", {{"run", run}, {"ok", false}, {"error", what}});
+  };
+  std::string why;
+  if (!calibrations_->run(job, failed, &why)) failed(why);
+}
+
+void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f) {
+  const std::string who = "run " + std::to_string(setup.run_id);
+  if (!f.ok) {
+    log_.error(who + ": no calibration results: " + f.error);
+    server_->broadcast(Topic::kRun, "results",
+                       {{"run", setup.run_id}, {"ok", false}, {"error", f.error}});
+    return;
+  }
+  json stored = json::object();
+  auto keep = [&](const char* kind, const json& j) {
+    const auto r = store_->storeResult(setup.run_id, f.imu_serial, f.temperature_c, kind, j.dump());
+    if (!r.status.ok) log_.error("store: " + r.status.message);
+    if (r.status.ok) stored[kind] = r.result_id;
+  };
+  if (f.calibrated) keep("coefficients", f.coefficients);
+  keep("report", f.report);
+  keep("verdict", f.verdict);
+  const json pass = f.verdict.value("pass", json());
+  const std::string verdict = pass.is_boolean() ? (pass.get<bool>() ? "PASS" : "FAIL") : "none";
+  log_.info(who + ": calibration " + (f.calibrated ? "done" : "FAILED") + ", verdict " + verdict +
+            " (IMU " + f.imu_serial + ")");
+  server_->broadcast(Topic::kRun, "results",
+                     {{"run", setup.run_id},
+                      {"ok", true},
+                      {"calibrated", f.calibrated},
+                      {"pass", pass},
+                      {"imu_serial", f.imu_serial},
+                      {"temperature_c", f.temperature_c},
+                      {"results", stored}});
 }
 
 // ---- the plan queue (stored: it survives a restart) -----------------------------------------

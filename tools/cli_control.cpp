@@ -1,4 +1,4 @@
-// imubench start | pause | resume | abort | stop | status | results | watch | queue: the operator's
+// imubench start | pause | resume | abort | stop | status | watch | queue: the operator's
 // commands to a running imubenchd over its control socket (tools/control_client.h).
 //
 //   imubench start PLAN [--label L] [--dry-run] [--out-dir DIR] [--watch] [--queue]
@@ -11,7 +11,7 @@
 //   imubench queue resume                   start the queue's head now (after an abort, a
 //                                           fault or a daemon restart the queue holds)
 //   imubench pause | resume | abort | stop          (stop = emergency stop)
-//   imubench status [--json]     imubench results [RUN] [--json]     imubench watch [--json]
+//   imubench status [--json]     imubench watch [--json]     (results: cli_results.cpp, the store)
 // Every command takes --socket PATH (default $IMUBENCH_SOCKET, else /run/imubench/control.sock).
 // Human output by default; --json prints the daemon's raw reply (watch: the raw event lines).
 // An ok=false reply prints "error (code): message" and exits 1; so does a daemon that cannot
@@ -516,26 +516,6 @@ void runSimple(const ControlOptions& o, const std::string& cmd, const std::strin
   });
 }
 
-// ---- results ----
-struct ResultsOptions {
-  ControlOptions ctl;
-  std::optional<long long> run;
-};
-
-void runResults(const ResultsOptions& o) {
-  json req = {{"cmd", "results"}};
-  if (o.run) req["run"] = *o.run;
-  withClient(o.ctl, [&](ControlClient& c) {
-    const json r = exchange(o.ctl, c, req);
-    if (o.ctl.json) return;
-    if (r.empty()) {
-      std::cout << (o.run ? "run " + std::to_string(*o.run) + ": no results\n" : "no runs\n");
-      return;
-    }
-    printGeneric(r);
-  });
-}
-
 }  // namespace
 
 void addControlCommands(CLI::App& app) {
@@ -594,14 +574,6 @@ void addControlCommands(CLI::App& app) {
     });
   }
   addQueueCommands(app, group);
-  {
-    auto o = std::make_shared<ResultsOptions>();
-    CLI::App* sub = app.add_subcommand("results", "the run history, or one run's results");
-    sub->group(group);
-    sub->add_option("RUN", o->run, "run id (default: the history)")->check(CLI::PositiveNumber);
-    addControlOptions(*sub, &o->ctl);
-    sub->callback([o] { runResults(*o); });
-  }
   {
     auto o = std::make_shared<ControlOptions>();
     CLI::App* sub = app.add_subcommand(
