@@ -19,6 +19,8 @@
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
+# E2E_KEEP=DIR: the database is copied there at exit (for a look at a failed run).
+[[ -n ${E2E_KEEP:-} ]] && trap 'cp "$W/imubench.db" "$E2E_KEEP/" 2>/dev/null; e2e_cleanup' EXIT
 
 SCALE=${E2E_ONLINE_TIME_SCALE:-30}
 sed 's/^sample_period = "1 ms"/sample_period = "5 ms"/' "$DEV/imus/navgrade_fd.toml" >"$W/imu.toml"
