@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -151,7 +152,28 @@ struct BenchDaemon::ActiveRun {
   std::optional<OnlineSetup> calibration;  // the plan names a calibration
   std::unique_ptr<OnlineEngine> engine;    // with it
   std::optional<double> segment_t0;        // IMU time the current step's command went out
+  // A finished step whose segment waits for the first IMU sample received after the table
+  // reading that ended it (after_unix_s, CLOCK_REALTIME like the frames' kernel time stamps).
+  struct ClosingStep {
+    int step = -1;
+    std::string label;
+    double after_unix_s = 0.0;
+    std::optional<int> next_step;  // started meanwhile: begins where this one ends
+  };
+  std::optional<ClosingStep> closing;
+  double poll_unix_s = 0.0;  // when the newest table reading was requested
   std::optional<double> last_table_t;
+  // The encoder angles as stored: continuous across the controller's +-180 deg wrap (the
+  // recording's convention, as the plan writes them), so a three-turn rate run reads 1080 deg.
+  // Unwrapped from the previous reading: the table turns far less than half a turn between
+  // two polls.
+  std::array<std::optional<double>, 3> last_angle;
+  double unwrapped(std::size_t axis, double read_rad) {
+    std::optional<double>& last = last_angle[axis];
+    const double a = last ? *last + std::remainder(read_rad - *last, 2.0 * kPi) : read_rad;
+    last = a;
+    return a;
+  }
   std::optional<double> last_chamber_t;
 };
 
@@ -329,7 +351,17 @@ void BenchDaemon::onImuReadable() {
     log_.error("store: " + st.message);
     return;
   }
-  if (run_->engine) run_->engine->addImu(samples_);
+  // A closing step ends at the first sample received after the table reading that ended it
+  // (a frame without a kernel receive time ends it at once).
+  std::size_t first = 0;
+  for (std::size_t i = 0; i < decoded_.size() && run_->closing; ++i) {
+    const double rx = decoded_[i].rx_time_s;
+    if (rx > 0.0 && rx <= run_->closing->after_unix_s) continue;
+    if (run_->engine) run_->engine->addImu(std::span(samples_).subspan(first, i + 1 - first));
+    first = i + 1;
+    closeStep(decoded_[i].sample.t);
+  }
+  if (run_->engine) run_->engine->addImu(std::span(samples_).subspan(first));
 }
 
 // Lost samples go to the log; a restart also to the run's event log and the socket.
@@ -362,13 +394,14 @@ void BenchDaemon::reportImuProblems() {
 
 void BenchDaemon::onPoll() {
   if (!run_) return;
+  run_->poll_unix_s = unixNow();  // before the table is read: see closeStep
   BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
   obs.plan_time_s = imu_last_t_;
   if (imu_last_t_ && (!run_->last_table_t || *imu_last_t_ > *run_->last_table_t) && obs.table_ok) {
     io::TableSample ts;
     ts.t = *imu_last_t_;
     for (std::size_t a = 0; a < obs.angles.size() && a < 3; ++a) {
-      ts.angles_deg[a] = obs.angles[a] * kRadToDeg;
+      ts.angles_deg[a] = run_->unwrapped(a, obs.angles[a]) * kRadToDeg;
     }
     if (auto st = run_->writer->appendTable(std::span(&ts, 1)); !st.ok) {
       log_.error("store: " + st.message);
@@ -386,7 +419,47 @@ void BenchDaemon::onPoll() {
   }
 }
 
+// A step's segment and the online engine's view of it begin at IMU time t0.
+void BenchDaemon::beginStep(int step, std::optional<double> t0) {
+  run_->segment_t0 = t0;
+  if (run_->engine)
+    run_->engine->stepStarted(step, run_->runner->steps()[static_cast<std::size_t>(step)].kind);
+}
+
+// The closing step's segment ends at IMU time t1 (stored; the online engine's step statistics
+// published as event "step_stats"), and the step that began meanwhile starts there.
+void BenchDaemon::closeStep(std::optional<double> t1) {
+  const ActiveRun::ClosingStep c = *run_->closing;
+  run_->closing.reset();
+  const RunStep& s = run_->runner->steps()[static_cast<std::size_t>(c.step)];
+  std::optional<calib::Segment> stored_segment;
+  if (run_->segment_t0 && t1 && *t1 > *run_->segment_t0) {
+    calib::Segment seg;
+    seg.t0 = *run_->segment_t0;
+    seg.t1 = *t1;
+    seg.kind = s.kind;
+    seg.label = s.label;
+    seg.recording = s.recording;
+    seg.axis = s.axis;
+    seg.angle = s.delta;
+    if (auto st = run_->writer->appendSegment(seg); !st.ok) {
+      log_.error("store: " + st.message);
+    } else {
+      stored_segment = seg;
+    }
+  }
+  if (run_->engine) {
+    const json stats = run_->engine->stepFinished(stored_segment, c.label);
+    server_->broadcast(Topic::kRun, "step_stats",
+                       {{"run", run_->id}, {"step", c.step}, {"label", c.label}, {"stats", stats}});
+  }
+  if (c.next_step) beginStep(*c.next_step, t1);
+}
+
 // Runner events: a segment per finished step, the run's event log, subscribers, syslog.
+// A step's segment ends at the first IMU sample received after the table reading that showed
+// the step done (closeStep from onImuReadable): IMU frames may arrive later than the table's
+// replies, and a segment cut at the newest sample then would miss the motion's end.
 void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
   for (const RunnerEvent& e : events) {
     json fields = {{"run", run_->id}, {"step", e.step}, {"label", e.label}};
@@ -398,33 +471,15 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
     }
     if (e.kind == RunnerEvent::Kind::kAlarm) fields["message"] = e.message;
     if (e.kind == RunnerEvent::Kind::kStepStarted) {
-      run_->segment_t0 = imu_last_t_;
-      if (run_->engine) {
-        run_->engine->stepStarted(e.step,
-                                  run_->runner->steps()[static_cast<std::size_t>(e.step)].kind);
+      if (run_->closing) {
+        run_->closing->next_step = e.step;  // begins where the closing step's segment ends
+      } else {
+        beginStep(e.step, imu_last_t_);
       }
     }
-    std::optional<calib::Segment> stored_segment;
-    if (e.kind == RunnerEvent::Kind::kStepFinished && run_->segment_t0 && imu_last_t_) {
-      const RunStep& s = run_->runner->steps()[static_cast<std::size_t>(e.step)];
-      calib::Segment seg;
-      seg.t0 = *run_->segment_t0;
-      seg.t1 = *imu_last_t_;
-      seg.kind = s.kind;
-      seg.label = s.label;
-      seg.recording = s.recording;
-      seg.axis = s.axis;
-      seg.angle = s.delta;
-      if (seg.t1 > seg.t0) {
-        if (auto st = run_->writer->appendSegment(seg); !st.ok) {
-          log_.error("store: " + st.message);
-        } else {
-          stored_segment = seg;
-        }
-      }
-    }
-    if (e.kind == RunnerEvent::Kind::kStepFinished && run_->engine) {
-      fields["stats"] = run_->engine->stepFinished(stored_segment, e.label);
+    if (e.kind == RunnerEvent::Kind::kStepFinished) {
+      if (run_->closing) closeStep(imu_last_t_);  // two steps in one poll: no wait for the first
+      run_->closing = ActiveRun::ClosingStep{e.step, e.label, run_->poll_unix_s, std::nullopt};
     }
     RunEvent stored;
     stored.run_id = run_->id;
@@ -462,6 +517,7 @@ void BenchDaemon::onChamberPoll() {
 }
 
 void BenchDaemon::closeRun() {
+  if (run_->closing) closeStep(imu_last_t_);
   PlanRunner& r = *run_->runner;
   if (auto st = run_->writer->flush(); !st.ok) log_.error("store: " + st.message);
   RunState state = RunState::kFaulted;

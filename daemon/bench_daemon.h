@@ -124,6 +124,8 @@ class BenchDaemon {
   void reportImuProblems();
   void onStatusTimer();
   void publish(const std::vector<RunnerEvent>& events);
+  void beginStep(int step, std::optional<double> t0);
+  void closeStep(std::optional<double> t1);
   void closeRun();
   double wallNow() const;
 

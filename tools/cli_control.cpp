@@ -155,6 +155,16 @@ void applyEvent(WatchState& s, const json& event, std::vector<std::string>* note
     if (auto step = intField(event, "step")) line += " at step " + std::to_string(*step);
     line += ": " + textField(event, "message").value_or("(no message)");
     notes->push_back(line);
+  } else if (name == "estimate" && event.contains("summary")) {
+    // The daemon's online engine: what the steps so far determine (daemon/online_engine.h).
+    notes->push_back("estimate after " + textField(event, "summary").value_or("?"));
+  } else if (name == "results") {
+    std::string line = "results of run " + std::to_string(intField(event, "run").value_or(-1));
+    const bool pass =
+        event.contains("pass") && event["pass"].is_boolean() && event["pass"].get<bool>();
+    line += event.value("calibrated", false) ? (pass ? ": calibrated, PASS" : ": calibrated, FAIL")
+                                             : ": calibration failed";
+    notes->push_back(line + " (imubench results RUN)");
   } else if (name == "estimate") {
     std::string line = "estimate " + textField(event, "parameter").value_or("?");
     if (auto v = numField(event, "value")) line += " = " + formatNumber(*v);

@@ -26,6 +26,13 @@ The fields of status results and run events are not fixed by the daemon yet; thi
 assumes the ones documented at the top of tools/cli_control.cpp (state, run, plan, step,
 progress, eta_s; events "state", "step_started", "step_finished", "alarm", "progress",
 "estimate") and treats all of them as optional.
+
+Calibration (plans with calibration = "direct" | "indirect" | "pipeline"): the daemon sends
+an "estimate" event (topic "run") after each step that allows one -- {"run", "step", "label",
+"method", "ok", "parameters": {name: {"value", "sigma", "unit"}}, "unobservable": [names],
+"summary"} -- and a "results" event when the end-of-plan calibration is stored ({"run",
+"calibrated", "pass"}); calibration(run) returns the stored results by kind ("coefficients",
+"report", "verdict").
 """
 
 import json
@@ -382,6 +389,11 @@ class Client:
 
     def results(self, run=None):
         return self.call("results", run=run) if run is not None else self.call("results")
+
+    def calibration(self, run):
+        """The calibration results stored for run: {kind: json} (empty while none)."""
+        stored = self.results(run).get("results", [])
+        return {r["kind"]: r["json"] for r in stored}
 
     def list_plans(self):
         return self.call("list_plans")
