@@ -161,6 +161,21 @@ struct BenchDaemon::ActiveRun {
     std::optional<int> next_step;  // started meanwhile: begins where this one ends
   };
   std::optional<ClosingStep> closing;
+  // The IMU's rate, low-pass filtered over kStillTauS of sample time: the table is still when
+  // it is below kStillRateRadps (far above the Earth rate and a navigation-grade gyro's
+  // averaged noise, far below any plan's motion).
+  static constexpr double kStillTauS = 0.1;
+  static constexpr double kStillRateRadps = 0.1 * kDegToRad;
+  Vec3 rate_filtered = Vec3::Zero();
+  std::optional<double> rate_last_t;
+  void trackStillness(const nav::ImuSample& s) {
+    if (rate_last_t && s.t > *rate_last_t) {
+      const double dt = s.t - *rate_last_t;
+      rate_filtered += (s.dtheta / dt - rate_filtered) * std::min(1.0, dt / kStillTauS);
+    }
+    rate_last_t = s.t;
+  }
+  bool imuStill() const { return rate_filtered.norm() < kStillRateRadps; }
   double poll_unix_s = 0.0;  // when the newest table reading was requested
   std::optional<double> last_table_t;
   // The encoder angles as stored: continuous across the controller's +-180 deg wrap (the
@@ -352,11 +367,18 @@ void BenchDaemon::onImuReadable() {
     return;
   }
   // A closing step ends at the first sample received after the table reading that ended it
-  // (a frame without a kernel receive time ends it at once).
+  // (a frame without a kernel receive time: at once) and, after a motion, once the IMU itself
+  // senses the table still: a sender that lags the table sends the motion's end later.
   std::size_t first = 0;
-  for (std::size_t i = 0; i < decoded_.size() && run_->closing; ++i) {
+  for (std::size_t i = 0; i < decoded_.size(); ++i) {
+    run_->trackStillness(decoded_[i].sample);
+    if (!run_->closing) continue;
     const double rx = decoded_[i].rx_time_s;
     if (rx > 0.0 && rx <= run_->closing->after_unix_s) continue;
+    const calib::SegmentKind kind =
+        run_->runner->steps()[static_cast<std::size_t>(run_->closing->step)].kind;
+    const bool motion = kind == calib::SegmentKind::kMove || kind == calib::SegmentKind::kRotate;
+    if (motion && !run_->imuStill()) continue;
     if (run_->engine) run_->engine->addImu(std::span(samples_).subspan(first, i + 1 - first));
     first = i + 1;
     closeStep(decoded_[i].sample.t);
