@@ -7,7 +7,7 @@
 # results); the stored calibration is printed against the virtual bench's truth (3 arcsec /
 # 10 ppm / 2 sigma per parameter) with the pass/fail verdict of the bench's acceptance limits.
 #   bash tools/demo.sh [--out DIR]     DIR/coefficients.json and DIR/truth.json (interchange.md)
-# Environment: DEMO_TIME_SCALE (default 30) how much faster than the wall clock the bench runs.
+# Environment: DEMO_TIME_SCALE (default 20) how much faster than the wall clock the bench runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=

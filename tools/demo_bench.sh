@@ -8,7 +8,7 @@ SRC=$1
 OUT=${2:-}
 B=$SRC/build
 DEV=$SRC/drivers/devices
-SCALE=${DEMO_TIME_SCALE:-30}
+SCALE=${DEMO_TIME_SCALE:-20}
 TRUTH=$SRC/tests/tools/data/truth_nav_grade.json
 W=$(mktemp -d)
 export IMUBENCH_SOCKET=$W/control.sock IMUBENCH_DB=$W/imubench.db
@@ -25,7 +25,7 @@ die() {
 }
 
 # The IMU at 200 Hz (the bundled CAN FD layout with a 5 ms period): light enough to run the
-# bench 30 times faster than the wall clock.
+# bench 20 times faster than the wall clock.
 sed 's/^sample_period = "1 ms"/sample_period = "5 ms"/' "$DEV/imus/navgrade_fd.toml" >"$W/imu.toml"
 # The bundled plans with the calibration they feed.
 sed 's/^name = "direct_two_axis"/&\ncalibration = "direct"/' \
