@@ -24,4 +24,6 @@ run "reading a 1 h, 2 kHz imubench-csv/1 recording (target < 10 s)" \
   "$build/bench/daemon/imubench_daemon_bench"
 run "SQLite store: appending a 2 kHz IMU + 100 Hz table run (target >= 10x real time, counter x_realtime)" \
   "$build/bench/daemon/imubench_store_bench"
+run "online engine on the loop per IMU sample at 2 kHz (target < 5 % of one core, counter x_target)" \
+  "$build/bench/daemon/imubench_online_engine_bench"
 "$here/bench/can_bench.sh" "$build"

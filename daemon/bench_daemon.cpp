@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -35,6 +36,9 @@ using nlohmann::json;
 
 // Exports in progress at once: each holds a whole run in memory while it writes it.
 constexpr std::size_t kMaxPendingExports = 2;
+// Calibrations in progress at once: a run's estimate (one at a time per run), the previous
+// run's end-of-plan calibration, and the next queued run's first estimate.
+constexpr std::size_t kMaxPendingCalibrations = 3;
 
 double unixNow() {
   timespec ts{};
@@ -160,8 +164,46 @@ struct BenchDaemon::ActiveRun {
   std::string plan_name;
   std::unique_ptr<PlanRunner> runner;
   std::unique_ptr<RunWriter> writer;
-  std::optional<double> segment_t0;  // IMU time the current step's command went out
+  std::optional<OnlineSetup> calibration;  // the plan names a calibration
+  std::unique_ptr<OnlineEngine> engine;    // with it
+  std::optional<double> segment_t0;        // IMU time the current step's command went out
+  // A finished step whose segment waits for the first IMU sample received after the table
+  // reading that ended it (after_unix_s, CLOCK_REALTIME like the frames' kernel time stamps).
+  struct ClosingStep {
+    int step = -1;
+    std::string label;
+    double after_unix_s = 0.0;
+    std::optional<int> next_step;  // started meanwhile: begins where this one ends
+  };
+  std::optional<ClosingStep> closing;
+  // The IMU's rate, low-pass filtered over kStillTauS of sample time: the table is still when
+  // it is below kStillRateRadps (far above the Earth rate and a navigation-grade gyro's
+  // averaged noise, far below any plan's motion).
+  static constexpr double kStillTauS = 0.1;
+  static constexpr double kStillRateRadps = 0.1 * kDegToRad;
+  Vec3 rate_filtered = Vec3::Zero();
+  std::optional<double> rate_last_t;
+  void trackStillness(const nav::ImuSample& s) {
+    if (rate_last_t && s.t > *rate_last_t) {
+      const double dt = s.t - *rate_last_t;
+      rate_filtered += (s.dtheta / dt - rate_filtered) * std::min(1.0, dt / kStillTauS);
+    }
+    rate_last_t = s.t;
+  }
+  bool imuStill() const { return rate_filtered.norm() < kStillRateRadps; }
+  double poll_unix_s = 0.0;  // when the newest table reading was requested
   std::optional<double> last_table_t;
+  // The encoder angles as stored: continuous across the controller's +-180 deg wrap (the
+  // recording's convention, as the plan writes them), so a three-turn rate run reads 1080 deg.
+  // Unwrapped from the previous reading: the table turns far less than half a turn between
+  // two polls.
+  std::array<std::optional<double>, 3> last_angle;
+  double unwrapped(std::size_t axis, double read_rad) {
+    std::optional<double>& last = last_angle[axis];
+    const double a = last ? *last + std::remainder(read_rad - *last, 2.0 * kPi) : read_rad;
+    last = a;
+    return a;
+  }
   std::optional<double> last_chamber_t;
 };
 
@@ -296,6 +338,7 @@ io::IoStatus BenchDaemon::startControl(std::string* socket_path) {
   if (ec) return io::IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
   plans_ = std::make_unique<PlanLibrary>(&loop_, library);
   exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
+  calibrations_ = std::make_unique<OffLoop>(&loop_, kMaxPendingCalibrations);
   if (auto st = server_->start(); !st.ok)
     return io::IoStatus::Error("control socket: " + st.message);
   *socket_path = server_options.socket_path;
@@ -335,7 +378,28 @@ void BenchDaemon::onImuReadable() {
   if (!run_) return;
   samples_.clear();
   for (const auto& d : decoded_) samples_.push_back(d.sample);
-  if (auto st = run_->writer->appendImu(samples_); !st.ok) log_.error("store: " + st.message);
+  if (auto st = run_->writer->appendImu(samples_); !st.ok) {
+    log_.error("store: " + st.message);
+    return;
+  }
+  // A closing step ends at the first sample received after the table reading that ended it
+  // (a frame without a kernel receive time: at once) and, after a motion, once the IMU itself
+  // senses the table still: a sender that lags the table sends the motion's end later.
+  std::size_t first = 0;
+  for (std::size_t i = 0; i < decoded_.size(); ++i) {
+    run_->trackStillness(decoded_[i].sample);
+    if (!run_->closing) continue;
+    const double rx = decoded_[i].rx_time_s;
+    if (rx > 0.0 && rx <= run_->closing->after_unix_s) continue;
+    const calib::SegmentKind kind =
+        run_->runner->steps()[static_cast<std::size_t>(run_->closing->step)].kind;
+    const bool motion = kind == calib::SegmentKind::kMove || kind == calib::SegmentKind::kRotate;
+    if (motion && !run_->imuStill()) continue;
+    if (run_->engine) run_->engine->addImu(std::span(samples_).subspan(first, i + 1 - first));
+    first = i + 1;
+    closeStep(decoded_[i].sample.t);
+  }
+  if (run_->engine) run_->engine->addImu(std::span(samples_).subspan(first));
 }
 
 // Lost samples go to the log; a restart also to the run's event log and the socket.
@@ -371,16 +435,20 @@ void BenchDaemon::onPoll() {
   // Frames already in the socket count before the IMU's silence is judged (the loop may have
   // been held up, and the poll timer may be served before the socket in one wake).
   onImuReadable();
+  if (!run_) return;
+  run_->poll_unix_s = unixNow();  // before the table is read: see closeStep
   BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
   obs.plan_time_s = imu_last_t_;
   if (imu_last_t_ && (!run_->last_table_t || *imu_last_t_ > *run_->last_table_t) && obs.table_ok) {
     io::TableSample ts;
     ts.t = *imu_last_t_;
     for (std::size_t a = 0; a < obs.angles.size() && a < 3; ++a) {
-      ts.angles_deg[a] = obs.angles[a] * kRadToDeg;
+      ts.angles_deg[a] = run_->unwrapped(a, obs.angles[a]) * kRadToDeg;
     }
     if (auto st = run_->writer->appendTable(std::span(&ts, 1)); !st.ok) {
       log_.error("store: " + st.message);
+    } else if (run_->engine) {
+      run_->engine->addTable(ts);
     }
     run_->last_table_t = ts.t;
   }
@@ -393,28 +461,67 @@ void BenchDaemon::onPoll() {
   }
 }
 
+// A step's segment and the online engine's view of it begin at IMU time t0.
+void BenchDaemon::beginStep(int step, std::optional<double> t0) {
+  run_->segment_t0 = t0;
+  if (run_->engine)
+    run_->engine->stepStarted(step, run_->runner->steps()[static_cast<std::size_t>(step)].kind);
+}
+
+// The closing step's segment ends at IMU time t1 (stored; the online engine's step statistics
+// published as event "step_stats"), and the step that began meanwhile starts there.
+void BenchDaemon::closeStep(std::optional<double> t1) {
+  const ActiveRun::ClosingStep c = *run_->closing;
+  run_->closing.reset();
+  const RunStep& s = run_->runner->steps()[static_cast<std::size_t>(c.step)];
+  std::optional<calib::Segment> stored_segment;
+  if (run_->segment_t0 && t1 && *t1 > *run_->segment_t0) {
+    calib::Segment seg;
+    seg.t0 = *run_->segment_t0;
+    seg.t1 = *t1;
+    seg.kind = s.kind;
+    seg.label = s.label;
+    seg.recording = s.recording;
+    seg.axis = s.axis;
+    seg.angle = s.delta;
+    if (auto st = run_->writer->appendSegment(seg); !st.ok) {
+      log_.error("store: " + st.message);
+    } else {
+      stored_segment = seg;
+      if (auto fl = run_->writer->flush(); !fl.ok) log_.error("store: " + fl.message);
+    }
+  }
+  if (run_->engine) {
+    const json stats = run_->engine->stepFinished(stored_segment, c.label);
+    server_->broadcast(Topic::kRun, "step_stats",
+                       {{"run", run_->id}, {"step", c.step}, {"label", c.label}, {"stats", stats}});
+  }
+  if (c.next_step) beginStep(*c.next_step, t1);
+}
+
 // Runner events: a segment per finished step, the run's event log, subscribers, syslog.
+// A step's segment ends at the first IMU sample received after the table reading that showed
+// the step done (closeStep from onImuReadable): IMU frames may arrive later than the table's
+// replies, and a segment cut at the newest sample then would miss the motion's end.
 void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
   for (const RunnerEvent& e : events) {
     const json fields = runnerEventFields(e, run_->id, run_->runner->exit());
     const char* name = runnerEventKindName(e.kind);
-    if (e.kind == RunnerEvent::Kind::kStepStarted) run_->segment_t0 = imu_last_t_;
-    if (e.kind == RunnerEvent::Kind::kStepFinished && run_->segment_t0 && imu_last_t_) {
-      const RunStep& s = run_->runner->steps()[static_cast<std::size_t>(e.step)];
-      calib::Segment seg;
-      seg.t0 = *run_->segment_t0;
-      seg.t1 = *imu_last_t_;
-      seg.kind = s.kind;
-      seg.label = s.label;
-      seg.recording = s.recording;
-      seg.axis = s.axis;
-      seg.angle = s.delta;
-      if (seg.t1 > seg.t0) {
-        if (auto st = run_->writer->appendSegment(seg); !st.ok) log_.error("store: " + st.message);
+    if (e.kind == RunnerEvent::Kind::kStepStarted) {
+      if (run_->closing) {
+        run_->closing->next_step = e.step;  // begins where the closing step's segment ends
+      } else {
+        beginStep(e.step, imu_last_t_);
       }
-      // The stored step_finished event is the crash-resume checkpoint: the step's samples and
-      // segment are committed before it.
+    }
+    if (e.kind == RunnerEvent::Kind::kStepFinished) {
+      // The stored step_finished event is the crash-resume checkpoint: the step's samples so
+      // far are committed before it (its segment follows with the next IMU sample, closeStep).
       if (auto st = run_->writer->flush(); !st.ok) log_.error("store: " + st.message);
+    }
+    if (e.kind == RunnerEvent::Kind::kStepFinished) {
+      if (run_->closing) closeStep(imu_last_t_);  // two steps in one poll: no wait for the first
+      run_->closing = ActiveRun::ClosingStep{e.step, e.label, run_->poll_unix_s, std::nullopt};
     }
     RunEvent stored;
     stored.run_id = run_->id;
@@ -452,6 +559,7 @@ void BenchDaemon::onChamberPoll() {
 }
 
 void BenchDaemon::closeRun() {
+  if (run_->closing) closeStep(imu_last_t_);
   PlanRunner& r = *run_->runner;
   if (auto st = run_->writer->flush(); !st.ok) log_.error("store: " + st.message);
   RunState state = RunState::kFaulted;
@@ -474,6 +582,7 @@ void BenchDaemon::closeRun() {
     log_.error("store: " + st.message);
   }
   server_->broadcast(RunFinishedEvent{run_->id, runStateName(state), reason});
+  if (state == RunState::kFinished && run_->calibration) startFinalCalibration(*run_->calibration);
   log_.info("run " + std::to_string(run_->id) + " closed: " + runStateName(state));
   run_.reset();
   notifier_.status("idle");
@@ -608,6 +717,9 @@ std::unique_ptr<PlanRunner> BenchDaemon::makeRunner(const LoadedPlan& loaded) {
 // Starts a validated plan now (no run going): the runner, then the run's record. The reply to
 // the request with id `id`.
 Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
+  std::string why;
+  std::optional<OnlineSetup> calibration = calibrationSetup(loaded, &why);
+  if (!why.empty()) return errorReply(id, ErrorCode::kBadState, why);
   auto runner = makeRunner(loaded);
   // Started before the run is recorded: a bench that cannot move (controller unreachable,
   // emergency stop not cleared) gets no run record, nothing was attempted. The runner's
@@ -635,6 +747,13 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   run->plan_name = loaded.plan.name;
   run->runner = std::move(runner);
   run->writer = std::make_unique<RunWriter>(*store_, begun.run_id);
+  if (calibration) {
+    calibration->run_id = begun.run_id;
+    run->calibration = calibration;
+    run->engine = std::make_unique<OnlineEngine>(
+        *calibration, calibrations_.get(),
+        [this, run_id = begun.run_id](const json& fields) { publishEstimate(run_id, fields); });
+  }
   run_ = std::move(run);
   publish(run_->runner->takeEvents());
   log_.info("run " + std::to_string(run_->id) + " started: plan '" + run_->plan_name + "'");
@@ -712,6 +831,105 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
                       {"state", runnerStateName(run_->runner->state())},
                       {"from_step", next},
                       {"steps", run_->runner->steps().size()}});
+}
+
+// ---- calibration (daemon/online_engine.h) ---------------------------------------------------
+
+std::optional<OnlineSetup> BenchDaemon::calibrationSetup(const LoadedPlan& loaded,
+                                                         std::string* why) {
+  const plans::Plan& plan = loaded.plan;
+  if (plan.calibration == plans::CalibrationMethod::kNone) return std::nullopt;
+  OnlineSetup setup;
+  setup.method = plan.calibration;
+  setup.db_path = db_path_;
+  setup.acceptance = bench_.acceptance;
+  io::Recording& meta = setup.meta;
+  meta.latitude_deg = bench_.site.latitude_rad * kRadToDeg;
+  meta.height_m = bench_.site.height_m;
+  meta.gravity_mps2 = bench_.site.gravity_mps2;
+  meta.imu_serial = bench_.imu.serial;
+  meta.imu_rate_hz = 1.0 / bench_.imu.layout.sample_period_s;
+  meta.table_kind = bench_.table.kind;
+  if (meta.table_kind == calib::TableKind::kTwoAxis)
+    meta.outer_axis_heading_deg = bench_.outer_axis_heading_rad * kRadToDeg;
+  meta.segments_from_file = true;
+  if (plan.calibration != plans::CalibrationMethod::kPipeline) return setup;
+  // The pipeline's direct part: the newest completed run of direct_plan for this IMU.
+  const auto runs = store_->listRuns();
+  if (!runs.status.ok) {
+    *why = "store: " + runs.status.message;
+    return std::nullopt;
+  }
+  for (auto it = runs.runs.rbegin(); it != runs.runs.rend(); ++it) {
+    if (it->state == RunState::kFinished && it->exit_reason == runExitName(RunExit::kCompleted) &&
+        it->start.plan_name == plan.direct_plan && it->start.imu_serial == bench_.imu.serial) {
+      setup.direct_run = it->id;
+      return setup;
+    }
+  }
+  *why = "plan '" + plan.name + "' (calibration = \"pipeline\") needs a completed run of plan '" +
+         plan.direct_plan + "' for IMU serial '" + bench_.imu.serial +
+         "' on this bench: run that plan first";
+  return std::nullopt;
+}
+
+// An estimate of the online engine: the run's event log, subscribers (topic "run"), the log.
+void BenchDaemon::publishEstimate(std::int64_t run, const json& fields) {
+  RunEvent stored;
+  stored.run_id = run;
+  stored.wall_unix_s = unixNow();
+  stored.severity = EventSeverity::kInfo;
+  stored.kind = "estimate";
+  stored.json = fields.dump();
+  if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
+  server_->broadcast(Topic::kRun, "estimate", fields);
+  log_.info("run " + std::to_string(run) + ": estimate after " +
+            fields.value("summary", std::string("a step")));
+}
+
+// The full calibration of a completed run, off the loop; the results are stored on the loop.
+void BenchDaemon::startFinalCalibration(const OnlineSetup& setup) {
+  auto job = [this, setup]() -> std::function<void()> {
+    FinalCalibration f = finalCalibration(setup);
+    return [this, setup, f = std::move(f)] { storeFinalCalibration(setup, f); };
+  };
+  auto failed = [this, run = setup.run_id](const std::string& what) {
+    log_.error("run " + std::to_string(run) + ": calibration failed: " + what);
+    server_->broadcast(Topic::kRun, "results", {{"run", run}, {"ok", false}, {"error", what}});
+  };
+  std::string why;
+  if (!calibrations_->run(job, failed, &why)) failed(why);
+}
+
+void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f) {
+  const std::string who = "run " + std::to_string(setup.run_id);
+  if (!f.ok) {
+    log_.error(who + ": no calibration results: " + f.error);
+    server_->broadcast(Topic::kRun, "results",
+                       {{"run", setup.run_id}, {"ok", false}, {"error", f.error}});
+    return;
+  }
+  json stored = json::object();
+  auto keep = [&](const char* kind, const json& j) {
+    const auto r = store_->storeResult(setup.run_id, f.imu_serial, f.temperature_c, kind, j.dump());
+    if (!r.status.ok) log_.error("store: " + r.status.message);
+    if (r.status.ok) stored[kind] = r.result_id;
+  };
+  if (f.calibrated) keep("coefficients", f.coefficients);
+  keep("report", f.report);
+  keep("verdict", f.verdict);
+  const json pass = f.verdict.value("pass", json());
+  const std::string verdict = pass.is_boolean() ? (pass.get<bool>() ? "PASS" : "FAIL") : "none";
+  log_.info(who + ": calibration " + (f.calibrated ? "done" : "FAILED") + ", verdict " + verdict +
+            " (IMU " + f.imu_serial + ")");
+  server_->broadcast(Topic::kRun, "results",
+                     {{"run", setup.run_id},
+                      {"ok", true},
+                      {"calibrated", f.calibrated},
+                      {"pass", pass},
+                      {"imu_serial", f.imu_serial},
+                      {"temperature_c", f.temperature_c},
+                      {"results", stored}});
 }
 
 // ---- the plan queue (stored: it survives a restart) -----------------------------------------
@@ -873,7 +1091,7 @@ Reply BenchDaemon::rearm(const Request& request) {
 TableStatus BenchDaemon::tableStatus() const {
   const drivers::TableReading& r = port_->lastReading();
   const char* interlock = r.interlock_tripped ? "tripped" : r.interlock_closed ? "closed" : "open";
-  TableStatus t{interlock, r.estop, r.fault, drivers::deviceStateName(table_->state()),
+  TableStatus t{interlock,    r.estop,      r.fault,     drivers::deviceStateName(table_->state()),
                 std::nullopt, std::nullopt, std::nullopt};
   if (!port_->lastTableError().empty()) t.error = port_->lastTableError();
   if (!r.axes.empty()) {  // the last read's axes (none after a read that got no answer)

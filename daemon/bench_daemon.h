@@ -10,6 +10,11 @@
 //   control socket       -> start/pause/resume/abort/stop/rearm/status/list_plans/
 //                           validate_plan/results/export/queue_*; each request first passes
 //                           the bench's command rights (daemon/control_rights.h)
+//   IMU samples, steps   -> the online engine (daemon/online_engine.h) of a plan naming a
+//                           calibration: step statistics on the loop, an `estimate` event
+//                           (topic "run") after each step that allows one, computed off it
+//   run completed        -> the full calibration off the loop; coefficients, report and
+//                           verdict stored as results of the run (event "results")
 //   run completed        -> the plan queue's head starts (stored in the database, so the
 //                           queue survives a restart; an abort, fault or restart holds it until
 //                           queue_resume)
@@ -40,6 +45,7 @@
 #include "daemon/log_limiter.h"
 #include "daemon/logging.h"
 #include "daemon/off_loop.h"
+#include "daemon/online_engine.h"
 #include "daemon/plan_library.h"
 #include "daemon/plan_runner.h"
 #include "daemon/sd_notify.h"
@@ -93,6 +99,12 @@ class BenchDaemon {
   Reply launch(const LoadedPlan& loaded, const nlohmann::json& id);
   // `resume RUN`: an interrupted run goes on from its last finished step (crash resume).
   Reply resumeInterrupted(const Request& request, std::int64_t run_id);
+  // The online engine's setup for a plan naming a calibration (nullopt: none); a pipeline
+  // whose direct run cannot be found is refused (*why).
+  std::optional<OnlineSetup> calibrationSetup(const LoadedPlan& loaded, std::string* why);
+  void publishEstimate(std::int64_t run, const nlohmann::json& fields);
+  void startFinalCalibration(const OnlineSetup& setup);
+  void storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f);
   Reply enqueue(const Request& request, const std::string& name, const LoadedPlan& loaded);
   Reply startQueued(const nlohmann::json& id);
   void advanceQueue();
@@ -114,6 +126,8 @@ class BenchDaemon {
   void reportImuProblems();
   void onStatusTimer();
   void publish(const std::vector<RunnerEvent>& events);
+  void beginStep(int step, std::optional<double> t0);
+  void closeStep(std::optional<double> t1);
   void closeRun();
   double wallNow() const;
 
@@ -130,8 +144,9 @@ class BenchDaemon {
   std::unique_ptr<ControlServer> server_;
   // After server_ (destroyed first): no late reply is posted once they are gone.
   std::unique_ptr<PlanLibrary> plans_;
-  std::unique_ptr<OffLoop> exports_;  // export jobs: a whole run read and written off the loop
-  std::string db_path_;               // the store's file; exports go next to it
+  std::unique_ptr<OffLoop> exports_;       // export jobs: a whole run read and written off the loop
+  std::unique_ptr<OffLoop> calibrations_;  // online estimates and end-of-plan calibrations
+  std::string db_path_;                    // the store's file; exports go next to it
   SystemdNotifier notifier_;
   std::unique_ptr<ActiveRun> run_;
   bool stopping_ = false;  // stop() has begun: no queued plan starts any more

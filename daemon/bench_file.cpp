@@ -3,12 +3,16 @@
 #include <grp.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <vector>
 
+#include "calib/bench_truth.h"
+#include "calib/truth_comparison.h"
 #include "nav/rotation.h"
 
 namespace imubench::daemon {
@@ -230,6 +234,41 @@ void parseControl(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
   }
 }
 
+// [acceptance]: "<parameter or group>" = "<number> <display unit>". The key must name
+// calibration parameters (interchange.md flat names), the unit must be theirs.
+void parseAcceptance(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
+  const toml::table* t = subTable(root, "acceptance", diag, false);
+  if (t == nullptr) return;
+  const std::vector<std::string> names = calib::flatNames(calib::BenchTruth{});
+  for (const auto& [key, node] : *t) {
+    const std::string k(key.str());
+    const auto first = std::find_if(names.begin(), names.end(), [&k](const std::string& n) {
+      return n == k || n.rfind(k + ".", 0) == 0;
+    });
+    if (first == names.end() || k.rfind("extra.", 0) == 0) {
+      diag.error(node.source(), "[acceptance] \"" + k +
+                                    "\": not a calibration parameter or group (e.g. "
+                                    "\"gyro.bias\", \"accel.scale.x\")");
+      continue;
+    }
+    const calib::DisplayUnit unit = calib::displayUnit(*first);
+    const auto* s = node.as_string();
+    const std::string text = s != nullptr ? s->get() : std::string();
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    std::string rest = end != nullptr ? std::string(end) : std::string();
+    rest.erase(0, rest.find_first_not_of(' '));
+    if (s == nullptr || end == text.c_str() || rest != unit.label || !(v >= 0.0) ||
+        !std::isfinite(v)) {
+      diag.error(node.source(), "[acceptance] \"" + k + "\" must be a string \"<limit> " +
+                                    unit.label + "\" with a limit >= 0, e.g. \"10 " + unit.label +
+                                    "\"");
+      continue;
+    }
+    b.acceptance.push_back({k, v * unit.si_per_unit, text});
+  }
+}
+
 }  // namespace
 
 std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_view file_name,
@@ -238,7 +277,7 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
   if (!root) return std::nullopt;
   BenchConfig b;
   b.file = std::string(file_name);
-  checkKeys(*root, {"bench", "site", "table", "chamber", "imu", "safety", "control"},
+  checkKeys(*root, {"bench", "site", "table", "chamber", "imu", "safety", "control", "acceptance"},
             "the top level", diag);
   parseBenchTable(*root, base_dir, b, diag);
   parseSite(*root, b, diag);
@@ -247,6 +286,7 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
   parseImu(*root, base_dir, b, diag);
   parseSafety(*root, b, diag);
   parseControl(*root, b, diag);
+  parseAcceptance(*root, b, diag);
   if (!diag.ok()) return std::nullopt;
   return b;
 }

@@ -53,6 +53,13 @@
 //   read_group = "imubench-view"     # optional, needs command_group: members (and the command
 //                                    #   group's) may read: status, watch, results, export,
 //                                    #   list_plans, validate_plan, queue_list
+//   [acceptance]              # optional: the IMU's pass/fail limits, checked after a plan's
+//                             #   calibration (daemon/run_calibration.h): |estimate| <= limit
+//   "gyro.bias" = "0.01 deg/h"       # a parameter's flat name (interchange.md), or a group:
+//   "accel.scale" = "100 ppm"        #   every parameter under it ("gyro.bias" = x, y, z);
+//   "accel.misalignment.xy" = "30 arcsec"   # scales are judged as |scale - 1|; the unit is
+//                                    #   the parameter's display unit: ppm, ug, deg/h, arcsec
+//
 //   Without command_group anyone who can reach the socket may send every command: the socket
 //   file's mode (0660, group imubench) is the only gate, as before these keys. With a
 //   command_group and other users meant to read or stop, the socket must let them connect
@@ -67,6 +74,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "daemon/control_rights.h"
 #include "drivers/device_file.h"
@@ -111,6 +119,15 @@ struct BenchImu {
   std::string serial;     // empty: unknown
 };
 
+// One acceptance limit ([acceptance]): every flat parameter name equal to `parameter` or
+// under it ("gyro.bias" -> gyro.bias.x/y/z) must satisfy |estimate| <= limit (SI; scale
+// factors as |scale - 1|).
+struct AcceptanceLimit {
+  std::string parameter;
+  double limit = 0.0;  // SI
+  std::string text;    // as written, e.g. "0.01 deg/h"
+};
+
 struct BenchConfig {
   std::string file;  // the bench file as given
   std::string name;
@@ -126,6 +143,7 @@ struct BenchConfig {
   BenchImu imu;
   BenchSafety safety;
   BenchControl control;
+  std::vector<AcceptanceLimit> acceptance;  // empty: no verdict (results say so)
 };
 
 // Parses bench text; device files are resolved against base_dir. file_name names the text in

@@ -7,6 +7,10 @@
 //   name = "two_axis_12run"                # optional, free text
 //   description = "..."                    # optional, free text
 //   recording = "on"                       # optional, "on" | "off": state at t = 0 (default on)
+//   calibration = "pipeline"               # optional: what the daemon calibrates from the run:
+//                                          # "direct" | "indirect" | "pipeline" (default none)
+//   direct_plan = "direct_two_axis"        # "pipeline" only, required there: the plan whose
+//                                          # newest completed run gives the direct part
 //
 //   [table]                                # required
 //   kind = "two-axis"                      # required, "two-axis" | "three-axis"
@@ -127,6 +131,20 @@ std::optional<int> axisIndex(TableKind kind, std::string_view name) {
 
 const char* tableKindName(TableKind kind) {
   return kind == TableKind::kTwoAxis ? "two-axis" : "three-axis";
+}
+
+const char* calibrationMethodName(CalibrationMethod m) {
+  switch (m) {
+    case CalibrationMethod::kNone:
+      return "none";
+    case CalibrationMethod::kDirect:
+      return "direct";
+    case CalibrationMethod::kIndirect:
+      return "indirect";
+    case CalibrationMethod::kPipeline:
+      return "pipeline";
+  }
+  return "none";
 }
 
 EffectiveLimits limitsFor(const TableSpec& table, int axis) {
@@ -316,10 +334,39 @@ class Parser {
 
   void parsePlanTable(const toml::table& t, Plan& plan) {
     plan.plan_where = posOf(t.source());
-    checkKeys(t, {"name", "description", "recording"}, "[plan]");
+    checkKeys(t, {"name", "description", "recording", "calibration", "direct_plan"}, "[plan]");
     if (auto s = text(t, "name", false)) plan.name = *s;
     if (auto s = text(t, "description", false)) plan.description = *s;
     if (auto r = onOff(t, "recording", false)) plan.recording_at_start = *r;
+    parseCalibration(t, plan);
+  }
+
+  // [plan] calibration and direct_plan (a pipeline names its direct plan; nothing else may).
+  void parseCalibration(const toml::table& t, Plan& plan) {
+    if (auto c = text(t, "calibration", false)) {
+      if (*c == "direct") {
+        plan.calibration = CalibrationMethod::kDirect;
+      } else if (*c == "indirect") {
+        plan.calibration = CalibrationMethod::kIndirect;
+      } else if (*c == "pipeline") {
+        plan.calibration = CalibrationMethod::kPipeline;
+      } else {
+        diag_.error(t.get("calibration")->source(),
+                    "unknown calibration \"" + *c +
+                        "\": expected \"direct\", \"indirect\" or \"pipeline\"");
+      }
+    }
+    if (auto d = text(t, "direct_plan", false)) plan.direct_plan = *d;
+    const bool pipeline = plan.calibration == CalibrationMethod::kPipeline;
+    if (pipeline && plan.direct_plan.empty() && !t.get("direct_plan")) {
+      diag_.error(t.source(),
+                  "calibration = \"pipeline\" needs direct_plan (the plan whose completed run "
+                  "gives the direct calibration)");
+    }
+    if (!pipeline && t.get("direct_plan")) {
+      diag_.error(t.get("direct_plan")->source(),
+                  "direct_plan applies to calibration = \"pipeline\" only");
+    }
   }
 
   void parseTable(const toml::table& t, TableSpec& table) {

@@ -110,10 +110,25 @@ struct Step {
   std::vector<Step> steps;  // repeat body
 };
 
+// The calibration a plan's recording feeds ([plan] calibration): what the daemon computes
+// online during the run and in full at its end (daemon/online_engine.h).
+enum class CalibrationMethod {
+  kNone,      // no calibration (key absent): the run only records
+  kDirect,    // direct calibration of this run (calib/direct_calibration.h)
+  kIndirect,  // navigation-based calibration of this run alone (calib/indirect_calibration.h)
+  kPipeline,  // the production pipeline (calib/bench_calibration.h): this run's navigation
+              // refinement with the direct part from a completed run of plan `direct_plan`
+};
+const char* calibrationMethodName(CalibrationMethod m);  // "none" | "direct" | ...
+
 struct Plan {
   std::string file;  // file name used in diagnostics
   std::string name;
   std::string description;
+  CalibrationMethod calibration = CalibrationMethod::kNone;
+  // kPipeline: the name of the plan whose newest completed run (same IMU serial, same bench)
+  // gives the direct part.
+  std::string direct_plan;
   SourcePos plan_where;            // the [plan] header
   bool recording_at_start = true;  // [plan] recording = "on" | "off"
   TableSpec table;

@@ -41,6 +41,7 @@ void addStoreCommands(CLI::App& app);
 // Operator's commands to imubenchd over its control socket: start, pause, resume, abort, stop,
 // status, results, watch.
 void addControlCommands(CLI::App& app);  // cli_control.cpp
+void addResultsCommand(CLI::App& app);   // cli_results.cpp
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {

@@ -1,4 +1,4 @@
-// imubench start | pause | resume | abort | stop | status | results | watch | queue: the operator's
+// imubench start | pause | resume | abort | stop | status | watch | queue: the operator's
 // commands to a running imubenchd over its control socket (tools/control_client.h).
 //
 //   imubench start PLAN [--label L] [--dry-run] [--out-dir DIR] [--watch] [--queue]
@@ -13,7 +13,7 @@
 //   imubench pause | resume | abort | stop          (stop = emergency stop)
 //   imubench resume RUN          run RUN, interrupted by a daemon crash, power loss or stop,
 //                                goes on from its last finished step (appending to the run)
-//   imubench status [--json]     imubench results [RUN] [--json]     imubench watch [--json]
+//   imubench status [--json]     imubench watch [--json]     (results: cli_results.cpp, the store)
 // Every command takes --socket PATH (default $IMUBENCH_SOCKET, else /run/imubench/control.sock).
 // Human output by default; --json prints the daemon's raw reply (watch: the raw event lines).
 // An ok=false reply prints "error (code): message" and exits 1; so does a daemon that cannot
@@ -174,6 +174,18 @@ void applyEvent(WatchState& s, const json& event, std::vector<std::string>* note
     std::string why;
     const auto e = daemon::parseEvent<daemon::AlarmEvent>(event, &why);
     notes->push_back("ALARM: " + (e ? e->message : "(unreadable: " + why + ")"));
+  } else if (name == "estimate" && event.contains("summary")) {
+    // The daemon's online engine: what the steps so far determine (daemon/online_engine.h).
+    notes->push_back("estimate after " + textField(event, "summary").value_or("?"));
+  } else if (name == "results") {
+    const bool has_run = event.contains("run") && event["run"].is_number_integer();
+    std::string line =
+        "results of run " + (has_run ? std::to_string(event["run"].get<std::int64_t>()) : "?");
+    const bool pass =
+        event.contains("pass") && event["pass"].is_boolean() && event["pass"].get<bool>();
+    line += event.value("calibrated", false) ? (pass ? ": calibrated, PASS" : ": calibrated, FAIL")
+                                             : ": calibration failed";
+    notes->push_back(line + " (imubench results RUN)");
   } else if (name == "estimate") {
     std::string line = "estimate " + textField(event, "parameter").value_or("?");
     if (auto v = numField(event, "value")) line += " = " + formatNumber(*v);
@@ -560,26 +572,6 @@ void runResume(const ControlOptions& o, std::optional<long long> run) {
   });
 }
 
-// ---- results ----
-struct ResultsOptions {
-  ControlOptions ctl;
-  std::optional<long long> run;
-};
-
-void runResults(const ResultsOptions& o) {
-  json req = {{"cmd", "results"}};
-  if (o.run) req["run"] = *o.run;
-  withClient(o.ctl, [&](ControlClient& c) {
-    const json r = exchange(o.ctl, c, req);
-    if (o.ctl.json) return;
-    if (r.empty()) {
-      std::cout << (o.run ? "run " + std::to_string(*o.run) + ": no results\n" : "no runs\n");
-      return;
-    }
-    printGeneric(r);
-  });
-}
-
 }  // namespace
 
 void addControlCommands(CLI::App& app) {
@@ -650,14 +642,6 @@ void addControlCommands(CLI::App& app) {
     });
   }
   addQueueCommands(app, group);
-  {
-    auto o = std::make_shared<ResultsOptions>();
-    CLI::App* sub = app.add_subcommand("results", "the run history, or one run's results");
-    sub->group(group);
-    sub->add_option("RUN", o->run, "run id (default: the history)")->check(CLI::PositiveNumber);
-    addControlOptions(*sub, &o->ctl);
-    sub->callback([o] { runResults(*o); });
-  }
   {
     auto o = std::make_shared<ControlOptions>();
     CLI::App* sub = app.add_subcommand(

@@ -21,6 +21,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "io/recording.h"
 #include "tools/cli11.h"
@@ -72,6 +73,20 @@ io::Recording loadStoredRun(std::int64_t id, const std::string& db_path);
 std::int64_t storeRunResult(const std::string& db_path, std::int64_t run_id,
                             const std::string& imu_serial, double temperature_c,
                             const std::string& kind, const std::string& json);
+
+// Stored results (daemon/store.h StoredResult) of one run or of one IMU serial, by id.
+struct StoredResultRow {
+  std::int64_t id = 0;
+  std::int64_t run_id = 0;
+  std::string imu_serial;
+  double temperature_c = 0.0;
+  std::string kind;
+  std::string json;
+  double created_unix_s = 0.0;
+};
+std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
+                                               std::optional<std::int64_t> run_id,
+                                               std::optional<std::string> imu_serial);
 
 // The store subcommands' work (registered by addStoreCommands in cli_runs.cpp).
 struct RunsOptions {

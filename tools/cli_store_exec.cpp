@@ -39,6 +39,12 @@ std::int64_t storeRunResult(const std::string& /*db_path*/, std::int64_t /*run_i
   throw NeedsRunStore();
 }
 
+std::vector<StoredResultRow> loadStoredResults(const std::string& /*db_path*/,
+                                               std::optional<std::int64_t> /*run_id*/,
+                                               std::optional<std::string> /*imu_serial*/) {
+  throw NeedsRunStore();
+}
+
 void runRuns(const RunsOptions& /*o*/) {
   throw NeedsRunStore();
 }

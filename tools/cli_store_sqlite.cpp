@@ -174,4 +174,25 @@ void runImport(const ImportOptions& o) {
   std::cout << r.run_id << "\n";
 }
 
+std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
+                                               std::optional<std::int64_t> run_id,
+                                               std::optional<std::string> imu_serial) {
+  auto store = openStoreOrFail(db_path, StoreAccess::kExisting);
+  if (run_id) {
+    const daemon::RunInfoResult info = store->runInfo(*run_id);
+    if (!info.status.ok) throw CommandFailed(info.status.message);
+  }
+  daemon::ResultFilter filter;
+  filter.run_id = run_id;
+  filter.imu_serial = std::move(imu_serial);
+  const daemon::ResultListResult r = store->results(filter);
+  if (!r.status.ok) throw CommandFailed(r.status.message);
+  std::vector<StoredResultRow> out;
+  for (const daemon::StoredResult& s : r.results) {
+    out.push_back(
+        {s.id, s.run_id, s.imu_serial, s.temperature_c, s.kind, s.json, s.created_unix_s});
+  }
+  return out;
+}
+
 }  // namespace imubench::tools

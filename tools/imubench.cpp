@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   addExperimentCommand(app);
   addStoreCommands(app);
   addControlCommands(app);
+  addResultsCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -39,6 +39,7 @@
 #include "drivers/virtual_table_scpi.h"
 #include "drivers/virtual_world.h"
 #include "io/truth_file.h"
+#include "nav/rotation.h"
 
 namespace {
 
@@ -57,6 +58,10 @@ struct Args {
   std::string imu_layout_file, can_interface = "vcan0", truth_file;
   double imu_rate_hz = 0.0;  // 0: the layout's sample period
   std::uint64_t seed = 1;
+  // The site the IMU senses (gravity, Earth rate): the shipped bench file's
+  // (daemon/benches/virtual-bench.toml), so the daemon's calibration assumes where it is.
+  double latitude_deg = 55.7558;
+  double height_m = 150.0;
   std::string noise = "none";  // IMU noise model by name (calib::NoiseModel::byName)
   // faults
   double reply_delay_ms = 0.0;
@@ -213,6 +218,8 @@ std::unique_ptr<ImuStreamer> startImu(const Args& a, VirtualWorld& world, const 
     bench.truth = t.truth;
   }
   bench.noise = *calib::NoiseModel::byName(a.noise);  // checked by CLI11
+  bench.site.latitude_rad = a.latitude_deg * kDegToRad;
+  bench.site.height_m = a.height_m;
   calib::SimOptions opts;
   opts.imu_rate_hz = a.imu_rate_hz > 0 ? a.imu_rate_hz : 1.0 / layout->sample_period_s;
   opts.seed = a.seed;
@@ -413,6 +420,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--imu-rate", a.imu_rate_hz, "IMU rate, Hz (default: the layout's)");
   app.add_option("--seed", a.seed, "IMU noise seed");
+  app.add_option("--latitude", a.latitude_deg,
+                 "site latitude, deg (the IMU senses its gravity and Earth rate; default: the "
+                 "shipped bench file's)")
+      ->check(CLI::Range(-90.0, 90.0));
+  app.add_option("--height", a.height_m, "site height, m (default: the shipped bench file's)");
   app.add_option("--noise", a.noise, "IMU noise: none|nav-grade|nav-grade-drift|tactical|consumer")
       ->check(CLI::IsMember({"none", "nav-grade", "nav-grade-drift", "tactical", "consumer"}));
   app.add_option("--fault-reply-delay-ms", a.reply_delay_ms, "delay every Modbus/serial reply")

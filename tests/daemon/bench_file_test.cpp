@@ -207,5 +207,33 @@ TEST(BenchFile, UnreadableFileNamesIt) {
   EXPECT_NE(diag.str().find("cannot open bench file"), std::string::npos) << diag.str();
 }
 
+TEST(BenchFile, AcceptanceLimitsInTheParametersDisplayUnits) {
+  io::Diagnostics diag("bench.toml");
+  const auto b = parse(kGood +
+                           "\n[acceptance]\n\"gyro.bias\" = \"0.01 deg/h\"\n"
+                           "\"accel.scale.x\" = \"100 ppm\"\n",
+                       diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  ASSERT_EQ(b->acceptance.size(), 2u);  // in key order (TOML tables are unordered)
+  EXPECT_EQ(b->acceptance[0].parameter, "accel.scale.x");
+  EXPECT_NEAR(b->acceptance[0].limit, 1e-4, 1e-18);
+  EXPECT_EQ(b->acceptance[1].parameter, "gyro.bias");
+  EXPECT_NEAR(b->acceptance[1].limit, 0.01 * kDegToRad / 3600.0, 1e-20);
+  EXPECT_EQ(b->acceptance[1].text, "0.01 deg/h");
+}
+
+TEST(BenchFile, AcceptanceRefusesUnknownParametersAndWrongUnits) {
+  io::Diagnostics unit("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[acceptance]\n\"gyro.bias\" = \"0.01 ppm\"\n", unit));
+  EXPECT_NE(unit.str().find("\"<limit> deg/h\""), std::string::npos) << unit.str();
+  io::Diagnostics name("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[acceptance]\n\"gyro.bia\" = \"0.01 deg/h\"\n", name));
+  EXPECT_NE(name.str().find("not a calibration parameter"), std::string::npos) << name.str();
+  io::Diagnostics negative("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[acceptance]\n\"accel.bias\" = \"-5 ug\"\n", negative));
+  io::Diagnostics number("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[acceptance]\n\"accel.bias\" = 5\n", number));
+}
+
 }  // namespace
 }  // namespace imubench::daemon

@@ -343,7 +343,8 @@ TEST(ControlProtocol, EveryEventRoundTrips) {
 
 TEST(ControlProtocol, EveryReplyRoundTrips) {
   const PlanSummary plan{"two_axis_12run", 45, 1234.5};
-  const TableStatus table{"closed", false, true, "connected", "timeout on read"};
+  const TableStatus table{"closed",          false,        true,        "connected",
+                          "timeout on read", std::nullopt, std::nullopt};
   expectReplyRoundTrip(PingReply{true});
   expectReplyRoundTrip(TopicsReply{{"run", "status"}});
   expectReplyRoundTrip(TopicsReply{});
@@ -354,7 +355,8 @@ TEST(ControlProtocol, EveryReplyRoundTrips) {
   expectReplyRoundTrip(StopReply{true});
   expectReplyRoundTrip(RunCommandReply{12, "paused"});
   expectReplyRoundTrip(RearmReply{table});
-  expectReplyRoundTrip(RearmReply{TableStatus{"open", true, false, "connected", std::nullopt}});
+  expectReplyRoundTrip(RearmReply{TableStatus{"open", true, false, "connected", std::nullopt,
+                                              std::vector<double>{12.5, -90.0}, true}});
   StatusReply idle{"bench-1",
                    "idle",
                    std::nullopt,

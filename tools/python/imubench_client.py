@@ -48,7 +48,8 @@ Replies (the "result" object):
     export                       {"run", "dir", "imu_samples"}
     queue_list, queue_move,      {"queue": [{"entry", "position", "plan", "name", "label",
       queue_remove                           "added_unix_s"}]}
-    TABLE = {"interlock": "closed"|"open"|"tripped", "estop", "fault", "state", ["error"]}
+    TABLE = {"interlock": "closed"|"open"|"tripped", "estop", "fault", "state", ["error"],
+             ["angles_deg"], ["moving"]}
 
 Events ({"event": name, "topic": topic, ...fields}):
     topic run:     state          {"run", "step", "label", "state", ["exit"]}
@@ -61,9 +62,22 @@ Events ({"event": name, "topic": topic, ...fields}):
                    queue_started  {"entry", "run", "plan"}
                    queue_held     {"reason"}
                    rearmed        {"run"}
+                   step_stats     {"run", "step", "label", "stats"}
+                   estimate       {"run", "step", "label", "method", "ok", "parameters":
+                                   {name: {"value", "sigma", "unit"}}, "unobservable": [names],
+                                   "summary"}
+                   results        {"run", "calibrated", "pass"}
+                   resumed        {"run", "from_step"}
     topic status:  progress       {"run", "state", "progress", "eta_s", "step", "label"}
 step is the 0-based step index; a run has ended when its state is finished (completed unless
 "exit" says otherwise), faulted, aborted or interrupted.
+
+Calibration (plans with calibration = "direct" | "indirect" | "pipeline"): the daemon sends
+an "estimate" event (topic "run") after each step that allows one -- {"run", "step", "label",
+"method", "ok", "parameters": {name: {"value", "sigma", "unit"}}, "unobservable": [names],
+"summary"} -- and a "results" event when the end-of-plan calibration is stored ({"run",
+"calibrated", "pass"}); calibration(run) returns the stored results by kind ("coefficients",
+"report", "verdict").
 """
 
 import json
@@ -424,6 +438,11 @@ class Client:
 
     def results(self, run=None):
         return self.call("results", run=run) if run is not None else self.call("results")
+
+    def calibration(self, run):
+        """The calibration results stored for run: {kind: json} (empty while none)."""
+        stored = self.results(run).get("results", [])
+        return {r["kind"]: r["json"] for r in stored}
 
     def list_plans(self):
         return self.call("list_plans")

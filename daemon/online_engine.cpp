@@ -1,0 +1,258 @@
+#include "daemon/online_engine.h"
+
+#include <cmath>
+#include <utility>
+
+#include "daemon/store.h"
+#include "nav/rotation.h"
+
+namespace imubench::daemon {
+namespace {
+
+using nlohmann::json;
+
+// Degrees per hour in rad/s (the unit gyro noise and biases are shown in).
+constexpr double kDegPerHour = kDegToRad / 3600.0;
+
+json vec(const Eigen::Vector3d& v, double per_unit) {
+  return json::array({v.x() / per_unit, v.y() / per_unit, v.z() / per_unit});
+}
+
+// The run so far as one recording: the run's meta data with the sealed chunks concatenated.
+io::Recording recordingOf(
+    const io::Recording& meta, const std::vector<std::shared_ptr<const nav::ImuSamples>>& imu,
+    const std::vector<std::shared_ptr<const std::vector<io::TableSample>>>& table,
+    const std::vector<calib::Segment>& segments) {
+  io::Recording rec = meta;
+  std::size_t n = 0;
+  for (const auto& c : imu) n += c->size();
+  rec.imu.reserve(n);
+  for (const auto& c : imu) rec.imu.insert(rec.imu.end(), c->begin(), c->end());
+  for (const auto& c : table) rec.table.insert(rec.table.end(), c->begin(), c->end());
+  rec.segments = segments;
+  return rec;
+}
+
+// One line for people: how much the estimate determines.
+std::string summaryOf(const json& estimate, const std::string& method) {
+  const std::size_t estimated = estimate["parameters"].size();
+  const std::size_t unobservable = estimate["unobservable"].size();
+  std::string s = method + ": " + std::to_string(estimated) + " parameters estimated, " +
+                  std::to_string(unobservable) + " not yet observable";
+  if (estimate.contains("reason")) s += " (" + estimate["reason"].get<std::string>() + ")";
+  return s;
+}
+
+}  // namespace
+
+void StepStats::add(const nav::ImuSample& s, double dt) {
+  if (samples == 0) t0 = s.t;
+  t1 = s.t;
+  ++samples;
+  dtheta += s.dtheta;
+  dvel += s.dvel;
+  const Eigen::Vector3d f = s.dvel / dt;
+  const Eigen::Vector3d w = s.dtheta / dt;
+  const double n = static_cast<double>(samples);
+  const Eigen::Vector3d df = f - f_mean;
+  const Eigen::Vector3d dw = w - w_mean;
+  f_mean += df / n;
+  w_mean += dw / n;
+  f_m2 += df.cwiseProduct(f - f_mean);
+  w_m2 += dw.cwiseProduct(w - w_mean);
+}
+
+json StepStats::toJson() const {
+  json j = {{"samples", samples}, {"duration_s", samples > 0 ? t1 - t0 : 0.0}};
+  if (samples < 2) return j;
+  const double n1 = static_cast<double>(samples - 1);
+  if (kind == calib::SegmentKind::kStatic) {
+    j["specific_force_mps2"] = vec(f_mean, 1.0);
+    j["rate_deg_h"] = vec(w_mean, kDegPerHour);
+    j["accel_noise_mps2"] = vec((f_m2 / n1).cwiseSqrt(), 1.0);
+    j["gyro_noise_deg_h"] = vec((w_m2 / n1).cwiseSqrt(), kDegPerHour);
+  } else {
+    j["turned_deg"] = vec(dtheta, kDegToRad);
+    j["dvel_mps"] = vec(dvel, 1.0);
+  }
+  return j;
+}
+
+OnlineEngine::OnlineEngine(OnlineSetup setup, OffLoop* worker, Publish publish)
+    : setup_(std::move(setup)),
+      worker_(worker),
+      publish_(std::move(publish)),
+      reference_(std::make_shared<Reference>()),
+      imu_(std::make_shared<nav::ImuSamples>()),
+      alive_(std::make_shared<bool>(true)) {}
+
+OnlineEngine::~OnlineEngine() {
+  *alive_ = false;
+}
+
+void OnlineEngine::addImu(std::span<const nav::ImuSample> samples) {
+  for (const nav::ImuSample& s : samples) {
+    if (stats_ && last_t_ && s.t > *last_t_) stats_->add(s, s.t - *last_t_);
+    last_t_ = s.t;
+    imu_->push_back(s);
+  }
+}
+
+void OnlineEngine::addTable(const io::TableSample& sample) {
+  table_.push_back(sample);
+}
+
+void OnlineEngine::stepStarted(int step, calib::SegmentKind kind) {
+  stats_.emplace();
+  stats_->step = step;
+  stats_->kind = kind;
+}
+
+void OnlineEngine::sealChunk() {
+  if (!imu_->empty()) {
+    sealed_.imu.push_back(std::move(imu_));
+    imu_ = std::make_shared<nav::ImuSamples>();
+  }
+  if (!table_.empty()) {
+    sealed_.table.push_back(
+        std::make_shared<const std::vector<io::TableSample>>(std::move(table_)));
+    table_.clear();
+  }
+}
+
+json OnlineEngine::stepFinished(const std::optional<calib::Segment>& segment,
+                                const std::string& label) {
+  json stats = stats_ ? stats_->toJson() : json::object();
+  const int step = stats_ ? stats_->step : -1;
+  stats_.reset();
+  sealChunk();
+  if (!segment || setup_.method == plans::CalibrationMethod::kNone) return stats;
+  sealed_.segments.push_back(*segment);
+  if (!makesEstimatePossible(*segment)) return stats;
+  last_step_ = step;
+  last_label_ = label;
+  if (in_flight_) {
+    pending_ = true;
+  } else {
+    startEstimate();
+  }
+  return stats;
+}
+
+// direct: every hold and rotation adds a row. Navigation-based: a pair of rotations with the
+// hold after the second (a run's residuals need the holds on both sides).
+bool OnlineEngine::makesEstimatePossible(const calib::Segment& segment) {
+  if (!segment.recording) return false;
+  if (setup_.method == plans::CalibrationMethod::kDirect) {
+    return segment.kind == calib::SegmentKind::kStatic ||
+           segment.kind == calib::SegmentKind::kRotate;
+  }
+  if (segment.kind == calib::SegmentKind::kRotate) ++rotations_done_;
+  if (segment.kind != calib::SegmentKind::kStatic) return false;
+  if (rotations_done_ % 2 != 0 || rotations_done_ == rotations_estimated_) return false;
+  rotations_estimated_ = rotations_done_;
+  return true;
+}
+
+void OnlineEngine::startEstimate() {
+  pending_ = false;
+  const int step = last_step_;
+  const std::string label = last_label_;
+  auto job = [chunks = sealed_, meta = setup_.meta, method = setup_.method,
+              direct_run = setup_.direct_run, db = setup_.db_path, reference = reference_,
+              alive = alive_, step, label, this]() -> std::function<void()> {
+    const io::Recording rec = recordingOf(meta, chunks.imu, chunks.table, chunks.segments);
+    if (method == plans::CalibrationMethod::kPipeline && !reference->tried && direct_run) {
+      reference->tried = true;
+      auto opened = Store::open(db, StoreOptions{});
+      auto loaded = opened.status.ok ? opened.store->loadRecording(*direct_run)
+                                     : io::RecordingReadResult{opened.status, {}};
+      if (loaded.status.ok) {
+        reference->recording = std::move(loaded.recording);
+      } else {
+        reference->error = loaded.status.message;
+      }
+    }
+    RunCalibration c =
+        calibrateRun(method, rec, reference->recording ? &*reference->recording : nullptr);
+    if (!c.ok && !reference->error.empty()) c.error += " (direct run: " + reference->error + ")";
+    return [this, alive, c = std::move(c), step, label] {
+      if (*alive) onEstimate(c, step, label);
+    };
+  };
+  auto failed = [this, alive = alive_, step, label](const std::string& what) {
+    if (!*alive) return;
+    RunCalibration c;
+    c.error = "estimate failed: " + what;
+    onEstimate(c, step, label);
+  };
+  std::string why;
+  in_flight_ = worker_->run(job, failed, &why);
+  pending_ = !in_flight_;  // no worker free now: the next step's end tries again
+}
+
+void OnlineEngine::onEstimate(const RunCalibration& c, int step, const std::string& label) {
+  in_flight_ = false;
+  const char* method = plans::calibrationMethodName(setup_.method);
+  json fields = estimateJson(c);
+  fields["run"] = setup_.run_id;
+  fields["step"] = step;
+  fields["label"] = label;
+  fields["method"] = method;
+  fields["report"] = c.report;
+  fields["summary"] = label + ": " + summaryOf(fields, method);
+  ++published_;
+  publish_(fields);
+  if (pending_) startEstimate();
+}
+
+FinalCalibration finalCalibration(const OnlineSetup& setup) {
+  FinalCalibration out;
+  auto opened = Store::open(setup.db_path, StoreOptions{});
+  if (!opened.status.ok) {
+    out.error = opened.status.message;
+    return out;
+  }
+  auto run = opened.store->loadRecording(setup.run_id);
+  if (!run.status.ok) {
+    out.error = run.status.message;
+    return out;
+  }
+  std::optional<io::Recording> direct;
+  if (setup.direct_run) {
+    auto d = opened.store->loadRecording(*setup.direct_run);
+    if (!d.status.ok) {
+      out.error = "direct run " + std::to_string(*setup.direct_run) + ": " + d.status.message;
+      return out;
+    }
+    direct = std::move(d.recording);
+  }
+  const auto temperature = runTemperature(run.recording);
+  if (!temperature) {
+    out.error = "run " + std::to_string(setup.run_id) +
+                " recorded no temperature (no chamber samples, no IMU temperature)";
+    return out;
+  }
+  out.ok = true;
+  out.imu_serial = run.recording.imu_serial;
+  out.temperature_c = *temperature;
+  const RunCalibration c = calibrateRun(setup.method, run.recording, direct ? &*direct : nullptr);
+  // Hook: the missing-physics analysis (calib's explain, when it exists) runs here on
+  // run.recording and c; its report is then stored as a result of kind "explain".
+  out.calibrated = c.ok;
+  if (c.ok) out.coefficients = calib::toJson(c.coefficients);
+  out.report = c.report;
+  out.report["ok"] = c.ok;
+  if (!c.ok) out.report["error"] = c.error;
+  out.report["estimate"] = estimateJson(c);
+  if (setup.direct_run) out.report["direct_run"] = *setup.direct_run;
+  out.report["temperature_c"] = *temperature;
+  out.report["table_kind"] =
+      run.recording.table_kind == calib::TableKind::kTwoAxis ? "two-axis" : "three-axis";
+  if (run.recording.table_kind == calib::TableKind::kTwoAxis)
+    out.report["outer_axis_heading_deg"] = run.recording.outerAxisHeadingDeg();
+  out.verdict = acceptanceVerdict(c, setup.acceptance);
+  return out;
+}
+
+}  // namespace imubench::daemon

@@ -1,0 +1,52 @@
+// The calibration of a bench run as the daemon runs it: the plan's method
+// (plans::CalibrationMethod) over the run's recording (and, for the pipeline, the recording of
+// the direct plan's run), through the library calibrators (calib/direct_calibration.h,
+// calib/indirect_calibration.h, calib/bench_calibration.h); then the pass/fail verdict against
+// the bench file's acceptance limits. Used for the online estimates during a run (on a part of
+// the recording) and for the full calibration at its end. Pure apart from nothing: value
+// types in, value types out (it runs on a worker thread).
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "calib/bench_truth.h"
+#include "daemon/bench_file.h"
+#include "io/recording.h"
+#include "plans/plan.h"
+
+namespace imubench::daemon {
+
+struct RunCalibration {
+  bool ok = false;
+  std::string error;  // why not, when !ok (too little data so far, a refused recording, ...)
+  calib::CoefficientReport coefficients;  // valid when ok
+  // The flat names the method could not determine from these data ("observable": false in
+  // the coefficients, or every parameter when !ok).
+  std::vector<std::string> unobservable;
+  nlohmann::json report;  // method, the calibrator's diagnostics (residuals, conditioning, notes)
+};
+
+// Calibrates rec with `method` (not kNone). direct: the pipeline's direct-plan recording
+// (required for kPipeline, ignored otherwise).
+RunCalibration calibrateRun(plans::CalibrationMethod method, const io::Recording& rec,
+                            const io::Recording* direct);
+
+// The estimate as JSON for the `estimate` event and the report: per estimated parameter its
+// value and sigma in display units (ppm for scale - 1, ug, deg/h, arcsec), and the list of
+// parameters still unobservable.
+nlohmann::json estimateJson(const RunCalibration& c);
+
+// Pass/fail of the coefficients against the limits: {"pass": bool|null, "rows": [{parameter,
+// value, sigma, limit, unit, pass, why}]}. A limited parameter the calibration did not
+// determine fails ("not determined"): the verdict never passes what was not measured. No
+// limits: "pass": null (no verdict).
+nlohmann::json acceptanceVerdict(const RunCalibration& c,
+                                 const std::vector<AcceptanceLimit>& limits);
+
+// Mean temperature of a run for its results: the chamber's measured temperature, else the
+// IMU's reported one; nullopt when neither was recorded.
+std::optional<double> runTemperature(const io::Recording& rec);
+
+}  // namespace imubench::daemon

@@ -1,0 +1,226 @@
+// imubench results RUN [--db PATH] [--json] [--truth T.json] [--coefficients FILE]
+// imubench results --serial S [--db PATH] [--json]
+//
+// The calibration results the daemon stored for a run (daemon/online_engine.h): the verdict
+// against the bench file's acceptance limits, the coefficients with sigmas, what the plan could
+// not observe. --truth compares the stored coefficients with a known truth (a simulated bench)
+// per parameter against 3 arcsec / 10 ppm / 2 sigma, the truth put into the frame the method
+// refers to (gyro-referenced for indirect and pipeline); exit 1 when a judged parameter is
+// outside. --coefficients writes the stored coefficient file (interchange.md). --serial lists
+// an IMU's history: every calibrated run with its temperature and verdict.
+// The store is read through imubench-store (tools/cli_store.h).
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "calib/indirect_calibration.h"
+#include "calib/truth_comparison.h"
+#include "io/truth_file.h"
+#include "nav/rotation.h"
+#include "tools/cli_common.h"
+#include "tools/cli_store.h"
+
+namespace imubench::tools {
+namespace {
+
+using nlohmann::json;
+
+struct ResultsOptions {
+  std::optional<std::string> run;
+  std::optional<std::string> serial;
+  std::string db;
+  bool json = false;
+  std::string truth;
+  std::string coefficients;
+};
+
+// One run's results by kind (the newest of each kind).
+std::map<std::string, json> byKind(const std::vector<StoredResultRow>& rows) {
+  std::map<std::string, json> out;
+  for (const StoredResultRow& r : rows) out[r.kind] = json::parse(r.json, nullptr, false);
+  return out;
+}
+
+std::string verdictText(const json& verdict) {
+  const json pass = verdict.value("pass", json());
+  if (!pass.is_boolean()) return "no verdict (" + verdict.value("why", std::string("-")) + ")";
+  return pass.get<bool>() ? "PASS" : "FAIL";
+}
+
+void printVerdict(const json& verdict) {
+  std::cout << "verdict: " << verdictText(verdict) << "\n";
+  const json rows = verdict.contains("rows") ? verdict["rows"] : json(json::value_t::array);
+  for (const json& row : rows) {
+    char buf[200];
+    const std::string unit = row.value("unit", "");
+    if (row.contains("value")) {
+      std::snprintf(buf, sizeof buf, "  %-28s %12.3f %-7s limit %10.3f  %s\n",
+                    row.value("parameter", "?").c_str(), row["value"].get<double>(), unit.c_str(),
+                    row.value("limit", 0.0), row.value("pass", false) ? "pass" : "FAIL");
+    } else {
+      std::snprintf(buf, sizeof buf, "  %-28s %12s %-7s limit %10.3f  FAIL: %s\n",
+                    row.value("parameter", "?").c_str(), "-", unit.c_str(), row.value("limit", 0.0),
+                    row.value("why", "").c_str());
+    }
+    std::cout << buf;
+  }
+}
+
+void printEstimate(const json& estimate) {
+  const json params =
+      estimate.contains("parameters") ? estimate["parameters"] : json(json::value_t::object);
+  for (const auto& [name, p] : params.items()) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "  %-28s %14.3f %-7s sigma %.3f\n", name.c_str(),
+                  p.value("value", 0.0), p.value("unit", "").c_str(), p.value("sigma", 0.0));
+    std::cout << buf;
+  }
+  const json un =
+      estimate.contains("unobservable") ? estimate["unobservable"] : json(json::value_t::array);
+  if (!un.empty()) {
+    std::cout << "  not observable by the plan (held):";
+    for (const json& n : un) std::cout << " " << n.get<std::string>();
+    std::cout << "\n";
+  }
+}
+
+// The truth in the frame the method's coefficients refer to (calib/truth_comparison.h).
+// The table's geometry comes from the stored report (the run's bench).
+calib::BenchTruth expectedTruth(const calib::BenchTruth& truth, const json& report,
+                                const calib::CoefficientReport& coefficients) {
+  if (report.value("method", std::string()) == "direct") return truth;
+  calib::TableGeometry g;
+  g.kind = coefficients.values.table_kind;
+  g.outer_axis_heading_rad = report.value("outer_axis_heading_deg", 90.0) * kDegToRad;
+  const calib::GyroReferencedTruth m = calib::toGyroReferenced(truth, g);
+  calib::BenchTruth e;
+  e.sensors = m.sensors;
+  e.table.base_tilt = m.base_tilt;
+  e.table.nonorthogonality = m.nonorthogonality;
+  e.table_kind = g.kind;
+  return e;
+}
+
+// --truth: per parameter against the targets; false when one is outside.
+bool compareTruth(const ResultsOptions& o, const json& coefficients, const json& report) {
+  const std::string method = report.value("method", std::string());
+  calib::CoefficientReport report_coefficients;
+  std::string why;
+  if (!calib::fromJson(coefficients, &report_coefficients, &why))
+    throw CommandFailed("stored coefficients: " + why);
+  const calib::TruthComparison c = calib::compareWithTruth(
+      report_coefficients, expectedTruth(loadTruthOrFail(o.truth), report, report_coefficients));
+  std::printf("comparison with %s (%s; targets: 3 arcsec, 10 ppm, biases 2 sigma)\n",
+              o.truth.c_str(),
+              method == "direct" ? "truth as written"
+                                 : "truth mapped into the gyro-referenced platform frame");
+  for (const calib::ComparisonRow& r : c.rows) {
+    std::printf("  %-34s error %+10.3f %-6s limit %8.3f  %s\n", r.name.c_str(), r.error_in_unit,
+                r.unit.c_str(), r.limit_in_unit,
+                !r.observable ? "held (not judged)" : (r.within ? "ok" : "OUTSIDE"));
+  }
+  std::printf("  %d of %d judged parameters within target\n", c.judged - c.outside, c.judged);
+  return c.outside == 0;
+}
+
+void runOne(const ResultsOptions& o, std::int64_t run) {
+  const std::vector<StoredResultRow> rows = loadStoredResults(o.db, run, std::nullopt);
+  if (rows.empty()) throw CommandFailed("run " + std::to_string(run) + ": no results stored");
+  std::map<std::string, json> k = byKind(rows);
+  if (!o.coefficients.empty()) {
+    if (!k.count("coefficients"))
+      throw CommandFailed("run " + std::to_string(run) + ": no coefficients stored");
+    if (auto st = io::writeJsonFile(o.coefficients, k["coefficients"]); !st.ok)
+      throw CommandFailed(st.message);
+  }
+  if (o.json) {
+    json all = json::object();
+    for (const auto& [kind, j] : k) all[kind] = j;
+    std::cout << json({{"run", run}, {"results", all}}).dump(2) << "\n";
+    return;
+  }
+  const StoredResultRow& last = rows.back();
+  const json report = k.count("report") ? k["report"] : json::object();
+  const std::string method = report.value("method", std::string("?"));
+  std::printf("run %lld: IMU %s at %.1f degC, %s calibration%s\n", static_cast<long long>(run),
+              last.imu_serial.c_str(), last.temperature_c, method.c_str(),
+              report.value("ok", false) ? "" : " FAILED");
+  if (report.contains("error")) std::cout << "  " << report["error"].get<std::string>() << "\n";
+  if (report.contains("estimate")) printEstimate(report["estimate"]);
+  if (k.count("verdict")) printVerdict(k["verdict"]);
+  if (!o.coefficients.empty()) std::cout << "coefficients written to " << o.coefficients << "\n";
+  if (!o.truth.empty()) {
+    if (!k.count("coefficients")) throw CommandFailed("--truth: no coefficients stored");
+    if (!compareTruth(o, k["coefficients"], report))
+      throw CommandFailed("run " + std::to_string(run) + ": parameters outside the targets");
+  }
+}
+
+void runHistory(const ResultsOptions& o) {
+  const std::vector<StoredResultRow> rows = loadStoredResults(o.db, std::nullopt, o.serial);
+  std::map<std::int64_t, std::vector<StoredResultRow>> runs;
+  for (const StoredResultRow& r : rows) runs[r.run_id].push_back(r);
+  if (o.json) {
+    json list = json::array();
+    for (const auto& [run, rs] : runs) {
+      json kinds = json::object();
+      for (const auto& [kind, j] : byKind(rs)) kinds[kind] = j;
+      list.push_back({{"run", run},
+                      {"imu_serial", rs.back().imu_serial},
+                      {"temperature_c", rs.back().temperature_c},
+                      {"created_unix_s", rs.back().created_unix_s},
+                      {"results", kinds}});
+    }
+    std::cout << list.dump(2) << "\n";
+    return;
+  }
+  if (runs.empty()) {
+    std::cout << "IMU " << *o.serial << ": no results stored\n";
+    return;
+  }
+  std::printf("%6s  %10s  %-9s  %s\n", "run", "temp degC", "method", "verdict");
+  for (const auto& [run, rs] : runs) {
+    std::map<std::string, json> k = byKind(rs);
+    const std::string method =
+        k.count("report") ? k["report"].value("method", std::string("-")) : std::string("-");
+    std::printf("%6lld  %10.1f  %-9s  %s\n", static_cast<long long>(run), rs.back().temperature_c,
+                method.c_str(),
+                k.count("verdict") ? verdictText(k["verdict"]).c_str() : "(no verdict)");
+  }
+}
+
+void runResults(const ResultsOptions& o) {
+  if (o.run.has_value() == o.serial.has_value())
+    throw CommandFailed("give either RUN or --serial S", 2);
+  if (o.serial) {
+    runHistory(o);
+    return;
+  }
+  const std::optional<std::int64_t> id = parseRunId(*o.run);
+  if (!id) throw CommandFailed("'" + *o.run + "' is not a run id (N or run:N)", 2);
+  runOne(o, *id);
+}
+
+}  // namespace
+
+void addResultsCommand(CLI::App& app) {
+  auto o = std::make_shared<ResultsOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "results", "a run's stored calibration results (verdict, coefficients), or an IMU's history");
+  sub->add_option("RUN", o->run, "run id (N or run:N)");
+  sub->add_option("--serial", o->serial, "list the results of this IMU serial");
+  sub->add_flag("--json", o->json, "print the stored results as JSON");
+  sub->add_option("--truth", o->truth,
+                  "RUN: compare the stored coefficients with this truth file (3 arcsec, 10 ppm, "
+                  "biases 2 sigma); exit 1 when one is outside");
+  sub->add_option("--coefficients", o->coefficients,
+                  "RUN: write the stored coefficient file (interchange JSON) here");
+  addStoreOption(*sub, &o->db);
+  sub->callback([o] { runResults(*o); });
+}
+
+}  // namespace imubench::tools
