@@ -18,7 +18,9 @@
 
 namespace imubench::calib {
 // Test names print the effect's id.
-void PrintTo(EffectId id, std::ostream* os) { *os << effectName(id); }
+void PrintTo(EffectId id, std::ostream* os) {
+  *os << effectName(id);
+}
 }  // namespace imubench::calib
 
 namespace imubench::calib::model {
