@@ -1,5 +1,6 @@
 #include "calib/effects.h"
 
+#include <charconv>
 #include <cmath>
 #include <type_traits>
 
@@ -328,6 +329,49 @@ bool EffectSet::setParam(EffectId id, std::string_view name, std::span<const dou
   return false;
 }
 
+bool setEffectParamFromText(EffectSet* effects, std::string_view text, std::string* why) {
+  const auto fail = [&](const std::string& msg) {
+    if (why) *why = "'" + std::string(text) + "': " + msg;
+    return false;
+  };
+  const std::size_t eq = text.find('=');
+  const std::string_view key = text.substr(0, eq);
+  const std::size_t dot = key.find('.');
+  if (eq == std::string_view::npos || dot == std::string_view::npos) {
+    return fail("expected <effect>.<parameter>=<value>[,<value>...]");
+  }
+  const std::optional<EffectId> id = effectFromName(key.substr(0, dot));
+  if (!id) return fail("unknown effect id '" + std::string(key.substr(0, dot)) + "'");
+  const std::string_view name = key.substr(dot + 1);
+  const ParamSpec* spec = nullptr;
+  for (const ParamSpec& p : paramSpecs(*id)) {
+    if (name == p.name) spec = &p;
+  }
+  if (!spec) return fail("unknown parameter '" + std::string(name) + "'");
+  std::vector<double> values;
+  std::string_view rest = text.substr(eq + 1);
+  while (true) {
+    const std::size_t comma = rest.find(',');
+    const std::string_view item = rest.substr(0, comma);
+    double v = 0.0;
+    if (const std::optional<int> axis = tableAxisFromName(item);
+        axis && spec->kind == ParamKind::kTableAxis) {
+      v = *axis;
+    } else {
+      const auto r = std::from_chars(item.data(), item.data() + item.size(), v);
+      if (r.ec != std::errc() || r.ptr != item.data() + item.size()) {
+        return fail("'" + std::string(item) + "' is not a number");
+      }
+    }
+    values.push_back(v);
+    if (comma == std::string_view::npos) break;
+    rest = rest.substr(comma + 1);
+  }
+  std::string err;
+  if (!effects->setParam(*id, name, values, &err)) return fail(err);
+  return true;
+}
+
 model::EffectBlocks<double> EffectBlockStore::blocks() const {
   model::EffectBlocks<double> b{};
   for (std::size_t k = 0; k < b.size(); ++k) b[k] = on[k] ? values[k].data() : nullptr;
@@ -351,18 +395,22 @@ EffectBlockStore effectBlocks(const EffectSet& effects) {
   return store;
 }
 
-Readings forwardReadings(const SensorModel& sensors, const EffectSet& fx, const PhysicsPoint& p) {
-  const EffectBlockStore store = effectBlocks(fx);
-  const auto accel = sensors.accel.block();
-  const auto gyro = sensors.gyro.block();
+ForwardModel::ForwardModel(const SensorModel& sensors, const EffectSet& effects)
+    : accel_(sensors.accel.block()), gyro_(sensors.gyro.block()), effects_(effectBlocks(effects)) {}
+
+Readings ForwardModel::readings(const PhysicsPoint& p) const {
   model::ReadingState<double> s;
   s.f_B = p.f_B;
   s.w_IB_B = p.w_IB_B;
   s.w_LB_B = p.w_LB_B;
   s.wdot_LB_B = p.wdot_LB_B;
   s.temp_c = p.temp_c;
-  model::sensorReadings(accel.data(), gyro.data(), store.blocks(), &s);
+  model::sensorReadings(accel_.data(), gyro_.data(), effects_.blocks(), &s);
   return {s.accel, s.gyro};
+}
+
+Readings forwardReadings(const SensorModel& sensors, const EffectSet& fx, const PhysicsPoint& p) {
+  return ForwardModel(sensors, fx).readings(p);
 }
 
 Readings effectTerm(EffectId id, const SensorModel& sensors, const EffectSet& effects,

@@ -232,10 +232,27 @@ struct Readings {
 Readings forwardReadings(const SensorModel& sensors, const EffectSet& effects,
                          const PhysicsPoint& p);
 
+// forwardReadings with the parameter blocks of the sensors and effects prepared once, for hot
+// loops (the simulator): same function, same results.
+class ForwardModel {
+ public:
+  ForwardModel(const SensorModel& sensors, const EffectSet& effects);
+  Readings readings(const PhysicsPoint& p) const;
+
+ private:
+  std::array<double, model::kTriadSize> accel_{}, gyro_{};
+  EffectBlockStore effects_;
+};
+
 // The reading change one effect makes: forwardReadings(all) - forwardReadings(all but id).
 // Zero for the effects that act on the PhysicsPoint (time, site, table, angle, noise).
 Readings effectTerm(EffectId id, const SensorModel& sensors, const EffectSet& effects,
                     const PhysicsPoint& p);
+
+// Sets one parameter from text "<id>.<param>=<v>[,<v>...]" (numbers, SI; a matrix row-major;
+// a table axis by name: "angle_harmonic.axis=inner"), enabling the effect. False (why set,
+// naming the part at fault) on an unknown id or parameter, a wrong count or a bad number.
+bool setEffectParamFromText(EffectSet* effects, std::string_view text, std::string* why);
 
 // ---- The effects that act before the instant's physics ----------------------------------
 

@@ -125,6 +125,7 @@ struct ImuSimulator::Impl {
   TableModel table;
   SensorModel sensors;
   EffectSet effects;
+  ForwardModel forward{SensorModel{}, EffectSet{}};  // sensors + reading effects, prepared
   NoiseModel noise;
   double gravity = 0.0;        // g of the true site
   Vec3 w_ie_L = Vec3::Zero();  // Earth rate of the true site
@@ -174,7 +175,7 @@ struct ImuSimulator::Impl {
     const model::Physics<double> m = model::benchPhysics(k, gravity, w_ie_L);
     PhysicsPoint p{m.f_B, m.w_IB_B, m.w_LB_B, m.wdot_LB_B};
     p.temp_c = motion->temperature.empty() ? 20.0 : motion->temperatureAt(t);
-    return forwardReadings(sensors, effects, p);
+    return forward.readings(p);
   }
 
   // Integral of the readings over the smooth piece [a, b] (no phase starts inside); a null
@@ -252,6 +253,7 @@ std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, cons
   impl->table = TableModel(geometry, tableErrorsWithEffects(world.truth.table, world.truth.extra));
   impl->sensors = world.truth.sensors;
   impl->effects = world.truth.extra;
+  impl->forward = ForwardModel(world.truth.sensors, world.truth.extra);
   impl->noise = world.noise;
   const nav::Site site = trueSite(world.site, world.truth.extra);
   impl->gravity = nav::siteGravity(site);

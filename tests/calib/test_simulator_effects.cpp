@@ -283,5 +283,28 @@ TEST(SimulatorEffects, TruthJsonRefusesBadDiscreteEffectParameters) {
   }
 }
 
+TEST(SimulatorEffects, EffectParametersFromCommandLineText) {
+  EffectSet fx;
+  std::string why;
+  ASSERT_TRUE(setEffectParamFromText(&fx, "lever_arm.r_m=0.05,-0.03,2e-2", &why)) << why;
+  EXPECT_EQ(fx.lever_arm->r_m, Vec3(0.05, -0.03, 0.02));
+  ASSERT_TRUE(setEffectParamFromText(&fx, "angle_harmonic.axis=inner", &why)) << why;
+  ASSERT_TRUE(setEffectParamFromText(&fx, "angle_harmonic.order=4", &why)) << why;
+  EXPECT_EQ(fx.angle_harmonic->axis, kTableAxisInner);
+  EXPECT_EQ(fx.angle_harmonic->order, 4.0);
+  ASSERT_TRUE(setEffectParamFromText(&fx, "gyro_g_sensitivity.G=1,2,3,4,5,6,7,8,9", &why));
+  EXPECT_EQ(fx.gyro_g_sensitivity->G(0, 2), 3.0);
+  const std::pair<const char*, const char*> bad[] = {
+      {"lever_arm.r_m=1,2", "expected 3 numbers"}, {"lever_arm=1", "expected <effect>.<parameter>"},
+      {"lever.r_m=1,2,3", "unknown effect id"},    {"lever_arm.r=1,2,3", "unknown parameter"},
+      {"time_delay.tau_s=1ms", "not a number"},    {"angle_harmonic.order=0.5", "integer"},
+      {"time_delay.tau_s=inner", "not a number"},
+  };
+  for (const auto& [text, msg] : bad) {
+    EXPECT_FALSE(setEffectParamFromText(&fx, text, &why)) << text;
+    EXPECT_NE(why.find(msg), std::string::npos) << why;
+  }
+}
+
 }  // namespace
 }  // namespace imubench::calib
