@@ -354,8 +354,9 @@ bool setEffectParamFromText(EffectSet* effects, std::string_view text, std::stri
     const std::size_t comma = rest.find(',');
     const std::string_view item = rest.substr(0, comma);
     double v = 0.0;
-    if (const std::optional<int> axis = tableAxisFromName(item);
-        axis && spec->kind == ParamKind::kTableAxis) {
+    if (spec->kind == ParamKind::kTableAxis) {
+      const std::optional<int> axis = tableAxisFromName(item);
+      if (!axis) return fail("'" + std::string(item) + "' is not outer, middle or inner");
       v = *axis;
     } else {
       const auto r = std::from_chars(item.data(), item.data() + item.size(), v);
@@ -396,7 +397,9 @@ EffectBlockStore effectBlocks(const EffectSet& effects) {
 }
 
 ForwardModel::ForwardModel(const SensorModel& sensors, const EffectSet& effects)
-    : accel_(sensors.accel.block()), gyro_(sensors.gyro.block()), effects_(effectBlocks(effects)) {}
+    : accel_(model::triadCoefficients(sensors.accel.block().data())),
+      gyro_(model::triadCoefficients(sensors.gyro.block().data())),
+      effects_(effectBlocks(effects)) {}
 
 Readings ForwardModel::readings(const PhysicsPoint& p) const {
   model::ReadingState<double> s;
@@ -405,7 +408,7 @@ Readings ForwardModel::readings(const PhysicsPoint& p) const {
   s.w_LB_B = p.w_LB_B;
   s.wdot_LB_B = p.wdot_LB_B;
   s.temp_c = p.temp_c;
-  model::sensorReadings(accel_.data(), gyro_.data(), effects_.blocks(), &s);
+  model::sensorReadings(accel_, gyro_, effects_.blocks(), &s);
   return {s.accel, s.gyro};
 }
 

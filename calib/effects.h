@@ -240,7 +240,7 @@ class ForwardModel {
   Readings readings(const PhysicsPoint& p) const;
 
  private:
-  std::array<double, model::kTriadSize> accel_{}, gyro_{};
+  model::TriadCoefficients<double> accel_, gyro_;
   EffectBlockStore effects_;
 };
 

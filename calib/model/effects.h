@@ -126,18 +126,30 @@ void applyStage(const EffectBlocks<T>& fx, ReadingState<T>* s, UnitList<U...>) {
   (one(U{}), ...);
 }
 
-// Noise-free readings of both triads (parameter blocks of kTriadSize, sensor_equation.h) with
-// the reading-stage effects, for the physics in s (f_B, w_IB_B, w_LB_B, wdot_LB_B, temp_c).
-// Fills the rest of s; the readings are s->accel, s->gyro.
+// The sensor-equation coefficients of one triad (from its kTriadSize block), prepared once.
 template <typename T>
-void sensorReadings(const T* accel_triad, const T* gyro_triad, const EffectBlocks<T>& fx,
-                    ReadingState<T>* s) {
-  s->scale_a = scaleOf(accel_triad);
-  s->bias_a = biasOf(accel_triad);
-  s->M_a = misalignmentMatrix(accel_triad + kMis);
-  s->scale_g = scaleOf(gyro_triad);
-  s->bias_g = biasOf(gyro_triad);
-  s->M_g = misalignmentMatrix(gyro_triad + kMis);
+struct TriadCoefficients {
+  Vec3T<T> scale = Vec3T<T>::Ones();
+  Vec3T<T> bias = Vec3T<T>::Zero();
+  Mat3T<T> M = Mat3T<T>::Identity();
+};
+template <typename T>
+TriadCoefficients<T> triadCoefficients(const T* triad) {
+  return {scaleOf(triad), biasOf(triad), misalignmentMatrix(triad + kMis)};
+}
+
+// Noise-free readings of both triads with the reading-stage effects, for the physics in s
+// (f_B, w_IB_B, w_LB_B, wdot_LB_B, temp_c). Fills the rest of s; the readings are s->accel,
+// s->gyro.
+template <typename T>
+void sensorReadings(const TriadCoefficients<T>& accel, const TriadCoefficients<T>& gyro,
+                    const EffectBlocks<T>& fx, ReadingState<T>* s) {
+  s->scale_a = accel.scale;
+  s->bias_a = accel.bias;
+  s->M_a = accel.M;
+  s->scale_g = gyro.scale;
+  s->bias_g = gyro.bias;
+  s->M_g = gyro.M;
   applyStage<Stage::kBodyInput>(fx, s, EffectUnits{});
   applyStage<Stage::kCoefficients>(fx, s, EffectUnits{});
   s->u_a = s->M_a * s->f_B;
@@ -149,6 +161,13 @@ void sensorReadings(const T* accel_triad, const T* gyro_triad, const EffectBlock
   s->accel = s->scale_a.cwiseProduct(s->u_a);
   s->gyro = s->scale_g.cwiseProduct(s->u_g);
   applyStage<Stage::kReading>(fx, s, EffectUnits{});
+}
+
+// The same from the triads' parameter blocks (kTriadSize each, sensor_equation.h).
+template <typename T>
+void sensorReadings(const T* accel_triad, const T* gyro_triad, const EffectBlocks<T>& fx,
+                    ReadingState<T>* s) {
+  sensorReadings(triadCoefficients(accel_triad), triadCoefficients(gyro_triad), fx, s);
 }
 
 // Adds the kTable units' errors to the chain's axes block (kTableAxesSize) and device block

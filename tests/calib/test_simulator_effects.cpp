@@ -295,10 +295,14 @@ TEST(SimulatorEffects, EffectParametersFromCommandLineText) {
   ASSERT_TRUE(setEffectParamFromText(&fx, "gyro_g_sensitivity.G=1,2,3,4,5,6,7,8,9", &why));
   EXPECT_EQ(fx.gyro_g_sensitivity->G(0, 2), 3.0);
   const std::pair<const char*, const char*> bad[] = {
-      {"lever_arm.r_m=1,2", "expected 3 numbers"}, {"lever_arm=1", "expected <effect>.<parameter>"},
-      {"lever.r_m=1,2,3", "unknown effect id"},    {"lever_arm.r=1,2,3", "unknown parameter"},
-      {"time_delay.tau_s=1ms", "not a number"},    {"angle_harmonic.order=0.5", "integer"},
+      {"lever_arm.r_m=1,2", "expected 3 numbers"},
+      {"lever_arm=1", "expected <effect>.<parameter>"},
+      {"lever.r_m=1,2,3", "unknown effect id"},
+      {"lever_arm.r=1,2,3", "unknown parameter"},
+      {"time_delay.tau_s=1ms", "not a number"},
+      {"angle_harmonic.order=0.5", "integer"},
       {"time_delay.tau_s=inner", "not a number"},
+      {"angle_harmonic.axis=2", "not outer, middle or inner"},
   };
   for (const auto& [text, msg] : bad) {
     EXPECT_FALSE(setEffectParamFromText(&fx, text, &why)) << text;
