@@ -1,6 +1,7 @@
 #include "calib/bench_truth.h"
 
 #include <cmath>
+#include <cstdint>
 
 namespace imubench::calib {
 namespace {
@@ -220,6 +221,18 @@ bool readTable(const json& j, BenchTruth* t, std::string* why) {
   return true;
 }
 
+// A scalar effect parameter: a number, or a table axis name for ParamKind::kTableAxis (the
+// range of discrete values is checked by EffectSet::setParam).
+bool readScalarParam(const json& v, const std::string& path, ParamKind kind, double* out,
+                     std::string* why) {
+  if (kind != ParamKind::kTableAxis) return readNumber(v, path, out, why);
+  const std::optional<int> axis =
+      v.is_string() ? tableAxisFromName(v.get<std::string>()) : std::nullopt;
+  if (!axis) return fail(why, path, "expected \"outer\", \"middle\" or \"inner\"");
+  *out = *axis;
+  return true;
+}
+
 bool readExtra(const json& j, EffectSet* fx, std::string* why) {
   if (!requireObject(j, "extra", why)) return false;
   for (auto it = j.begin(); it != j.end(); ++it) {
@@ -239,7 +252,7 @@ bool readExtra(const json& j, EffectSet* fx, std::string* why) {
       double v[9] = {};
       switch (spec->shape) {
         case ParamShape::kScalar:
-          if (!readNumber(*p, ppath, v, why)) return false;
+          if (!readScalarParam(*p, ppath, spec->kind, v, why)) return false;
           break;
         case ParamShape::kVec3:
           if (!readArray(*p, ppath, 3, v, why)) return false;
@@ -265,9 +278,11 @@ bool readExtra(const json& j, EffectSet* fx, std::string* why) {
   return true;
 }
 
-json paramJson(ParamShape shape, const std::vector<double>& v) {
-  switch (shape) {
+json paramJson(const ParamSpec& spec, const std::vector<double>& v) {
+  switch (spec.shape) {
     case ParamShape::kScalar:
+      if (spec.kind == ParamKind::kTableAxis) return tableAxisName(static_cast<int>(v[0]));
+      if (spec.kind == ParamKind::kInteger) return static_cast<std::int64_t>(v[0]);
       return v[0];
     case ParamShape::kVec3:
       return json::array({v[0], v[1], v[2]});
@@ -379,7 +394,7 @@ nlohmann::json toJson(const BenchTruth& truth_in) {
   for (EffectId id : truth.extra.enabled()) {
     json e = json::object();
     for (const ParamSpec& p : paramSpecs(id)) {
-      e[p.name] = paramJson(p.shape, *truth.extra.param(id, p.name));
+      e[p.name] = paramJson(p, *truth.extra.param(id, p.name));
     }
     extra[effectName(id)] = e;
   }

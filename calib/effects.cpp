@@ -1,69 +1,109 @@
 #include "calib/effects.h"
 
+#include <charconv>
 #include <cmath>
+#include <type_traits>
 
 namespace imubench::calib {
 namespace {
 
-constexpr ParamSpec kLeverArmSpecs[] = {{"r_m", ParamShape::kVec3, "m"}};
-constexpr ParamSpec kTimeDelaySpecs[] = {{"tau_s", ParamShape::kScalar, "s"}};
-constexpr ParamSpec kGyroGSpecs[] = {{"G", ParamShape::kMat3, "rad/s/(m/s^2)"}};
-constexpr ParamSpec kThermalBiasSpecs[] = {{"k_accel", ParamShape::kVec3, "m/s^2/degC"},
-                                           {"k_gyro", ParamShape::kVec3, "rad/s/degC"},
-                                           {"t_ref_c", ParamShape::kScalar, "degC"}};
-constexpr ParamSpec kThermalScaleSpecs[] = {{"k_accel", ParamShape::kVec3, "1/degC"},
-                                            {"k_gyro", ParamShape::kVec3, "1/degC"},
-                                            {"t_ref_c", ParamShape::kScalar, "degC"}};
-constexpr ParamSpec kScaleAsymmetrySpecs[] = {{"gyro", ParamShape::kVec3, "1"}};
-constexpr ParamSpec kAccelK2Specs[] = {{"k2", ParamShape::kVec3, "1/(m/s^2)"}};
-constexpr ParamSpec kLatitudeErrorSpecs[] = {{"dlat_rad", ParamShape::kScalar, "rad"}};
-constexpr ParamSpec kGravityErrorSpecs[] = {{"dg_mps2", ParamShape::kScalar, "m/s^2"}};
+// ---- Storage of every effect in EffectSet: the one table of members ---------------------
 
-// Storage of parameter `index` of effect `id` inside an enabled EffectSet (nullptr if the
-// effect is disabled). Eigen fixed-size storage is contiguous (column-major for G, so G is
-// handled by the caller as row-major through its own mapping).
-template <class Set>
-auto* paramData(Set& s, EffectId id, int index) {
-  using D = std::conditional_t<std::is_const_v<Set>, const double, double>;
-  D* p = nullptr;
-  switch (id) {
-    case EffectId::kLeverArm:
-      if (s.lever_arm) p = s.lever_arm->r_m.data();
-      break;
-    case EffectId::kTimeDelay:
-      if (s.time_delay) p = &s.time_delay->tau_s;
-      break;
-    case EffectId::kGyroGSensitivity:
-      if (s.gyro_g_sensitivity) p = s.gyro_g_sensitivity->G.data();
-      break;
-    case EffectId::kThermalBias:
-      if (s.thermal_bias) {
-        p = index == 0   ? s.thermal_bias->k_accel.data()
-            : index == 1 ? s.thermal_bias->k_gyro.data()
-                         : &s.thermal_bias->t_ref_c;
-      }
-      break;
-    case EffectId::kThermalScale:
-      if (s.thermal_scale) {
-        p = index == 0   ? s.thermal_scale->k_accel.data()
-            : index == 1 ? s.thermal_scale->k_gyro.data()
-                         : &s.thermal_scale->t_ref_c;
-      }
-      break;
-    case EffectId::kScaleAsymmetry:
-      if (s.scale_asymmetry) p = s.scale_asymmetry->gyro.data();
-      break;
-    case EffectId::kAccelK2:
-      if (s.accel_k2) p = s.accel_k2->k2.data();
-      break;
-    case EffectId::kLatitudeError:
-      if (s.latitude_error) p = &s.latitude_error->dlat_rad;
-      break;
-    case EffectId::kGravityError:
-      if (s.gravity_error) p = &s.gravity_error->dg_mps2;
-      break;
+double* dataOf(double& v) {
+  return &v;
+}
+double* dataOf(Vec3& v) {
+  return v.data();
+}
+double* dataOf(Mat3& m) {
+  return m.data();
+}  // column-major; storageOffset maps row-major
+
+// The optional member of EffectSet holding an effect, and its parameters' fields in the
+// unit's kParams order.
+template <auto Member, auto... Fields>
+struct Storage {
+  static bool has(const EffectSet& s) { return (s.*Member).has_value(); }
+  static void enable(EffectSet& s) {
+    if (!(s.*Member)) (s.*Member).emplace();
   }
-  return p;
+  static void disable(EffectSet& s) { (s.*Member).reset(); }
+  static double* data(EffectSet& s, int param) {
+    auto& o = s.*Member;
+    if (!o) return nullptr;
+    double* fields[] = {dataOf((*o).*Fields)...};
+    return fields[param];
+  }
+};
+
+struct StorageEntry {
+  EffectId id;
+  int param_count;
+  bool (*has)(const EffectSet&);
+  void (*enable)(EffectSet&);
+  void (*disable)(EffectSet&);
+  double* (*data)(EffectSet&, int);
+};
+
+template <auto Member, auto... Fields>
+constexpr StorageEntry entry(EffectId id) {
+  using S = Storage<Member, Fields...>;
+  return {id, static_cast<int>(sizeof...(Fields)), &S::has, &S::enable, &S::disable, &S::data};
+}
+
+using E = EffectSet;
+constexpr StorageEntry kStorage[] = {
+    entry<&E::lever_arm, &LeverArm::r_m>(EffectId::kLeverArm),
+    entry<&E::time_delay, &TimeDelay::tau_s>(EffectId::kTimeDelay),
+    entry<&E::gyro_g_sensitivity, &GyroGSensitivity::G>(EffectId::kGyroGSensitivity),
+    entry<&E::thermal_bias, &ThermalBias::k_accel, &ThermalBias::k_gyro, &ThermalBias::t_ref_c>(
+        EffectId::kThermalBias),
+    entry<&E::thermal_scale, &ThermalScale::k_accel, &ThermalScale::k_gyro, &ThermalScale::t_ref_c>(
+        EffectId::kThermalScale),
+    entry<&E::scale_asymmetry, &ScaleAsymmetry::gyro>(EffectId::kScaleAsymmetry),
+    entry<&E::accel_k2, &AccelK2::k2>(EffectId::kAccelK2),
+    entry<&E::latitude_error, &LatitudeError::dlat_rad>(EffectId::kLatitudeError),
+    entry<&E::gravity_error, &GravityError::dg_mps2>(EffectId::kGravityError),
+    entry<&E::size_effect, &SizeEffect::d_y_m, &SizeEffect::d_z_m>(EffectId::kSizeEffect),
+    entry<&E::accel_delay, &AccelDelay::tau_s>(EffectId::kAccelDelay),
+    entry<&E::angle_harmonic, &AngleHarmonic::axis, &AngleHarmonic::order, &AngleHarmonic::cos_rad,
+          &AngleHarmonic::sin_rad>(EffectId::kAngleHarmonic),
+    entry<&E::bias_instability, &BiasInstability::accel, &BiasInstability::gyro,
+          &BiasInstability::tau_s>(EffectId::kBiasInstability),
+    entry<&E::base_tilt, &BaseTilt::x, &BaseTilt::y>(EffectId::kBaseTilt),
+    entry<&E::nonorthogonality, &Nonorthogonality::inner_y, &Nonorthogonality::middle_x,
+          &Nonorthogonality::middle_y>(EffectId::kNonorthogonality),
+    entry<&E::encoder_zero, &EncoderZero::outer, &EncoderZero::middle, &EncoderZero::inner>(
+        EffectId::kEncoderZero),
+    entry<&E::mounting, &Mounting::x, &Mounting::y>(EffectId::kMounting),
+};
+static_assert(std::size(kStorage) == kEffectCount, "every effect has its EffectSet member");
+
+constexpr bool storageMatchesRegistry() {
+  for (int i = 0; i < kEffectCount; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (kStorage[k].id != model::kUnitInfos[k].id) return false;
+    if (kStorage[k].param_count != static_cast<int>(model::kUnitInfos[k].params.size())) {
+      return false;
+    }
+  }
+  return true;
+}
+static_assert(storageMatchesRegistry(), "kStorage: registry order, one field per parameter");
+
+const StorageEntry& storageOf(EffectId id) {
+  return kStorage[static_cast<std::size_t>(id)];
+}
+const model::UnitInfo& unitOf(EffectId id) {
+  return model::kUnitInfos[static_cast<std::size_t>(id)];
+}
+
+double* paramData(EffectSet& s, EffectId id, int index) {
+  return storageOf(id).data(s, index);
+}
+const double* paramData(const EffectSet& s, EffectId id, int index) {
+  // The storage accessor only forms a pointer; the const overload never writes through it.
+  return storageOf(id).data(const_cast<EffectSet&>(s), index);
 }
 
 // Element `e` of a parameter in flat (row-major for matrices) order -> storage offset.
@@ -75,31 +115,35 @@ int storageOffset(ParamShape shape, int e) {
 
 const char* const kVecComponents[] = {"x", "y", "z"};
 const char* const kMatComponents[] = {"xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"};
+const char* const kTableAxisNames[] = {"outer", "middle", "inner"};
+// Upper bound of an integer parameter (a harmonic order): far beyond any physical one, and
+// keeps cos(k a) meaningful in double.
+constexpr double kMaxIntegerParam = 1e6;
+
+// Why a value does not fit its parameter, or "" when it does.
+std::string valueProblem(const ParamSpec& spec, double v) {
+  if (!std::isfinite(v)) return "non-finite value";
+  switch (spec.kind) {
+    case ParamKind::kReal:
+      return "";
+    case ParamKind::kInteger:
+      if (v != std::floor(v) || v < 1.0 || v > kMaxIntegerParam) {
+        return "expected an integer >= 1";
+      }
+      return "";
+    case ParamKind::kTableAxis:
+      if (v != kTableAxisOuter && v != kTableAxisMiddle && v != kTableAxisInner) {
+        return "expected a table axis (outer, middle, inner)";
+      }
+      return "";
+  }
+  return "";
+}
 
 }  // namespace
 
 const char* effectName(EffectId id) {
-  switch (id) {
-    case EffectId::kLeverArm:
-      return "lever_arm";
-    case EffectId::kTimeDelay:
-      return "time_delay";
-    case EffectId::kGyroGSensitivity:
-      return "gyro_g_sensitivity";
-    case EffectId::kThermalBias:
-      return "thermal_bias";
-    case EffectId::kThermalScale:
-      return "thermal_scale";
-    case EffectId::kScaleAsymmetry:
-      return "scale_asymmetry";
-    case EffectId::kAccelK2:
-      return "accel_k2";
-    case EffectId::kLatitudeError:
-      return "latitude_error";
-    case EffectId::kGravityError:
-      return "gravity_error";
-  }
-  return "?";
+  return unitOf(id).name;
 }
 
 std::optional<EffectId> effectFromName(std::string_view name) {
@@ -107,6 +151,13 @@ std::optional<EffectId> effectFromName(std::string_view name) {
     if (name == effectName(id)) return id;
   }
   return std::nullopt;
+}
+
+model::Stage effectStage(EffectId id) {
+  return unitOf(id).stage;
+}
+const char* effectTermText(EffectId id) {
+  return unitOf(id).term;
 }
 
 int paramSize(ParamShape shape) {
@@ -122,27 +173,7 @@ int paramSize(ParamShape shape) {
 }
 
 std::span<const ParamSpec> paramSpecs(EffectId id) {
-  switch (id) {
-    case EffectId::kLeverArm:
-      return kLeverArmSpecs;
-    case EffectId::kTimeDelay:
-      return kTimeDelaySpecs;
-    case EffectId::kGyroGSensitivity:
-      return kGyroGSpecs;
-    case EffectId::kThermalBias:
-      return kThermalBiasSpecs;
-    case EffectId::kThermalScale:
-      return kThermalScaleSpecs;
-    case EffectId::kScaleAsymmetry:
-      return kScaleAsymmetrySpecs;
-    case EffectId::kAccelK2:
-      return kAccelK2Specs;
-    case EffectId::kLatitudeError:
-      return kLatitudeErrorSpecs;
-    case EffectId::kGravityError:
-      return kGravityErrorSpecs;
-  }
-  return {};
+  return unitOf(id).params;
 }
 
 int flatSize(EffectId id) {
@@ -170,73 +201,29 @@ std::vector<std::string> flatParamNames(EffectId id) {
   return names;
 }
 
+const char* tableAxisName(int axis) {
+  return axis >= kTableAxisOuter && axis <= kTableAxisInner
+             ? kTableAxisNames[static_cast<std::size_t>(axis)]
+             : "?";
+}
+
+std::optional<int> tableAxisFromName(std::string_view name) {
+  for (int a = kTableAxisOuter; a <= kTableAxisInner; ++a) {
+    if (name == kTableAxisNames[static_cast<std::size_t>(a)]) return a;
+  }
+  return std::nullopt;
+}
+
 bool EffectSet::has(EffectId id) const {
-  return paramData(*this, id, 0) != nullptr;
+  return storageOf(id).has(*this);
 }
 
 void EffectSet::enable(EffectId id) {
-  if (has(id)) return;
-  switch (id) {
-    case EffectId::kLeverArm:
-      lever_arm.emplace();
-      break;
-    case EffectId::kTimeDelay:
-      time_delay.emplace();
-      break;
-    case EffectId::kGyroGSensitivity:
-      gyro_g_sensitivity.emplace();
-      break;
-    case EffectId::kThermalBias:
-      thermal_bias.emplace();
-      break;
-    case EffectId::kThermalScale:
-      thermal_scale.emplace();
-      break;
-    case EffectId::kScaleAsymmetry:
-      scale_asymmetry.emplace();
-      break;
-    case EffectId::kAccelK2:
-      accel_k2.emplace();
-      break;
-    case EffectId::kLatitudeError:
-      latitude_error.emplace();
-      break;
-    case EffectId::kGravityError:
-      gravity_error.emplace();
-      break;
-  }
+  storageOf(id).enable(*this);
 }
 
 void EffectSet::disable(EffectId id) {
-  switch (id) {
-    case EffectId::kLeverArm:
-      lever_arm.reset();
-      break;
-    case EffectId::kTimeDelay:
-      time_delay.reset();
-      break;
-    case EffectId::kGyroGSensitivity:
-      gyro_g_sensitivity.reset();
-      break;
-    case EffectId::kThermalBias:
-      thermal_bias.reset();
-      break;
-    case EffectId::kThermalScale:
-      thermal_scale.reset();
-      break;
-    case EffectId::kScaleAsymmetry:
-      scale_asymmetry.reset();
-      break;
-    case EffectId::kAccelK2:
-      accel_k2.reset();
-      break;
-    case EffectId::kLatitudeError:
-      latitude_error.reset();
-      break;
-    case EffectId::kGravityError:
-      gravity_error.reset();
-      break;
-  }
+  storageOf(id).disable(*this);
 }
 
 std::vector<EffectId> EffectSet::enabled() const {
@@ -252,9 +239,9 @@ std::vector<double> EffectSet::flat(EffectId id) const {
   const auto specs = paramSpecs(id);
   for (int i = 0; i < static_cast<int>(specs.size()); ++i) {
     const double* p = paramData(*this, id, i);
-    const int n = paramSize(specs[i].shape);
+    const int n = paramSize(specs[static_cast<std::size_t>(i)].shape);
     for (int e = 0; e < n; ++e) {
-      out.push_back(p ? p[storageOffset(specs[i].shape, e)] : 0.0);
+      out.push_back(p ? p[storageOffset(specs[static_cast<std::size_t>(i)].shape, e)] : 0.0);
     }
   }
   return out;
@@ -268,19 +255,25 @@ bool EffectSet::setFlat(EffectId id, std::span<const double> values, std::string
     }
     return false;
   }
-  for (double v : values) {
-    if (!std::isfinite(v)) {
-      if (why) *why = std::string(effectName(id)) + ": non-finite parameter";
-      return false;
+  const auto specs = paramSpecs(id);
+  std::size_t k = 0;
+  for (const ParamSpec& spec : specs) {
+    for (int e = 0; e < paramSize(spec.shape); ++e, ++k) {
+      const std::string problem = valueProblem(spec, values[k]);
+      if (!problem.empty()) {
+        if (why) *why = std::string(effectName(id)) + "." + spec.name + ": " + problem;
+        return false;
+      }
     }
   }
   enable(id);
-  const auto specs = paramSpecs(id);
-  std::size_t k = 0;
+  k = 0;
   for (int i = 0; i < static_cast<int>(specs.size()); ++i) {
     double* p = paramData(*this, id, i);
-    const int n = paramSize(specs[i].shape);
-    for (int e = 0; e < n; ++e) p[storageOffset(specs[i].shape, e)] = values[k++];
+    const int n = paramSize(specs[static_cast<std::size_t>(i)].shape);
+    for (int e = 0; e < n; ++e) {
+      p[storageOffset(specs[static_cast<std::size_t>(i)].shape, e)] = values[k++];
+    }
   }
   return true;
 }
@@ -288,13 +281,14 @@ bool EffectSet::setFlat(EffectId id, std::span<const double> values, std::string
 std::optional<std::vector<double>> EffectSet::param(EffectId id, std::string_view name) const {
   const auto specs = paramSpecs(id);
   for (int i = 0; i < static_cast<int>(specs.size()); ++i) {
-    if (name != specs[i].name) continue;
+    const ParamSpec& spec = specs[static_cast<std::size_t>(i)];
+    if (name != spec.name) continue;
     const double* p = paramData(*this, id, i);
-    const int n = paramSize(specs[i].shape);
+    const int n = paramSize(spec.shape);
     std::vector<double> out(static_cast<std::size_t>(n), 0.0);
     if (p) {
       for (int e = 0; e < n; ++e)
-        out[static_cast<std::size_t>(e)] = p[storageOffset(specs[i].shape, e)];
+        out[static_cast<std::size_t>(e)] = p[storageOffset(spec.shape, e)];
     }
     return out;
   }
@@ -305,26 +299,28 @@ bool EffectSet::setParam(EffectId id, std::string_view name, std::span<const dou
                          std::string* why) {
   const auto specs = paramSpecs(id);
   for (int i = 0; i < static_cast<int>(specs.size()); ++i) {
-    if (name != specs[i].name) continue;
-    const int n = paramSize(specs[i].shape);
+    const ParamSpec& spec = specs[static_cast<std::size_t>(i)];
+    if (name != spec.name) continue;
+    const int n = paramSize(spec.shape);
+    const std::string where = std::string(effectName(id)) + "." + spec.name;
     if (static_cast<int>(values.size()) != n) {
       if (why) {
-        *why = std::string(effectName(id)) + "." + specs[i].name + ": expected " +
-               std::to_string(n) + " numbers, got " + std::to_string(values.size());
+        *why = where + ": expected " + std::to_string(n) + " numbers, got " +
+               std::to_string(values.size());
       }
       return false;
     }
     for (double v : values) {
-      if (!std::isfinite(v)) {
-        if (why) *why = std::string(effectName(id)) + "." + specs[i].name + ": non-finite value";
+      const std::string problem = valueProblem(spec, v);
+      if (!problem.empty()) {
+        if (why) *why = where + ": " + problem;
         return false;
       }
     }
     enable(id);
     double* p = paramData(*this, id, i);
-    for (int e = 0; e < n; ++e) {
-      p[storageOffset(specs[i].shape, e)] = values[static_cast<std::size_t>(e)];
-    }
+    for (int e = 0; e < n; ++e)
+      p[storageOffset(spec.shape, e)] = values[static_cast<std::size_t>(e)];
     return true;
   }
   if (why) {
@@ -333,37 +329,91 @@ bool EffectSet::setParam(EffectId id, std::string_view name, std::span<const dou
   return false;
 }
 
+bool setEffectParamFromText(EffectSet* effects, std::string_view text, std::string* why) {
+  const auto fail = [&](const std::string& msg) {
+    if (why) *why = "'" + std::string(text) + "': " + msg;
+    return false;
+  };
+  const std::size_t eq = text.find('=');
+  const std::string_view key = text.substr(0, eq);
+  const std::size_t dot = key.find('.');
+  if (eq == std::string_view::npos || dot == std::string_view::npos) {
+    return fail("expected <effect>.<parameter>=<value>[,<value>...]");
+  }
+  const std::optional<EffectId> id = effectFromName(key.substr(0, dot));
+  if (!id) return fail("unknown effect id '" + std::string(key.substr(0, dot)) + "'");
+  const std::string_view name = key.substr(dot + 1);
+  const ParamSpec* spec = nullptr;
+  for (const ParamSpec& p : paramSpecs(*id)) {
+    if (name == p.name) spec = &p;
+  }
+  if (!spec) return fail("unknown parameter '" + std::string(name) + "'");
+  std::vector<double> values;
+  std::string_view rest = text.substr(eq + 1);
+  while (true) {
+    const std::size_t comma = rest.find(',');
+    const std::string_view item = rest.substr(0, comma);
+    double v = 0.0;
+    if (spec->kind == ParamKind::kTableAxis) {
+      const std::optional<int> axis = tableAxisFromName(item);
+      if (!axis) return fail("'" + std::string(item) + "' is not outer, middle or inner");
+      v = *axis;
+    } else {
+      const auto r = std::from_chars(item.data(), item.data() + item.size(), v);
+      if (r.ec != std::errc() || r.ptr != item.data() + item.size()) {
+        return fail("'" + std::string(item) + "' is not a number");
+      }
+    }
+    values.push_back(v);
+    if (comma == std::string_view::npos) break;
+    rest = rest.substr(comma + 1);
+  }
+  std::string err;
+  if (!effects->setParam(*id, name, values, &err)) return fail(err);
+  return true;
+}
+
+model::EffectBlocks<double> EffectBlockStore::blocks() const {
+  model::EffectBlocks<double> b{};
+  for (std::size_t k = 0; k < b.size(); ++k) b[k] = on[k] ? values[k].data() : nullptr;
+  return b;
+}
+
+EffectBlockStore effectBlocks(const EffectSet& effects) {
+  EffectBlockStore store;
+  for (EffectId id : kAllEffects) {
+    if (!effects.has(id)) continue;
+    const auto k = static_cast<std::size_t>(id);
+    store.on[k] = true;
+    const auto specs = paramSpecs(id);
+    std::size_t n = 0;
+    for (int i = 0; i < static_cast<int>(specs.size()); ++i) {
+      const ParamShape shape = specs[static_cast<std::size_t>(i)].shape;
+      const double* p = paramData(effects, id, i);
+      for (int e = 0; e < paramSize(shape); ++e) store.values[k][n++] = p[storageOffset(shape, e)];
+    }
+  }
+  return store;
+}
+
+ForwardModel::ForwardModel(const SensorModel& sensors, const EffectSet& effects)
+    : accel_(model::triadCoefficients(sensors.accel.block().data())),
+      gyro_(model::triadCoefficients(sensors.gyro.block().data())),
+      effects_(effectBlocks(effects)) {}
+
+Readings ForwardModel::readings(const PhysicsPoint& p) const {
+  model::ReadingState<double> s;
+  s.f_B = p.f_B;
+  s.w_IB_B = p.w_IB_B;
+  s.w_LB_B = p.w_LB_B;
+  s.wdot_LB_B = p.wdot_LB_B;
+  s.temp_c = p.temp_c;
+  model::sensorReadings(accel_, gyro_, effects_.blocks(), &s);
+  return {s.accel, s.gyro};
+}
+
 Readings forwardReadings(const SensorModel& sensors, const EffectSet& fx, const PhysicsPoint& p) {
-  // Inputs (frame B).
-  Vec3 f = p.f_B;
-  if (fx.lever_arm) f += fx.lever_arm->specificForceTerm(p.w_LB_B, p.wdot_LB_B);
-  Vec3 w = p.w_IB_B;
-  if (fx.gyro_g_sensitivity) w += fx.gyro_g_sensitivity->rateTerm(f);
-
-  // Temperature-dependent bias and scale.
-  Vec3 bias_a = sensors.accel.bias, bias_g = sensors.gyro.bias;
-  Vec3 scale_a = sensors.accel.scale, scale_g = sensors.gyro.scale;
-  if (fx.thermal_bias) {
-    const double dT = p.temp_c - fx.thermal_bias->t_ref_c;
-    bias_a += fx.thermal_bias->k_accel * dT;
-    bias_g += fx.thermal_bias->k_gyro * dT;
-  }
-  if (fx.thermal_scale) {
-    const double dT = p.temp_c - fx.thermal_scale->t_ref_c;
-    scale_a = scale_a.cwiseProduct(Vec3::Ones() + fx.thermal_scale->k_accel * dT);
-    scale_g = scale_g.cwiseProduct(Vec3::Ones() + fx.thermal_scale->k_gyro * dT);
-  }
-
-  Vec3 u_a = sensors.accel.M() * f;
-  if (fx.accel_k2) u_a += fx.accel_k2->k2.cwiseProduct(u_a.cwiseProduct(u_a));
-  u_a -= bias_a;
-  const Vec3 u_g = sensors.gyro.M() * w - bias_g;
-
-  Readings r;
-  r.accel = scale_a.cwiseProduct(u_a);
-  r.gyro = scale_g.cwiseProduct(u_g);
-  if (fx.scale_asymmetry) r.gyro += fx.scale_asymmetry->gyro.cwiseProduct(u_g.cwiseAbs());
-  return r;
+  return ForwardModel(sensors, fx).readings(p);
 }
 
 Readings effectTerm(EffectId id, const SensorModel& sensors, const EffectSet& effects,
@@ -375,6 +425,48 @@ Readings effectTerm(EffectId id, const SensorModel& sensors, const EffectSet& ef
   const Readings a = forwardReadings(sensors, with, p);
   const Readings b = forwardReadings(sensors, without, p);
   return {a.accel - b.accel, a.gyro - b.gyro};
+}
+
+TableErrors tableErrorsWithEffects(const TableErrors& errors, const EffectSet& effects) {
+  auto axes = axesBlock(errors);
+  auto device = deviceBlock(errors);
+  model::addTableEffects(effectBlocks(effects).blocks(), axes.data(), device.data());
+  TableErrors out;
+  out.base_tilt = Vec2(axes[model::kTiltX], axes[model::kTiltY]);
+  out.nonorthogonality = {axes[model::kNonorthInnerY], axes[model::kNonorthMiddleX],
+                          axes[model::kNonorthMiddleY]};
+  out.mounting = Vec2(device[model::kMountX], device[model::kMountY]);
+  out.encoder_zero = {device[model::kZeroOuter], device[model::kZeroMiddle],
+                      device[model::kZeroInner]};
+  return out;
+}
+
+TableState trueTableState(const TableState& encoder, const EffectSet& effects) {
+  const auto joint = [](const AxisState& a) {
+    return model::JointState<double>{a.angle, a.rate, a.accel};
+  };
+  const auto axis = [](const model::JointState<double>& j) {
+    return AxisState{j.angle, j.rate, j.accel};
+  };
+  std::array<model::JointState<double>, 3> joints = {joint(encoder.outer), joint(encoder.middle),
+                                                     joint(encoder.inner)};
+  model::trueJointStates(effectBlocks(effects).blocks(), &joints);
+  TableState out;
+  out.outer = axis(joints[kTableAxisOuter]);
+  out.middle = axis(joints[kTableAxisMiddle]);
+  out.inner = axis(joints[kTableAxisInner]);
+  return out;
+}
+
+double gyroPhysicsTime(double t_stamp, const EffectSet& effects) {
+  if (!effects.time_delay) return t_stamp;
+  return model::effects::TimeDelay::sampleTime(&effects.time_delay->tau_s, t_stamp);
+}
+
+double accelPhysicsTime(double t_stamp, const EffectSet& effects) {
+  const double t_gyro = gyroPhysicsTime(t_stamp, effects);
+  if (!effects.accel_delay) return t_gyro;
+  return model::effects::AccelDelay::sampleTime(&effects.accel_delay->tau_s, t_gyro);
 }
 
 }  // namespace imubench::calib

@@ -1,6 +1,6 @@
 # Forward model and simulator sources: target_sources(imubench_calib PRIVATE ...)
 # calib/model/ holds the templated forward model itself (header-only: sensor equation, table
-# chains, bench physics); the double-precision fronts (sensor_model, table_model, effects) and
+# chains, bench physics, effect units); the double-precision fronts (sensor_model, table_model, effects) and
 # the simulator below call it. It stays in imubench_calib (one target for calib/) because the
 # templates compile into their callers and the fronts keep their include paths for daemon/,
 # drivers/ and plans/.
@@ -11,6 +11,25 @@ target_sources(imubench_calib PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/model/bench_physics.h
   ${CMAKE_CURRENT_LIST_DIR}/model/motion_profile.h
   ${CMAKE_CURRENT_LIST_DIR}/model/thermal_lag.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effect_unit.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/lever_arm.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/time_delay.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/gyro_g_sensitivity.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/thermal_bias.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/thermal_scale.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/scale_asymmetry.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/accel_k2.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/latitude_error.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/gravity_error.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/size_effect.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/accel_delay.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/angle_harmonic.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/bias_instability.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/base_tilt.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/nonorthogonality.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/encoder_zero.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/mounting.h
   ${CMAKE_CURRENT_LIST_DIR}/sensor_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/table_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/effects.cpp

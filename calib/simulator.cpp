@@ -45,12 +45,59 @@ bool validTruth(const BenchTruth& t, std::string* why) {
   return true;
 }
 
+// The effects the simulator cannot realise as given.
+bool validEffects(const EffectSet& fx, TableKind kind, std::string* why) {
+  if (fx.angle_harmonic && kind == TableKind::kTwoAxis &&
+      fx.angle_harmonic->axis == kTableAxisMiddle) {
+    if (why) *why = "extra.angle_harmonic.axis: a two-axis table has no middle axis";
+    return false;
+  }
+  if (fx.bias_instability && !(fx.bias_instability->tau_s > 0.0)) {
+    if (why) *why = "extra.bias_instability.tau_s must be > 0";
+    return false;
+  }
+  return true;
+}
+
+// Per-axis Gauss-Markov drift of one triad (bias_instability): exact discretisation at the
+// sample step, held over the sample.
+struct DriftProcess {
+  Vec3 b = Vec3::Zero();    // current drift, reading units
+  Vec3 phi = Vec3::Zero();  // exp(-dt / T_c) per axis
+  Vec3 q = Vec3::Zero();    // sigma sqrt(1 - phi^2) per axis
+  bool active = false;
+
+  void init(const Vec3& allan_min, const double* params, double dt, GaussianSource* rng) {
+    for (int k = 0; k < 3; ++k) {
+      double sigma = 0.0, t_c = 0.0;
+      model::effects::BiasInstability::gaussMarkov(params, allan_min[k], &sigma, &t_c);
+      phi[k] = std::exp(-dt / t_c);
+      q[k] = sigma * std::sqrt(1.0 - phi[k] * phi[k]);
+      b[k] = sigma * rng->next();  // stationary start
+      active = active || sigma > 0.0;
+    }
+  }
+  void step(GaussianSource* rng) {
+    for (int k = 0; k < 3; ++k) b[k] = phi[k] * b[k] + q[k] * rng->next();
+  }
+};
+
+// Seed offset of the drift's own random stream, so switching bias_instability on leaves the
+// white noise and Gauss-Markov draws of the noise model unchanged.
+constexpr std::uint64_t kDriftSeedOffset = 0x9E3779B97F4A7C15ull;
+
 }  // namespace
 
 nav::Site trueSite(const nav::Site& assumed, const EffectSet& effects) {
   nav::Site s = assumed;
-  if (effects.latitude_error) s.latitude_rad += effects.latitude_error->dlat_rad;
-  if (effects.gravity_error) s.gravity_mps2 = nav::siteGravity(s) + effects.gravity_error->dg_mps2;
+  if (effects.latitude_error) {
+    s.latitude_rad =
+        model::effects::LatitudeError::latitude(&effects.latitude_error->dlat_rad, s.latitude_rad);
+  }
+  if (effects.gravity_error) {
+    s.gravity_mps2 =
+        model::effects::GravityError::gravity(&effects.gravity_error->dg_mps2, nav::siteGravity(s));
+  }
   return s;
 }
 
@@ -78,10 +125,13 @@ struct ImuSimulator::Impl {
   TableModel table;
   SensorModel sensors;
   EffectSet effects;
+  ForwardModel forward{SensorModel{}, EffectSet{}};  // sensors + reading effects, prepared
   NoiseModel noise;
   double gravity = 0.0;        // g of the true site
   Vec3 w_ie_L = Vec3::Zero();  // Earth rate of the true site
-  double tau = 0.0;
+  double tau = 0.0;            // time_delay: physics of both triads at stamp - tau
+  double tau_accel = 0.0;      // accel_delay: accelerometers a further tau_accel earlier
+  bool angle_effects = false;  // angle_harmonic on: true joint states from the encoder's
   double dt = 0.0;
   double rate_hz = 0.0;
   GaussRule rule{};
@@ -91,14 +141,17 @@ struct ImuSimulator::Impl {
   Vec3 gm_accel = Vec3::Zero();
   Vec3 gm_gyro = Vec3::Zero();
   double phi_accel = 0.0, q_accel = 0.0, phi_gyro = 0.0, q_gyro = 0.0;
-  std::uint64_t gm_every = 1;  // samples per Gauss-Markov update
+  std::uint64_t gm_every = 1;   // samples per Gauss-Markov update
+  GaussianSource drift_rng{1};  // bias_instability's own stream
+  DriftProcess drift_accel, drift_gyro;
 
-  // Phase of axis a in effect at time t (cursor moves forward only; the time is monotone
-  // except within one sample, so we look from the cursor).
+  // Phase of axis a in effect at time t (the cursor moves from where it is: forward as the
+  // samples advance, back by at most a few phases for the accelerometers' earlier interval).
   const AxisPhase* phaseAt(int a, double t) {
     const auto& ph = motion->axes[static_cast<std::size_t>(a)].phases();
     if (ph.empty()) return nullptr;
     std::size_t& c = cursor[static_cast<std::size_t>(a)];
+    while (c > 0 && ph[c].t0 > t) --c;
     while (c + 1 < ph.size() && ph[c + 1].t0 <= t) ++c;
     return &ph[c];
   }
@@ -117,14 +170,16 @@ struct ImuSimulator::Impl {
       s.middle = stateOf(ph[1], t);
       s.inner = stateOf(ph[2], t);
     }
+    if (angle_effects) s = trueTableState(s, effects);
     const TableKinematics k = table.kinematics(s);
     const model::Physics<double> m = model::benchPhysics(k, gravity, w_ie_L);
     PhysicsPoint p{m.f_B, m.w_IB_B, m.w_LB_B, m.wdot_LB_B};
     p.temp_c = motion->temperature.empty() ? 20.0 : motion->temperatureAt(t);
-    return forwardReadings(sensors, effects, p);
+    return forward.readings(p);
   }
 
-  // Integral of the readings over the smooth piece [a, b] (no phase starts inside).
+  // Integral of the readings over the smooth piece [a, b] (no phase starts inside); a null
+  // dtheta or dvel skips that triad.
   void integratePiece(double a, double b, Vec3* dtheta, Vec3* dvel) {
     if (b <= a) return;
     const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
@@ -135,17 +190,17 @@ struct ImuSimulator::Impl {
       const AxisPhase* p = ph[static_cast<std::size_t>(i)];
       if (p && mid >= p->t0 && (p->rate0 != 0.0 || p->accel != 0.0)) still = false;
     }
+    const auto add = [&](const Readings& r, double w) {
+      if (dtheta) *dtheta += w * r.gyro;
+      if (dvel) *dvel += w * r.accel;
+    };
     if (still) {
-      const Readings r = readingsAt(ph, mid);
-      *dtheta += (b - a) * r.gyro;
-      *dvel += (b - a) * r.accel;
+      add(readingsAt(ph, mid), b - a);
       return;
     }
     for (int n = 0; n < rule.n; ++n) {
-      const Readings r = readingsAt(ph, mid + half * rule.x[static_cast<std::size_t>(n)]);
-      const double w = half * rule.w[static_cast<std::size_t>(n)];
-      *dtheta += w * r.gyro;
-      *dvel += w * r.accel;
+      add(readingsAt(ph, mid + half * rule.x[static_cast<std::size_t>(n)]),
+          half * rule.w[static_cast<std::size_t>(n)]);
     }
   }
 
@@ -174,7 +229,8 @@ std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, cons
     if (why) *why = "no motion given";
     return nullptr;
   }
-  if (!options.IsValid(why) || !world.noise.IsValid(why) || !validTruth(world.truth, why)) {
+  if (!options.IsValid(why) || !world.noise.IsValid(why) || !validTruth(world.truth, why) ||
+      !validEffects(world.truth.extra, motion->kind, why)) {
     return nullptr;
   }
   if (static_cast<int>(motion->axes.size()) != axisCount(motion->kind)) {
@@ -194,14 +250,18 @@ std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, cons
   auto impl = std::make_unique<Impl>();
   impl->motion = motion;
   TableGeometry geometry{motion->kind, world.outer_axis_heading_rad};
-  impl->table = TableModel(geometry, world.truth.table);
+  impl->table = TableModel(geometry, tableErrorsWithEffects(world.truth.table, world.truth.extra));
   impl->sensors = world.truth.sensors;
   impl->effects = world.truth.extra;
+  impl->forward = ForwardModel(world.truth.sensors, world.truth.extra);
   impl->noise = world.noise;
   const nav::Site site = trueSite(world.site, world.truth.extra);
   impl->gravity = nav::siteGravity(site);
   impl->w_ie_L = nav::earthRateL(site.latitude_rad);
-  impl->tau = world.truth.extra.time_delay ? world.truth.extra.time_delay->tau_s : 0.0;
+  impl->tau = -gyroPhysicsTime(0.0, world.truth.extra);
+  impl->tau_accel =
+      gyroPhysicsTime(0.0, world.truth.extra) - accelPhysicsTime(0.0, world.truth.extra);
+  impl->angle_effects = world.truth.extra.angle_harmonic.has_value();
   impl->rate_hz = options.imu_rate_hz;
   impl->dt = 1.0 / options.imu_rate_hz;
   impl->rule = kRules[options.quadrature_nodes - 1];
@@ -221,6 +281,14 @@ std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, cons
   if (world.noise.accel.bias_sigma > 0.0) {
     impl->gm_accel = world.noise.accel.bias_sigma * impl->rng.next3();
   }
+  if (world.truth.extra.bias_instability) {
+    const BiasInstability& bi = *world.truth.extra.bias_instability;
+    const double block[] = {bi.accel.x(), bi.accel.y(), bi.accel.z(), bi.gyro.x(),
+                            bi.gyro.y(),  bi.gyro.z(),  bi.tau_s};
+    impl->drift_rng = GaussianSource(options.seed + kDriftSeedOffset);
+    impl->drift_accel.init(bi.accel, block, dt, &impl->drift_rng);
+    impl->drift_gyro.init(bi.gyro, block, dt, &impl->drift_rng);
+  }
   sim->impl_ = std::move(impl);
   return sim;
 }
@@ -232,7 +300,7 @@ double ImuSimulator::nextTime() const {
 }
 
 double ImuSimulator::nextPhysicsEnd() const {
-  return nextTime() - impl_->tau;
+  return nextTime() - impl_->tau - std::min(0.0, impl_->tau_accel);
 }
 
 nav::ImuSample ImuSimulator::next() {
@@ -242,8 +310,19 @@ nav::ImuSample ImuSimulator::next() {
   s.t = static_cast<double>(k_) / m.rate_hz;
   const double b = s.t - m.tau;
   const double a = static_cast<double>(k_ - 1) / m.rate_hz - m.tau;
-  m.integrate(a, b, &s.dtheta, &s.dvel);
+  if (m.tau_accel == 0.0) {
+    m.integrate(a, b, &s.dtheta, &s.dvel);
+  } else {
+    m.integrate(a, b, &s.dtheta, nullptr);
+    m.integrate(a - m.tau_accel, b - m.tau_accel, nullptr, &s.dvel);
+  }
   const double dt = b - a;
+  if (m.drift_gyro.active || m.drift_accel.active) {
+    s.dtheta += dt * m.drift_gyro.b;
+    s.dvel += dt * m.drift_accel.b;
+    m.drift_gyro.step(&m.drift_rng);
+    m.drift_accel.step(&m.drift_rng);
+  }
   const NoiseModel& n = m.noise;
   const bool update_gm = k_ % m.gm_every == 0;
   if (n.gyro.white > 0.0 || n.gyro.bias_sigma > 0.0) {

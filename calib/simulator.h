@@ -4,11 +4,14 @@
 // for increments.
 //
 // Physics at time t (tau = time_delay.tau_s, 0 if absent): the table state of the motion at
-// t_phys = t - tau; C_LB, w_LB_B, wdot_LB_B from the table chain (calib/model/table_chain.h
-// through calib/table_model.h); f_B and w_IB_B from the model's bench physics
-// (calib/model/bench_physics.h), then the effects and the sensor model (calib/effects.h
-// forwardReadings). The true site is the given site shifted by the
-// latitude_error / gravity_error effects.
+// t_phys = t - tau (the accelerometers at t_phys - accel_delay.tau_s); the encoder state made
+// the true joint state by angle_harmonic; C_LB, w_LB_B, wdot_LB_B from the table chain
+// (calib/model/table_chain.h through calib/table_model.h) with the truth's table errors plus
+// the table effects (base_tilt, nonorthogonality, encoder_zero, mounting); f_B and w_IB_B from
+// the model's bench physics (calib/model/bench_physics.h), then the reading effects and the
+// sensor model (calib/effects.h forwardReadings). The true site is the given site shifted by
+// the latitude_error / gravity_error effects. Every effect's term is its unit's in
+// calib/model/effects/ (calib/effects.h lists them).
 //
 // Increments: sample k (k = 1, 2, ...) is stamped t_k = k / imu_rate_hz and integrates the
 // readings over (t_k - tau - dt, t_k - tau]. The interval is split at every motion phase
@@ -19,7 +22,10 @@
 // node, exactly (readings are constant there, or linear in a linear temperature ramp).
 // Noise: white noise N(0, white^2 dt) per increment and a Gauss-Markov bias (updated every
 // SimOptions::bias_update_interval_s, held in between) times dt, both scaled by the truth scale
-// factors; deterministic per seed. Temperature: Motion::temperatureAt(t_k - tau - dt/2).
+// factors; deterministic per seed. bias_instability adds a per-axis Gauss-Markov drift whose
+// Allan deviation peaks at the given minimum at tau_s (calib/model/effects/bias_instability.h),
+// updated every sample from its own random stream (seed-derived), so switching it on changes
+// nothing else. Temperature: Motion::temperatureAt(t_k - tau - dt/2).
 #pragma once
 
 #include <cstdint>

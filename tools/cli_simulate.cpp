@@ -1,7 +1,10 @@
 // imubench simulate PLAN --truth T.json --out DIR [--rate HZ] [--seed N] [--site-lat DEG]
 //                   [--site-height M] [--noise none|nav-grade|nav-grade-drift|tactical|consumer]
+//                   [--effect ID.PARAM=V[,V...]]...  (adds to the truth file's "extra")
 #include <iostream>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "tools/cli_common.h"
 #include "tools/cli_sim.h"
@@ -16,12 +19,19 @@ struct SimulateOptions {
   SimulationOptions sim{200.0, 1, "none"};
   double table_rate_hz = 100.0;
   SiteOptions site;
+  std::vector<std::string> effects;  // "<id>.<param>=<values>", applied over the truth's extra
 };
 
 void runSimulate(const SimulateOptions& o) {
   SimRequest req;
   req.plan_path = o.plan;
   req.truth = loadTruthOrFail(o.truth);
+  for (const std::string& e : o.effects) {
+    std::string why;
+    if (!calib::setEffectParamFromText(&req.truth.extra, e, &why)) {
+      throw CommandFailed("--effect " + why);
+    }
+  }
   req.site = o.site;
   req.imu_rate_hz = o.sim.rate_hz;
   req.table_rate_hz = o.table_rate_hz;
@@ -49,6 +59,10 @@ void addSimulateCommand(CLI::App& app) {
       ->check(CLI::Range(1.0, 10000.0))
       ->capture_default_str();
   addSiteOptions(*sub, &opt->site);
+  sub->add_option("--effect", opt->effects,
+                  "switch an effect on / set one parameter (interchange.md effect ids), e.g. "
+                  "lever_arm.r_m=0.05,-0.03,0.02 or angle_harmonic.axis=inner; repeatable, "
+                  "applied over the truth file's \"extra\"");
   sub->callback([opt] { runSimulate(*opt); });
 }
 

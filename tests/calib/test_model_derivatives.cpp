@@ -11,54 +11,16 @@
 #include "calib/model/bench_physics.h"
 #include "calib/model/sensor_equation.h"
 #include "calib/model/table_chain.h"
+#include "tests/calib/derivative_check.h"
 
 namespace imubench::calib::model {
 namespace {
 
 constexpr int kJetSize = 32;
-using Jet = ceres::Jet<double, kJetSize>;
-
-// Jacobian of f (a generic callable: const T* -> std::vector<T>) at x by Jets.
-template <class F>
-Eigen::MatrixXd jetJacobian(const F& f, const std::vector<double>& x) {
-  std::vector<Jet> xj(x.size());
-  for (std::size_t k = 0; k < x.size(); ++k) xj[k] = Jet(x[k], static_cast<int>(k));
-  const std::vector<Jet> y = f(xj.data());
-  Eigen::MatrixXd J(static_cast<Eigen::Index>(y.size()), static_cast<Eigen::Index>(x.size()));
-  for (std::size_t r = 0; r < y.size(); ++r) {
-    J.row(static_cast<Eigen::Index>(r)) =
-        y[r].v.head(static_cast<Eigen::Index>(x.size())).transpose();
-  }
-  return J;
-}
-
-// The same by central differences of f in double.
-template <class F>
-Eigen::MatrixXd centralDifferences(const F& f, const std::vector<double>& x, double h) {
-  const std::size_t m = f(x.data()).size();
-  Eigen::MatrixXd J(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(x.size()));
-  for (std::size_t k = 0; k < x.size(); ++k) {
-    std::vector<double> xp = x, xm = x;
-    xp[k] += h;
-    xm[k] -= h;
-    const std::vector<double> yp = f(xp.data()), ym = f(xm.data());
-    for (std::size_t r = 0; r < m; ++r) {
-      J(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(k)) = (yp[r] - ym[r]) / (2.0 * h);
-    }
-  }
-  return J;
-}
 
 template <class F>
 void expectDerivativesAgree(const F& f, const std::vector<double>& x, double tol) {
-  const Eigen::MatrixXd Jj = jetJacobian(f, x);
-  const Eigen::MatrixXd Jf = centralDifferences(f, x, 1e-6);
-  ASSERT_EQ(Jj.rows(), Jf.rows());
-  // Every column must be exercised (no parameter silently dropped from the model).
-  for (Eigen::Index k = 0; k < Jj.cols(); ++k) {
-    EXPECT_GT(Jj.col(k).norm(), 1e-9) << "parameter " << k << " has no effect";
-  }
-  EXPECT_LT((Jj - Jf).cwiseAbs().maxCoeff(), tol) << "jet:\n" << Jj << "\nfd:\n" << Jf;
+  expectJetMatchesDifferences<kJetSize>(f, x, tol, static_cast<int>(x.size()));
 }
 
 template <typename T>

@@ -1,0 +1,214 @@
+// The registry of the forward model's effect units (one header each in calib/model/effects/,
+// calib/model/effect_unit.h says what a unit is) and the templated forward pass that applies
+// them with the sensor equation at one instant.
+//
+// Order of application: by the units' Stage (effect_unit.h), and within a stage by their
+// order here. Reading stages at one instant (sensorReadings below):
+//   kBodyInput      f_B, w_IB_B at the axes' intersection -> lever_arm, gyro_g_sensitivity
+//   kCoefficients   bias, scale of both triads            -> thermal_bias, thermal_scale
+//   u_a = M_a f_B, u_g = M_g w_IB_B
+//   kAxisInput      linear axis input                      -> size_effect
+//   kAxisNonlinear  nonlinear axis input                   -> accel_k2
+//   u -= bias;  reading = diag(scale) u                       (calib/model/sensor_equation.h)
+//   kReading        the readings                           -> scale_asymmetry
+// The other stages act before the instant's physics (the simulator, calib/simulator.h, and
+// any caller that builds the physics): kSite (latitude_error, gravity_error), kTable
+// (base_tilt, nonorthogonality, encoder_zero, mounting: addTableEffects), kAngle
+// (angle_harmonic: trueJointStates), kTime (time_delay, accel_delay), kNoise (bias_instability).
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <span>
+#include <type_traits>
+
+#include "calib/model/effect_unit.h"
+#include "calib/model/effects/accel_delay.h"
+#include "calib/model/effects/accel_k2.h"
+#include "calib/model/effects/angle_harmonic.h"
+#include "calib/model/effects/base_tilt.h"
+#include "calib/model/effects/bias_instability.h"
+#include "calib/model/effects/encoder_zero.h"
+#include "calib/model/effects/gravity_error.h"
+#include "calib/model/effects/gyro_g_sensitivity.h"
+#include "calib/model/effects/latitude_error.h"
+#include "calib/model/effects/lever_arm.h"
+#include "calib/model/effects/mounting.h"
+#include "calib/model/effects/nonorthogonality.h"
+#include "calib/model/effects/scale_asymmetry.h"
+#include "calib/model/effects/size_effect.h"
+#include "calib/model/effects/thermal_bias.h"
+#include "calib/model/effects/thermal_scale.h"
+#include "calib/model/effects/time_delay.h"
+#include "calib/model/sensor_equation.h"
+#include "calib/model/table_chain.h"
+
+namespace imubench::calib::model {
+
+template <class... U>
+struct UnitList {};
+
+// THE registry: every effect unit, in EffectId order (checked below).
+using EffectUnits =
+    UnitList<effects::LeverArm, effects::TimeDelay, effects::GyroGSensitivity, effects::ThermalBias,
+             effects::ThermalScale, effects::ScaleAsymmetry, effects::AccelK2,
+             effects::LatitudeError, effects::GravityError, effects::SizeEffect,
+             effects::AccelDelay, effects::AngleHarmonic, effects::BiasInstability,
+             effects::BaseTilt, effects::Nonorthogonality, effects::EncoderZero, effects::Mounting>;
+
+// What the double front (calib/effects.*) reads of a unit.
+struct UnitInfo {
+  EffectId id;
+  const char* name;
+  std::span<const ParamSpec> params;
+  Stage stage;
+  const char* term;
+};
+
+template <class... U>
+constexpr std::array<UnitInfo, sizeof...(U)> unitInfos(UnitList<U...>) {
+  return {
+      UnitInfo{U::kId, U::kName, std::span<const ParamSpec>(U::kParams), U::kStage, U::kTerm}...};
+}
+inline constexpr auto kUnitInfos = unitInfos(EffectUnits{});
+static_assert(kUnitInfos.size() == kEffectCount, "every EffectId has one unit");
+
+constexpr bool registryInIdOrder() {
+  for (int i = 0; i < kEffectCount; ++i) {
+    if (static_cast<int>(kUnitInfos[static_cast<std::size_t>(i)].id) != i) return false;
+  }
+  return true;
+}
+static_assert(registryInIdOrder(), "EffectUnits lists the units in EffectId order");
+
+// Largest flat parameter count of any unit (callers size fixed buffers with it).
+constexpr int maxUnitFlatSize() {
+  int best = 0;
+  for (const UnitInfo& u : kUnitInfos) {
+    int n = 0;
+    for (const ParamSpec& p : u.params) {
+      n += p.shape == ParamShape::kScalar ? 1 : p.shape == ParamShape::kVec3 ? 3 : 9;
+    }
+    best = n > best ? n : best;
+  }
+  return best;
+}
+inline constexpr int kMaxEffectFlatSize = maxUnitFlatSize();
+
+// The parameter block of every effect, by EffectId value; nullptr = effect off.
+template <typename T>
+using EffectBlocks = std::array<const T*, kEffectCount>;
+
+template <typename T>
+const T* blockOf(const EffectBlocks<T>& fx, EffectId id) {
+  return fx[static_cast<std::size_t>(id)];
+}
+
+// The value part of a scalar (double itself, a Jet's .a): for discrete parameters only.
+template <typename T>
+double valueOf(const T& x) {
+  if constexpr (std::is_same_v<T, double>) {
+    return x;
+  } else {
+    return x.a;
+  }
+}
+
+// Applies the reading-stage terms of stage S of every enabled unit, in registry order.
+template <Stage S, typename T, class... U>
+void applyStage(const EffectBlocks<T>& fx, ReadingState<T>* s, UnitList<U...>) {
+  const auto one = [&](auto unit) {
+    using Unit = decltype(unit);
+    if constexpr (Unit::kStage == S) {
+      if (const T* p = blockOf(fx, Unit::kId)) Unit::apply(p, s);
+    }
+  };
+  (one(U{}), ...);
+}
+
+// The sensor-equation coefficients of one triad (from its kTriadSize block), prepared once.
+template <typename T>
+struct TriadCoefficients {
+  Vec3T<T> scale = Vec3T<T>::Ones();
+  Vec3T<T> bias = Vec3T<T>::Zero();
+  Mat3T<T> M = Mat3T<T>::Identity();
+};
+template <typename T>
+TriadCoefficients<T> triadCoefficients(const T* triad) {
+  return {scaleOf(triad), biasOf(triad), misalignmentMatrix(triad + kMis)};
+}
+
+// Noise-free readings of both triads with the reading-stage effects, for the physics in s
+// (f_B, w_IB_B, w_LB_B, wdot_LB_B, temp_c). Fills the rest of s; the readings are s->accel,
+// s->gyro.
+template <typename T>
+void sensorReadings(const TriadCoefficients<T>& accel, const TriadCoefficients<T>& gyro,
+                    const EffectBlocks<T>& fx, ReadingState<T>* s) {
+  s->scale_a = accel.scale;
+  s->bias_a = accel.bias;
+  s->M_a = accel.M;
+  s->scale_g = gyro.scale;
+  s->bias_g = gyro.bias;
+  s->M_g = gyro.M;
+  applyStage<Stage::kBodyInput>(fx, s, EffectUnits{});
+  applyStage<Stage::kCoefficients>(fx, s, EffectUnits{});
+  s->u_a = s->M_a * s->f_B;
+  s->u_g = s->M_g * s->w_IB_B;
+  applyStage<Stage::kAxisInput>(fx, s, EffectUnits{});
+  applyStage<Stage::kAxisNonlinear>(fx, s, EffectUnits{});
+  s->u_a -= s->bias_a;
+  s->u_g -= s->bias_g;
+  s->accel = s->scale_a.cwiseProduct(s->u_a);
+  s->gyro = s->scale_g.cwiseProduct(s->u_g);
+  applyStage<Stage::kReading>(fx, s, EffectUnits{});
+}
+
+// The same from the triads' parameter blocks (kTriadSize each, sensor_equation.h).
+template <typename T>
+void sensorReadings(const T* accel_triad, const T* gyro_triad, const EffectBlocks<T>& fx,
+                    ReadingState<T>* s) {
+  sensorReadings(triadCoefficients(accel_triad), triadCoefficients(gyro_triad), fx, s);
+}
+
+// Adds the kTable units' errors to the chain's axes block (kTableAxesSize) and device block
+// (kTableDeviceSize).
+template <typename T, class... U>
+void addTableEffects(const EffectBlocks<T>& fx, T* axes, T* device, UnitList<U...>) {
+  const auto one = [&](auto unit) {
+    using Unit = decltype(unit);
+    if constexpr (Unit::kStage == Stage::kTable) {
+      if (const T* p = blockOf(fx, Unit::kId)) Unit::addTo(p, axes, device);
+    }
+  };
+  (one(U{}), ...);
+}
+template <typename T>
+void addTableEffects(const EffectBlocks<T>& fx, T* axes, T* device) {
+  addTableEffects(fx, axes, device, EffectUnits{});
+}
+
+// The true joint states from the encoder states (index kTableAxisOuter / Middle / Inner) by
+// the kAngle units (each acts on the axis its p[Unit::kAxis] names).
+template <typename T, class... U>
+void trueJointStates(const EffectBlocks<T>& fx, std::array<JointState<T>, 3>* joints,
+                     UnitList<U...>) {
+  const auto one = [&](auto unit) {
+    using Unit = decltype(unit);
+    if constexpr (Unit::kStage == Stage::kAngle) {
+      if (const T* p = blockOf(fx, Unit::kId)) {
+        const long axis = std::lround(valueOf(p[Unit::kAxis]));
+        if (axis >= kTableAxisOuter && axis <= kTableAxisInner) {
+          JointState<T>& j = (*joints)[static_cast<std::size_t>(axis)];
+          j = Unit::jointState(p, j);
+        }
+      }
+    }
+  };
+  (one(U{}), ...);
+}
+template <typename T>
+void trueJointStates(const EffectBlocks<T>& fx, std::array<JointState<T>, 3>* joints) {
+  trueJointStates(fx, joints, EffectUnits{});
+}
+
+}  // namespace imubench::calib::model

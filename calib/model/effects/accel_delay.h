@@ -1,0 +1,25 @@
+// accel_delay: tau_s (s): an accelerometer sample stamped t was taken at t - tau_s relative to
+// the gyro sample with the same stamp (gyro-accelerometer asynchrony): the accelerometers
+// sense the specific force (and temperature) at the gyro's physics time - tau_s.
+#pragma once
+
+#include "calib/model/effect_unit.h"
+
+namespace imubench::calib::model::effects {
+
+struct AccelDelay {
+  static constexpr EffectId kId = EffectId::kAccelDelay;
+  static constexpr const char* kName = "accel_delay";
+  static constexpr int kTau = 0;  // tau_s, 1
+  static constexpr std::array<ParamSpec, 1> kParams{{{"tau_s", ParamShape::kScalar, "s"}}};
+  static constexpr Stage kStage = Stage::kTime;
+  static constexpr const char* kTerm = "accelerometer physics sampled at t_gyro - tau_s";
+
+  // Physics time of the accelerometers for the gyros' physics time t_gyro.
+  template <typename T>
+  static T sampleTime(const T* p, const T& t_gyro) {
+    return t_gyro - p[kTau];
+  }
+};
+
+}  // namespace imubench::calib::model::effects
