@@ -101,7 +101,7 @@ class FakeDaemon {
         daemon::StatusReply st;
         st.bench = "fake";
         st.state = state_;
-        st.table = {"closed", false, false, "connected", std::nullopt};
+        st.table = {"closed", false, false, "connected", std::nullopt, std::nullopt, std::nullopt};
         if (state_ == "running") {
           st.run = 12;
           st.plan = "two_axis_12run";
@@ -368,7 +368,7 @@ json runningStatus(int step, std::int64_t count, const std::string& label,
   daemon::StatusReply st;
   st.bench = "b";
   st.state = "running";
-  st.table = {"closed", false, false, "connected", std::nullopt};
+  st.table = {"closed", false, false, "connected", std::nullopt, std::nullopt, std::nullopt};
   st.run = 12;
   st.plan = "p";
   st.step = daemon::StatusStep{step, label, "rotate", count};
