@@ -138,28 +138,15 @@ TEST_P(VirtualBenchVcan, SamplesEqualInProcessSimulatorWithinResolution) {
   // About 2 s of wall time for the whole stream at either rate (100 Hz x 10, 1 kHz x 1).
   const double scale = std::max(1.0, 1.0 / (1000.0 * layout.sample_period_s));
   const std::string out_path = tempPath(std::string(GetParam()) + ".out");
-  const pid_t pid = spawn({IMUBENCH_VIRTUAL_BENCH,
-                           "--table",
-                           devicePath("tables/imubench-ref-2axis-tcp.toml"),
-                           "--chamber",
-                           devicePath("chambers/generic-float-chamber.toml"),
-                           "--table-port",
-                           "0",
-                           "--chamber-port",
-                           "0",
-                           "--imu",
-                           layout_file,
-                           "--can",
-                           kIf,
-                           "--truth",
-                           truthPath(),
-                           "--noise",
-                           kNoise,
-                           "--seed",
-                           std::to_string(kSeed),
-                           "--time-scale",
-                           std::to_string(scale)},
-                          out_path);
+  const pid_t pid = spawn(
+      {IMUBENCH_VIRTUAL_BENCH, "--table", devicePath("tables/imubench-ref-2axis-tcp.toml"),
+       "--chamber", devicePath("chambers/generic-float-chamber.toml"), "--table-port", "0",
+       "--chamber-port", "0", "--imu", layout_file, "--can", kIf, "--truth", truthPath(), "--noise",
+       kNoise, "--seed", std::to_string(kSeed), "--time-scale", std::to_string(scale),
+       // the in-process world's default site (nav::Site{})
+       "--latitude", std::to_string(nav::Site{}.latitude_rad * kRadToDeg), "--height",
+       std::to_string(nav::Site{}.height_m)},
+      out_path);
   ASSERT_GT(pid, 0) << "cannot start " << IMUBENCH_VIRTUAL_BENCH;
 
   std::vector<DecodedImuSample> got;
