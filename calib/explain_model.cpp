@@ -174,10 +174,17 @@ ExplainData prepareExplainData(const TableGeometry& geometry, const nav::Site& s
   d.axes = axisSplines(geometry.kind, table, 1);
   if (imu.empty() || table.size() < 2) return d;
   const std::vector<AxisSpline> coarse = axisSplines(geometry.kind, table, 2);
+  // Largest estimated angle error within half an encoder interval of t (the model may be
+  // evaluated there when a timing effect shifts it).
+  const double half_step =
+      0.5 * (table.back().t - table.front().t) / static_cast<double>(table.size() - 1);
   auto angleErr = [&](double t) {
     double e2 = 0.0;
     for (std::size_t a = 0; a < d.axes.size(); ++a) {
-      const double e = (d.axes[a].at(t).angle - coarse[a].at(t).angle) / 3.0;
+      double e = 0.0;
+      for (double s : {t - half_step, t, t + half_step}) {
+        e = std::max(e, std::abs(d.axes[a].at(s).angle - coarse[a].at(s).angle) / 3.0);
+      }
       e2 += e * e;
     }
     return std::sqrt(e2);

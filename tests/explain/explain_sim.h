@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <string>
 
 #include "calib/explain.h"
@@ -66,8 +67,10 @@ inline std::string summary(const ExplainResult& r) {
   for (const ExplainAccepted& a : r.accepted) {
     s += "  accepted " + a.effect + " dBIC " + std::to_string(a.delta_bic) + ":";
     for (std::size_t k = 0; k < a.values.size(); ++k) {
-      s += " " + a.flat_names[k] + "=" + std::to_string(a.values[k]) + "+-" +
-           std::to_string(a.sigmas[k]);
+      char buf[160];
+      std::snprintf(buf, sizeof(buf), " %s=%.4g+-%.2g", a.flat_names[k].c_str(), a.values[k],
+                    a.sigmas[k]);
+      s += buf;
     }
     s += "\n";
   }
