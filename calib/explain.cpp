@@ -96,12 +96,14 @@ bool wanted(const ExplainOptions& o, const std::string& id) {
          std::find(o.candidates.begin(), o.candidates.end(), id) != o.candidates.end();
 }
 
-// Candidate effects: the table groups the baseline did not estimate, then every registry id.
-std::vector<Candidate> candidateEffects(const ExplainInput& in, const ExplainOptions& o) {
-  std::vector<Candidate> out;
+// Candidate effects of a table recording: the table groups the baseline did not estimate,
+// then every registry id.
+std::vector<ExplainCandidateSpec> candidateEffects(const ExplainInput& in,
+                                                   const ExplainOptions& o) {
+  std::vector<ExplainCandidateSpec> out;
   BenchTruth t = in.baseline.values;
   t.table_kind = in.geometry.kind;
-  std::map<std::string, Candidate> table;
+  std::map<std::string, ExplainCandidateSpec> table;
   for (const std::string& n : flatNames(t)) {
     if (n.rfind("table.", 0) != 0) continue;
     if (std::find(in.baseline_table_params.begin(), in.baseline_table_params.end(), n) !=
@@ -115,18 +117,7 @@ std::vector<Candidate> candidateEffects(const ExplainInput& in, const ExplainOpt
   for (const char* g : kTableGroups) {
     if (table.count(g) && wanted(o, g)) out.push_back(table[g]);
   }
-  for (EffectId id : kAllEffects) {
-    const std::string name = effectName(id);
-    if (std::find(kTableGroups.begin(), kTableGroups.end(), name) != kTableGroups.end()) continue;
-    if (std::find(kNotRegressed.begin(), kNotRegressed.end(), name) != kNotRegressed.end()) {
-      continue;
-    }
-    if (!wanted(o, name)) continue;
-    Candidate c;
-    c.id = name;
-    for (const std::string& p : flatParamNames(id)) c.names.push_back("extra." + p);
-    out.push_back(std::move(c));
-  }
+  for (const ExplainCandidateSpec& c : registryCandidates(o)) out.push_back(c);
   return out;
 }
 
@@ -343,20 +334,20 @@ Selection selectEffects(const Selector& sel, const std::vector<Candidate>& cands
 // threshold in noise-floor sigmas; adjacent ones on the same channel and sign are merged.
 // A window's sigma: the noise floor's deviation of a mean over its duration and the bins'
 // interpolation uncertainty (model_sigma, per row), which does not average down.
-std::vector<ExplainWindow> locateWindows(const ExplainData& d, const std::vector<double>& r,
+std::vector<ExplainWindow> locateWindows(const std::vector<ExplainBin>& bins,
+                                         const std::vector<double>& r,
                                          const std::vector<double>& model_sigma,
                                          const NoiseFloor& nf, const ExplainOptions& o,
                                          std::span<const Segment> segments) {
   std::vector<ExplainWindow> out;
   std::array<long, 6> open{-1, -1, -1, -1, -1, -1};  // index in out of the window being merged
   std::size_t b = 0;
-  while (b < d.bins.size()) {
+  while (b < bins.size()) {
     std::size_t e = b;
     double T = 0.0;
     std::array<double, 6> sum{}, model{};
-    while (e < d.bins.size() && d.bins[e].segment == d.bins[b].segment &&
-           (T < o.window_s || e == b)) {
-      const double dt = d.bins[e].duration();
+    while (e < bins.size() && bins[e].segment == bins[b].segment && (T < o.window_s || e == b)) {
+      const double dt = bins[e].duration();
       T += dt;
       for (int c = 0; c < 6; ++c) {
         sum[c] += r[e * 6 + c] * dt;
@@ -373,16 +364,16 @@ std::vector<ExplainWindow> locateWindows(const ExplainData& d, const std::vector
         continue;
       }
       if (w >= 0 && (out[w].sigma > 0) == (z > 0)) {
-        out[w].t1 = d.bins[e - 1].t1;
+        out[w].t1 = bins[e - 1].t1;
         if (std::abs(z) > std::abs(out[w].sigma)) out[w].sigma = z;
         continue;
       }
-      const int seg = d.bins[b].segment;
+      const int seg = bins[b].segment;
       const std::string where =
           seg >= 0 ? std::string(segmentKindName(segments[static_cast<std::size_t>(seg)].kind)) +
                          " segment '" + segments[static_cast<std::size_t>(seg)].label + "'"
                    : std::string("a span outside the segments");
-      out.push_back({d.bins[b].t0, d.bins[e - 1].t1, c, z, mean, "mean residual in " + where});
+      out.push_back({bins[b].t0, bins[e - 1].t1, c, z, mean, "mean residual in " + where});
       w = static_cast<long>(out.size()) - 1;
     }
     b = e;
@@ -492,7 +483,7 @@ void reportSelection(const std::vector<Candidate>& cands, const Selection& sel,
     for (std::size_t k = 0; k < c.names.size(); ++k) {
       const auto pos = std::find(names.begin(), names.end(), c.names[k]);
       a.flat_names.push_back(c.names[k]);
-      a.values.push_back(flatOrZero(fit.model, c.names[k]));
+      a.values.push_back(stateValue(fit.state, c.names[k]));
       a.sigmas.push_back(pos == names.end()
                              ? std::numeric_limits<double>::quiet_NaN()
                              : fit.sigma[static_cast<std::size_t>(pos - names.begin())]);
@@ -501,22 +492,47 @@ void reportSelection(const std::vector<Candidate>& cands, const Selection& sel,
   }
 }
 
-void fillBins(const ExplainData& d, const std::vector<double>& before,
+void fillBins(const std::vector<ExplainBin>& bins, const std::vector<double>& before,
               const std::vector<double>& after, const std::vector<double>& sigma,
               ExplainResult* res) {
-  res->bins.resize(d.bins.size());
-  for (std::size_t b = 0; b < d.bins.size(); ++b) {
+  res->bins.resize(bins.size());
+  for (std::size_t b = 0; b < bins.size(); ++b) {
     ExplainBinResidual& x = res->bins[b];
-    x.t0 = d.bins[b].t0;
-    x.t1 = d.bins[b].t1;
-    x.segment = d.bins[b].segment;
-    x.moving = d.bins[b].moving;
+    x.t0 = bins[b].t0;
+    x.t1 = bins[b].t1;
+    x.segment = bins[b].segment;
+    x.moving = bins[b].moving;
     for (int c = 0; c < 6; ++c) {
       x.before[c] = before[b * 6 + c];
       x.after[c] = after[b * 6 + c];
       x.sigma[c] = sigma[b * 6 + c];
     }
   }
+}
+
+// Given coefficients that the recording moves beyond the physical tolerances are not this
+// IMU's: the first such coefficient, or "".
+std::string givenMismatch(const ExplainProblem& p, const ExplainOptions& o, const BenchTruth& fit) {
+  if (p.baseline_method != "given") return "";
+  const BenchTruth& given = p.start.model;
+  for (const std::string& n : p.baseline_names) {
+    if (n.rfind("nuisance.", 0) == 0) continue;
+    double tol = o.given_max_misalignment;
+    if (n.find(".scale.") != std::string::npos) tol = o.given_max_scale;
+    if (n.rfind("accel.bias.", 0) == 0) tol = o.given_max_accel_bias;
+    if (n.rfind("gyro.bias.", 0) == 0) tol = o.given_max_gyro_bias;
+    const double d = stateValue({fit, {}}, n) - stateValue({given, {}}, n);
+    if (std::abs(d) > tol) {
+      char buf[240];
+      std::snprintf(buf, sizeof(buf),
+                    "the given coefficients do not describe this IMU: the recording puts %s at "
+                    "%.6g, %.3g away from the given %.6g (more than %.3g): coefficients of "
+                    "another unit or range setting?",
+                    n.c_str(), stateValue({fit, {}}, n), d, stateValue({given, {}}, n), tol);
+      return buf;
+    }
+  }
+  return "";
 }
 
 }  // namespace
@@ -549,66 +565,118 @@ bool ExplainOptions::IsValid(std::string* why) const {
   return true;
 }
 
-ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
-  ExplainResult res;
-  res.baseline_method = in.baseline_method;
-  res.segments.assign(in.segments.begin(), in.segments.end());
-  const std::vector<HoldReadings> holds = staticHolds(in, o);
-  res.error = checkInput(in, o, holds);
-  if (!res.error.empty()) return res;
-  res.noise = noiseFloor(holds, o.noise);
-  if (!res.noise.ok) {
-    res.error = "the static holds are too short for an Allan deviation";
-    return res;
-  }
-  const ExplainData data =
-      prepareExplainData(in.geometry, in.site, in.imu, in.table, in.segments, o.model);
-  std::vector<double> model_sigma;
-  ExplainEvaluator eval(&data, rowSigmas(data, res.noise, &model_sigma), o.fd_step);
-  const int n = eval.rows();
-  const double log_n = std::log(static_cast<double>(n));
+namespace {
 
-  // Residual and regressors at the baseline; candidates' columns off the baseline's.
-  BenchTruth base = in.baseline.values;
-  base.table_kind = in.geometry.kind;
-  const std::vector<std::string> bnames = baselineNames(in);
-  const Eigen::VectorXd r0 = eval.residual(base);
-  const Eigen::MatrixXd Jb = eval.jacobian(base, bnames);
-  const Eigen::MatrixXd Ub = columnBasis(Jb, 1e-7);
-  std::vector<Candidate> cands = candidateEffects(in, o);
+// The linearised problem at the baseline: whitened residual and columns, the baseline's
+// column space, candidates' columns projected off it.
+struct Linearised {
+  Eigen::VectorXd r0, rperp;
+  Eigen::MatrixXd Jb, Ub, C, Cperp;
+  std::vector<double> raw_max;
   std::vector<std::string> cnames;
-  for (Candidate& c : cands) {
+  std::vector<Candidate> cands;
+  int dof_b = 0;
+};
+
+Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval) {
+  Linearised L;
+  L.r0 = eval->residual(p.start);
+  L.Jb = eval->jacobian(p.start, p.baseline_names);
+  L.Ub = columnBasis(L.Jb, 1e-7);
+  for (const ExplainCandidateSpec& spec : p.candidates) {
+    Candidate c;
+    c.id = spec.id;
+    c.names = spec.names;
     for (const std::string& nm : c.names) {
-      c.cols.push_back(static_cast<int>(cnames.size()));
-      cnames.push_back(nm);
+      c.cols.push_back(static_cast<int>(L.cnames.size()));
+      L.cnames.push_back(nm);
+    }
+    L.cands.push_back(std::move(c));
+  }
+  L.C = eval->jacobian(p.start, L.cnames, &L.raw_max);
+  L.Cperp = projectOff(L.Ub, L.C);
+  L.rperp = projectOff(L.Ub, L.r0);
+  L.dof_b = eval->rows() - static_cast<int>(L.Ub.cols());
+  return L;
+}
+
+// Residuals before and after, RMS, located windows, coefficients, bins.
+void finish(const ExplainProblem& p, const ExplainOptions& o, const Linearised& L,
+            ExplainEvaluator* eval, const RefitResult& fit, const std::vector<std::string>& names,
+            ExplainResult* res) {
+  const std::size_t n = static_cast<std::size_t>(eval->rows());
+  std::vector<double> before(n);
+  for (std::size_t i = 0; i < n; ++i) before[i] = L.rperp(static_cast<int>(i)) * eval->sigma()[i];
+  const std::vector<double> after = eval->rawResidual(fit.state);
+  double chi2_after = 0.0;
+  for (std::size_t i = 0; i < n; ++i) chi2_after += std::pow(after[i] / eval->sigma()[i], 2);
+  res->after_normalised_rms = std::sqrt(chi2_after / std::max(1, eval->rows() - fit.rank));
+  res->rms_before = channelRms(before);
+  res->rms_after = channelRms(after);
+  res->noise_rms = channelRms(eval->sigma());
+  res->located = locateWindows(*p.bins, before, p.model_sigma, p.noise, o, p.segments);
+  res->unexplained = locateWindows(*p.bins, after, p.model_sigma, p.noise, o, p.segments);
+  for (ExplainWindow& w : res->unexplained) w.reason += ": no effect of the library explains it";
+  res->coefficients.values = fit.state.model;
+  for (std::size_t j = 0; j < names.size(); ++j) {
+    if (names[j].rfind("nuisance.", 0) == 0) continue;
+    if (std::isfinite(fit.sigma[j])) {
+      res->coefficients.setSigma(names[j], fit.sigma[j]);
+    } else {
+      res->coefficients.setUnobservable(names[j]);
     }
   }
-  std::vector<double> raw_max;
-  const Eigen::MatrixXd C = eval.jacobian(base, cnames, &raw_max);
-  const Eigen::MatrixXd Cperp = projectOff(Ub, C);
-  const Eigen::VectorXd rperp = projectOff(Ub, r0);
-  const int dof_b = n - static_cast<int>(Ub.cols());
-  res.baseline_normalised_rms = std::sqrt(rperp.squaredNorm() / std::max(1, dof_b));
+  fillBins(*p.bins, before, after, eval->sigma(), res);
+}
+
+}  // namespace
+
+std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& o) {
+  std::vector<ExplainCandidateSpec> out;
+  for (EffectId id : kAllEffects) {
+    const std::string name = effectName(id);
+    if (std::find(kTableGroups.begin(), kTableGroups.end(), name) != kTableGroups.end()) continue;
+    if (std::find(kNotRegressed.begin(), kNotRegressed.end(), name) != kNotRegressed.end()) {
+      continue;
+    }
+    if (!wanted(o, name)) continue;
+    ExplainCandidateSpec c;
+    c.id = name;
+    for (const std::string& q : flatParamNames(id)) c.names.push_back("extra." + q);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+ExplainResult analyseProblem(const ExplainProblem& p, const ExplainOptions& o) {
+  ExplainResult res;
+  res.baseline_method = p.baseline_method;
+  res.segments = p.segments;
+  res.noise = p.noise;
+  ExplainEvaluator eval(p.bins, p.forward, p.sigma, o.fd_step);
+  const double log_n = std::log(static_cast<double>(eval.rows()));
+  Linearised L = linearise(p, &eval);
+  res.baseline_normalised_rms = std::sqrt(L.rperp.squaredNorm() / std::max(1, L.dof_b));
 
   // Gate, selection on the linearised problem, joint refit.
-  const GateInput gate{&Jb, &bnames, &C, &Cperp, &raw_max};
-  for (Candidate& c : cands) gateParameters(gate, o, &c);
-  gatePairs(gate, o, &cands, &res);
-  reportGate(cands, &res);
-  const Selector selector(Cperp, rperp, &cands);
+  const GateInput gate{&L.Jb, &p.baseline_names, &L.C, &L.Cperp, &L.raw_max};
+  for (Candidate& c : L.cands) gateParameters(gate, o, &c);
+  gatePairs(gate, o, &L.cands, &res);
+  reportGate(L.cands, &res);
+  const Selector selector(L.Cperp, L.rperp, &L.cands);
   std::vector<std::size_t> all;
-  for (std::size_t g = 0; g < cands.size(); ++g) {
-    if (cands[g].status == GateStatus::kActive) all.push_back(g);
+  for (std::size_t g = 0; g < L.cands.size(); ++g) {
+    if (L.cands[g].status == GateStatus::kActive) all.push_back(g);
   }
-  res.scale = std::max(1.0, selector.chi2(all) / std::max(1, dof_b - selector.params(all)));
-  const Selection sel = selectEffects(selector, cands, res.scale, log_n);
-  std::vector<std::string> names = bnames;
-  BenchTruth start = base;
+  res.scale = std::max(1.0, selector.chi2(all) / std::max(1, L.dof_b - selector.params(all)));
+  const Selection sel = selectEffects(selector, L.cands, res.scale, log_n);
+  std::vector<std::string> names = p.baseline_names;
+  ExplainState start = p.start;
   for (std::size_t g : sel.accepted) {
-    for (int j : cands[g].active) {
-      names.push_back(cnames[static_cast<std::size_t>(j)]);
+    for (int j : L.cands[g].active) {
+      names.push_back(L.cnames[static_cast<std::size_t>(j)]);
       std::string why;
-      setFlatValue(&start, cnames[static_cast<std::size_t>(j)], 0.0, &why);
+      setStateValue(&start, L.cnames[static_cast<std::size_t>(j)], 0.0, &why);
     }
   }
   const RefitResult fit = refitJointly(&eval, start, names, o.refit_iterations);
@@ -616,38 +684,42 @@ ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) 
     res.error = fit.error;
     return res;
   }
-  reportSelection(cands, sel, selector, res.scale, log_n, names, fit, &res);
-
-  // Residuals before (baseline refit, linear) and after; where they exceed the noise floor.
-  std::vector<double> before(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i)
-    before[static_cast<std::size_t>(i)] = rperp(i) * eval.sigma()[static_cast<std::size_t>(i)];
-  const std::vector<double> after = eval.rawResidual(fit.model);
-  double chi2_after = 0.0;
-  for (int i = 0; i < n; ++i) {
-    const double z = after[static_cast<std::size_t>(i)] / eval.sigma()[static_cast<std::size_t>(i)];
-    chi2_after += z * z;
-  }
-  res.after_normalised_rms = std::sqrt(chi2_after / std::max(1, n - fit.rank));
-  res.rms_before = channelRms(before);
-  res.rms_after = channelRms(after);
-  res.noise_rms = channelRms(eval.sigma());
-  res.located = locateWindows(data, before, model_sigma, res.noise, o, in.segments);
-  res.unexplained = locateWindows(data, after, model_sigma, res.noise, o, in.segments);
-  for (ExplainWindow& w : res.unexplained) {
-    w.reason += ": no effect of the library explains it";
-  }
-  res.coefficients.values = fit.model;
-  for (std::size_t j = 0; j < names.size(); ++j) {
-    if (std::isfinite(fit.sigma[j])) {
-      res.coefficients.setSigma(names[j], fit.sigma[j]);
-    } else {
-      res.coefficients.setUnobservable(names[j]);
-    }
-  }
-  fillBins(data, before, after, eval.sigma(), &res);
+  res.error = givenMismatch(p, o, fit.state.model);
+  if (!res.error.empty()) return res;
+  reportSelection(L.cands, sel, selector, res.scale, log_n, names, fit, &res);
+  finish(p, o, L, &eval, fit, names, &res);
   res.ok = true;
   return res;
+}
+
+ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
+  ExplainResult res;
+  const std::vector<HoldReadings> holds = staticHolds(in, o);
+  res.error = checkInput(in, o, holds);
+  if (!res.error.empty()) return res;
+  ExplainProblem p;
+  p.noise = noiseFloor(holds, o.noise);
+  if (!p.noise.ok) {
+    res.error = "the static holds are too short for an Allan deviation";
+    return res;
+  }
+  const ExplainData data =
+      prepareExplainData(in.geometry, in.site, in.imu, in.table, in.segments, o.model);
+  if (data.bins.empty()) {
+    res.error = "no IMU sample lies within the span of the encoder samples";
+    return res;
+  }
+  ExplainPredictor predictor(&data);
+  p.bins = &data.bins;
+  p.forward = &predictor;
+  p.sigma = rowSigmas(data, p.noise, &p.model_sigma);
+  p.start.model = in.baseline.values;
+  p.start.model.table_kind = in.geometry.kind;
+  p.baseline_names = baselineNames(in);
+  p.candidates = candidateEffects(in, o);
+  p.segments.assign(in.segments.begin(), in.segments.end());
+  p.baseline_method = in.baseline_method;
+  return analyseProblem(p, o);
 }
 
 }  // namespace imubench::calib

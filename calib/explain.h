@@ -89,6 +89,14 @@ struct ExplainOptions {
   double fd_step = 1e-6;
   // Refusals: gaps, non-finite values, samples at the IMU's range.
   IncrementCheckOptions checks;
+  // Given coefficients (baseline_method "given") that the recording moves by more than these
+  // belong to another IMU (or another range setting) and are refused: far beyond the spread
+  // of units of one type and beyond any drift between calibrations, far below the difference
+  // between unrelated units or unit settings.
+  double given_max_scale = 5e-3;         // 5000 ppm
+  double given_max_misalignment = 5e-3;  // rad (~1000 arcsec)
+  double given_max_accel_bias = 5e-2;    // m/s^2 (~5 mg)
+  double given_max_gyro_bias = 5e-4;     // rad/s (~100 deg/h)
 
   bool IsValid(std::string* why) const;
 };
@@ -151,7 +159,33 @@ struct ExplainResult {
   std::vector<std::string> notes;
 };
 
+// A table recording (imubench-csv/1, or a stored run): bins along the encoder spline, the
+// library forward model, the table groups the baseline did not estimate as candidates.
 ExplainResult explainRecording(const ExplainInput& input, const ExplainOptions& options = {});
+
+// ---- The analysis on prepared bins (table recordings above; table-free ones in
+// calib/explain_scalar.h) ----
+
+struct ExplainCandidateSpec {
+  std::string id;                  // interchange effect id
+  std::vector<std::string> names;  // flat names of its parameters (ExplainState names)
+};
+// Every registry effect with fittable parameters (options.candidates filters).
+std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& options);
+
+struct ExplainProblem {
+  const std::vector<ExplainBin>* bins = nullptr;  // measured mean readings per bin
+  ExplainForward* forward = nullptr;              // their prediction for a state
+  std::vector<double> sigma;                      // per row (bin-major, 6 per bin): noise and model
+  std::vector<double> model_sigma;                // the model part alone (does not average down)
+  NoiseFloor noise;
+  ExplainState start;                       // the baseline
+  std::vector<std::string> baseline_names;  // what the baseline fit varies
+  std::vector<ExplainCandidateSpec> candidates;
+  std::vector<Segment> segments;  // bins' segment indices refer here
+  std::string baseline_method;
+};
+ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions& options);
 
 // The interchange report (interchange.md "Explain report", imubench-explain/1).
 nlohmann::json toJson(const ExplainResult& result);

@@ -12,48 +12,44 @@ namespace {
 // conditioning of a calibration (1e-4 .. 1e-6).
 constexpr double kRankTolerance = 1e-7;
 
-BenchTruth withValue(const BenchTruth& model, const std::string& name, double value) {
-  BenchTruth m = model;
+ExplainState withValue(const ExplainState& state, const std::string& name, double value) {
+  ExplainState m = state;
   std::string why;
-  setFlatValue(&m, name, value, &why);
+  setStateValue(&m, name, value, &why);
   return m;
 }
 
 }  // namespace
 
-double flatOrZero(const BenchTruth& model, const std::string& name) {
-  return flatValue(model, name).value_or(0.0);
-}
+ExplainEvaluator::ExplainEvaluator(const std::vector<ExplainBin>* bins, ExplainForward* forward,
+                                   std::vector<double> sigma, double fd_step)
+    : bins_(bins), forward_(forward), sigma_(std::move(sigma)), h_(fd_step) {}
 
-ExplainEvaluator::ExplainEvaluator(const ExplainData* data, std::vector<double> sigma,
-                                   double fd_step)
-    : data_(data), predictor_(data), sigma_(std::move(sigma)), h_(fd_step) {}
-
-std::vector<double> ExplainEvaluator::rawResidual(const BenchTruth& model) {
-  predictor_.predict(model, &pred_);
+std::vector<double> ExplainEvaluator::rawResidual(const ExplainState& state) {
+  forward_->predict(state, &pred_);
   std::vector<double> r(pred_.size());
-  for (std::size_t b = 0; b < data_->bins.size(); ++b) {
-    for (int c = 0; c < 6; ++c) r[b * 6 + c] = data_->bins[b].measured[c] - pred_[b * 6 + c];
+  for (std::size_t b = 0; b < bins_->size(); ++b) {
+    for (int c = 0; c < 6; ++c) r[b * 6 + c] = (*bins_)[b].measured[c] - pred_[b * 6 + c];
   }
   return r;
 }
 
-Eigen::VectorXd ExplainEvaluator::residual(const BenchTruth& model) {
-  const std::vector<double> r = rawResidual(model);
+Eigen::VectorXd ExplainEvaluator::residual(const ExplainState& state) {
+  const std::vector<double> r = rawResidual(state);
   Eigen::VectorXd w(rows());
   for (int i = 0; i < rows(); ++i) w(i) = r[i] / sigma_[i];
   return w;
 }
 
-Eigen::MatrixXd ExplainEvaluator::jacobian(const BenchTruth& model,
+Eigen::MatrixXd ExplainEvaluator::jacobian(const ExplainState& state,
                                            const std::vector<std::string>& names,
                                            std::vector<double>* raw_max) {
   Eigen::MatrixXd J(rows(), static_cast<int>(names.size()));
   if (raw_max) raw_max->assign(names.size(), 0.0);
   for (std::size_t j = 0; j < names.size(); ++j) {
-    const double v = flatOrZero(model, names[j]);
-    predictor_.predict(withValue(model, names[j], v + h_), &pred_);
-    predictor_.predict(withValue(model, names[j], v - h_), &pred2_);
+    const double v = stateValue(state, names[j]);
+    forward_->predict(withValue(state, names[j], v + h_), &pred_);
+    forward_->predict(withValue(state, names[j], v - h_), &pred2_);
     for (int i = 0; i < rows(); ++i) {
       const double d = (pred_[i] - pred2_[i]) / (2.0 * h_);
       J(i, static_cast<int>(j)) = d / sigma_[i];
@@ -77,18 +73,18 @@ Eigen::MatrixXd columnBasis(const Eigen::MatrixXd& A, double rel_tol) {
   return svd.matrixU().leftCols(r);
 }
 
-RefitResult refitJointly(ExplainEvaluator* eval, const BenchTruth& start,
+RefitResult refitJointly(ExplainEvaluator* eval, const ExplainState& start,
                          const std::vector<std::string>& names, int iterations) {
   RefitResult out;
-  out.model = start;
+  out.state = start;
   const int n = static_cast<int>(names.size());
   Eigen::MatrixXd J;
   Eigen::VectorXd r;
   Eigen::VectorXd d(n);
   Eigen::BDCSVD<Eigen::MatrixXd> svd;
   for (int it = 0; it <= iterations; ++it) {
-    r = eval->residual(out.model);
-    J = eval->jacobian(out.model, names);
+    r = eval->residual(out.state);
+    J = eval->jacobian(out.state, names);
     for (int j = 0; j < n; ++j) {
       d(j) = J.col(j).norm();
       if (d(j) > 0.0) J.col(j) /= d(j);
@@ -108,9 +104,9 @@ RefitResult refitJointly(ExplainEvaluator* eval, const BenchTruth& start,
         svd.matrixV() * (sinv.asDiagonal() * (svd.matrixU().transpose() * r));
     for (int j = 0; j < n; ++j) {
       if (d(j) <= 0.0) continue;
-      const double v = flatOrZero(out.model, names[j]) + step(j) / d(j);
+      const double v = stateValue(out.state, names[j]) + step(j) / d(j);
       std::string why;
-      if (!std::isfinite(v) || !setFlatValue(&out.model, names[j], v, &why)) {
+      if (!std::isfinite(v) || !setStateValue(&out.state, names[j], v, &why)) {
         out.error = "refit of " + names[j] + " failed: " + (why.empty() ? "not finite" : why);
         return out;
       }

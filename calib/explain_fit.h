@@ -16,29 +16,27 @@ namespace imubench::calib {
 class ExplainEvaluator {
  public:
   // sigma: one per row (bin-major, 6 per bin).
-  ExplainEvaluator(const ExplainData* data, std::vector<double> sigma, double fd_step);
+  ExplainEvaluator(const std::vector<ExplainBin>* bins, ExplainForward* forward,
+                   std::vector<double> sigma, double fd_step);
 
   int rows() const { return static_cast<int>(sigma_.size()); }
   // Whitened residual (measured - predicted) / sigma of a model.
-  Eigen::VectorXd residual(const BenchTruth& model);
+  Eigen::VectorXd residual(const ExplainState& state);
   // Unwhitened residual of a model (reading units), bin-major.
-  std::vector<double> rawResidual(const BenchTruth& model);
+  std::vector<double> rawResidual(const ExplainState& state);
   // Whitened regressors d(prediction)/d(name) at the model; raw_max (if given) receives each
   // column's largest unwhitened magnitude.
-  Eigen::MatrixXd jacobian(const BenchTruth& model, const std::vector<std::string>& names,
+  Eigen::MatrixXd jacobian(const ExplainState& state, const std::vector<std::string>& names,
                            std::vector<double>* raw_max = nullptr);
   const std::vector<double>& sigma() const { return sigma_; }
 
  private:
-  const ExplainData* data_;
-  ExplainPredictor predictor_;
+  const std::vector<ExplainBin>* bins_;
+  ExplainForward* forward_;
   std::vector<double> sigma_;
   double h_;
   std::vector<double> pred_, pred2_;
 };
-
-// The value of a flat coefficient (0 for an effect that is not enabled).
-double flatOrZero(const BenchTruth& model, const std::string& name);
 
 // Orthonormal basis of the column space of A (columns normalised first; singular values
 // below rel_tol times the largest are dropped). rank receives its size.
@@ -52,7 +50,7 @@ inline Eigen::MatrixXd projectOff(const Eigen::MatrixXd& U, const Eigen::MatrixX
 struct RefitResult {
   bool ok = false;
   std::string error;
-  BenchTruth model;
+  ExplainState state;
   std::vector<double> sigma;  // per name, 1-sigma (NaN where the data cannot see it)
   double chi2 = 0.0;
   int rank = 0;
@@ -61,7 +59,7 @@ struct RefitResult {
 // Gauss-Newton on the named coefficients from start (truncated SVD step on normalised
 // columns: directions the data cannot see stay at their start values). Sigmas from the
 // inverse information times max(1, chi^2 / dof).
-RefitResult refitJointly(ExplainEvaluator* eval, const BenchTruth& start,
+RefitResult refitJointly(ExplainEvaluator* eval, const ExplainState& start,
                          const std::vector<std::string>& names, int iterations);
 
 // Chi-square survival function P(X > x) for k degrees of freedom.

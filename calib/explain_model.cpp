@@ -318,7 +318,29 @@ void ExplainPredictor::computePhysics(const BenchTruth& model, const PhysicsKey&
   have_physics_ = true;
 }
 
-void ExplainPredictor::predict(const BenchTruth& model, std::vector<double>* out) {
+double stateValue(const ExplainState& s, const std::string& name) {
+  if (name.rfind("nuisance.", 0) == 0) {
+    const std::size_t k = std::stoul(name.substr(9));
+    return k < s.nuisance.size() ? s.nuisance[k] : 0.0;
+  }
+  return flatValue(s.model, name).value_or(0.0);
+}
+
+bool setStateValue(ExplainState* s, const std::string& name, double value, std::string* why) {
+  if (name.rfind("nuisance.", 0) == 0) {
+    const std::size_t k = std::stoul(name.substr(9));
+    if (k >= s->nuisance.size()) {
+      *why = "no nuisance parameter " + name;
+      return false;
+    }
+    s->nuisance[k] = value;
+    return true;
+  }
+  return setFlatValue(&s->model, name, value, why);
+}
+
+void ExplainPredictor::predict(const ExplainState& state, std::vector<double>* out) {
+  const BenchTruth& model = state.model;
   const PhysicsKey key = keyOf(model);
   if (!have_physics_ || !(key == key_)) computePhysics(model, key);
   out->assign(data_->bins.size() * 6, 0.0);

@@ -95,13 +95,30 @@ ExplainData prepareExplainData(const TableGeometry& geometry, const nav::Site& s
                                std::span<const Segment> segments,
                                const ExplainModelOptions& options);
 
-// Predicts the mean readings of every bin (6 per bin, bin-major) for a full model (sensors,
-// table errors, extra effects). Keeps the table physics of the last call: a model that only
+// What a fit varies: the full model (sensors, table errors, extra effects) and nuisance
+// parameters of the recording (e.g. the unknown attitudes of hand-placed poses), addressed by
+// flat name: bench_truth.h names, or "nuisance.N".
+struct ExplainState {
+  BenchTruth model;
+  std::vector<double> nuisance;
+};
+double stateValue(const ExplainState& s, const std::string& name);
+bool setStateValue(ExplainState* s, const std::string& name, double value, std::string* why);
+
+// A forward model of the bins: mean readings of every bin (6 per bin, bin-major).
+class ExplainForward {
+ public:
+  virtual ~ExplainForward() = default;
+  virtual void predict(const ExplainState& state, std::vector<double>* out) = 0;
+};
+
+// The table recording's forward model: the library's chain, physics and sensor equation
+// along the encoder spline. Keeps the table physics of the last call: a model that only
 // changes sensor or reading-level effect parameters reuses it.
-class ExplainPredictor {
+class ExplainPredictor : public ExplainForward {
  public:
   explicit ExplainPredictor(const ExplainData* data) : data_(data) {}
-  void predict(const BenchTruth& model, std::vector<double>* out);
+  void predict(const ExplainState& state, std::vector<double>* out) override;
 
  private:
   struct PhysicsKey {
