@@ -1,0 +1,725 @@
+#include "calib/explain.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "calib/explain_fit.h"
+
+namespace imubench::calib {
+namespace {
+
+constexpr std::array<const char*, 6> kChannelNames = {"accel.x", "accel.y", "accel.z",
+                                                      "gyro.x",  "gyro.y",  "gyro.z"};
+// A regressor whose largest unwhitened value is below this (reading units per SI parameter
+// unit) has no term in this recording: ~100x the central-difference rounding of readings of
+// order 10 with a 1e-6 step.
+constexpr double kNotExcited = 1e-7;
+
+// Table error groups of the coefficient file (interchange.md), candidates when the baseline
+// did not estimate them; ids the registry may also list.
+constexpr std::array<const char*, 4> kTableGroups = {"base_tilt", "nonorthogonality", "mounting",
+                                                     "encoder_zero"};
+// Registry ids that are not deterministic terms with fittable flat parameters here:
+// bias_instability is a noise process (reported from the Allan curve), angle_harmonic needs
+// a discrete axis and order.
+constexpr std::array<const char*, 2> kNotRegressed = {"bias_instability", "angle_harmonic"};
+
+// What motion separates or excites an effect (report text only).
+std::string separatingMotion(const std::string& id) {
+  static const std::map<std::string, std::string> hints = {
+      {"lever_arm", "constant-rate runs about each axis at two or more rates"},
+      {"size_effect", "rate runs about each of the three axes"},
+      {"time_delay", "rotations in both directions at several rates and accelerations"},
+      {"accel_delay", "runs about horizontal axes at several rates (changing specific force)"},
+      {"gyro_g_sensitivity", "static holds with each axis up and down"},
+      {"thermal_bias", "a temperature sweep"},
+      {"thermal_scale", "a temperature sweep with rate runs or several positions per temperature"},
+      {"scale_asymmetry", "rate runs in both directions about each axis"},
+      {"accel_k2", "static positions with each accelerometer axis up, down and at 45 deg"},
+      {"latitude_error", "static holds at several headings of the vertical axis"},
+      {"gravity_error",
+       "an independent gravity reference (it acts as a common accelerometer "
+       "scale)"},
+      {"base_tilt", "rotations about both table axes (navigation-based runs)"},
+      {"nonorthogonality", "runs about the inner axis with the outer axis at several angles"},
+      {"mounting", "rotations about both table axes with the device turned on the platform"},
+      {"encoder_zero", "holds at several angles of each axis, both directions"},
+  };
+  const auto it = hints.find(id);
+  return it != hints.end() ? it->second
+                           : "a motion that excites it differently from the baseline terms";
+}
+
+enum class GateStatus { kActive, kUnexcited, kBaselineCollinear, kPairUnseparable };
+
+struct Candidate {
+  std::string id;
+  std::vector<std::string> names;  // flat names of its parameters
+  std::vector<int> cols;           // their columns in the candidate matrix
+  std::vector<int> active;         // columns that enter the fit
+  GateStatus status = GateStatus::kActive;
+  std::string held_note;  // parameters held and why
+};
+
+// Static holds of the recording as readings (rates), trimmed.
+std::vector<HoldReadings> staticHolds(const ExplainInput& in, const ExplainOptions& o) {
+  std::vector<HoldReadings> holds;
+  for (const Segment& s : in.segments) {
+    if (s.kind != SegmentKind::kStatic) continue;
+    const double a = s.t0 + o.static_trim_s, b = s.t1 - o.static_trim_s;
+    if (b - a < o.min_static_s) continue;
+    HoldReadings h;
+    double t_prev = std::numeric_limits<double>::quiet_NaN();
+    double dt_sum = 0.0;
+    for (const nav::ImuSample& x : in.imu) {
+      if (x.t > a && x.t <= b && std::isfinite(t_prev)) {
+        const double dt = x.t - t_prev;
+        h.accel.push_back(x.dvel / dt);
+        h.gyro.push_back(x.dtheta / dt);
+        dt_sum += dt;
+      }
+      t_prev = x.t;
+    }
+    if (h.accel.size() < 8) continue;
+    h.dt = dt_sum / static_cast<double>(h.accel.size());
+    holds.push_back(std::move(h));
+  }
+  return holds;
+}
+
+bool wanted(const ExplainOptions& o, const std::string& id) {
+  return o.candidates.empty() ||
+         std::find(o.candidates.begin(), o.candidates.end(), id) != o.candidates.end();
+}
+
+// Candidate effects of a table recording: the table groups the baseline did not estimate,
+// then every registry id.
+std::vector<ExplainCandidateSpec> candidateEffects(const ExplainInput& in,
+                                                   const ExplainOptions& o) {
+  std::vector<ExplainCandidateSpec> out;
+  BenchTruth t = in.baseline.values;
+  t.table_kind = in.geometry.kind;
+  std::map<std::string, ExplainCandidateSpec> table;
+  for (const std::string& n : flatNames(t)) {
+    if (n.rfind("table.", 0) != 0) continue;
+    if (std::find(in.baseline_table_params.begin(), in.baseline_table_params.end(), n) !=
+        in.baseline_table_params.end()) {
+      continue;
+    }
+    const std::string group = n.substr(6, n.find('.', 6) - 6);
+    table[group].id = group;
+    table[group].names.push_back(n);
+  }
+  for (const char* g : kTableGroups) {
+    if (table.count(g) && wanted(o, g)) out.push_back(table[g]);
+  }
+  for (const ExplainCandidateSpec& c : registryCandidates(o)) out.push_back(c);
+  return out;
+}
+
+// Names of the (up to two) baseline coefficients whose columns a column resembles most.
+std::string mimics(const Eigen::MatrixXd& Jb, const std::vector<std::string>& names,
+                   const Eigen::VectorXd& c) {
+  std::vector<std::pair<double, std::string>> cos;
+  for (int j = 0; j < Jb.cols(); ++j) {
+    const double d = Jb.col(j).norm() * c.norm();
+    if (d > 0.0) cos.push_back({std::abs(Jb.col(j).dot(c)) / d, names[static_cast<size_t>(j)]});
+  }
+  std::sort(cos.rbegin(), cos.rend());
+  std::string s;
+  for (std::size_t k = 0; k < std::min<std::size_t>(2, cos.size()); ++k) {
+    s += (k ? ", " : "") + cos[k].second;
+  }
+  return s.empty() ? "the baseline coefficients" : s;
+}
+
+struct GateInput {
+  const Eigen::MatrixXd* Jb;
+  const std::vector<std::string>* baseline_names;
+  const Eigen::MatrixXd* C;      // whitened candidate columns
+  const Eigen::MatrixXd* Cperp;  // the same off the baseline column space
+  const std::vector<double>* raw_max;
+};
+
+// Per-parameter and within-effect part of the gate.
+void gateParameters(const GateInput& g, const ExplainOptions& o, Candidate* c) {
+  std::vector<int> rem;
+  std::string collinear_with;
+  for (std::size_t k = 0; k < c->cols.size(); ++k) {
+    const int j = c->cols[k];
+    const double n = g.C->col(j).norm();
+    if ((*g.raw_max)[static_cast<size_t>(j)] < kNotExcited || n == 0.0) continue;
+    if (g.Cperp->col(j).norm() < o.baseline_collinear * n) {
+      c->held_note +=
+          c->names[k] + " mimics " + mimics(*g.Jb, *g.baseline_names, g.C->col(j)) + "; ";
+      collinear_with = mimics(*g.Jb, *g.baseline_names, g.C->col(j));
+      continue;
+    }
+    rem.push_back(j);
+  }
+  // Combinations of the remaining parameters that the baseline (or the effect's other
+  // parameters) absorb: drop the parameter dominating the weakest direction until none is.
+  while (!rem.empty()) {
+    Eigen::MatrixXd Z(g.Cperp->rows(), static_cast<int>(rem.size()));
+    for (std::size_t k = 0; k < rem.size(); ++k) {
+      Z.col(static_cast<int>(k)) = g.Cperp->col(rem[k]) / g.C->col(rem[k]).norm();
+    }
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(Z, Eigen::ComputeThinV);
+    const int last = static_cast<int>(rem.size()) - 1;
+    if (svd.singularValues()(last) >= o.baseline_collinear) break;
+    Eigen::Index worst = 0;
+    svd.matrixV().col(last).cwiseAbs().maxCoeff(&worst);
+    const int j = rem[static_cast<std::size_t>(worst)];
+    for (std::size_t k = 0; k < c->cols.size(); ++k) {
+      if (c->cols[k] == j) c->held_note += c->names[k] + " in a combination the data absorb; ";
+    }
+    rem.erase(rem.begin() + worst);
+  }
+  c->active = rem;
+  if (!rem.empty()) return;
+  c->status = collinear_with.empty() && c->held_note.empty() ? GateStatus::kUnexcited
+                                                             : GateStatus::kBaselineCollinear;
+}
+
+Eigen::MatrixXd columnsOf(const Eigen::MatrixXd& M, const std::vector<int>& cols) {
+  Eigen::MatrixXd out(M.rows(), static_cast<int>(cols.size()));
+  for (std::size_t k = 0; k < cols.size(); ++k) out.col(static_cast<int>(k)) = M.col(cols[k]);
+  return out;
+}
+
+// Between-effect part of the gate: pairs whose projected column spaces share a direction.
+void gatePairs(const GateInput& g, const ExplainOptions& o, std::vector<Candidate>* cands,
+               ExplainResult* res) {
+  std::vector<Eigen::MatrixXd> bases(cands->size());
+  for (std::size_t a = 0; a < cands->size(); ++a) {
+    if ((*cands)[a].status == GateStatus::kActive) {
+      bases[a] = columnBasis(columnsOf(*g.Cperp, (*cands)[a].active), 1e-9);
+    }
+  }
+  std::vector<bool> bad(cands->size(), false);
+  for (std::size_t a = 0; a < cands->size(); ++a) {
+    for (std::size_t b = a + 1; b < cands->size(); ++b) {
+      if ((*cands)[a].status != GateStatus::kActive || (*cands)[b].status != GateStatus::kActive)
+        continue;
+      if (bases[a].cols() == 0 || bases[b].cols() == 0) continue;
+      const Eigen::MatrixXd P = bases[a].transpose() * bases[b];
+      const double cosine = Eigen::JacobiSVD<Eigen::MatrixXd>(P).singularValues()(0);
+      if (cosine < o.unseparable_cos) continue;
+      bad[a] = bad[b] = true;
+      char buf[96];
+      std::snprintf(buf, sizeof(buf), "%.4f", cosine);
+      res->unseparable.push_back(
+          {{(*cands)[a].id, (*cands)[b].id},
+           (*cands)[a].id + " and " + (*cands)[b].id +
+               " change the readings the same way on this recording (principal-angle cosine " +
+               buf +
+               " after removing the baseline coefficients): not selected. To separate "
+               "them record " +
+               separatingMotion((*cands)[a].id) + " and " + separatingMotion((*cands)[b].id)});
+    }
+  }
+  for (std::size_t a = 0; a < cands->size(); ++a) {
+    if (bad[a]) (*cands)[a].status = GateStatus::kPairUnseparable;
+  }
+}
+
+// Nested least squares on the projected candidate columns (Gram form).
+class Selector {
+ public:
+  Selector(const Eigen::MatrixXd& Cperp, const Eigen::VectorXd& rperp,
+           const std::vector<Candidate>* cands)
+      : cands_(cands), r2_(rperp.squaredNorm()) {
+    G_ = Cperp.transpose() * Cperp;
+    b_ = Cperp.transpose() * rperp;
+  }
+  double chi2(const std::vector<std::size_t>& set) const {
+    std::vector<int> cols;
+    for (std::size_t g : set) {
+      for (int j : (*cands_)[g].active) cols.push_back(j);
+    }
+    if (cols.empty()) return r2_;
+    const int m = static_cast<int>(cols.size());
+    Eigen::MatrixXd G(m, m);
+    Eigen::VectorXd b(m);
+    for (int i = 0; i < m; ++i) {
+      b(i) = b_(cols[static_cast<size_t>(i)]);
+      for (int k = 0; k < m; ++k)
+        G(i, k) = G_(cols[static_cast<size_t>(i)], cols[static_cast<size_t>(k)]);
+    }
+    const Eigen::VectorXd d = G.diagonal().cwiseSqrt().cwiseInverse();
+    const Eigen::MatrixXd Gn = d.asDiagonal() * G * d.asDiagonal();
+    const Eigen::VectorXd x = Gn.completeOrthogonalDecomposition().solve(d.cwiseProduct(b));
+    return r2_ - d.cwiseProduct(b).dot(x);
+  }
+  int params(const std::vector<std::size_t>& set) const {
+    int k = 0;
+    for (std::size_t g : set) k += static_cast<int>((*cands_)[g].active.size());
+    return k;
+  }
+
+ private:
+  const std::vector<Candidate>* cands_;
+  double r2_;
+  Eigen::MatrixXd G_;
+  Eigen::VectorXd b_;
+};
+
+struct Selection {
+  std::vector<std::size_t> accepted;
+  std::map<std::size_t, ExplainAccepted> stats;
+};
+
+// LR statistic and BIC difference of group g against the set without it.
+ExplainAccepted testGroup(const Selector& sel, std::vector<std::size_t> with, std::size_t g,
+                          double scale, double log_n) {
+  std::vector<std::size_t> without;
+  for (std::size_t x : with) {
+    if (x != g) without.push_back(x);
+  }
+  if (std::find(with.begin(), with.end(), g) == with.end()) with.push_back(g);
+  const int k = sel.params(with) - sel.params(without);
+  ExplainAccepted a;
+  a.lr_stat = std::max(0.0, (sel.chi2(without) - sel.chi2(with)) / scale);
+  a.delta_bic = a.lr_stat - k * log_n;
+  a.p_value = chiSquareSurvival(a.lr_stat, k);
+  return a;
+}
+
+Selection selectEffects(const Selector& sel, const std::vector<Candidate>& cands, double scale,
+                        double log_n) {
+  Selection s;
+  for (std::size_t round = 0; round < 2 * cands.size() + 2; ++round) {
+    // Forward: the candidate with the largest BIC gain, if positive.
+    std::size_t best = cands.size();
+    double best_bic = 0.0;
+    for (std::size_t g = 0; g < cands.size(); ++g) {
+      if (cands[g].status != GateStatus::kActive) continue;
+      if (std::find(s.accepted.begin(), s.accepted.end(), g) != s.accepted.end()) continue;
+      const double d = testGroup(sel, s.accepted, g, scale, log_n).delta_bic;
+      if (d > best_bic) {
+        best_bic = d;
+        best = g;
+      }
+    }
+    bool changed = false;
+    if (best < cands.size()) {
+      s.accepted.push_back(best);
+      changed = true;
+    }
+    // Backward: drop the accepted effect whose removal the BIC favours most.
+    std::size_t worst = cands.size();
+    double worst_bic = 0.0;
+    for (std::size_t g : s.accepted) {
+      const double d = testGroup(sel, s.accepted, g, scale, log_n).delta_bic;
+      if (d < worst_bic) {
+        worst_bic = d;
+        worst = g;
+      }
+    }
+    if (worst < cands.size() && worst != best) {
+      s.accepted.erase(std::find(s.accepted.begin(), s.accepted.end(), worst));
+      changed = true;
+    }
+    if (!changed) break;
+  }
+  for (std::size_t g : s.accepted) s.stats[g] = testGroup(sel, s.accepted, g, scale, log_n);
+  return s;
+}
+
+// Windows of bins (one segment, at most window_s long) whose mean residual exceeds the
+// threshold in noise-floor sigmas; adjacent ones on the same channel and sign are merged.
+// A window's sigma: the noise floor's deviation of a mean over its duration and the bins'
+// interpolation uncertainty (model_sigma, per row), which does not average down.
+std::vector<ExplainWindow> locateWindows(const std::vector<ExplainBin>& bins,
+                                         const std::vector<double>& r,
+                                         const std::vector<double>& model_sigma,
+                                         const NoiseFloor& nf, const ExplainOptions& o,
+                                         std::span<const Segment> segments) {
+  std::vector<ExplainWindow> out;
+  std::array<long, 6> open{-1, -1, -1, -1, -1, -1};  // index in out of the window being merged
+  std::size_t b = 0;
+  while (b < bins.size()) {
+    std::size_t e = b;
+    double T = 0.0;
+    std::array<double, 6> sum{}, model{};
+    while (e < bins.size() && bins[e].segment == bins[b].segment && (T < o.window_s || e == b)) {
+      const double dt = bins[e].duration();
+      T += dt;
+      for (int c = 0; c < 6; ++c) {
+        sum[c] += r[e * 6 + c] * dt;
+        model[c] += model_sigma[e * 6 + c] * dt;
+      }
+      ++e;
+    }
+    for (int c = 0; c < 6; ++c) {
+      const double mean = sum[c] / T;
+      const double z = mean / std::hypot(nf.sigmaOfMean(c, T), model[c] / T);
+      long& w = open[static_cast<std::size_t>(c)];
+      if (std::abs(z) < o.unexplained_sigma) {
+        w = -1;
+        continue;
+      }
+      if (w >= 0 && (out[w].sigma > 0) == (z > 0)) {
+        out[w].t1 = bins[e - 1].t1;
+        if (std::abs(z) > std::abs(out[w].sigma)) out[w].sigma = z;
+        continue;
+      }
+      const int seg = bins[b].segment;
+      const std::string where =
+          seg >= 0 ? std::string(segmentKindName(segments[static_cast<std::size_t>(seg)].kind)) +
+                         " segment '" + segments[static_cast<std::size_t>(seg)].label + "'"
+                   : std::string("a span outside the segments");
+      out.push_back({bins[b].t0, bins[e - 1].t1, c, z, mean, "mean residual in " + where});
+      w = static_cast<long>(out.size()) - 1;
+    }
+    b = e;
+  }
+  return out;
+}
+
+// Per-row sigmas: the noise floor's deviation of a mean over each bin's duration, and the
+// encoder interpolation's uncertainty (model, when given, receives it alone): an angle error e
+// at the bin's ends changes the mean rate by e / T, an attitude error e inside it the specific
+// force by up to g e.
+std::vector<double> rowSigmas(const ExplainData& d, const NoiseFloor& nf,
+                              std::vector<double>* model = nullptr) {
+  std::vector<double> s(d.bins.size() * 6);
+  if (model) model->assign(s.size(), 0.0);
+  const double g = nav::siteGravity(d.site);
+  for (std::size_t b = 0; b < d.bins.size(); ++b) {
+    const ExplainBin& bin = d.bins[b];
+    const double rate_err = bin.angle_err_ends / bin.duration();
+    const double force_err = g * bin.angle_err_inside;
+    for (int c = 0; c < 6; ++c) {
+      s[b * 6 + c] = std::hypot(nf.sigmaOfMean(c, bin.duration()), c < 3 ? force_err : rate_err);
+      if (model) (*model)[b * 6 + c] = c < 3 ? force_err : rate_err;
+    }
+  }
+  return s;
+}
+
+std::array<double, 6> channelRms(const std::vector<double>& r) {
+  std::array<double, 6> out{};
+  const std::size_t bins = r.size() / 6;
+  for (std::size_t b = 0; b < bins; ++b) {
+    for (int c = 0; c < 6; ++c) out[c] += r[b * 6 + c] * r[b * 6 + c];
+  }
+  for (double& v : out) v = bins ? std::sqrt(v / static_cast<double>(bins)) : 0.0;
+  return out;
+}
+
+// Refusals before any work: bad samples, no table, no static holds for the noise floor.
+std::string checkInput(const ExplainInput& in, const ExplainOptions& o,
+                       const std::vector<HoldReadings>& holds) {
+  std::string why;
+  if (!o.IsValid(&why)) return "options: " + why;
+  const RecordingCheck c = checkIncrements(in.imu, o.checks, "recording");
+  if (!c.ok()) return c.reason;
+  if (in.table.size() < 2) return "the recording has no table angles (imu.csv needs table.csv)";
+  if (holds.empty()) {
+    return "the recording has no static hold of at least " +
+           std::to_string(o.min_static_s + 2 * o.static_trim_s) +
+           " s: the noise floor cannot be measured, so no residual can be judged";
+  }
+  return "";
+}
+
+std::vector<std::string> baselineNames(const ExplainInput& in) {
+  std::vector<std::string> names;
+  BenchTruth t = in.baseline.values;
+  t.table_kind = in.geometry.kind;
+  for (const std::string& n : flatNames(t)) {
+    if (n.rfind("accel.", 0) == 0 || n.rfind("gyro.", 0) == 0) names.push_back(n);
+  }
+  for (const std::string& n : in.baseline_table_params) names.push_back(n);
+  return names;
+}
+
+// The gate's verdicts that are not selections: not excited, collinear with the baseline.
+void reportGate(const std::vector<Candidate>& cands, ExplainResult* res) {
+  for (const Candidate& c : cands) {
+    if (c.status == GateStatus::kUnexcited) {
+      res->rejected.push_back({c.id,
+                               "not excited by this recording (no term in any reading); it "
+                               "would need " +
+                                   separatingMotion(c.id),
+                               std::numeric_limits<double>::quiet_NaN()});
+    } else if (c.status == GateStatus::kBaselineCollinear) {
+      res->unseparable.push_back(
+          {{c.id},
+           c.id + " is unseparable from the baseline coefficients on this recording (" +
+               c.held_note + "): to separate it record " + separatingMotion(c.id)});
+    } else if (c.status == GateStatus::kActive && !c.held_note.empty()) {
+      res->notes.push_back(c.id + ": held at zero: " + c.held_note);
+    }
+  }
+}
+
+// The accepted effects' values and sigmas from the refit; the rejected ones with statistics.
+void reportSelection(const std::vector<Candidate>& cands, const Selection& sel,
+                     const Selector& selector, double scale, double log_n,
+                     const std::vector<std::string>& names, const RefitResult& fit,
+                     ExplainResult* res) {
+  for (std::size_t g = 0; g < cands.size(); ++g) {
+    const Candidate& c = cands[g];
+    if (c.status != GateStatus::kActive) continue;
+    const auto it = sel.stats.find(g);
+    if (it == sel.stats.end()) {
+      const ExplainAccepted t = testGroup(selector, sel.accepted, g, scale, log_n);
+      char buf[200];
+      std::snprintf(buf, sizeof(buf),
+                    "not warranted: BIC favours the model without it (LR %.1f on %d "
+                    "parameters, p = %.3g)",
+                    t.lr_stat, static_cast<int>(c.active.size()), t.p_value);
+      res->rejected.push_back({c.id, buf, t.delta_bic});
+      continue;
+    }
+    ExplainAccepted a = it->second;
+    a.effect = c.id;
+    for (std::size_t k = 0; k < c.names.size(); ++k) {
+      const auto pos = std::find(names.begin(), names.end(), c.names[k]);
+      a.flat_names.push_back(c.names[k]);
+      a.values.push_back(stateValue(fit.state, c.names[k]));
+      a.sigmas.push_back(pos == names.end()
+                             ? std::numeric_limits<double>::quiet_NaN()
+                             : fit.sigma[static_cast<std::size_t>(pos - names.begin())]);
+    }
+    res->accepted.push_back(std::move(a));
+  }
+}
+
+void fillBins(const std::vector<ExplainBin>& bins, const std::vector<double>& before,
+              const std::vector<double>& after, const std::vector<double>& sigma,
+              ExplainResult* res) {
+  res->bins.resize(bins.size());
+  for (std::size_t b = 0; b < bins.size(); ++b) {
+    ExplainBinResidual& x = res->bins[b];
+    x.t0 = bins[b].t0;
+    x.t1 = bins[b].t1;
+    x.segment = bins[b].segment;
+    x.moving = bins[b].moving;
+    for (int c = 0; c < 6; ++c) {
+      x.before[c] = before[b * 6 + c];
+      x.after[c] = after[b * 6 + c];
+      x.sigma[c] = sigma[b * 6 + c];
+    }
+  }
+}
+
+// Given coefficients that the recording moves beyond the physical tolerances are not this
+// IMU's: the first such coefficient, or "".
+std::string givenMismatch(const ExplainProblem& p, const ExplainOptions& o, const BenchTruth& fit) {
+  if (p.baseline_method != "given") return "";
+  const BenchTruth& given = p.start.model;
+  for (const std::string& n : p.baseline_names) {
+    if (n.rfind("nuisance.", 0) == 0) continue;
+    double tol = o.given_max_misalignment;
+    if (n.find(".scale.") != std::string::npos) tol = o.given_max_scale;
+    if (n.rfind("accel.bias.", 0) == 0) tol = o.given_max_accel_bias;
+    if (n.rfind("gyro.bias.", 0) == 0) tol = o.given_max_gyro_bias;
+    const double d = stateValue({fit, {}}, n) - stateValue({given, {}}, n);
+    if (std::abs(d) > tol) {
+      char buf[240];
+      std::snprintf(buf, sizeof(buf),
+                    "the given coefficients do not describe this IMU: the recording puts %s at "
+                    "%.6g, %.3g away from the given %.6g (more than %.3g): coefficients of "
+                    "another unit or range setting?",
+                    n.c_str(), stateValue({fit, {}}, n), d, stateValue({given, {}}, n), tol);
+      return buf;
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+const char* explainChannelName(int channel) {
+  return kChannelNames[static_cast<std::size_t>(std::clamp(channel, 0, 5))];
+}
+
+bool ExplainOptions::IsValid(std::string* why) const {
+  if (!model.IsValid(why) || !checks.IsValid(why)) return false;
+  if (!(static_trim_s >= 0.0 && min_static_s > 0.0 && window_s > 0.0)) {
+    *why = "static_trim_s >= 0, min_static_s > 0 and window_s > 0 required";
+    return false;
+  }
+  if (!(baseline_collinear > 0.0 && baseline_collinear < 1.0 && unseparable_cos > 0.0 &&
+        unseparable_cos < 1.0 && unexplained_sigma > 0.0 && fd_step > 0.0 &&
+        refit_iterations >= 1)) {
+    *why =
+        "baseline_collinear and unseparable_cos in (0, 1), unexplained_sigma, fd_step > 0, "
+        "refit_iterations >= 1 required";
+    return false;
+  }
+  for (const std::string& c : candidates) {
+    const bool table = std::find(kTableGroups.begin(), kTableGroups.end(), c) != kTableGroups.end();
+    if (!table && !effectFromName(c)) {
+      *why = "unknown effect id '" + c + "'";
+      return false;
+    }
+  }
+  return true;
+}
+
+namespace {
+
+// The linearised problem at the baseline: whitened residual and columns, the baseline's
+// column space, candidates' columns projected off it.
+struct Linearised {
+  Eigen::VectorXd r0, rperp;
+  Eigen::MatrixXd Jb, Ub, C, Cperp;
+  std::vector<double> raw_max;
+  std::vector<std::string> cnames;
+  std::vector<Candidate> cands;
+  int dof_b = 0;
+};
+
+Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval) {
+  Linearised L;
+  L.r0 = eval->residual(p.start);
+  L.Jb = eval->jacobian(p.start, p.baseline_names);
+  L.Ub = columnBasis(L.Jb, 1e-7);
+  for (const ExplainCandidateSpec& spec : p.candidates) {
+    Candidate c;
+    c.id = spec.id;
+    c.names = spec.names;
+    for (const std::string& nm : c.names) {
+      c.cols.push_back(static_cast<int>(L.cnames.size()));
+      L.cnames.push_back(nm);
+    }
+    L.cands.push_back(std::move(c));
+  }
+  L.C = eval->jacobian(p.start, L.cnames, &L.raw_max);
+  L.Cperp = projectOff(L.Ub, L.C);
+  L.rperp = projectOff(L.Ub, L.r0);
+  L.dof_b = eval->rows() - static_cast<int>(L.Ub.cols());
+  return L;
+}
+
+// Residuals before and after, RMS, located windows, coefficients, bins.
+void finish(const ExplainProblem& p, const ExplainOptions& o, const Linearised& L,
+            ExplainEvaluator* eval, const RefitResult& fit, const std::vector<std::string>& names,
+            ExplainResult* res) {
+  const std::size_t n = static_cast<std::size_t>(eval->rows());
+  std::vector<double> before(n);
+  for (std::size_t i = 0; i < n; ++i) before[i] = L.rperp(static_cast<int>(i)) * eval->sigma()[i];
+  const std::vector<double> after = eval->rawResidual(fit.state);
+  double chi2_after = 0.0;
+  for (std::size_t i = 0; i < n; ++i) chi2_after += std::pow(after[i] / eval->sigma()[i], 2);
+  res->after_normalised_rms = std::sqrt(chi2_after / std::max(1, eval->rows() - fit.rank));
+  res->rms_before = channelRms(before);
+  res->rms_after = channelRms(after);
+  res->noise_rms = channelRms(eval->sigma());
+  res->located = locateWindows(*p.bins, before, p.model_sigma, p.noise, o, p.segments);
+  res->unexplained = locateWindows(*p.bins, after, p.model_sigma, p.noise, o, p.segments);
+  for (ExplainWindow& w : res->unexplained) w.reason += ": no effect of the library explains it";
+  res->coefficients.values = fit.state.model;
+  for (std::size_t j = 0; j < names.size(); ++j) {
+    if (names[j].rfind("nuisance.", 0) == 0) continue;
+    if (std::isfinite(fit.sigma[j])) {
+      res->coefficients.setSigma(names[j], fit.sigma[j]);
+    } else {
+      res->coefficients.setUnobservable(names[j]);
+    }
+  }
+  fillBins(*p.bins, before, after, eval->sigma(), res);
+}
+
+}  // namespace
+
+std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& o) {
+  std::vector<ExplainCandidateSpec> out;
+  for (EffectId id : kAllEffects) {
+    const std::string name = effectName(id);
+    if (std::find(kTableGroups.begin(), kTableGroups.end(), name) != kTableGroups.end()) continue;
+    if (std::find(kNotRegressed.begin(), kNotRegressed.end(), name) != kNotRegressed.end()) {
+      continue;
+    }
+    if (!wanted(o, name)) continue;
+    ExplainCandidateSpec c;
+    c.id = name;
+    for (const std::string& q : flatParamNames(id)) c.names.push_back("extra." + q);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+ExplainResult analyseProblem(const ExplainProblem& p, const ExplainOptions& o) {
+  ExplainResult res;
+  res.baseline_method = p.baseline_method;
+  res.segments = p.segments;
+  res.noise = p.noise;
+  ExplainEvaluator eval(p.bins, p.forward, p.sigma, o.fd_step);
+  const double log_n = std::log(static_cast<double>(eval.rows()));
+  Linearised L = linearise(p, &eval);
+  res.baseline_normalised_rms = std::sqrt(L.rperp.squaredNorm() / std::max(1, L.dof_b));
+
+  // Gate, selection on the linearised problem, joint refit.
+  const GateInput gate{&L.Jb, &p.baseline_names, &L.C, &L.Cperp, &L.raw_max};
+  for (Candidate& c : L.cands) gateParameters(gate, o, &c);
+  gatePairs(gate, o, &L.cands, &res);
+  reportGate(L.cands, &res);
+  const Selector selector(L.Cperp, L.rperp, &L.cands);
+  std::vector<std::size_t> all;
+  for (std::size_t g = 0; g < L.cands.size(); ++g) {
+    if (L.cands[g].status == GateStatus::kActive) all.push_back(g);
+  }
+  res.scale = std::max(1.0, selector.chi2(all) / std::max(1, L.dof_b - selector.params(all)));
+  const Selection sel = selectEffects(selector, L.cands, res.scale, log_n);
+  std::vector<std::string> names = p.baseline_names;
+  ExplainState start = p.start;
+  for (std::size_t g : sel.accepted) {
+    for (int j : L.cands[g].active) {
+      names.push_back(L.cnames[static_cast<std::size_t>(j)]);
+      std::string why;
+      setStateValue(&start, L.cnames[static_cast<std::size_t>(j)], 0.0, &why);
+    }
+  }
+  const RefitResult fit = refitJointly(&eval, start, names, o.refit_iterations);
+  if (!fit.ok) {
+    res.error = fit.error;
+    return res;
+  }
+  res.error = givenMismatch(p, o, fit.state.model);
+  if (!res.error.empty()) return res;
+  reportSelection(L.cands, sel, selector, res.scale, log_n, names, fit, &res);
+  finish(p, o, L, &eval, fit, names, &res);
+  res.ok = true;
+  return res;
+}
+
+ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
+  ExplainResult res;
+  const std::vector<HoldReadings> holds = staticHolds(in, o);
+  res.error = checkInput(in, o, holds);
+  if (!res.error.empty()) return res;
+  ExplainProblem p;
+  p.noise = noiseFloor(holds, o.noise);
+  if (!p.noise.ok) {
+    res.error = "the static holds are too short for an Allan deviation";
+    return res;
+  }
+  const ExplainData data =
+      prepareExplainData(in.geometry, in.site, in.imu, in.table, in.segments, o.model);
+  if (data.bins.empty()) {
+    res.error = "no IMU sample lies within the span of the encoder samples";
+    return res;
+  }
+  ExplainPredictor predictor(&data);
+  p.bins = &data.bins;
+  p.forward = &predictor;
+  p.sigma = rowSigmas(data, p.noise, &p.model_sigma);
+  p.start.model = in.baseline.values;
+  p.start.model.table_kind = in.geometry.kind;
+  p.baseline_names = baselineNames(in);
+  p.candidates = candidateEffects(in, o);
+  p.segments.assign(in.segments.begin(), in.segments.end());
+  p.baseline_method = in.baseline_method;
+  return analyseProblem(p, o);
+}
+
+}  // namespace imubench::calib

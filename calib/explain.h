@@ -1,0 +1,193 @@
+// Model-discrepancy analysis ("imubench explain", issue 14): where the bench's forward model
+// misses a recording, which physics it left out, how much of it, and how much better the fit
+// is with it. Pure: values in, values out.
+//
+// Steps (docs/explain.md):
+//   1. Windows and noise floor: the recording is cut into bins (calib/explain_model.h); the
+//      static holds give Allan deviations per channel (calib/explain_noise.h), so a bin's
+//      residual is weighed by the deviation of a mean over its own duration.
+//   2. Residuals: measured mean readings minus the baseline model's prediction along the
+//      recording's own encoder angles, per bin and channel, whitened.
+//   3. Regressors: for the baseline coefficients and for every parameter of every candidate
+//      effect (each id of the effect registry, calib/effects.h kAllEffects, plus the table's
+//      geometric errors the baseline did not estimate), d(prediction)/d(parameter) by central
+//      differences of the SAME forward model: nothing here restates physics.
+//   4. Identifiability gate: candidate columns projected off the baseline's column space (SVD);
+//      a parameter with nothing left is unseparable from the baseline (named with the baseline
+//      coefficients it mimics), a parameter with no column at all is not excited; two
+//      candidates whose projected column spaces share a direction (principal angle cosine
+//      above ExplainOptions::unseparable_cos) are unseparable from each other. Unseparable
+//      effects are reported with the motion that would separate them, never selected.
+//   5. Selection: forward and backward steps by nested likelihood-ratio tests and BIC, the
+//      noise floor as scale (inflated by the fullest model's chi^2 per degree of freedom when
+//      that exceeds 1, so unmodelled structure does not make every candidate look significant).
+//   6. Refit: Gauss-Newton on the baseline coefficients and the accepted effects jointly, with
+//      sigmas from the inverse information times that scale.
+//   7. Locate: windows (segments cut to ExplainOptions::window_s) whose mean residual exceeds
+//      ExplainOptions::unexplained_sigma sigmas of the noise floor are reported before the
+//      refit ("located") and after it ("unexplained": no library effect explains them).
+#pragma once
+
+#include <array>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "calib/bench_truth.h"
+#include "calib/explain_model.h"
+#include "calib/explain_noise.h"
+#include "calib/static_detection.h"
+
+namespace imubench::calib {
+
+// Channel names of the interchange report: accel.x .. gyro.z.
+const char* explainChannelName(int channel);
+
+struct ExplainInput {
+  TableGeometry geometry;
+  nav::Site site;
+  std::span<const nav::ImuSample> imu;  // increments, t = END of each interval
+  std::span<const TableSample> table;   // encoder angles, rad, any rate
+  std::span<const Segment> segments;    // static holds are used for the noise floor
+  // The baseline: coefficients the analysis starts from (a calibration of this recording or a
+  // given file), how they were obtained ("direct" | "indirect" | "scalar" | "given") and which
+  // table error coefficients (flat names, e.g. "table.base_tilt.x") the baseline estimates;
+  // the other table errors are candidate effects.
+  CoefficientReport baseline;
+  std::string baseline_method = "given";
+  std::vector<std::string> baseline_table_params;
+};
+
+struct ExplainOptions {
+  ExplainModelOptions model;
+  NoiseFloorOptions noise;
+  // Seconds dropped at both ends of a static hold for the noise floor: servo settling.
+  double static_trim_s = 1.0;
+  // Shortest static hold (after trimming) for the noise floor, s: shorter gives no Allan
+  // point beyond a fraction of a second.
+  double min_static_s = 4.0;
+  // Candidate effect ids (interchange.md "Effect identifiers"); empty: the whole library.
+  std::vector<std::string> candidates;
+  // A candidate parameter whose column keeps less than this fraction of its norm after
+  // projection off the baseline columns (correlation > 0.9995) is unseparable from them.
+  double baseline_collinear = 0.03;
+  // Two candidates are unseparable when their projected column spaces share a direction to
+  // this cosine (0.995: 5.7 deg principal angle; the data cannot tell them apart at any
+  // realistic signal-to-noise ratio).
+  double unseparable_cos = 0.995;
+  // Significance of an unexplained window, in noise-floor sigmas: with a few thousand
+  // windows x channels, 5 sigma keeps chance detections below one in a hundred recordings.
+  double unexplained_sigma = 5.0;
+  // Longest window for locating residual structure, s (segments longer are cut).
+  double window_s = 30.0;
+  // Gauss-Newton iterations of the joint refit: the model is nearly linear in its
+  // coefficients, two or three iterations converge to far below the sigmas.
+  int refit_iterations = 3;
+  // Central-difference step of every regressor (SI units of the parameter): small against any
+  // realistic parameter, large against the rounding of readings of order 10.
+  double fd_step = 1e-6;
+  // Refusals: gaps, non-finite values, samples at the IMU's range.
+  IncrementCheckOptions checks;
+  // Given coefficients (baseline_method "given") that the recording moves by more than these
+  // belong to another IMU (or another range setting) and are refused: far beyond the spread
+  // of units of one type and beyond any drift between calibrations, far below the difference
+  // between unrelated units or unit settings.
+  double given_max_scale = 5e-3;         // 5000 ppm
+  double given_max_misalignment = 5e-3;  // rad (~1000 arcsec)
+  double given_max_accel_bias = 5e-2;    // m/s^2 (~5 mg)
+  double given_max_gyro_bias = 5e-4;     // rad/s (~100 deg/h)
+
+  bool IsValid(std::string* why) const;
+};
+
+struct ExplainAccepted {
+  std::string effect;
+  std::vector<std::string> flat_names;  // fitted parameters ("extra.lever_arm.r_m.x", ...)
+  std::vector<double> values;
+  std::vector<double> sigmas;
+  double delta_bic = 0.0;  // BIC(without) - BIC(with): > 0 favours the effect
+  double lr_stat = 0.0;    // likelihood-ratio statistic (chi^2 with k dof)
+  double p_value = 1.0;
+};
+
+struct ExplainRejected {
+  std::string effect;
+  std::string reason;
+  double delta_bic = 0.0;  // NaN when it was not tested (not excited)
+};
+
+struct ExplainUnseparable {
+  std::vector<std::string> effects;
+  std::string reason;
+};
+
+struct ExplainWindow {
+  double t0 = 0.0, t1 = 0.0;
+  int channel = 0;
+  double sigma = 0.0;  // signed mean residual in noise-floor sigmas
+  double mean = 0.0;   // mean residual, reading units
+  std::string reason;
+};
+
+struct ExplainBinResidual {
+  double t0 = 0.0, t1 = 0.0;
+  int segment = -1;
+  bool moving = false;
+  std::array<double, 6> before{}, after{}, sigma{};  // reading units
+};
+
+struct ExplainResult {
+  bool ok = false;
+  std::string error;  // why not, when !ok
+  std::string baseline_method;
+  double baseline_normalised_rms = 0.0;  // whitened residual RMS of the baseline fit
+  double after_normalised_rms = 0.0;
+  NoiseFloor noise;
+  // Residual RMS per channel over the bins (mean readings over ExplainModelOptions::bin_s),
+  // reading units; noise_rms is what the noise floor alone gives over the same bins.
+  std::array<double, 6> rms_before{}, rms_after{}, noise_rms{};
+  double scale = 1.0;  // chi^2 per dof of the fullest model, at least 1 (test scale)
+  std::vector<ExplainAccepted> accepted;
+  std::vector<ExplainRejected> rejected;
+  std::vector<ExplainUnseparable> unseparable;
+  std::vector<ExplainWindow> located;      // before the refit
+  std::vector<ExplainWindow> unexplained;  // after it
+  CoefficientReport coefficients;          // after the joint refit; accepted effects in extra
+  std::vector<ExplainBinResidual> bins;
+  std::vector<Segment> segments;
+  std::vector<std::string> notes;
+};
+
+// A table recording (imubench-csv/1, or a stored run): bins along the encoder spline, the
+// library forward model, the table groups the baseline did not estimate as candidates.
+ExplainResult explainRecording(const ExplainInput& input, const ExplainOptions& options = {});
+
+// ---- The analysis on prepared bins (table recordings above; table-free ones in
+// calib/explain_scalar.h) ----
+
+struct ExplainCandidateSpec {
+  std::string id;                  // interchange effect id
+  std::vector<std::string> names;  // flat names of its parameters (ExplainState names)
+};
+// Every registry effect with fittable parameters (options.candidates filters).
+std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& options);
+
+struct ExplainProblem {
+  const std::vector<ExplainBin>* bins = nullptr;  // measured mean readings per bin
+  ExplainForward* forward = nullptr;              // their prediction for a state
+  std::vector<double> sigma;                      // per row (bin-major, 6 per bin): noise and model
+  std::vector<double> model_sigma;                // the model part alone (does not average down)
+  NoiseFloor noise;
+  ExplainState start;                       // the baseline
+  std::vector<std::string> baseline_names;  // what the baseline fit varies
+  std::vector<ExplainCandidateSpec> candidates;
+  std::vector<Segment> segments;  // bins' segment indices refer here
+  std::string baseline_method;
+};
+ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions& options);
+
+// The interchange report (interchange.md "Explain report", imubench-explain/1).
+nlohmann::json toJson(const ExplainResult& result);
+
+}  // namespace imubench::calib

@@ -1,0 +1,129 @@
+// The concealed-effect suite (issue 14 "Must show"): recordings of the bundled plans with
+// extra physics switched on, analysed with no hint of what was added; one row per case.
+#pragma once
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "explain_sim.h"
+
+namespace imubench::calib::testing {
+
+struct ConcealedCase {
+  std::string plan;   // plans/library/<plan>.toml
+  std::string label;  // what is concealed, for the table
+  EffectSet effects;  // the truth (empty: clean)
+  std::uint64_t seed = 1;
+};
+
+struct CaseOutcome {
+  std::string label, plan;
+  bool ok = false;             // the analysis ran
+  int concealed = 0;           // effects concealed
+  int named = 0;               // of them accepted
+  int false_positives = 0;     // accepted effects that were not concealed
+  bool params_ok = true;       // every accepted concealed effect within 10 % or 2 sigma
+  double worst_sigma = 0.0;    // largest |error| / sigma over the compared parameters
+  double worst_percent = 0.0;  // largest |error| / |truth| of the non-zero parameters, %
+  bool rms_ok = true;          // post-fit RMS within 1.2x the noise floor, every channel
+  std::string accepted;        // ids accepted
+};
+
+inline CaseOutcome runCase(const ConcealedCase& c) {
+  CaseOutcome o;
+  o.label = c.label;
+  o.plan = c.plan;
+  const SimulatedRecording rec = simulateWith(libraryMotion(c.plan), c.effects, c.seed);
+  const ExplainResult r = explainSimulated(rec);
+  o.ok = r.ok;
+  if (std::getenv("EXPLAIN_VERBOSE")) std::printf("%s", summary(r).c_str());
+  if (!r.ok) return o;
+  const std::vector<EffectId> truth = c.effects.enabled();
+  o.concealed = static_cast<int>(truth.size());
+  for (const ExplainAccepted& a : r.accepted) {
+    o.accepted += (o.accepted.empty() ? "" : ",") + a.effect;
+    const std::optional<EffectId> id = effectFromName(a.effect);
+    if (!id || !c.effects.has(*id)) {
+      ++o.false_positives;
+      continue;
+    }
+    ++o.named;
+    const std::vector<double> t = c.effects.flat(*id);
+    const std::vector<std::string> names = flatParamNames(*id);
+    for (std::size_t k = 0; k < a.values.size() && k < t.size(); ++k) {
+      if (names[k].find("t_ref_c") != std::string::npos) continue;
+      const double err = std::abs(a.values[k] - t[k]);
+      const double sig = std::isfinite(a.sigmas[k]) && a.sigmas[k] > 0 ? err / a.sigmas[k] : 0.0;
+      const double pct = t[k] != 0.0 ? 100.0 * err / std::abs(t[k]) : 0.0;
+      o.worst_sigma = std::max(o.worst_sigma, sig);
+      o.worst_percent = std::max(o.worst_percent, pct);
+      if (!(sig <= 2.0 || (t[k] != 0.0 && pct <= 10.0))) o.params_ok = false;
+    }
+  }
+  for (int ch = 0; ch < 6; ++ch) {
+    if (r.rms_after[ch] > 1.2 * r.noise_rms[ch]) o.rms_ok = false;
+  }
+  return o;
+}
+
+inline void printOutcome(const CaseOutcome& o) {
+  std::printf("%-20s %-34s %s named %d/%d  err %6.2f sigma %7.2f %%  fp %d  rms %s  [%s]\n",
+              o.plan.c_str(), o.label.c_str(), o.ok ? "ok " : "ERR", o.named, o.concealed,
+              o.worst_sigma, o.worst_percent, o.false_positives, o.rms_ok ? "ok" : "HIGH",
+              o.accepted.c_str());
+}
+
+// Effect magnitudes of the issue, in SI.
+inline EffectSet leverArm(const Vec3& r) {
+  EffectSet e;
+  e.enable(EffectId::kLeverArm);
+  e.lever_arm->r_m = r;
+  return e;
+}
+inline EffectSet timeDelay(double tau) {
+  EffectSet e;
+  e.enable(EffectId::kTimeDelay);
+  e.time_delay->tau_s = tau;
+  return e;
+}
+// g-sensitivity of deg/h per g on the diagonal and half of it off one diagonal entry.
+inline EffectSet gSensitivity(double deg_h_per_g) {
+  EffectSet e;
+  e.enable(EffectId::kGyroGSensitivity);
+  const double k = deg_h_per_g * kDegPerHourToRadPerSec / 9.80665;
+  e.gyro_g_sensitivity->G = Mat3::Identity() * k;
+  e.gyro_g_sensitivity->G(0, 2) = 0.5 * k;
+  return e;
+}
+inline EffectSet scaleAsymmetry(double ppm) {
+  EffectSet e;
+  e.enable(EffectId::kScaleAsymmetry);
+  e.scale_asymmetry->gyro = Vec3(1.0, -0.6, 0.8) * ppm * 1e-6;
+  return e;
+}
+// K2 of ug/g^2 on every axis (u + k2 u^2 with u in m/s^2).
+inline EffectSet accelK2(double ug_per_g2) {
+  EffectSet e;
+  e.enable(EffectId::kAccelK2);
+  e.accel_k2->k2 = Vec3(1.0, -0.8, 0.6) * ug_per_g2 * 1e-6 / 9.80665;
+  return e;
+}
+inline EffectSet thermalBias(double ug_per_c) {
+  EffectSet e;
+  e.enable(EffectId::kThermalBias);
+  e.thermal_bias->k_accel = Vec3(1.0, -0.7, 0.5) * ug_per_c * 9.80665e-6;
+  return e;
+}
+inline EffectSet merged(EffectSet a, const EffectSet& b) {
+  for (EffectId id : b.enabled()) {
+    std::string why;
+    const std::vector<double> v = b.flat(id);
+    a.setFlat(id, v, &why);
+  }
+  return a;
+}
+
+}  // namespace imubench::calib::testing
