@@ -7,6 +7,7 @@
 #include "calib/direct_calibration.h"
 #include "calib/indirect_calibration.h"
 #include "calib/truth_comparison.h"
+#include "io/sim_recording.h"
 #include "nav/rotation.h"
 
 namespace imubench::daemon {
@@ -17,22 +18,8 @@ using nlohmann::json;
 // Unknowns of the direct calibration per sensor axis: scale, bias, two misalignments.
 constexpr int kDirectUnknownsPerAxis = 4;
 
-std::vector<calib::TableSample> tableSamples(const io::Recording& rec) {
-  std::vector<calib::TableSample> out;
-  out.reserve(rec.table.size());
-  for (const io::TableSample& s : rec.table) {
-    const std::vector<double> a = io::tableAnglesRad(rec.table_kind, s);
-    out.push_back({s.t, calib::tableAnglesFromAxes(rec.table_kind, a.data())});
-  }
-  return out;
-}
-
-calib::TableGeometry geometryOf(const io::Recording& rec) {
-  calib::TableGeometry g;
-  g.kind = rec.table_kind;
-  g.outer_axis_heading_rad = rec.outerAxisHeadingDeg() * kDegToRad;
-  return g;
-}
+using io::geometryOf;
+using io::tableSamples;
 
 calib::DirectCalibrationInput directInput(const io::Recording& rec) {
   calib::DirectCalibrationInput in;

@@ -101,6 +101,20 @@ bool readTxyz(const std::string& path, Rows* rows, std::string* err) {
   return true;
 }
 
+// Opens a file whose samples are counted at rate_hz (no time column of their own).
+bool openAtRate(const std::string& path, double rate_hz, std::ifstream* in, std::string* err) {
+  if (!(rate_hz > 0.0)) {
+    *err = path + ": sampling rate must be > 0";
+    return false;
+  }
+  in->open(path);
+  if (!*in) {
+    *err = path + ": cannot open";
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 RealImport readImuTkPair(const std::string& accel_path, const std::string& gyro_path) {
@@ -133,15 +147,8 @@ RealImport readImuTkPair(const std::string& accel_path, const std::string& gyro_
 
 RealImport readSixColumnLog(const std::string& path, double rate_hz) {
   RealImport r;
-  if (!(rate_hz > 0.0)) {
-    r.error = path + ": sampling rate must be > 0";
-    return r;
-  }
-  std::ifstream in(path);
-  if (!in) {
-    r.error = path + ": cannot open";
-    return r;
-  }
+  std::ifstream in;
+  if (!openAtRate(path, rate_hz, &in, &r.error)) return r;
   const std::vector<std::string> names = {"ax", "ay", "az", "wx", "wy", "wz"};
   std::string line;
   std::size_t n = 0;
@@ -177,15 +184,8 @@ RealImport readSixColumnLog(const std::string& path, double rate_hz) {
 
 RealImport readImucalCsv(const std::string& path, double rate_hz) {
   RealImport r;
-  if (!(rate_hz > 0.0)) {
-    r.error = path + ": sampling rate must be > 0";
-    return r;
-  }
-  std::ifstream in(path);
-  if (!in) {
-    r.error = path + ": cannot open";
-    return r;
-  }
+  std::ifstream in;
+  if (!openAtRate(path, rate_hz, &in, &r.error)) return r;
   std::string line;
   if (!std::getline(in, line)) {
     r.error = path + ":1: empty file";

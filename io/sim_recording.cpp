@@ -32,4 +32,21 @@ Recording recordingFromSimulation(const calib::Simulation& sim, const nav::Site&
   return rec;
 }
 
+std::vector<calib::TableSample> tableSamples(const Recording& rec) {
+  std::vector<calib::TableSample> out;
+  out.reserve(rec.table.size());
+  for (const TableSample& s : rec.table) {
+    const std::vector<double> a = tableAnglesRad(rec.table_kind, s);
+    out.push_back({s.t, calib::tableAnglesFromAxes(rec.table_kind, a.data())});
+  }
+  return out;
+}
+
+calib::TableGeometry geometryOf(const Recording& rec) {
+  calib::TableGeometry g;
+  g.kind = rec.table_kind;
+  g.outer_axis_heading_rad = rec.outerAxisHeadingDeg() * kDegToRad;
+  return g;
+}
+
 }  // namespace imubench::io

@@ -18,4 +18,9 @@ struct RecordingIdentity {
 Recording recordingFromSimulation(const calib::Simulation& sim, const nav::Site& site,
                                   const RecordingIdentity& id);
 
+// The calibrators' view of a recording's table: samples as calib::TableSample (encoder angles
+// in rad as TableAngles) and the table geometry (kind, outer-axis heading from meta.json).
+std::vector<calib::TableSample> tableSamples(const Recording& rec);
+calib::TableGeometry geometryOf(const Recording& rec);
+
 }  // namespace imubench::io

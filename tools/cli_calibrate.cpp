@@ -56,6 +56,7 @@
 #include "calib/truth_comparison.h"
 #include "io/import_real.h"
 #include "io/recording.h"
+#include "io/sim_recording.h"
 #include "io/truth_file.h"
 #include "nav/free_navigation.h"
 #include "tools/cli_common.h"
@@ -160,22 +161,8 @@ calib::TableErrors knownTableErrors(const CalibrateOptions& o) {
   return loadTruthOrFail(o.table_errors).table;
 }
 
-std::vector<calib::TableSample> tableSamples(const io::Recording& rec) {
-  std::vector<calib::TableSample> out;
-  out.reserve(rec.table.size());
-  for (const io::TableSample& s : rec.table) {
-    const std::vector<double> a = io::tableAnglesRad(rec.table_kind, s);
-    out.push_back({s.t, calib::tableAnglesFromAxes(rec.table_kind, a.data())});
-  }
-  return out;
-}
-
-calib::TableGeometry geometryOf(const io::Recording& rec) {
-  calib::TableGeometry g;
-  g.kind = rec.table_kind;
-  g.outer_axis_heading_rad = rec.outerAxisHeadingDeg() * kDegToRad;
-  return g;
-}
+using io::geometryOf;
+using io::tableSamples;
 
 calib::DirectCalibrationResult runDirect(const io::Recording& rec,
                                          const std::vector<calib::TableSample>& table,
