@@ -566,7 +566,7 @@ std::string checkInput(const DirectCalibrationInput& in, const DirectCalibration
   if (!o.IsValid(&why)) return "options: " + why;
   if (in.imu.size() < 2) return "recording has fewer than 2 IMU samples";
   if (in.table.empty()) return "recording has no table samples";
-  const RecordingCheck check = checkIncrements(in.imu, o.checks, "recording");
+  const RecordingCheck check = checkIncrements(in.imu, o.checks, "recording", in.segments);
   return check.ok() ? "" : check.reason;
 }
 

@@ -3,6 +3,7 @@
 target_sources(imubench_calib PRIVATE
   static_detection.cpp
   scalar_calibration.cpp
+  scalar_consistency.cpp
   observability.cpp
   direct_calibration.cpp
   segment_check.cpp

@@ -265,9 +265,9 @@ std::string checkLegs(const std::vector<IndirectLeg>& legs, const IndirectOption
     const std::string where = legs.size() > 1 ? "recording " + std::to_string(l + 1) + ": " : "";
     if (legs[l].imu.size() < 2) return where + "fewer than 2 IMU samples";
     if (legs[l].table.empty()) return where + "no table samples";
-    const RecordingCheck check =
-        checkIncrements(legs[l].imu, opt.checks,
-                        legs.size() > 1 ? "recording " + std::to_string(l + 1) : "recording");
+    const RecordingCheck check = checkIncrements(
+        legs[l].imu, opt.checks,
+        legs.size() > 1 ? "recording " + std::to_string(l + 1) : "recording", legs[l].segments);
     if (!check.ok()) return check.reason;
   }
   return "";

@@ -163,17 +163,17 @@ Eigen::MatrixXd problemJacobian(ceres::Problem& problem) {
   return J;
 }
 
-// Sigmas from (J^T J)^-1 scaled by the residual variance; flags null directions by name.
+// Sigmas from (J^T J)^-1 scaled by the residual variance. A direction the data carry no
+// information along makes the fit arbitrary there: *unresolved names it (empty: none).
 Eigen::VectorXd sigmasAndNotes(ceres::Problem& problem, double final_cost, int n_res,
-                               const std::vector<std::string>& names,
-                               std::vector<std::string>* notes, const std::string& what) {
+                               const std::vector<std::string>& names, std::string* unresolved) {
   const Eigen::MatrixXd J = problemJacobian(problem);
   const int p = static_cast<int>(J.cols());
   Eigen::VectorXd sig = Eigen::VectorXd::Zero(p);
   if (p == 0) return sig;
   const InformationAnalysis ia = analyseInformation(J, names);
   for (const NullDirection& d : ia.null_directions)
-    notes->push_back(what + " solve badly conditioned: no information along " + d.description);
+    *unresolved += (unresolved->empty() ? "" : "; ") + d.description;
   const double dof = std::max(1, n_res - p);
   const double s2 = 2.0 * final_cost / dof;
   const Eigen::MatrixXd JtJ = J.transpose() * J;
@@ -370,6 +370,14 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     }
     n_directions = static_cast<int>(dirs.size());
   }
+  if (n_directions < o.min_poses_diagonal_accel) {
+    std::ostringstream s;
+    s << "only " << n_directions << " distinct gravity directions among " << n_poses
+      << " static poses: the accelerometer's 3 scales and 3 biases need >= "
+      << o.min_poses_diagonal_accel << " (hold each axis up and down)";
+    res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+    return res;
+  }
   const bool full_accel = n_directions >= o.min_poses_full_accel;
   {
     ceres::Problem problem;
@@ -401,8 +409,16 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     if (full_accel)
       names.insert(names.end(),
                    {"accel.misalignment.xy", "accel.misalignment.xz", "accel.misalignment.yz"});
+    std::string unresolved;
     const Eigen::VectorXd sig =
-        sigmasAndNotes(problem, sum.final_cost, n_poses, names, &res.notes, "accelerometer");
+        sigmasAndNotes(problem, sum.final_cost, n_poses, names, &unresolved);
+    if (!unresolved.empty()) {
+      res.status = RecordingCheck::Error(
+          RecordingStatusCode::kTooFewStatics,
+          "the static poses do not determine the accelerometer: no information along " +
+              unresolved + " (hold each axis up and down, and tilted between)");
+      return res;
+    }
     TriadModel& acc = res.report.values.sensors.accel;
     for (int k = 0; k < 3; ++k) {
       acc.scale[k] = s_acc[k];
@@ -501,8 +517,19 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     std::vector<std::string> names = {"gyro.scale.x", "gyro.scale.y", "gyro.scale.z"};
     for (const char* m : {"xy", "xz", "yx", "yz", "zx", "zy"})
       names.push_back(std::string("gyro.misalignment.") + m);
+    std::string unresolved;
     const Eigen::VectorXd sig =
-        sigmasAndNotes(problem, sum.final_cost, static_cast<int>(n_dir), names, &res.notes, "gyro");
+        sigmasAndNotes(problem, sum.final_cost, static_cast<int>(n_dir), names, &unresolved);
+    if (!unresolved.empty()) {
+      std::ostringstream s;
+      s << "the " << rots.size()
+        << " rotations between static poses do not determine the gyro scales and "
+           "misalignments (each gives two gravity-direction components; a full turn gives "
+           "none): no information along "
+        << unresolved << " (rotate about each axis by less than a full turn between poses)";
+      res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+      return res;
+    }
     for (std::size_t k = 0; k < names.size(); ++k)
       res.report.setSigma(names[k], sig(static_cast<Eigen::Index>(k)));
     TriadModel& gyr = res.report.values.sensors.gyro;

@@ -213,8 +213,27 @@ bool IncrementCheckOptions::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// A gap from t_a to t_b harms the segments' use when a segment overlaps it or a rotation ends
+// at (or before, with nothing between) t_a or begins at (or after) t_b.
+bool gapHarms(double t_a, double t_b, std::span<const Segment> segments) {
+  if (segments.empty()) return true;
+  const Segment* before = nullptr;
+  const Segment* after = nullptr;
+  for (const Segment& s : segments) {
+    if (s.t0 < t_b && s.t1 > t_a) return true;
+    if (s.t1 <= t_a && (!before || s.t1 > before->t1)) before = &s;
+    if (s.t0 >= t_b && (!after || s.t0 < after->t0)) after = &s;
+  }
+  return (before && before->kind == SegmentKind::kRotate) ||
+         (after && after->kind == SegmentKind::kRotate);
+}
+
+}  // namespace
+
 RecordingCheck checkIncrements(std::span<const nav::ImuSample> imu, const IncrementCheckOptions& o,
-                               const std::string& what) {
+                               const std::string& what, std::span<const Segment> segments) {
   std::string why;
   if (!o.IsValid(&why)) return RecordingCheck::Error(RecordingStatusCode::kBadOptions, why);
   if (imu.size() < 2) {
@@ -241,10 +260,11 @@ RecordingCheck checkIncrements(std::span<const nav::ImuSample> imu, const Increm
   const double step = median(steps);
   for (std::size_t i = 1; i < imu.size(); ++i) {
     const double dt = steps[i - 1];
-    if (dt > o.max_gap_factor * step) {
+    if (dt > o.max_gap_factor * step && gapHarms(imu[i - 1].t, imu[i].t, segments)) {
       std::ostringstream s;
       s << at(i) << ": gap of " << dt << " s after t = " << imu[i - 1].t << " s (median step "
-        << step << " s): samples missing";
+        << step << " s): samples missing"
+        << (segments.empty() ? "" : " inside a segment or next to a rotation");
       return RecordingCheck::Error(RecordingStatusCode::kMissingSegment, s.str());
     }
     for (int k = 0; k < 3; ++k) {

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/motion.h"
 #include "nav/imu_sample.h"
 #include "nav/rotation.h"
 
@@ -121,9 +122,13 @@ struct IncrementCheckOptions {
   bool IsValid(std::string* why) const;
 };
 
-// `what` names the recording in the reasons (e.g. "recording 2").
+// `what` names the recording in the reasons (e.g. "recording 2"). With `segments`, a gap is
+// refused only where it harms: inside a segment, or next to a rotation (whose integration it
+// would cut); a gap between holds, placements or unused stretches is harmless (a run resumed
+// after a crash has one where the daemon was down). Without segments every gap is refused.
 RecordingCheck checkIncrements(std::span<const nav::ImuSample> samples,
-                               const IncrementCheckOptions& options, const std::string& what);
+                               const IncrementCheckOptions& options, const std::string& what,
+                               std::span<const Segment> segments = {});
 
 // Per-span mean of a series.
 Vec3 spanMean(const std::vector<Vec3>& v, const StaticSpan& span);

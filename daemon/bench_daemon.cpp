@@ -747,13 +747,7 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   run->plan_name = loaded.plan.name;
   run->runner = std::move(runner);
   run->writer = std::make_unique<RunWriter>(*store_, begun.run_id);
-  if (calibration) {
-    calibration->run_id = begun.run_id;
-    run->calibration = calibration;
-    run->engine = std::make_unique<OnlineEngine>(
-        *calibration, calibrations_.get(),
-        [this, run_id = begun.run_id](const json& fields) { publishEstimate(run_id, fields); });
-  }
+  if (calibration) attachCalibration(*run, std::move(*calibration));
   run_ = std::move(run);
   publish(run_->runner->takeEvents());
   log_.info("run " + std::to_string(run_->id) + " started: plan '" + run_->plan_name + "'");
@@ -799,6 +793,9 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
                                std::to_string(*point.last_imu_t) + " s); start a new run"
                          : std::string("is silent; resume when it streams")));
   }
+  why.clear();
+  std::optional<OnlineSetup> calibration = calibrationSetup(*loaded, &why);
+  if (!why.empty()) return errorReply(id, ErrorCode::kBadState, which + ": " + why);
   auto runner = makeRunner(*loaded);
   const int next = point.last_finished_step + 1;
   const bool done = next >= static_cast<int>(runner->steps().size());
@@ -813,6 +810,10 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   if (done) {  // every step had finished; only the closing was cut off
     if (auto st = store_->finishRun(run_id, RunState::kFinished, "completed"); !st.ok)
       return errorReply(id, ErrorCode::kInternal, st.message);
+    if (calibration) {
+      calibration->run_id = run_id;
+      startFinalCalibration(*calibration);
+    }
     return okReply(id, {{"run", run_id}, {"state", "finished"}, {"from_step", next}});
   }
   auto active = std::make_unique<ActiveRun>();
@@ -822,6 +823,9 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   active->writer = std::make_unique<RunWriter>(*store_, run_id, point);
   active->last_table_t = point.last_table_t;
   active->last_chamber_t = point.last_chamber_t;
+  // The plan's calibration goes on too: the final one reads every stored sample (before and
+  // after the interruption); the online estimates start again from the resumed step.
+  if (calibration) attachCalibration(*active, std::move(*calibration));
   run_ = std::move(active);
   server_->broadcast(Topic::kRun, "resumed", {{"run", run_id}, {"from_step", next}});
   publish(run_->runner->takeEvents());
@@ -834,6 +838,16 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
 }
 
 // ---- calibration (daemon/online_engine.h) ---------------------------------------------------
+
+// The run feeds the plan's calibration: the online engine during the run, the final
+// calibration when it completes.
+void BenchDaemon::attachCalibration(ActiveRun& run, OnlineSetup setup) {
+  setup.run_id = run.id;
+  run.calibration = setup;
+  run.engine = std::make_unique<OnlineEngine>(
+      std::move(setup), calibrations_.get(),
+      [this, run_id = run.id](const json& fields) { publishEstimate(run_id, fields); });
+}
 
 std::optional<OnlineSetup> BenchDaemon::calibrationSetup(const LoadedPlan& loaded,
                                                          std::string* why) {

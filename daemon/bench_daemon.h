@@ -102,6 +102,7 @@ class BenchDaemon {
   // The online engine's setup for a plan naming a calibration (nullopt: none); a pipeline
   // whose direct run cannot be found is refused (*why).
   std::optional<OnlineSetup> calibrationSetup(const LoadedPlan& loaded, std::string* why);
+  void attachCalibration(ActiveRun& run, OnlineSetup setup);
   void publishEstimate(std::int64_t run, const nlohmann::json& fields);
   void startFinalCalibration(const OnlineSetup& setup);
   void storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f);

@@ -52,6 +52,7 @@
 #include "calib/fit_quality.h"
 #include "calib/indirect_calibration.h"
 #include "calib/scalar_calibration.h"
+#include "calib/scalar_consistency.h"
 #include "calib/segment_check.h"
 #include "calib/truth_comparison.h"
 #include "io/import_real.h"
@@ -325,8 +326,17 @@ void runCalibrateReal(const CalibrateOptions& o) {
        << in.accel_unit << ", gyro in " << in.gyro_unit << ", g = " << so.gravity_mps2
        << " m/s^2)\n"
        << calib::describe(r);
+  const calib::ScalarConsistency c = calib::scalarConsistency(in.data, r, so, accel_si);
+  info << calib::describe(c);
   if (o.json) {
     nlohmann::json j = calib::toJson(r.report);
+    j["consistency"] = {{"accel_normalised_rms", c.accel_normalised_rms},
+                        {"accel_dof", c.accel_dof},
+                        {"halves_compared", c.halves_ok},
+                        {"halves_rms_z", c.rms_z},
+                        {"halves_max_abs_z", c.max_abs_z},
+                        {"halves_worst", c.worst},
+                        {"halves_note", c.halves_why}};
     j["calibration"] = {{"method", "scalar"},
                         {"accel_unit", in.accel_unit},
                         {"gyro_unit", in.gyro_unit},

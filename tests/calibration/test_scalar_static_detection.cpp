@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "calib/scalar_calibration.h"
+#include "calib/scalar_consistency.h"
 #include "calib/static_detection.h"
 #include "nav/earth.h"
 
@@ -230,6 +232,98 @@ TEST(ScalarCalibration, EarthRateAndBiasDriftAreInTheBiasAndItsSigma) {
   }
   EXPECT_LT(err_interp, 0.25 * err_held) << std::sqrt(err_interp) << " vs " << std::sqrt(err_held);
   EXPECT_LT(r.gyro_rms_after, h.gyro_rms_after);
+}
+
+// Honest sigmas on a session with white noise only: the accelerometer's normalised residual
+// RMS is near 1 and the two halves of the session agree within their sigmas (RMS z near 1,
+// no |z| beyond 4 over the ~20 coefficients compared). Sigmas 3x too small would give RMS z
+// near 3.
+TEST(ScalarConsistency, WhiteNoiseSessionHasHonestSigmas) {
+  const Session s = makeSession(truthModel(), 40, 20.0, 4.0, 2.0, 0.003, 0.02, 23);
+  ScalarCalibrationOptions o;
+  o.gravity_mps2 = 9.81;
+  const ScalarCalibrationResult r = scalarCalibrate(s.data, o, true);
+  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  const ScalarConsistency c = scalarConsistency(s.data, r, o, true);
+  std::printf("%s", describe(c).c_str());
+  EXPECT_GT(c.accel_normalised_rms, 0.6);
+  EXPECT_LT(c.accel_normalised_rms, 1.5);
+  ASSERT_TRUE(c.halves_ok) << c.halves_why;
+  EXPECT_GE(c.rows.size(), 18u);
+  EXPECT_GT(c.rms_z, 0.4);
+  EXPECT_LT(c.rms_z, 1.8);
+  EXPECT_LT(c.max_abs_z, 4.0) << c.worst;
+}
+
+// The check sees sigmas that are too small: the same session with noise whose per-pose means
+// wander (a bias random walk the white-noise sigma does not know) gives a normalised residual
+// RMS well above 1.
+TEST(ScalarConsistency, CorrelatedNoiseShowsAsNormalisedRmsAboveOne) {
+  Session s = makeSession(truthModel(), 40, 20.0, 4.0, 2.0, 0.003, 0.02, 29);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Vec3 walk = Vec3::Zero();
+  for (Vec3& a : s.data.accel) {
+    walk += 2e-4 * Vec3(n01(rng), n01(rng), n01(rng));
+    a += walk;
+  }
+  ScalarCalibrationOptions o;
+  o.gravity_mps2 = 9.81;
+  const ScalarCalibrationResult r = scalarCalibrate(s.data, o, true);
+  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  const ScalarConsistency c = scalarConsistency(s.data, r, o, true);
+  std::printf("%s", describe(c).c_str());
+  EXPECT_GT(c.accel_normalised_rms, 3.0);
+}
+
+}  // namespace
+}  // namespace imubench::calib
+
+namespace imubench::calib {
+namespace {
+
+// Increments at 100 Hz from 0 to 30 s with the samples of (gap_t0, gap_t1) missing.
+std::vector<nav::ImuSample> incrementsWithGap(double gap_t0, double gap_t1) {
+  std::vector<nav::ImuSample> imu;
+  for (int k = 1; k <= 3000; ++k) {
+    const double t = 0.01 * k;
+    if (t > gap_t0 && t < gap_t1) continue;
+    nav::ImuSample s;
+    s.t = t;
+    s.dvel = Vec3(0.0, 0.0, 9.81 * 0.01);
+    imu.push_back(s);
+  }
+  return imu;
+}
+
+Segment segment(double t0, double t1, SegmentKind kind) {
+  Segment s;
+  s.t0 = t0;
+  s.t1 = t1;
+  s.kind = kind;
+  return s;
+}
+
+// A resumed run has a gap where the daemon was down: between a finished hold and the re-run
+// step it harms nothing; inside a segment or next to a rotation (whose integration it would
+// cut) it is refused, naming the sample; without segments every gap is refused.
+TEST(IncrementCheck, GapsAreRefusedOnlyWhereTheyHarmTheSegments) {
+  const std::vector<Segment> segs = {
+      segment(1.0, 8.0, SegmentKind::kStatic), segment(8.0, 12.0, SegmentKind::kRotate),
+      segment(12.0, 18.0, SegmentKind::kStatic), segment(22.0, 29.0, SegmentKind::kStatic)};
+  const IncrementCheckOptions o;
+  EXPECT_TRUE(checkIncrements(incrementsWithGap(18.5, 21.5), o, "run", segs).ok());
+  const RecordingCheck strict = checkIncrements(incrementsWithGap(18.5, 21.5), o, "run");
+  EXPECT_EQ(strict.code, RecordingStatusCode::kMissingSegment) << strict.reason;
+  const RecordingCheck inside = checkIncrements(incrementsWithGap(14.0, 15.0), o, "run", segs);
+  EXPECT_EQ(inside.code, RecordingStatusCode::kMissingSegment);
+  EXPECT_NE(inside.reason.find("run: IMU sample"), std::string::npos) << inside.reason;
+  // Between the rotation and the next hold there is no unused stretch: 12.0 .. 12.0.
+  const std::vector<Segment> loose = {segment(1.0, 8.0, SegmentKind::kStatic),
+                                      segment(8.0, 11.0, SegmentKind::kRotate),
+                                      segment(13.0, 18.0, SegmentKind::kStatic)};
+  EXPECT_EQ(checkIncrements(incrementsWithGap(11.2, 12.8), o, "run", loose).code,
+            RecordingStatusCode::kMissingSegment);
 }
 
 }  // namespace

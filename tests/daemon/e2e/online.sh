@@ -15,10 +15,15 @@
 #   - a pipeline plan without a completed direct run of its IMU is refused before anything moves.
 # The IMU runs at 200 Hz (the bundled layout with a 5 ms period) so that the accelerated stream
 # stays light for user-mode Linux.
-# Usage: online.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
+# With a fifth argument `crash` (daemon.e2e.online_crash_resume): imubenchd is killed with
+# SIGKILL in the middle of the 12-run plan (after its second estimate), started again on the
+# same database, and `imubench resume 2` finishes the run: the final calibration, which reads
+# every stored sample from before and after the kill, must meet the same targets.
+# Usage: online.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir> [crash]
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
+CRASH=${5:-}
 # E2E_KEEP=DIR: the database is copied there at exit (for a look at a failed run).
 [[ -n ${E2E_KEEP:-} ]] && trap 'cp "$W"/imubench.db* "$E2E_KEEP/" 2>/dev/null; e2e_cleanup' EXIT
 
@@ -49,10 +54,10 @@ imu_timeout = "5 s"
 e2e_start_vb --time-scale "$SCALE" --truth "$TRUTH" --noise nav-grade --seed 3
 e2e_start_daemon
 
-PYTHONPATH="$SRC/tools/python" e2e_py "$CLI" <<'PY' || fail "online calibration"
-import subprocess, sys
+PYTHONPATH="$SRC/tools/python" e2e_py "$CLI" "$DPID" "$CRASH" <<'PY' || fail "online calibration"
+import os, signal, subprocess, sys
 from e2e_client import Client, check
-work, cli = sys.argv[1], sys.argv[2]
+work, cli, dpid, crash = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4] == "crash"
 
 def imubench(*args, ok=True):
     p = subprocess.run([cli, *args], capture_output=True, text=True)
@@ -98,11 +103,40 @@ check(not est[0]["ok"] and len(est[0]["unobservable"]) > 0, "the first hold alon
 sigma_trend(est, "gyro.scale")  # the rate runs pin what the Earth rate hardly sees
 check(len(est[-1]["unobservable"]) == 0, "the whole direct plan observes every direct parameter")
 
-nav, est, res = run_plan(work + "/12run.toml", "pipeline", 3)
-sigma_trend(est, "")
-check(res["pass"] is True, "verdict PASS: %s" % res)
+if crash:  # kill -9 once two estimates of the 12-run plan are out; resumed below
+    out = imubench("start", work + "/12run.toml")
+    check("started run 2" in out, "12-run plan started as run 2: " + out)
+    for k in range(2):
+        c.wait_event(lambda e: e.get("run") == 2 and e["event"] == "estimate", "estimate", 400)
+    os.kill(dpid, signal.SIGKILL)
+else:
+    nav, est, res = run_plan(work + "/12run.toml", "pipeline", 3)
+    sigma_trend(est, "")
+    check(res["pass"] is True, "verdict PASS: %s" % res)
 
 PY
+
+if [[ $CRASH == crash ]]; then
+  wait "$DPID" 2>/dev/null || true
+  DPID=
+  e2e_start_daemon
+  e2e_py "$CLI" <<'PY' || fail "resume after kill -9"
+import subprocess, sys
+from e2e_client import Client, check
+work, cli = sys.argv[1], sys.argv[2]
+c = Client(work + "/control.sock", timeout=400.0)
+c.subscribe("run")
+r = c.reply({"cmd": "results", "run": 2})["result"]
+check(r["state"] == "interrupted", "run 2 marked interrupted after kill -9: %s" % r["state"])
+p = subprocess.run([cli, "resume", "2"], capture_output=True, text=True, timeout=30)
+check(p.returncode == 0 and "run 2 resumed" in p.stdout, "imubench resume 2: " + p.stdout + p.stderr)
+e = c.wait_event(lambda e: e.get("run") == 2 and e["event"] == "results", "results of run 2", 400)
+print(subprocess.run([cli, "results", "2", "--db", work + "/imubench.db"], capture_output=True,
+                     text=True).stdout, flush=True)
+check(e["ok"] and e["calibrated"], "resumed run 2: results stored: %s" % e)
+check(e["pass"] is True, "resumed run 2: verdict PASS: %s" % e)
+PY
+fi
 
 # The stored pipeline coefficients against the truth, and the history by serial.
 out=$("$CLI" results 2 --db "$W/imubench.db" --truth "$SRC/tests/tools/data/truth_nav_grade.json" --coefficients "$W/coefficients.json" 2>&1) || true
