@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 
 #include "calib/scalar_calibration.h"
@@ -109,6 +110,88 @@ TEST(ScalarReal, ImucalFerrarisSession) {
   // about 57.3 readings per rad/s: the gyro scale comes from the gravity-direction changes
   // between poses, independent of the declared unit, so this checks rate and unit together.
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(r.gyro().scale[k], kRadToDeg, 0.03 * kRadToDeg) << k;
+}
+
+// imu_tk's own calibration of its recording: imu_tk's test program (apps/test_imu_calib.cpp at
+// github.com/Kyle-ak/imu_tk 7780270, built without its Qt plots; docs/imu-tk-comparison.md says
+// how) prints, with its gravity 9.81744 m/s^2, its model a = T K (r - b) per triad:
+//   accel T = [1 -0.0033593 -0.00890639; 0 1 -0.0213341; 0 0 1],
+//         K = diag(0.00241278, 0.00242712, 0.00241168), b = (33124.2, 33275.2, 32364.4);
+//   gyro  T = [1 0.00593634 0.00111101; 0.00808812 1 -0.0535569; 0.0253067 -0.0025513 1],
+//         K = diag(0.000209295, 0.000209899, 0.000209483), b = (32777.1, 32459.8, 32511.8).
+// Mapped exactly onto eq. 1 (A = T K = M^-1 diag(1/scale): scale_i = (A^-1)_ii, M_ij =
+// (A^-1)_ij / scale_i, bias = -b / scale), our calibration with imu_tk's gravity and its
+// constant gyro bias (interpolate_gyro_bias = false) must agree within 3 of our stated sigmas
+// on every coefficient both fit.
+struct ImuTkTriad {
+  Mat3 T, K;
+  Vec3 b;
+};
+
+calib::TriadModel fromImuTk(const ImuTkTriad& t) {
+  const Mat3 A_inv = (t.T * t.K).inverse();
+  calib::TriadModel m;
+  Mat3 M;
+  for (int i = 0; i < 3; ++i) {
+    m.scale[i] = A_inv(i, i);
+    M.row(i) = A_inv.row(i) / m.scale[i];
+  }
+  // M = [1 xy -xz; -yx 1 yz; zx -zy 1] (calib/model/sensor_equation.h).
+  m.mis = calib::Misalignment{M(0, 1), -M(0, 2), -M(1, 0), M(1, 2), M(2, 0), -M(2, 1)};
+  m.bias = -t.b.cwiseQuotient(m.scale);
+  return m;
+}
+
+double compareTriad(const calib::CoefficientReport& rep, const std::string& triad,
+                    const calib::TriadModel& ours, const calib::TriadModel& ref) {
+  const std::pair<std::string, std::pair<double, double>> rows[] = {
+      {"scale.x", {ours.scale.x(), ref.scale.x()}},
+      {"scale.y", {ours.scale.y(), ref.scale.y()}},
+      {"scale.z", {ours.scale.z(), ref.scale.z()}},
+      {"bias.x", {ours.bias.x(), ref.bias.x()}},
+      {"bias.y", {ours.bias.y(), ref.bias.y()}},
+      {"bias.z", {ours.bias.z(), ref.bias.z()}},
+      {"misalignment.xy", {ours.mis.xy, ref.mis.xy}},
+      {"misalignment.xz", {ours.mis.xz, ref.mis.xz}},
+      {"misalignment.yx", {ours.mis.yx, ref.mis.yx}},
+      {"misalignment.yz", {ours.mis.yz, ref.mis.yz}},
+      {"misalignment.zx", {ours.mis.zx, ref.mis.zx}},
+      {"misalignment.zy", {ours.mis.zy, ref.mis.zy}}};
+  double worst = 0.0;
+  for (const auto& [name, v] : rows) {
+    const auto u = rep.uncertainty.find(triad + "." + name);
+    if (u == rep.uncertainty.end() || !u->second.observable || !u->second.sigma) continue;
+    const double z = (v.first - v.second) / *u->second.sigma;
+    std::printf("  %-24s ours %14.8g  imu_tk %14.8g  sigma %10.3g  z %6.2f\n",
+                (triad + "." + name).c_str(), v.first, v.second, *u->second.sigma, z);
+    worst = std::max(worst, std::abs(z));
+  }
+  return worst;
+}
+
+TEST(ScalarReal, AgreesWithImuTksOwnCalibrationOfItsRecording) {
+  const io::RealImport in =
+      io::readImuTkPair(kDir + "/imutk_xsens_acc.txt", kDir + "/imutk_xsens_gyro.txt");
+  ASSERT_TRUE(in.ok) << in.error;
+  calib::ScalarCalibrationOptions o;
+  o.gravity_mps2 = 9.81744;         // imu_tk's test program
+  o.interpolate_gyro_bias = false;  // imu_tk: the initial static's bias throughout
+  o.min_initial_static_s = 30.0;
+  o.checks.accel_min = o.checks.gyro_min = 0.0;
+  o.checks.accel_max = o.checks.gyro_max = 65535.0;
+  const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, o, false);
+  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ImuTkTriad acc, gyr;
+  acc.T << 1, -0.0033593, -0.00890639, 0, 1, -0.0213341, 0, 0, 1;
+  acc.K = Vec3(0.00241278, 0.00242712, 0.00241168).asDiagonal();
+  acc.b = Vec3(33124.2, 33275.2, 32364.4);
+  gyr.T << 1, 0.00593634, 0.00111101, 0.00808812, 1, -0.0535569, 0.0253067, -0.0025513, 1;
+  gyr.K = Vec3(0.000209295, 0.000209899, 0.000209483).asDiagonal();
+  gyr.b = Vec3(32777.1, 32459.8, 32511.8);
+  const double worst_acc = compareTriad(r.report, "accel", r.accel(), fromImuTk(acc));
+  const double worst_gyr = compareTriad(r.report, "gyro", r.gyro(), fromImuTk(gyr));
+  EXPECT_LT(worst_acc, 3.0);
+  EXPECT_LT(worst_gyr, 3.0);
 }
 
 }  // namespace
