@@ -3,9 +3,12 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
+#include "calib/model/sensor_equation.h"
 #include "calib/observability.h"
 #include "nav/earth.h"
 
@@ -33,25 +36,33 @@ bool ScalarCalibrationOptions::IsValid(std::string* why) const {
   if (!(min_axis_span >= 0.0 && min_axis_span <= 2.0))
     return fail("min_axis_span must be in [0, 2]");
   if (!(max_gyro_rms_rad > 0.0)) return fail("max_gyro_rms_rad must be > 0");
+  for (const Solver* so : {&accel_solver, &gyro_solver})
+    if (so->max_iterations < 1 || !(so->function_tolerance > 0.0) ||
+        !(so->parameter_tolerance > 0.0))
+      return fail("solver settings: iterations >= 1 and tolerances > 0");
   return detection.IsValid(why) && checks.IsValid(why);
 }
 
 namespace {
 
-// Accelerometer parameters: scale[3], bias[3], upper misalignments [xy, xz, yz].
+using model::kBias;
+using model::kMis;
+using model::kMisXY;
+using model::kMisXZ;
+using model::kMisYZ;
+using model::kScale;
+using model::kTriadSize;
+using model::Mat3T;
+using model::Vec3T;
+
+// |f| = g at rest: the compensated static mean (calib/model/sensor_equation.h) has the
+// magnitude of gravity. One triad block (kTriadSize); which entries vary is set by a manifold.
 struct AccelNormCost {
   Vec3 a;
   double g;
   template <typename T>
-  bool operator()(const T* s, const T* b, const T* m, T* r) const {
-    const T ux = T(a.x()) / s[0] + b[0];
-    const T uy = T(a.y()) / s[1] + b[1];
-    const T uz = T(a.z()) / s[2] + b[2];
-    // M = [[1, m_xy, -m_xz], [0, 1, m_yz], [0, 0, 1]]: back substitution.
-    const T fz = uz;
-    const T fy = uy - m[2] * fz;
-    const T fx = ux - m[0] * fy + m[1] * fz;
-    r[0] = ceres::sqrt(fx * fx + fy * fy + fz * fz) - T(g);
+  bool operator()(const T* triad, T* r) const {
+    r[0] = model::input(triad, Vec3T<T>(a.cast<T>())).norm() - T(g);
     return true;
   }
 };
@@ -64,20 +75,17 @@ void mulQuat(const T* a, const T* b, T* out) {  // Hamilton, [w x y z]
   out[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
 }
 
-// Rotation of body frame over a sequence of rate samples: q_{B0 <- Bn}; the gravity
-// direction in the final frame is R^T u0.
+// Rotation of the body frame over a sequence of bias-removed rate readings, compensated by
+// the affine map u = G r (sensor_equation.h): q_{B0 <- Bn}; the gravity direction in the final
+// frame is R^T u0.
 template <typename T>
-void integrate(const std::vector<Vec3>& rates, const std::vector<double>& dts, const T* s,
-               const T* Minv, T* q) {
+void integrate(const std::vector<Vec3>& rates, const std::vector<double>& dts, const Mat3T<T>& G,
+               T* q) {
   q[0] = T(1.0);
   q[1] = q[2] = q[3] = T(0.0);
   for (std::size_t i = 0; i < rates.size(); ++i) {
-    T u[3];
-    for (int k = 0; k < 3; ++k) u[k] = T(rates[i][k]) / s[k];
-    T phi[3];
-    for (int r = 0; r < 3; ++r)
-      phi[r] = (Minv[3 * r] * u[0] + Minv[3 * r + 1] * u[1] + Minv[3 * r + 2] * u[2]) * dts[i];
-    const T a2 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2];
+    const Vec3T<T> phi = G * rates[i].cast<T>() * T(dts[i]);
+    const T a2 = phi.squaredNorm();
     const T c = T(1.0) - a2 / T(8.0);
     const T h = T(0.5) - a2 / T(48.0);
     const T dq[4] = {c, h * phi[0], h * phi[1], h * phi[2]};
@@ -101,38 +109,23 @@ void rotateInverse(const T* q, const Vec3& v, T* out) {  // R(q)^T v
   out[2] = r[3];
 }
 
-template <typename T>
-void misInverse(const T* m, T* Minv) {
-  // M from eq.(1), then its inverse by the adjugate.
-  const T M[9] = {T(1.0), m[0], -m[1], -m[2], T(1.0), m[3], m[4], -m[5], T(1.0)};
-  const T c00 = M[4] * M[8] - M[5] * M[7], c01 = M[5] * M[6] - M[3] * M[8],
-          c02 = M[3] * M[7] - M[4] * M[6];
-  const T det = M[0] * c00 + M[1] * c01 + M[2] * c02;
-  Minv[0] = c00 / det;
-  Minv[1] = (M[2] * M[7] - M[1] * M[8]) / det;
-  Minv[2] = (M[1] * M[5] - M[2] * M[4]) / det;
-  Minv[3] = c01 / det;
-  Minv[4] = (M[0] * M[8] - M[2] * M[6]) / det;
-  Minv[5] = (M[2] * M[3] - M[0] * M[5]) / det;
-  Minv[6] = c02 / det;
-  Minv[7] = (M[1] * M[6] - M[0] * M[7]) / det;
-  Minv[8] = (M[0] * M[4] - M[1] * M[3]) / det;
-}
-
 struct Rotation {
   std::vector<Vec3> rates;  // bias-removed readings
   std::vector<double> dts;
   Vec3 u0, u1;  // calibrated gravity directions before / after (body frame)
 };
 
+// The integrated gyro carries the gravity direction of the pose before a rotation into the
+// pose after it. One triad block whose bias entries stay 0 (the readings are bias-removed).
 struct GyroDirCost {
   const Rotation* rot;
   template <typename T>
-  bool operator()(const T* s, const T* m, T* r) const {
-    T Minv[9];
-    misInverse(m, Minv);
+  bool operator()(const T* triad, T* r) const {
+    Mat3T<T> G;
+    Vec3T<T> h;
+    model::compensationAffine(triad, &G, &h);
     T q[4];
-    integrate(rot->rates, rot->dts, s, Minv, q);
+    integrate(rot->rates, rot->dts, G, q);
     T u[3];
     rotateInverse(q, rot->u0, u);
     for (int k = 0; k < 3; ++k) r[k] = T(rot->u1[k]) - u[k];
@@ -140,11 +133,11 @@ struct GyroDirCost {
   }
 };
 
-double gyroCost(const std::vector<Rotation>& rots, const double* s, const double* m) {
+double gyroCost(const std::vector<Rotation>& rots, const double* triad) {
   double sum = 0.0;
   for (const Rotation& rot : rots) {
     double r[3];
-    GyroDirCost{&rot}(s, m, r);
+    GyroDirCost{&rot}(triad, r);
     sum += r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
   }
   return sum;
@@ -270,197 +263,203 @@ Vec3 gyroBiasSigma(const TriadModel& gyr, const Vec3& white_mean_reading,
 
 }  // namespace
 
-ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCalibrationOptions& o,
-                                        bool accel_unit_is_si) {
-  ScalarCalibrationResult res;
-  std::string why;
-  if (!o.IsValid(&why)) {
-    res.status = RecordingCheck::Error(RecordingStatusCode::kBadOptions, why);
-    return res;
-  }
-  res.status = checkRecording(data, o.checks);
-  if (!res.status.ok()) return res;
-  StaticDetectionResult det = detectStaticSpans(data, o.detection);
-  if (!det.status.ok()) {
-    res.status = det.status;
-    return res;
-  }
-  res.spans = det.spans;
-  const auto& spans = res.spans;
-  if (spans.front().duration() < o.min_initial_static_s) {
-    std::ostringstream s;
-    s << "first static interval (t = " << spans.front().t0 << " .. " << spans.front().t1
-      << " s) lasts " << spans.front().duration() << " s, need >= " << o.min_initial_static_s
-      << " s for the gyro bias";
-    res.status = RecordingCheck::Error(RecordingStatusCode::kTooShortStatic, s.str());
-    return res;
-  }
-  const int n_poses = static_cast<int>(spans.size());
-  if (n_poses < o.min_poses_diagonal_accel) {
-    std::ostringstream s;
-    s << "found " << n_poses << " static poses, need >= " << o.min_poses_diagonal_accel
-      << " for accelerometer scales and biases";
-    res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
-    return res;
-  }
+namespace {
 
-  // Trimmed span means.
+using Triad = std::array<double, kTriadSize>;
+
+// The static poses and their trimmed means (reading units).
+struct Poses {
+  std::vector<StaticSpan> spans;
   std::vector<Vec3> acc_means, gyr_means;
-  for (const StaticSpan& sp : spans) {
+};
+
+RecordingCheck refuse(const std::ostringstream& s) {
+  return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
+}
+
+// Checks, static detection, the initial static's length, the pose count and the means.
+RecordingCheck findPoses(const RawImuData& data, const ScalarCalibrationOptions& o, Poses* p) {
+  std::string why;
+  if (!o.IsValid(&why)) return RecordingCheck::Error(RecordingStatusCode::kBadOptions, why);
+  if (RecordingCheck c = checkRecording(data, o.checks); !c.ok()) return c;
+  StaticDetectionResult det = detectStaticSpans(data, o.detection);
+  if (!det.status.ok()) return det.status;
+  p->spans = det.spans;
+  const StaticSpan& first = p->spans.front();
+  std::ostringstream s;
+  if (first.duration() < o.min_initial_static_s) {
+    s << "first static interval (t = " << first.t0 << " .. " << first.t1 << " s) lasts "
+      << first.duration() << " s, need >= " << o.min_initial_static_s << " s for the gyro bias";
+    return RecordingCheck::Error(RecordingStatusCode::kTooShortStatic, s.str());
+  }
+  if (static_cast<int>(p->spans.size()) < o.min_poses_diagonal_accel) {
+    s << "found " << p->spans.size() << " static poses, need >= " << o.min_poses_diagonal_accel
+      << " for accelerometer scales and biases";
+    return refuse(s);
+  }
+  for (const StaticSpan& sp : p->spans) {
     StaticSpan t = sp;
     while (t.begin + 2 < t.end && data.t[t.begin] < sp.t0 + o.span_trim_s) ++t.begin;
     while (t.end > t.begin + 2 && data.t[t.end - 1] > sp.t1 - o.span_trim_s) --t.end;
-    acc_means.push_back(spanMean(data.accel, t));
-    gyr_means.push_back(spanMean(data.gyro, t));
+    p->acc_means.push_back(spanMean(data.accel, t));
+    p->gyr_means.push_back(spanMean(data.gyro, t));
   }
+  return RecordingCheck::Ok();
+}
 
-  // ---- Accelerometer ----
-  const double g = o.gravity_mps2;
-  if (accel_unit_is_si) {
-    res.status = checkSiGravity(acc_means, spans, g, o.si_gravity_tolerance);
-    if (!res.status.ok()) return res;
+double accelRms(const std::vector<Vec3>& acc_means, double g, const Triad& triad) {
+  double sum = 0.0;
+  for (const Vec3& a : acc_means) {
+    double r;
+    AccelNormCost{a, g}(triad.data(), &r);
+    sum += r * r;
   }
+  return std::sqrt(sum / static_cast<double>(acc_means.size()));
+}
+
+// Per-axis scale and bias from the extreme readings (each axis up and down).
+RecordingCheck initialAccel(const std::vector<Vec3>& acc_means, double g, Triad* triad) {
   Vec3 lo = acc_means[0], hi = acc_means[0];
   for (const Vec3& a : acc_means) {
     lo = lo.cwiseMin(a);
     hi = hi.cwiseMax(a);
   }
-  double s_acc[3], b_acc[3], m_acc[3] = {0.0, 0.0, 0.0};
+  triad->fill(0.0);
   for (int k = 0; k < 3; ++k) {
-    s_acc[k] = (hi[k] - lo[k]) / (2.0 * g);
-    if (!(s_acc[k] > 0.0)) {
-      res.status = RecordingCheck::Error(
+    (*triad)[kScale + k] = (hi[k] - lo[k]) / (2.0 * g);
+    if (!((*triad)[kScale + k] > 0.0)) {
+      return RecordingCheck::Error(
           RecordingStatusCode::kTooFewStatics,
           std::string("accelerometer axis ") + "xyz"[k] + " reads the same in every static pose");
-      return res;
     }
-    b_acc[k] = -0.5 * (hi[k] + lo[k]) / s_acc[k];
+    (*triad)[kBias + k] = -0.5 * (hi[k] + lo[k]) / (*triad)[kScale + k];
   }
-  auto accRms = [&](const double* s, const double* b, const double* m) {
-    double sum = 0.0;
-    for (const Vec3& a : acc_means) {
-      double r;
-      AccelNormCost{a, g}(s, b, m, &r);
-      sum += r * r;
-    }
-    return std::sqrt(sum / static_cast<double>(acc_means.size()));
-  };
+  return RecordingCheck::Ok();
+}
+
+// Poses count by distinct gravity directions: a hand session holds the same face before and
+// after a rotation, and repeats add averaging, not geometry (13 spans over 6 faces would
+// otherwise pass for a 12-pose design and leave the misalignments unconditioned).
+int distinctDirections(const std::vector<Vec3>& acc_means, const Triad& guess, double angle_deg) {
+  std::vector<Vec3> dirs;
+  const double cos_same = std::cos(angle_deg * kDegToRad);
+  for (const Vec3& a : acc_means) {
+    const Vec3 d = model::input(guess.data(), Vec3T<double>(a)).normalized();
+    bool seen = false;
+    for (const Vec3& e : dirs) seen = seen || d.dot(e) > cos_same;
+    if (!seen) dirs.push_back(d);
+  }
+  return static_cast<int>(dirs.size());
+}
+
+// Solves |f| = g over the poses for the free entries of `triad` (names, in block order), with
+// sigmas; a direction the poses do not determine is a refusal.
+RecordingCheck solveAccel(const std::vector<Vec3>& acc_means, const ScalarCalibrationOptions& o,
+                          const std::vector<std::string>& names, const std::vector<int>& fixed,
+                          Triad* triad, Eigen::VectorXd* sig) {
+  ceres::Problem problem;
+  for (const Vec3& a : acc_means)
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AccelNormCost, 1, kTriadSize>(
+                                 new AccelNormCost{a, o.gravity_mps2}),
+                             nullptr, triad->data());
+  problem.SetManifold(triad->data(), new ceres::SubsetManifold(kTriadSize, fixed));
+  ceres::Solver::Options so;
+  so.max_num_iterations = o.accel_solver.max_iterations;
+  so.function_tolerance = o.accel_solver.function_tolerance;
+  so.parameter_tolerance = o.accel_solver.parameter_tolerance;
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, &problem, &sum);
+  if (!sum.IsSolutionUsable()) {
+    return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics,
+                                 "accelerometer solve failed: " + sum.message);
+  }
+  std::string unresolved;
+  *sig = sigmasAndNotes(problem, sum.final_cost, static_cast<int>(acc_means.size()), names,
+                        &unresolved);
+  if (!unresolved.empty()) {
+    return RecordingCheck::Error(
+        RecordingStatusCode::kTooFewStatics,
+        "the static poses do not determine the accelerometer: no information along " + unresolved +
+            " (hold each axis up and down, and tilted between)");
+  }
+  return RecordingCheck::Ok();
+}
+
+// The accelerometer: scales and biases, and the upper misalignments (xy, xz, yz) when the
+// poses hold enough distinct gravity directions; the instrument frame is the accelerometers'.
+RecordingCheck fitAccel(const RawImuData& data, const Poses& p, const ScalarCalibrationOptions& o,
+                        bool accel_unit_is_si, ScalarCalibrationResult* res) {
+  const double g = o.gravity_mps2;
   if (accel_unit_is_si) {
-    const double one[3] = {1, 1, 1}, zero[3] = {0, 0, 0};
-    res.accel_rms_before = accRms(one, zero, zero);
+    if (RecordingCheck c = checkSiGravity(p.acc_means, p.spans, g, o.si_gravity_tolerance); !c.ok())
+      return c;
+  }
+  Triad acc;
+  if (RecordingCheck c = initialAccel(p.acc_means, g, &acc); !c.ok()) return c;
+  if (accel_unit_is_si) {
+    res->accel_rms_before = accelRms(p.acc_means, g, TriadModel{}.block());
   } else {
-    res.accel_rms_before = accRms(s_acc, b_acc, m_acc);
-    res.notes.push_back(
+    res->accel_rms_before = accelRms(p.acc_means, g, acc);
+    res->notes.push_back(
         "accel 'before' RMS uses the per-axis min/max initial estimate (raw units)");
   }
-  // Poses count by distinct gravity directions: a hand session holds the same face before and
-  // after a rotation, and repeats add averaging, not geometry (13 spans over 6 faces would
-  // otherwise pass for a 12-pose design and leave the misalignments unconditioned).
-  int n_directions = 0;
-  {
-    std::vector<Vec3> dirs;
-    const double cos_same = std::cos(o.same_pose_angle_deg * kDegToRad);
-    for (const Vec3& a : acc_means) {
-      Vec3 d;
-      for (int k = 0; k < 3; ++k) d[k] = a[k] / s_acc[k] + b_acc[k];
-      d.normalize();
-      bool seen = false;
-      for (const Vec3& e : dirs) seen = seen || d.dot(e) > cos_same;
-      if (!seen) dirs.push_back(d);
-    }
-    n_directions = static_cast<int>(dirs.size());
-  }
+  const int n_poses = static_cast<int>(p.spans.size());
+  const int n_directions = distinctDirections(p.acc_means, acc, o.same_pose_angle_deg);
+  std::ostringstream s;
   if (n_directions < o.min_poses_diagonal_accel) {
-    std::ostringstream s;
     s << "only " << n_directions << " distinct gravity directions among " << n_poses
       << " static poses: the accelerometer's 3 scales and 3 biases need >= "
       << o.min_poses_diagonal_accel << " (hold each axis up and down)";
-    res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
-    return res;
+    return refuse(s);
   }
   const bool full_accel = n_directions >= o.min_poses_full_accel;
-  {
-    ceres::Problem problem;
-    for (const Vec3& a : acc_means)
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<AccelNormCost, 1, 3, 3, 3>(new AccelNormCost{a, g}),
-          nullptr, s_acc, b_acc, m_acc);
-    if (!full_accel) {
-      problem.SetParameterBlockConstant(m_acc);
-      std::ostringstream s;
-      s << "only " << n_directions << " distinct gravity directions among " << n_poses
-        << " static poses (< " << o.min_poses_full_accel
-        << "): accelerometer misalignments fixed at 0 and flagged unobservable";
-      res.notes.push_back(s.str());
-    }
-    ceres::Solver::Options so;
-    so.max_num_iterations = 200;
-    so.function_tolerance = 1e-14;
-    so.parameter_tolerance = 1e-14;
-    ceres::Solver::Summary sum;
-    ceres::Solve(so, &problem, &sum);
-    if (!sum.IsSolutionUsable()) {
-      res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics,
-                                         "accelerometer solve failed: " + sum.message);
-      return res;
-    }
-    std::vector<std::string> names = {"accel.scale.x", "accel.scale.y", "accel.scale.z",
-                                      "accel.bias.x",  "accel.bias.y",  "accel.bias.z"};
-    if (full_accel)
-      names.insert(names.end(),
-                   {"accel.misalignment.xy", "accel.misalignment.xz", "accel.misalignment.yz"});
-    std::string unresolved;
-    const Eigen::VectorXd sig =
-        sigmasAndNotes(problem, sum.final_cost, n_poses, names, &unresolved);
-    if (!unresolved.empty()) {
-      res.status = RecordingCheck::Error(
-          RecordingStatusCode::kTooFewStatics,
-          "the static poses do not determine the accelerometer: no information along " +
-              unresolved + " (hold each axis up and down, and tilted between)");
-      return res;
-    }
-    TriadModel& acc = res.report.values.sensors.accel;
-    for (int k = 0; k < 3; ++k) {
-      acc.scale[k] = s_acc[k];
-      acc.bias[k] = b_acc[k];
-      res.report.setSigma(names[static_cast<std::size_t>(k)], sig(k));
-      res.report.setSigma(names[static_cast<std::size_t>(3 + k)], sig(3 + k));
-    }
-    acc.mis.xy = m_acc[0];
-    acc.mis.xz = m_acc[1];
-    acc.mis.yz = m_acc[2];
-    if (full_accel) {
-      for (int k = 6; k < 9; ++k) res.report.setSigma(names[static_cast<std::size_t>(k)], sig(k));
-    } else {
-      for (const char* m : {"xy", "xz", "yz"})
-        res.report.setUnobservable(std::string("accel.misalignment.") + m);
-    }
-    for (const char* m : {"yx", "zx", "zy"})
-      res.report.setUnobservable(std::string("accel.misalignment.") + m);
-    res.notes.push_back(
-        "accel misalignments yx, zx, zy fixed at 0: |f| = g cannot see a rotation of the triad; "
-        "the instrument frame is defined by the accelerometers (z axis, y in the yz plane)");
-    res.accel_rms_after = accRms(s_acc, b_acc, m_acc);
+  std::vector<std::string> names = {"accel.scale.x", "accel.scale.y", "accel.scale.z",
+                                    "accel.bias.x",  "accel.bias.y",  "accel.bias.z"};
+  std::vector<int> fixed = {kMis + model::kMisYX, kMis + model::kMisZX, kMis + model::kMisZY};
+  if (full_accel) {
+    names.insert(names.end(),
+                 {"accel.misalignment.xy", "accel.misalignment.xz", "accel.misalignment.yz"});
+  } else {
+    fixed.insert(fixed.end(), {kMis + kMisXY, kMis + kMisXZ, kMis + kMisYZ});
+    s << "only " << n_directions << " distinct gravity directions among " << n_poses
+      << " static poses (< " << o.min_poses_full_accel
+      << "): accelerometer misalignments fixed at 0 and flagged unobservable";
+    res->notes.push_back(s.str());
   }
-  res.status = checkAccelGeometry(data, spans, acc_means, res.accel(), o);
-  if (!res.status.ok()) return res;
+  Eigen::VectorXd sig;
+  if (RecordingCheck c = solveAccel(p.acc_means, o, names, fixed, &acc, &sig); !c.ok()) return c;
+  res->report.values.sensors.accel = TriadModel::fromBlock(acc.data());
+  for (std::size_t k = 0; k < names.size(); ++k)
+    res->report.setSigma(names[k], sig(static_cast<Eigen::Index>(k)));
+  for (const char* m : {"xy", "xz", "yz"})
+    if (!full_accel) res->report.setUnobservable(std::string("accel.misalignment.") + m);
+  for (const char* m : {"yx", "zx", "zy"})
+    res->report.setUnobservable(std::string("accel.misalignment.") + m);
+  res->notes.push_back(
+      "accel misalignments yx, zx, zy fixed at 0: |f| = g cannot see a rotation of the triad; "
+      "the instrument frame is defined by the accelerometers (z axis, y in the yz plane)");
+  res->accel_rms_after = accelRms(p.acc_means, g, acc);
+  return checkAccelGeometry(data, p.spans, p.acc_means, res->accel(), o);
+}
 
-  // ---- Gyro ----
-  const Vec3 gyro_offset = gyr_means.front();  // raw reading at rest in the first pose
+// The rotations between consecutive poses that change the gravity direction by > 5 deg, their
+// readings with the gyro bias removed: the straight line between the rest readings of the
+// poses before and after (MEMS biases drift 0.1-1 mrad/s over a session; each pose's rest
+// reading holds its bias and its small Earth-rate projection), or the first pose's throughout.
+std::vector<Rotation> rotationsBetweenPoses(const RawImuData& data, const Poses& p,
+                                            const TriadModel& accel,
+                                            const ScalarCalibrationOptions& o) {
   std::vector<Vec3> u;
-  for (const Vec3& a : acc_means) u.push_back(res.accel().input(a).normalized());
+  for (const Vec3& a : p.acc_means) u.push_back(accel.input(a).normalized());
   std::vector<Rotation> rots;
-  for (std::size_t k = 0; k + 1 < spans.size(); ++k) {
+  for (std::size_t k = 0; k + 1 < p.spans.size(); ++k) {
     Rotation r;
-    // The gyro bias drifts between poses (MEMS: 0.1-1 mrad/s over a session): during the
-    // rotation it is taken as the straight line between the rest readings of the poses before
-    // and after, each of which holds that pose's bias (and its small Earth-rate projection).
-    const double ta = data.t[spans[k].end - 1], tb = data.t[spans[k + 1].begin];
-    for (std::size_t i = spans[k].end; i <= spans[k + 1].begin && i < data.size(); ++i) {
+    const double ta = data.t[p.spans[k].end - 1], tb = data.t[p.spans[k + 1].begin];
+    for (std::size_t i = p.spans[k].end; i <= p.spans[k + 1].begin && i < data.size(); ++i) {
       const double w = tb > ta ? std::clamp((data.t[i] - ta) / (tb - ta), 0.0, 1.0) : 0.0;
       const Vec3 offset = o.interpolate_gyro_bias
-                              ? Vec3((1.0 - w) * gyr_means[k] + w * gyr_means[k + 1])
-                              : gyro_offset;
+                              ? Vec3((1.0 - w) * p.gyr_means[k] + w * p.gyr_means[k + 1])
+                              : p.gyr_means.front();
       r.rates.push_back(data.gyro[i] - offset);
       r.dts.push_back(data.t[i] - data.t[i - 1]);
     }
@@ -469,8 +468,139 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     if (std::acos(std::clamp(r.u0.dot(r.u1), -1.0, 1.0)) < 5.0 * kDegToRad) continue;
     rots.push_back(std::move(r));
   }
+  return rots;
+}
+
+// Readings per rad/s when no guess is given: raw counts have no known unit, so a coarse 1-D
+// search over 10^-3 .. 10^6 in 1/12-decade steps.
+double gyroScaleGuess(const std::vector<Rotation>& rots, const ScalarCalibrationOptions& o) {
+  if (o.gyro_scale_guess) return *o.gyro_scale_guess;
+  double best = std::numeric_limits<double>::infinity(), s0 = 1.0;
+  for (int e = -36; e <= 72; ++e) {
+    const double sc = std::pow(10.0, e / 12.0);
+    Triad t = TriadModel{}.block();
+    for (int k = 0; k < 3; ++k) t[kScale + k] = sc;
+    const double c = gyroCost(rots, t.data());
+    if (c < best) {
+      best = c;
+      s0 = sc;
+    }
+  }
+  return s0;
+}
+
+// Gyro scales and all six misalignments (relative to the accelerometers' frame) from the
+// gravity-direction changes; a direction the rotations do not determine is a refusal.
+RecordingCheck fitGyroGains(const std::vector<Rotation>& rots, const ScalarCalibrationOptions& o,
+                            ScalarCalibrationResult* res) {
+  Triad gyr = TriadModel{}.block();
+  const double s0 = gyroScaleGuess(rots, o);
+  for (int k = 0; k < 3; ++k) gyr[kScale + k] = s0;
+  const double n_dir = 3.0 * static_cast<double>(rots.size());
+  res->gyro_rms_before = std::sqrt(gyroCost(rots, gyr.data()) / n_dir);
+  ceres::Problem problem;
+  for (const Rotation& r : rots)
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<GyroDirCost, 3, kTriadSize>(new GyroDirCost{&r}), nullptr,
+        gyr.data());
+  problem.SetManifold(gyr.data(),
+                      new ceres::SubsetManifold(kTriadSize, {kBias, kBias + 1, kBias + 2}));
+  ceres::Solver::Options so;
+  so.max_num_iterations = o.gyro_solver.max_iterations;
+  so.function_tolerance = o.gyro_solver.function_tolerance;
+  so.parameter_tolerance = o.gyro_solver.parameter_tolerance;
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, &problem, &sum);
+  if (!sum.IsSolutionUsable()) {
+    return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics,
+                                 "gyro solve failed: " + sum.message);
+  }
+  std::vector<std::string> names = {"gyro.scale.x", "gyro.scale.y", "gyro.scale.z"};
+  for (const char* m : {"xy", "xz", "yx", "yz", "zx", "zy"})
+    names.push_back(std::string("gyro.misalignment.") + m);
+  std::string unresolved;
+  const Eigen::VectorXd sig =
+      sigmasAndNotes(problem, sum.final_cost, static_cast<int>(n_dir), names, &unresolved);
+  std::ostringstream s;
+  if (!unresolved.empty()) {
+    s << "the " << rots.size()
+      << " rotations between static poses do not determine the gyro scales and "
+         "misalignments (each gives two gravity-direction components; a full turn gives "
+         "none): no information along "
+      << unresolved << " (rotate about each axis by less than a full turn between poses)";
+    return refuse(s);
+  }
+  for (std::size_t k = 0; k < names.size(); ++k)
+    res->report.setSigma(names[k], sig(static_cast<Eigen::Index>(k)));
+  res->report.values.sensors.gyro = TriadModel::fromBlock(gyr.data());
+  res->gyro_rms_after = std::sqrt(2.0 * sum.final_cost / n_dir);
+  if (res->gyro_rms_after > o.max_gyro_rms_rad) {
+    s << "the integrated gyro rotations miss the gravity-direction changes by "
+      << res->gyro_rms_after
+      << " rad RMS after the fit: the gyro axes do not match the accelerometer's (swapped or "
+         "mirrored columns?) or the motion between poses is not captured";
+    return refuse(s);
+  }
+  return RecordingCheck::Ok();
+}
+
+// The gyro bias from the first pose's rest reading (reading = s (M w - b) with w ~ 0 at rest,
+// less the vertical Earth rate when the latitude is known) and its honest sigma.
+void gyroBias(const RawImuData& data, const Poses& p, const ScalarCalibrationOptions& o,
+              ScalarCalibrationResult* res) {
+  TriadModel& gyr = res->report.values.sensors.gyro;
+  const Vec3& gyro_offset = p.gyr_means.front();
+  const Vec3 up_B = res->accel().input(p.acc_means.front()).normalized();
+  gyr.bias = -gyro_offset.cwiseQuotient(gyr.scale);
+  if (o.latitude_rad) gyr.bias += gyr.M() * (nav::kEarthRate * std::sin(*o.latitude_rad) * up_B);
+  const StaticSpan& first = p.spans.front();
+  const double n0 = static_cast<double>(first.end - first.begin);
+  Vec3 var = Vec3::Zero();
+  for (std::size_t i = first.begin; i < first.end; ++i)
+    var += (data.gyro[i] - gyro_offset).cwiseAbs2();
+  const Vec3 bias_sigma =
+      gyroBiasSigma(gyr, (var / n0).cwiseSqrt() / std::sqrt(n0), p.gyr_means, up_B, o);
+  for (int k = 0; k < 3; ++k)
+    res->report.setSigma(std::string("gyro.bias.") + kAxisNames[static_cast<std::size_t>(k)],
+                         bias_sigma[k]);
+}
+
+// Earth-rate invariant: at rest |w| = 7.29e-5 rad/s in every pose; usable only when the
+// static rates scatter far less than that.
+void earthRateNote(const Poses& p, const ScalarCalibrationOptions& o,
+                   ScalarCalibrationResult* res) {
+  const TriadModel& gyr = res->gyro();
+  double sc = 0.0;
+  for (const Vec3& gm : p.gyr_means)
+    sc += (gyr.input(gm) - gyr.input(p.gyr_means.front())).squaredNorm();
+  res->static_rate_scatter = std::sqrt(sc / static_cast<double>(p.gyr_means.size()));
+  res->earth_rate_usable = res->static_rate_scatter < 0.2 * nav::kEarthRate;
+  std::ostringstream s;
+  s << "static gyro rates after removing the first-pose bias scatter by "
+    << res->static_rate_scatter << " rad/s RMS vs Earth rate " << nav::kEarthRate << " rad/s: "
+    << (res->earth_rate_usable ? "Earth-rate invariant usable"
+                               : "bias instability/noise hides the Earth rate, invariant not used")
+    << (o.latitude_rad ? "; the vertical Earth rate is removed from the gyro bias, the horizontal "
+                         "part (unknown heading) and the drift between poses are in its sigma"
+                       : "; the gyro bias includes the Earth-rate projection of the first pose "
+                         "(give the latitude to remove its vertical part); the Earth rate and the "
+                         "drift between poses are in its sigma");
+  res->notes.push_back(s.str());
+}
+
+}  // namespace
+
+ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCalibrationOptions& o,
+                                        bool accel_unit_is_si) {
+  ScalarCalibrationResult res;
+  Poses p;
+  res.status = findPoses(data, o, &p);
+  if (!res.status.ok()) return res;
+  res.spans = p.spans;
+  res.status = fitAccel(data, p, o, accel_unit_is_si, &res);
+  if (!res.status.ok()) return res;
+  const std::vector<Rotation> rots = rotationsBetweenPoses(data, p, res.accel(), o);
   res.rotations_used = static_cast<int>(rots.size());
-  double s_g[3], m_g[6] = {0, 0, 0, 0, 0, 0};
   if (rots.size() < 3) {
     std::ostringstream s;
     s << "only " << rots.size()
@@ -482,104 +612,10 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
       res.report.setUnobservable(std::string("gyro.misalignment.") + m);
     return res;
   }
-  double s0 = o.gyro_scale_guess.value_or(0.0);
-  if (!o.gyro_scale_guess) {
-    double best = std::numeric_limits<double>::infinity();
-    for (int e = -36; e <= 72; ++e) {  // 10^-3 .. 10^6 in 1/12-decade steps
-      const double sc = std::pow(10.0, e / 12.0);
-      const double ss[3] = {sc, sc, sc};
-      const double c = gyroCost(rots, ss, m_g);
-      if (c < best) {
-        best = c;
-        s0 = sc;
-      }
-    }
-  }
-  for (double& x : s_g) x = s0;
-  const double n_dir = 3.0 * static_cast<double>(rots.size());
-  res.gyro_rms_before = std::sqrt(gyroCost(rots, s_g, m_g) / n_dir);
-  {
-    ceres::Problem problem;
-    for (const Rotation& r : rots)
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<GyroDirCost, 3, 3, 6>(new GyroDirCost{&r}), nullptr, s_g,
-          m_g);
-    ceres::Solver::Options so;
-    so.max_num_iterations = 100;
-    so.function_tolerance = 1e-12;
-    ceres::Solver::Summary sum;
-    ceres::Solve(so, &problem, &sum);
-    if (!sum.IsSolutionUsable()) {
-      res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics,
-                                         "gyro solve failed: " + sum.message);
-      return res;
-    }
-    std::vector<std::string> names = {"gyro.scale.x", "gyro.scale.y", "gyro.scale.z"};
-    for (const char* m : {"xy", "xz", "yx", "yz", "zx", "zy"})
-      names.push_back(std::string("gyro.misalignment.") + m);
-    std::string unresolved;
-    const Eigen::VectorXd sig =
-        sigmasAndNotes(problem, sum.final_cost, static_cast<int>(n_dir), names, &unresolved);
-    if (!unresolved.empty()) {
-      std::ostringstream s;
-      s << "the " << rots.size()
-        << " rotations between static poses do not determine the gyro scales and "
-           "misalignments (each gives two gravity-direction components; a full turn gives "
-           "none): no information along "
-        << unresolved << " (rotate about each axis by less than a full turn between poses)";
-      res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
-      return res;
-    }
-    for (std::size_t k = 0; k < names.size(); ++k)
-      res.report.setSigma(names[k], sig(static_cast<Eigen::Index>(k)));
-    TriadModel& gyr = res.report.values.sensors.gyro;
-    gyr.scale = Vec3(s_g[0], s_g[1], s_g[2]);
-    gyr.mis = Misalignment{m_g[0], m_g[1], m_g[2], m_g[3], m_g[4], m_g[5]};
-    res.gyro_rms_after = std::sqrt(2.0 * sum.final_cost / n_dir);
-    if (res.gyro_rms_after > o.max_gyro_rms_rad) {
-      std::ostringstream s;
-      s << "the integrated gyro rotations miss the gravity-direction changes by "
-        << res.gyro_rms_after
-        << " rad RMS after the fit: the gyro axes do not match the accelerometer's (swapped or "
-           "mirrored columns?) or the motion between poses is not captured";
-      res.status = RecordingCheck::Error(RecordingStatusCode::kTooFewStatics, s.str());
-      return res;
-    }
-  }
-  // reading = s (M w - b) with w ~ 0 at rest: b = -offset / s (Earth rate neglected).
-  TriadModel& gyr = res.report.values.sensors.gyro;
-  gyr.bias = -gyro_offset.cwiseQuotient(gyr.scale);
-  if (o.latitude_rad) {
-    // At rest the gyro senses the Earth rate; its vertical part, Omega sin(lat) along the
-    // sensed "up" (the first pose's specific force), is known and leaves the bias.
-    const Vec3 up_B = res.accel().input(acc_means.front()).normalized();
-    gyr.bias += gyr.M() * (nav::kEarthRate * std::sin(*o.latitude_rad) * up_B);
-  }
-  const double n0 = static_cast<double>(spans.front().end - spans.front().begin);
-  Vec3 var = Vec3::Zero();
-  for (std::size_t i = spans.front().begin; i < spans.front().end; ++i)
-    var += (data.gyro[i] - gyro_offset).cwiseAbs2();
-  const Vec3 bias_sigma = gyroBiasSigma(gyr, (var / n0).cwiseSqrt() / std::sqrt(n0), gyr_means,
-                                        res.accel().input(acc_means.front()).normalized(), o);
-  for (int k = 0; k < 3; ++k)
-    res.report.setSigma(std::string("gyro.bias.") + kAxisNames[static_cast<std::size_t>(k)],
-                        bias_sigma[k]);
-  // Earth-rate invariant: at rest |w| = 7.29e-5 rad/s in every pose.
-  double sc = 0.0;
-  for (const Vec3& gm : gyr_means) sc += (gyr.input(gm) - gyr.input(gyro_offset)).squaredNorm();
-  res.static_rate_scatter = std::sqrt(sc / static_cast<double>(gyr_means.size()));
-  res.earth_rate_usable = res.static_rate_scatter < 0.2 * nav::kEarthRate;
-  std::ostringstream s;
-  s << "static gyro rates after removing the first-pose bias scatter by " << res.static_rate_scatter
-    << " rad/s RMS vs Earth rate " << nav::kEarthRate << " rad/s: "
-    << (res.earth_rate_usable ? "Earth-rate invariant usable"
-                              : "bias instability/noise hides the Earth rate, invariant not used")
-    << (o.latitude_rad ? "; the vertical Earth rate is removed from the gyro bias, the horizontal "
-                         "part (unknown heading) and the drift between poses are in its sigma"
-                       : "; the gyro bias includes the Earth-rate projection of the first pose "
-                         "(give the latitude to remove its vertical part); the Earth rate and the "
-                         "drift between poses are in its sigma");
-  res.notes.push_back(s.str());
+  res.status = fitGyroGains(rots, o, &res);
+  if (!res.status.ok()) return res;
+  gyroBias(data, p, o, &res);
+  earthRateNote(p, o, &res);
   return res;
 }
 

@@ -73,6 +73,21 @@ struct ScalarCalibrationOptions {
   StaticDetectionOptions detection;
   RecordingCheckOptions checks;
 
+  // Solver settings of the two least-squares fits (Ceres).
+  struct Solver {
+    int max_iterations = 100;
+    double function_tolerance = 1e-12;
+    double parameter_tolerance = 1e-8;
+  };
+  // |f| = g is mildly nonlinear from the min/max start and converges in a few iterations; the
+  // cap of 200 only bounds a pathological recording. Tolerances of 1e-14: the cost is in
+  // (m/s^2)^2 and raw-count scales are ~1e2-1e4, so the default 1e-6/1e-8 would stop far above
+  // the parameters' sigmas.
+  Solver accel_solver{200, 1e-14, 1e-14};
+  // The gravity-direction fit re-integrates every rotation per evaluation: 100 iterations from
+  // the decade search's start are ample; 1e-12 relative cost change is far below the noise.
+  Solver gyro_solver{100, 1e-12, 1e-8};
+
   bool IsValid(std::string* why) const;
 };
 
