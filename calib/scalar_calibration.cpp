@@ -352,6 +352,21 @@ int distinctDirections(const std::vector<Vec3>& acc_means, const Triad& guess, d
   return static_cast<int>(dirs.size());
 }
 
+// Runs one fit with the options' solver settings; its final cost, or why it failed.
+RecordingCheck solve(ceres::Problem& problem, const ScalarCalibrationOptions::Solver& settings,
+                     const std::string& what, double* final_cost) {
+  ceres::Solver::Options so;
+  so.max_num_iterations = settings.max_iterations;
+  so.function_tolerance = settings.function_tolerance;
+  so.parameter_tolerance = settings.parameter_tolerance;
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, &problem, &sum);
+  *final_cost = sum.final_cost;
+  if (sum.IsSolutionUsable()) return RecordingCheck::Ok();
+  return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics,
+                               what + " solve failed: " + sum.message);
+}
+
 // Solves |f| = g over the poses for the free entries of `triad` (names, in block order), with
 // sigmas; a direction the poses do not determine is a refusal.
 RecordingCheck solveAccel(const std::vector<Vec3>& acc_means, const ScalarCalibrationOptions& o,
@@ -363,19 +378,12 @@ RecordingCheck solveAccel(const std::vector<Vec3>& acc_means, const ScalarCalibr
                                  new AccelNormCost{a, o.gravity_mps2}),
                              nullptr, triad->data());
   problem.SetManifold(triad->data(), new ceres::SubsetManifold(kTriadSize, fixed));
-  ceres::Solver::Options so;
-  so.max_num_iterations = o.accel_solver.max_iterations;
-  so.function_tolerance = o.accel_solver.function_tolerance;
-  so.parameter_tolerance = o.accel_solver.parameter_tolerance;
-  ceres::Solver::Summary sum;
-  ceres::Solve(so, &problem, &sum);
-  if (!sum.IsSolutionUsable()) {
-    return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics,
-                                 "accelerometer solve failed: " + sum.message);
-  }
+  double final_cost = 0.0;
+  if (RecordingCheck c = solve(problem, o.accel_solver, "accelerometer", &final_cost); !c.ok())
+    return c;
   std::string unresolved;
-  *sig = sigmasAndNotes(problem, sum.final_cost, static_cast<int>(acc_means.size()), names,
-                        &unresolved);
+  *sig =
+      sigmasAndNotes(problem, final_cost, static_cast<int>(acc_means.size()), names, &unresolved);
   if (!unresolved.empty()) {
     return RecordingCheck::Error(
         RecordingStatusCode::kTooFewStatics,
@@ -505,22 +513,14 @@ RecordingCheck fitGyroGains(const std::vector<Rotation>& rots, const ScalarCalib
         gyr.data());
   problem.SetManifold(gyr.data(),
                       new ceres::SubsetManifold(kTriadSize, {kBias, kBias + 1, kBias + 2}));
-  ceres::Solver::Options so;
-  so.max_num_iterations = o.gyro_solver.max_iterations;
-  so.function_tolerance = o.gyro_solver.function_tolerance;
-  so.parameter_tolerance = o.gyro_solver.parameter_tolerance;
-  ceres::Solver::Summary sum;
-  ceres::Solve(so, &problem, &sum);
-  if (!sum.IsSolutionUsable()) {
-    return RecordingCheck::Error(RecordingStatusCode::kTooFewStatics,
-                                 "gyro solve failed: " + sum.message);
-  }
+  double final_cost = 0.0;
+  if (RecordingCheck c = solve(problem, o.gyro_solver, "gyro", &final_cost); !c.ok()) return c;
   std::vector<std::string> names = {"gyro.scale.x", "gyro.scale.y", "gyro.scale.z"};
   for (const char* m : {"xy", "xz", "yx", "yz", "zx", "zy"})
     names.push_back(std::string("gyro.misalignment.") + m);
   std::string unresolved;
   const Eigen::VectorXd sig =
-      sigmasAndNotes(problem, sum.final_cost, static_cast<int>(n_dir), names, &unresolved);
+      sigmasAndNotes(problem, final_cost, static_cast<int>(n_dir), names, &unresolved);
   std::ostringstream s;
   if (!unresolved.empty()) {
     s << "the " << rots.size()
@@ -533,7 +533,7 @@ RecordingCheck fitGyroGains(const std::vector<Rotation>& rots, const ScalarCalib
   for (std::size_t k = 0; k < names.size(); ++k)
     res->report.setSigma(names[k], sig(static_cast<Eigen::Index>(k)));
   res->report.values.sensors.gyro = TriadModel::fromBlock(gyr.data());
-  res->gyro_rms_after = std::sqrt(2.0 * sum.final_cost / n_dir);
+  res->gyro_rms_after = std::sqrt(2.0 * final_cost / n_dir);
   if (res->gyro_rms_after > o.max_gyro_rms_rad) {
     s << "the integrated gyro rotations miss the gravity-direction changes by "
       << res->gyro_rms_after
