@@ -38,6 +38,10 @@ c = Client(work + "/control.sock")
 c.subscribe("run")
 out = imubench("start", work + "/first.toml")
 check("started run 1" in out, "first plan runs")
+# Held paused while the queue is edited, so the checks below do not race the plan's end on a
+# fast (or slow) machine; resumed before waiting for it to complete.
+check(c.reply({"cmd": "pause"})["ok"], "pause run 1")
+c.wait_event(lambda e: e["event"] == "state" and e["state"] == "paused", "paused")
 out = imubench("start", "--queue", work + "/second.toml")
 check("queued as entry 1 at position 1 (plan second)" in out, "second queued: " + out.strip())
 out = imubench("start", "--queue", work + "/third.toml")
@@ -64,7 +68,7 @@ with imubench_client.Client(work + "/control.sock") as py:
         check(e.code == "not_found" and "queue entry 99" in e.message, "unknown entry: " + e.message)
     try:
         py.queue_resume()
-        check(False, "queue_resume while a run is going is refused")
+        check(False, "queue_resume while a run is going (paused) is refused")
     except imubench_client.RemoteError as e:
         check(e.code == "bad_state", "queue_resume while running: " + e.message)
 
@@ -75,6 +79,7 @@ check("second" not in out and "third" in out, "second removed\n" + out)
 out = imubench("queue")
 check(out.splitlines()[1].split()[:3] == ["1", "2", "third"], "imubench queue:\n" + out)
 check(c.reply({"cmd": "status"})["result"]["queued"] == 1, "status counts the queue")
+check(c.reply({"cmd": "resume"})["ok"], "resume run 1")
 
 end = c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == 1, "run 1 end")
 check(end["exit"] == "completed", "first plan completed")
