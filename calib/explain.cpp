@@ -191,39 +191,72 @@ Eigen::MatrixXd columnsOf(const Eigen::MatrixXd& M, const std::vector<int>& cols
   return out;
 }
 
-// Between-effect part of the gate: pairs whose projected column spaces share a direction.
+// Flat name of candidate column j.
+const std::string& nameOfColumn(const Candidate& c, int j) {
+  for (std::size_t k = 0; k < c.cols.size(); ++k) {
+    if (c.cols[k] == j) return c.names[k];
+  }
+  return c.id;
+}
+
+// Parameters of b to hold so that no combination of b's active columns lies within
+// unseparable_cos of a's column space (the same test as gateParameters against the baseline:
+// the weakest direction of b's columns, unit-normalised and projected off a, is dropped by
+// its dominating parameter until none is that close). Returns the held flat names.
+std::vector<std::string> holdSharedWith(const GateInput& g, const ExplainOptions& o,
+                                        const Candidate& a, Candidate* b) {
+  std::vector<std::string> held;
+  const Eigen::MatrixXd A = columnBasis(columnsOf(*g.Cperp, a.active), 1e-9);
+  if (A.cols() == 0) return held;
+  const double sine = std::sqrt(std::max(0.0, 1.0 - o.unseparable_cos * o.unseparable_cos));
+  while (!b->active.empty()) {
+    Eigen::MatrixXd Z(g.Cperp->rows(), static_cast<int>(b->active.size()));
+    for (std::size_t k = 0; k < b->active.size(); ++k) {
+      const Eigen::VectorXd z = g.Cperp->col(b->active[k]);
+      Z.col(static_cast<int>(k)) = z / std::max(z.norm(), 1e-300);
+    }
+    const Eigen::MatrixXd Zoff = Z - A * (A.transpose() * Z);
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(Zoff, Eigen::ComputeThinV);
+    const int last = static_cast<int>(b->active.size()) - 1;
+    if (svd.singularValues()(last) >= sine) break;
+    Eigen::Index worst = 0;
+    svd.matrixV().col(last).cwiseAbs().maxCoeff(&worst);
+    held.push_back(nameOfColumn(*b, b->active[static_cast<std::size_t>(worst)]));
+    b->active.erase(b->active.begin() + worst);
+  }
+  return held;
+}
+
+// Between-effect part of the gate: two candidates whose projected column spaces share a
+// direction cannot be told apart along it. The earlier candidate (table groups first, in
+// kTableGroups order, then the registry's order) keeps the shared direction, so the signal
+// along it stays explained by one named effect instead of leaking into a wrong one; the later
+// one holds the parameters spanning it at zero, and the pair is reported unseparable with the
+// motion that would separate them. A candidate left with no parameter is not selected.
 void gatePairs(const GateInput& g, const ExplainOptions& o, std::vector<Candidate>* cands,
                ExplainResult* res) {
-  std::vector<Eigen::MatrixXd> bases(cands->size());
-  for (std::size_t a = 0; a < cands->size(); ++a) {
-    if ((*cands)[a].status == GateStatus::kActive) {
-      bases[a] = columnBasis(columnsOf(*g.Cperp, (*cands)[a].active), 1e-9);
-    }
-  }
-  std::vector<bool> bad(cands->size(), false);
   for (std::size_t a = 0; a < cands->size(); ++a) {
     for (std::size_t b = a + 1; b < cands->size(); ++b) {
-      if ((*cands)[a].status != GateStatus::kActive || (*cands)[b].status != GateStatus::kActive)
-        continue;
-      if (bases[a].cols() == 0 || bases[b].cols() == 0) continue;
-      const Eigen::MatrixXd P = bases[a].transpose() * bases[b];
-      const double cosine = Eigen::JacobiSVD<Eigen::MatrixXd>(P).singularValues()(0);
-      if (cosine < o.unseparable_cos) continue;
-      bad[a] = bad[b] = true;
-      char buf[96];
-      std::snprintf(buf, sizeof(buf), "%.4f", cosine);
+      Candidate& ca = (*cands)[a];
+      Candidate& cb = (*cands)[b];
+      if (ca.status != GateStatus::kActive || cb.status != GateStatus::kActive) continue;
+      const std::vector<std::string> held = holdSharedWith(g, o, ca, &cb);
+      if (held.empty()) continue;
+      std::string names;
+      for (const std::string& n : held) names += (names.empty() ? "" : ", ") + n;
+      const bool all = cb.active.empty();
+      if (all) cb.status = GateStatus::kPairUnseparable;
+      cb.held_note += names + " shares its effect on the readings with " + ca.id + "; ";
       res->unseparable.push_back(
-          {{(*cands)[a].id, (*cands)[b].id},
-           (*cands)[a].id + " and " + (*cands)[b].id +
-               " change the readings the same way on this recording (principal-angle cosine " +
-               buf +
-               " after removing the baseline coefficients): not selected. To separate "
-               "them record " +
-               separatingMotion((*cands)[a].id) + " and " + separatingMotion((*cands)[b].id)});
+          {{ca.id, cb.id},
+           ca.id + " and " + cb.id + " change the readings the same way on this recording" +
+               (all ? "" : " along " + names) +
+               " (within the principal-angle cosine limit, after removing the baseline "
+               "coefficients): that part is reported as " +
+               ca.id + (all ? "; " + cb.id + " is not selected" : ", " + names + " held at zero") +
+               ". To separate them record " + separatingMotion(ca.id) + " and " +
+               separatingMotion(cb.id)});
     }
-  }
-  for (std::size_t a = 0; a < cands->size(); ++a) {
-    if (bad[a]) (*cands)[a].status = GateStatus::kPairUnseparable;
   }
 }
 

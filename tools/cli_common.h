@@ -36,6 +36,7 @@ void addNavCommand(CLI::App& app);       // cli_nav.cpp
 void addCalibrateCommand(CLI::App& app);   // cli_calibrate.cpp
 void addExperimentCommand(CLI::App& app);  // cli_experiment.cpp
 void addObserveCommand(CLI::App& app);     // cli_observe.cpp (`imubench plan observe`)
+void addExplainCommand(CLI::App& app);     // cli_explain.cpp (model-discrepancy analysis)
 // The run store: `runs`, `export`, `import` (cli_runs.cpp; --db and run ids in cli_store.h).
 void addStoreCommands(CLI::App& app);
 // Operator's commands to imubenchd over its control socket: start, pause, resume, abort, stop,

@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   addObserveCommand(app);  // `plan observe`: after addPlanCommand
   addNavCommand(app);
   addCalibrateCommand(app);
+  addExplainCommand(app);
   addExperimentCommand(app);
   addStoreCommands(app);
   addControlCommands(app);

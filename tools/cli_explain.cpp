@@ -1,0 +1,411 @@
+// imubench explain RUN_OR_DIR [--coeffs C.json] [--direct RUN_OR_DIR] [--json FILE]
+//                             [--report DIR] [--effects id,id,...] [--bin S] [--db PATH]
+// imubench explain FILE --format imutk --gyro GYRO_FILE [--latitude DEG --height M | --gravity G]
+// imubench explain FILE --format imucal|mikov [--rate HZ] [--gravity G]
+//
+// Examples:
+//   imubench explain /tmp/rec12                       (baseline calibrated from the recording)
+//   imubench explain /tmp/rec12 --direct /tmp/recdirect --report /tmp/rep --json /tmp/x.json
+//   imubench explain /tmp/rec12 --coeffs coef.json --effects lever_arm,time_delay
+//   imubench explain 12 --db lab.db                   (run 12 of the store)
+//   imubench explain ../shared/data/real/imutk_xsens_acc.txt --format imutk
+//       --gyro ../shared/data/real/imutk_xsens_gyro.txt --latitude 45.4 --height 12
+//
+// The model-discrepancy analysis (calib/explain.h, docs/explain.md): where the bench's forward
+// model misses the recording, which physics it left out, how much, and how much better the fit
+// is with it. The baseline it starts from:
+//   --coeffs FILE    given coefficients (interchange coefficient file); the recording refits
+//                    them jointly with any accepted effect; a file far from what the recording
+//                    shows (another IMU, another range setting) is refused;
+//   --direct RUN_OR_DIR  the production pipeline (direct calibration of that recording,
+//                    navigation-based refinement over both): base tilt and nonorthogonality
+//                    are then part of the baseline;
+//   neither          calibrated from the recording itself with the method its motion supports
+//                    (calib/explain_baseline.h), said on the first lines.
+// --format imutk|imucal|mikov: a recording without table angles (static poses of unknown attitude):
+// the scalar model (calib/explain_scalar.h) on its static poses.
+// Exit codes: 0 the analysis ran (whether or not it found anything); 1 bad input, or the
+// recording does not support the analysis (the reason is printed); 2 usage.
+// Output: a summary on stdout; --json FILE the interchange report (imubench-explain/1);
+// --report DIR a self-contained DIR/report.html (io/explain_report.h).
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include "calib/bench_calibration.h"
+#include "calib/explain.h"
+#include "calib/explain_baseline.h"
+#include "calib/explain_scalar.h"
+#include "io/explain_report.h"
+#include "io/import_real.h"
+#include "io/recording.h"
+#include "io/sim_recording.h"
+#include "io/truth_file.h"
+#include "tools/cli_common.h"
+#include "tools/cli_store.h"
+
+namespace imubench::tools {
+namespace {
+
+struct ExplainCliOptions {
+  std::string input;
+  std::string coeffs;
+  std::string direct;
+  std::string json_out;
+  std::string report_dir;
+  std::string effects;  // comma-separated ids
+  std::optional<double> bin_s;
+  std::string db;
+  std::string format = "imubench";
+  std::string gyro_file;
+  double rate_hz = io::kImucalExampleRateHz;
+  bool rate_hz_given = false;
+  std::optional<double> gravity;
+  std::optional<double> latitude_deg;
+  double height_m = 0.0;
+};
+
+// Display units of the six channels: SI recordings in ug and deg/h; third-party recordings in
+// their own reading units (the analysis runs on readings, not on calibrated quantities).
+struct ChannelUnits {
+  std::array<double, 6> per{1, 1, 1, 1, 1, 1};  // reading units per display unit
+  std::array<std::string, 6> name;
+};
+
+ChannelUnits siUnits() {
+  ChannelUnits u;
+  for (int c = 0; c < 6; ++c) {
+    u.per[static_cast<std::size_t>(c)] = c < 3 ? 9.80665e-6 : kDegToRad / 3600.0;
+    u.name[static_cast<std::size_t>(c)] = c < 3 ? "ug" : "deg/h";
+  }
+  return u;
+}
+
+// The analysis's input recording and baseline, with the lines that say where it came from.
+struct Prepared {
+  ChannelUnits units = siUnits();
+  calib::ExplainInput input;
+  std::vector<calib::TableSample> table;
+  std::vector<std::string> said;  // printed before the result
+};
+
+std::vector<std::string> splitIds(const std::string& list) {
+  std::vector<std::string> ids;
+  std::stringstream ss(list);
+  std::string id;
+  while (std::getline(ss, id, ',')) {
+    if (!id.empty()) ids.push_back(id);
+  }
+  return ids;
+}
+
+// --effects: every id must be an interchange effect id the analysis knows.
+std::vector<std::string> checkedEffects(const std::string& list) {
+  std::vector<std::string> ids = splitIds(list);
+  calib::ExplainOptions all;
+  std::vector<std::string> known;
+  for (const calib::ExplainCandidateSpec& c : calib::registryCandidates(all)) {
+    known.push_back(c.id);
+  }
+  for (const char* t : {"base_tilt", "nonorthogonality", "encoder_zero", "mounting"}) {
+    known.emplace_back(t);
+  }
+  for (const std::string& id : ids) {
+    if (std::find(known.begin(), known.end(), id) == known.end()) {
+      std::string all_ids;
+      for (const std::string& k : known) all_ids += (all_ids.empty() ? "" : ",") + k;
+      throw CommandFailed("--effects: '" + id + "' is not an effect id (known: " + all_ids + ")",
+                          2);
+    }
+  }
+  return ids;
+}
+
+// Table groups a given coefficient file carries (nonzero): the baseline estimated them.
+std::vector<std::string> givenTableParams(const calib::CoefficientReport& r,
+                                          calib::TableKind kind) {
+  calib::BenchTruth t = r.values;
+  t.table_kind = kind;
+  std::vector<std::string> out;
+  for (const std::string& n : calib::flatNames(t)) {
+    if (n.rfind("table.", 0) != 0) continue;
+    if (calib::flatValue(t, n).value_or(0.0) != 0.0 || r.uncertainty.count(n) != 0) {
+      out.push_back(n);
+    }
+  }
+  return out;
+}
+
+void baselineFromFile(const ExplainCliOptions& o, Prepared* p) {
+  const io::CoefficientFileResult f = io::readCoefficientFile(o.coeffs);
+  if (!f.status.ok) throw CommandFailed(f.status.message);
+  p->input.baseline = f.report;
+  p->input.baseline_method = "given";
+  p->input.baseline_table_params = givenTableParams(f.report, p->input.geometry.kind);
+  p->said.push_back("baseline: the coefficients of " + o.coeffs +
+                    " (refitted jointly with any accepted effect)");
+}
+
+void baselineFromPipeline(const ExplainCliOptions& o, const ResolvedRecording& src, Prepared* p) {
+  const ResolvedRecording d = loadRunOrDir(o.direct, o.db);
+  if (d.recording.table_kind != src.recording.table_kind) {
+    throw CommandFailed(d.label + " and " + src.label +
+                        " were recorded on different table kinds: not the same table");
+  }
+  const std::vector<calib::TableSample> dtable = io::tableSamples(d.recording);
+  calib::BenchCalibrationInput in;
+  in.direct.geometry = io::geometryOf(d.recording);
+  in.direct.site = d.recording.site();
+  in.direct.imu = d.recording.imu;
+  in.direct.table = dtable;
+  in.direct.segments = d.recording.segments;
+  in.navigation.push_back({src.recording.imu, p->table, src.recording.segments});
+  const calib::BenchCalibrationResult r = calib::calibrateBench(in);
+  if (!r.ok) throw CommandFailed(src.label + " + " + d.label + ": baseline: " + r.error);
+  p->input.baseline = r.refined.coefficients;
+  p->input.baseline_method = "indirect";
+  calib::BenchTruth t = r.refined.coefficients.values;
+  t.table_kind = src.recording.table_kind;
+  for (const std::string& n : calib::flatNames(t)) {
+    if (n.rfind("table.base_tilt.", 0) == 0 || n.rfind("table.nonorthogonality.", 0) == 0) {
+      p->input.baseline_table_params.push_back(n);
+    }
+  }
+  p->said.push_back("baseline: the production pipeline (direct calibration of " + d.label +
+                    ", navigation-based refinement over both recordings, " +
+                    std::to_string(r.passes) + " pass(es))");
+}
+
+void baselineFromRecording(const ResolvedRecording& src, Prepared* p) {
+  const calib::BaselineInput bin{p->input.geometry, p->input.site, src.recording.imu, p->table,
+                                 src.recording.segments};
+  const calib::BaselineCalibration b = calib::calibrateBaseline(bin);
+  if (!b.ok) throw CommandFailed(src.label + ": baseline: " + b.error);
+  p->input.baseline = b.coefficients;
+  p->input.baseline_method = b.method;
+  p->input.baseline_table_params = b.table_params;
+  p->said.push_back("baseline: " + b.method + " calibration of " + src.label +
+                    " (no --coeffs: the method its motion supports)");
+  for (const std::string& n : b.notes) p->said.push_back("  " + n);
+}
+
+// ---- The summary on stdout ----
+
+void printRms(const ChannelUnits& units, const calib::ExplainResult& r) {
+  std::printf("residual RMS over %zu bins (before -> after; noise alone):\n", r.bins.size());
+  for (int c = 0; c < 6; ++c) {
+    const double u = units.per[static_cast<std::size_t>(c)];
+    std::printf("  %-8s %10.4g -> %10.4g %-8s  (noise %.4g; %.2fx -> %.2fx)\n",
+                calib::explainChannelName(c), r.rms_before[c] / u, r.rms_after[c] / u,
+                units.name[static_cast<std::size_t>(c)].c_str(), r.noise_rms[c] / u,
+                r.noise_rms[c] > 0 ? r.rms_before[c] / r.noise_rms[c] : 0.0,
+                r.noise_rms[c] > 0 ? r.rms_after[c] / r.noise_rms[c] : 0.0);
+  }
+  std::printf("normalised residual RMS %.3f -> %.3f (1 = the noise floor)\n",
+              r.baseline_normalised_rms, r.after_normalised_rms);
+}
+
+void printWindows(const ChannelUnits& units, const char* what,
+                  const std::vector<calib::ExplainWindow>& ws) {
+  const std::size_t shown = std::min<std::size_t>(ws.size(), 8);
+  std::printf("%s: %zu window(s)%s\n", what, ws.size(), ws.empty() ? "" : ", largest first:");
+  std::vector<calib::ExplainWindow> sorted = ws;
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto& a, const auto& b) { return std::abs(a.sigma) > std::abs(b.sigma); });
+  for (std::size_t k = 0; k < shown; ++k) {
+    const calib::ExplainWindow& w = sorted[k];
+    const std::size_t c = static_cast<std::size_t>(w.channel);
+    std::printf("  %9.1f-%9.1f s  %-7s %+8.1f sigma  (%+.4g %s)  %s\n", w.t0, w.t1,
+                calib::explainChannelName(w.channel), w.sigma, w.mean / units.per[c],
+                units.name[c].c_str(), w.reason.c_str());
+  }
+}
+
+void printEffects(const calib::ExplainResult& r) {
+  if (r.accepted.empty()) {
+    std::printf("accepted effects: none (nothing in the library is warranted by this recording)\n");
+  }
+  for (const calib::ExplainAccepted& a : r.accepted) {
+    std::printf("accepted %s: delta BIC %.1f, LR %.1f, p %.3g\n", a.effect.c_str(), a.delta_bic,
+                a.lr_stat, a.p_value);
+    for (std::size_t k = 0; k < a.values.size(); ++k) {
+      std::printf("    %-36s %+.6g  sigma %.3g (SI)\n", a.flat_names[k].c_str(), a.values[k],
+                  a.sigmas[k]);
+    }
+  }
+  for (const calib::ExplainRejected& x : r.rejected) {
+    std::printf("rejected %s: %s\n", x.effect.c_str(), x.reason.c_str());
+  }
+  for (const calib::ExplainUnseparable& u : r.unseparable) {
+    std::printf("unseparable: %s\n", u.reason.c_str());
+  }
+}
+
+void printSummary(const Prepared& p, const calib::ExplainResult& r) {
+  for (const std::string& s : p.said) std::printf("%s\n", s.c_str());
+  std::printf("noise floor (white, per sqrt(Hz)):");
+  for (int c = 0; c < 6; ++c) {
+    const std::size_t k = static_cast<std::size_t>(c);
+    std::printf(" %s %.3g %s", calib::explainChannelName(c), r.noise.white[k] / p.units.per[k],
+                p.units.name[k].c_str());
+  }
+  std::printf("\n");
+  printRms(p.units, r);
+  printWindows(p.units, "located (baseline residual beyond the noise floor)", r.located);
+  printEffects(r);
+  if (r.unexplained.empty()) {
+    std::printf("unexplained: none: after the refit the residual is within the noise floor\n");
+  } else {
+    printWindows(p.units, "UNEXPLAINED (nothing in the library accounts for these)", r.unexplained);
+  }
+  for (const std::string& n : r.notes) std::printf("note: %s\n", n.c_str());
+}
+
+void writeOutputs(const ExplainCliOptions& o, const std::string& label,
+                  const calib::ExplainResult& r) {
+  if (!o.json_out.empty()) {
+    const io::IoStatus s = io::writeJsonFile(o.json_out, calib::toJson(r));
+    if (!s.ok) throw CommandFailed(s.message);
+    std::printf("report JSON written to %s\n", o.json_out.c_str());
+  }
+  if (!o.report_dir.empty()) {
+    const io::IoStatus s = io::writeExplainReport(o.report_dir, r, label);
+    if (!s.ok) throw CommandFailed(s.message);
+    std::printf("report written to %s/report.html\n", o.report_dir.c_str());
+  }
+}
+
+calib::ExplainOptions analysisOptions(const ExplainCliOptions& o) {
+  calib::ExplainOptions eo;
+  if (!o.effects.empty()) eo.candidates = checkedEffects(o.effects);
+  if (o.bin_s) eo.model.bin_s = *o.bin_s;
+  std::string why;
+  if (!eo.IsValid(&why)) throw CommandFailed("options: " + why, 2);
+  return eo;
+}
+
+void runExplainTable(const ExplainCliOptions& o) {
+  if (!o.coeffs.empty() && !o.direct.empty()) {
+    throw CommandFailed("--coeffs and --direct both give the baseline: choose one", 2);
+  }
+  const calib::ExplainOptions eo = analysisOptions(o);
+  const ResolvedRecording src = loadRunOrDir(o.input, o.db);
+  Prepared p;
+  p.table = io::tableSamples(src.recording);
+  p.input.geometry = io::geometryOf(src.recording);
+  p.input.site = src.recording.site();
+  p.input.imu = src.recording.imu;
+  p.input.table = p.table;
+  p.input.segments = src.recording.segments;
+  p.said.push_back("explain " + src.label + ": " + std::to_string(src.recording.imu.size()) +
+                   " IMU samples, " + std::to_string(src.recording.segments.size()) + " segments");
+  if (!o.coeffs.empty()) {
+    baselineFromFile(o, &p);
+  } else if (!o.direct.empty()) {
+    baselineFromPipeline(o, src, &p);
+  } else {
+    baselineFromRecording(src, &p);
+  }
+  const calib::ExplainResult r = calib::explainRecording(p.input, eo);
+  if (!r.ok) throw CommandFailed(src.label + ": explain: " + r.error);
+  printSummary(p, r);
+  writeOutputs(o, src.label, r);
+}
+
+void runExplainScalar(const ExplainCliOptions& o) {
+  if (!o.coeffs.empty() || !o.direct.empty()) {
+    throw CommandFailed("--format " + o.format +
+                            " recordings are explained from their own scalar calibration: no "
+                            "--coeffs or --direct",
+                        2);
+  }
+  const calib::ExplainOptions eo = analysisOptions(o);
+  io::RealImport in;
+  calib::ScalarCalibrationOptions so;
+  bool accel_si = true;
+  if (o.format == "imutk") {
+    if (o.gyro_file.empty()) throw CommandFailed("--format imutk needs --gyro FILE", 2);
+    in = io::readImuTkPair(o.input, o.gyro_file);
+    so.min_initial_static_s = 30.0;
+    accel_si = false;
+    if (in.unsigned_counts) {
+      so.checks.accel_min = so.checks.gyro_min = 0.0;
+      so.checks.accel_max = so.checks.gyro_max = 65535.0;
+    }
+  } else if (o.format == "mikov") {
+    in = io::readSixColumnLog(o.input, o.rate_hz_given ? o.rate_hz : io::kSixColumnLogRateHz);
+  } else {
+    in = io::readImucalCsv(o.input, o.rate_hz);
+  }
+  if (!in.ok) throw CommandFailed(in.error);
+  if (o.latitude_deg) so.latitude_rad = *o.latitude_deg * kDegToRad;
+  if (o.gravity) {
+    so.gravity_mps2 = *o.gravity;
+  } else if (o.latitude_deg) {
+    so.gravity_mps2 = nav::normalGravity(*o.latitude_deg * kDegToRad, o.height_m);
+  }
+  std::string why;
+  if (!so.IsValid(&why)) throw CommandFailed("options: " + why, 2);
+  const calib::ExplainResult r = calib::explainScalar(in.data, so, accel_si, eo);
+  if (!r.ok) throw CommandFailed(o.input + ": explain: " + r.error);
+  Prepared p;
+  for (std::size_t c = 0; c < 6; ++c) {
+    if (c >= 3 || !accel_si) {
+      p.units.per[c] = 1.0;
+      p.units.name[c] = c < 3 ? in.accel_unit : in.gyro_unit;
+    }
+  }
+  p.said.push_back("explain " + o.input + " (" + o.format + ", " + std::to_string(in.data.size()) +
+                   " samples, accel in " + in.accel_unit + ", gyro in " + in.gyro_unit +
+                   ", g = " + std::to_string(so.gravity_mps2) + " m/s^2)");
+  p.said.push_back(
+      "baseline: scalar calibration of the recording's static poses (no table: the poses' "
+      "attitudes are unknowns; residuals are of the accelerometer triad on the poses and of the "
+      "gyro at rest)");
+  printSummary(p, r);
+  writeOutputs(o, o.input, r);
+}
+
+}  // namespace
+
+void addExplainCommand(CLI::App& app) {
+  auto opt = std::make_shared<ExplainCliOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "explain",
+      "where the model misses a recording, what physics it left out, how much, and how much "
+      "better the fit is with it (docs/explain.md)");
+  sub->add_option("RUN_OR_DIR", opt->input,
+                  "imubench-csv/1 directory or run id (N, run:N); with --format, the file")
+      ->required();
+  sub->add_option("--coeffs", opt->coeffs, "baseline coefficients (interchange coefficient file)");
+  sub->add_option("--direct", opt->direct,
+                  "direct plan's recording of the same IMU and table: the pipeline's baseline");
+  sub->add_option("--json", opt->json_out, "write the imubench-explain/1 report here");
+  sub->add_option("--report", opt->report_dir, "write DIR/report.html (self-contained)");
+  sub->add_option("--effects", opt->effects,
+                  "candidate effect ids, comma-separated (default: the whole library)");
+  sub->add_option("--bin", opt->bin_s, "bin length, s (default 0.5)");
+  addStoreOption(*sub, &opt->db);
+  sub->add_option("--format", opt->format, "imubench (default), imutk, imucal or mikov")
+      ->check(CLI::IsMember({"imubench", "imutk", "imucal", "mikov"}));
+  sub->add_option("--gyro", opt->gyro_file, "imutk: the gyro file of the pair");
+  CLI::Option* rate = sub->add_option("--rate", opt->rate_hz, "imucal, mikov: sampling rate, Hz");
+  sub->add_option("--gravity", opt->gravity, "local gravity, m/s^2");
+  sub->add_option("--latitude", opt->latitude_deg, "latitude, deg (gravity and Earth rate)");
+  sub->add_option("--height", opt->height_m, "height, m");
+  sub->callback([opt, rate] {
+    opt->rate_hz_given = rate->count() > 0;
+    if (opt->format == "imubench") {
+      runExplainTable(*opt);
+    } else {
+      runExplainScalar(*opt);
+    }
+  });
+}
+
+}  // namespace imubench::tools
