@@ -174,6 +174,9 @@ struct BenchDaemon::ActiveRun {
     std::string label;
     double after_unix_s = 0.0;
     std::optional<int> next_step;  // started meanwhile: begins where this one ends
+    // Its step_finished event, stored only after the segment (the crash-resume checkpoint
+    // must never name a step whose segment a kill -9 could still lose).
+    RunEvent finished;
   };
   std::optional<ClosingStep> closing;
   // The IMU's rate, low-pass filtered over kStillTauS of sample time: the table is still when
@@ -491,6 +494,8 @@ void BenchDaemon::closeStep(std::optional<double> t1) {
       if (auto fl = run_->writer->flush(); !fl.ok) log_.error("store: " + fl.message);
     }
   }
+  // The checkpoint after the segment it vouches for (samples and segment committed above).
+  if (auto st = store_->addEvent(c.finished); !st.ok) log_.error("store: " + st.message);
   if (run_->engine) {
     const json stats = run_->engine->stepFinished(stored_segment, c.label);
     server_->broadcast(Topic::kRun, "step_stats",
@@ -514,15 +519,6 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
         beginStep(e.step, imu_last_t_);
       }
     }
-    if (e.kind == RunnerEvent::Kind::kStepFinished) {
-      // The stored step_finished event is the crash-resume checkpoint: the step's samples so
-      // far are committed before it (its segment follows with the next IMU sample, closeStep).
-      if (auto st = run_->writer->flush(); !st.ok) log_.error("store: " + st.message);
-    }
-    if (e.kind == RunnerEvent::Kind::kStepFinished) {
-      if (run_->closing) closeStep(imu_last_t_);  // two steps in one poll: no wait for the first
-      run_->closing = ActiveRun::ClosingStep{e.step, e.label, run_->poll_unix_s, std::nullopt};
-    }
     RunEvent stored;
     stored.run_id = run_->id;
     stored.wall_unix_s = unixNow();
@@ -530,7 +526,16 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
         e.kind == RunnerEvent::Kind::kAlarm ? EventSeverity::kWarning : EventSeverity::kInfo;
     stored.kind = name;
     stored.json = fields.dump();
-    if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
+    if (e.kind == RunnerEvent::Kind::kStepFinished) {
+      // The stored step_finished event is the crash-resume checkpoint: it is stored by
+      // closeStep after the step's samples and its segment (which ends with the next IMU
+      // sample), so a kill -9 before that repeats the step instead of losing its segment.
+      if (run_->closing) closeStep(imu_last_t_);  // two steps in one poll: no wait for the first
+      run_->closing =
+          ActiveRun::ClosingStep{e.step, e.label, run_->poll_unix_s, std::nullopt, stored};
+    } else if (auto st = store_->addEvent(stored); !st.ok) {
+      log_.error("store: " + st.message);
+    }
     server_->broadcast(Topic::kRun, name, fields);
     if (e.kind == RunnerEvent::Kind::kAlarm) {
       limited_.report("run alarms", LogLevel::kWarning,

@@ -97,6 +97,13 @@ check(kill_t - last_t <= 1.0, "at most 1 s of samples lost: last stored t = %.3f
       "t <= %.3f s (%.3f s)" % (last_t, kill_t, kill_t - last_t))
 state = db.execute("SELECT state FROM runs WHERE id = 1").fetchone()[0]
 check(state == "running", "still running in the database until the daemon starts again")
+# The resume checkpoint vouches only for stored data: every stored step_finished has its
+# step's segment stored (the event is written after the segment, never before).
+finished = [json.loads(j)["label"] for (j,) in db.execute(
+    "SELECT json FROM events WHERE run_id = 1 AND kind = 'step_finished' ORDER BY id")]
+stored = [l for (l,) in db.execute("SELECT label FROM segments WHERE run_id = 1 ORDER BY t0")]
+check(finished == stored[:len(finished)] and finished == ["h1", "r1", "h2"],
+      "each checkpointed step has its segment: finished %s, segments %s" % (finished, stored))
 json.dump({"kill_t": kill_t, "last_t": last_t, "n": n}, open(work + "/kill.json", "w"))
 db.close()
 PY
