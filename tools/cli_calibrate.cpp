@@ -292,33 +292,18 @@ void runCalibrateReal(const CalibrateOptions& o) {
   if (!o.method.empty() && o.method != "scalar") {
     throw CommandFailed("--format " + o.format + " has no table angles: only --method scalar", 2);
   }
-  io::RealImport in;
-  calib::ScalarCalibrationOptions so;
-  bool accel_si = false;
-  if (o.format == "imutk") {
-    if (o.gyro_file.empty()) throw CommandFailed("--format imutk needs --gyro FILE", 2);
-    in = io::readImuTkPair(o.dir, o.gyro_file);
-    so.min_initial_static_s = 30.0;  // imu_tk records a long initial static for the gyro bias
-    if (in.unsigned_counts) {        // 16-bit unsigned raw counts: the rails are saturation
-      so.checks.accel_min = so.checks.gyro_min = 0.0;
-      so.checks.accel_max = so.checks.gyro_max = 65535.0;
-    }
-  } else if (o.format == "mikov") {
-    in = io::readSixColumnLog(o.dir, o.rate_hz_given ? o.rate_hz : io::kSixColumnLogRateHz);
-    accel_si = true;
-  } else {
-    in = io::readImucalCsv(o.dir, o.rate_hz);
-    accel_si = true;
-  }
-  if (!in.ok) throw CommandFailed(in.error);
-  if (o.latitude_deg) so.latitude_rad = *o.latitude_deg * kDegToRad;
-  if (o.gravity) {
-    so.gravity_mps2 = *o.gravity;
-  } else if (o.latitude_deg) {
-    so.gravity_mps2 = nav::normalGravity(*o.latitude_deg * kDegToRad, o.height_m);
-  }
-  std::string why;
-  if (!so.IsValid(&why)) throw CommandFailed("options: " + why, 2);
+  RealRecordingOptions ro;
+  ro.format = o.format;
+  ro.path = o.dir;
+  ro.gyro_file = o.gyro_file;
+  if (o.rate_hz_given || o.format == "imucal") ro.rate_hz = o.rate_hz;
+  ro.gravity = o.gravity;
+  ro.latitude_deg = o.latitude_deg;
+  ro.height_m = o.height_m;
+  const RealRecording real = readRealRecording(ro);
+  const io::RealImport& in = real.import;
+  const calib::ScalarCalibrationOptions& so = real.scalar;
+  const bool accel_si = real.accel_si;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, so, accel_si);
   if (!r.status.ok()) throw scalarRefusal(o.dir, r.status);
   std::ostream& info = o.json ? std::cerr : std::cout;

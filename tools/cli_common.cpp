@@ -106,4 +106,34 @@ calib::BenchTruth loadTruthOrFail(const std::string& path) {
   return r.truth;
 }
 
+RealRecording readRealRecording(const RealRecordingOptions& o) {
+  RealRecording r;
+  calib::ScalarCalibrationOptions& so = r.scalar;
+  if (o.format == "imutk") {
+    if (o.gyro_file.empty()) throw CommandFailed("--format imutk needs --gyro FILE", 2);
+    r.import = io::readImuTkPair(o.path, o.gyro_file);
+    so.min_initial_static_s = 30.0;  // imu_tk records a long initial static for the gyro bias
+    if (r.import.unsigned_counts) {  // 16-bit unsigned raw counts: the rails are saturation
+      so.checks.accel_min = so.checks.gyro_min = 0.0;
+      so.checks.accel_max = so.checks.gyro_max = 65535.0;
+    }
+  } else if (o.format == "mikov") {
+    r.import = io::readSixColumnLog(o.path, o.rate_hz.value_or(io::kSixColumnLogRateHz));
+    r.accel_si = true;
+  } else {
+    r.import = io::readImucalCsv(o.path, o.rate_hz.value_or(io::kImucalExampleRateHz));
+    r.accel_si = true;
+  }
+  if (!r.import.ok) throw CommandFailed(r.import.error);
+  if (o.latitude_deg) so.latitude_rad = *o.latitude_deg * kDegToRad;
+  if (o.gravity) {
+    so.gravity_mps2 = *o.gravity;
+  } else if (o.latitude_deg) {
+    so.gravity_mps2 = nav::normalGravity(*o.latitude_deg * kDegToRad, o.height_m);
+  }
+  std::string why;
+  if (!so.IsValid(&why)) throw CommandFailed("options: " + why, 2);
+  return r;
+}
+
 }  // namespace imubench::tools

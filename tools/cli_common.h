@@ -21,6 +21,8 @@
 
 #include "calib/bench_truth.h"
 #include "calib/noise.h"
+#include "calib/scalar_calibration.h"
+#include "io/import_real.h"
 #include "nav/earth.h"
 #include "tools/cli11.h"
 
@@ -88,5 +90,26 @@ const char* defaultTruthJson();
 
 // Reads --truth FILE (throws CommandFailed with the file error).
 calib::BenchTruth loadTruthOrFail(const std::string& path);
+
+// A third-party recording without table angles (--format imutk|imucal|mikov), as `calibrate`
+// and `explain` read it: its readings and the scalar calibration options it implies (imu_tk's
+// long initial static and unsigned-count rails; gravity from --gravity, else from --latitude
+// and --height, else the options' default).
+struct RealRecordingOptions {
+  std::string format;             // imutk | imucal | mikov
+  std::string path;               // the file (imutk: the accelerometer file)
+  std::string gyro_file;          // imutk: the gyro file of the pair
+  std::optional<double> rate_hz;  // imucal, mikov: sampling rate (default: the source's)
+  std::optional<double> gravity;  // m/s^2
+  std::optional<double> latitude_deg;
+  double height_m = 0.0;
+};
+struct RealRecording {
+  io::RealImport import;
+  calib::ScalarCalibrationOptions scalar;
+  bool accel_si = false;  // accelerometer readings already in m/s^2
+};
+// Throws CommandFailed: the reader's error (exit 1), a missing --gyro or invalid options (2).
+RealRecording readRealRecording(const RealRecordingOptions& o);
 
 }  // namespace imubench::tools

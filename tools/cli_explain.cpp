@@ -63,8 +63,7 @@ struct ExplainCliOptions {
   std::string db;
   std::string format = "imubench";
   std::string gyro_file;
-  double rate_hz = io::kImucalExampleRateHz;
-  bool rate_hz_given = false;
+  std::optional<double> rate_hz;  // imucal, mikov: default the source's rate
   std::optional<double> gravity;
   std::optional<double> latitude_deg;
   double height_m = 0.0;
@@ -325,32 +324,18 @@ void runExplainScalar(const ExplainCliOptions& o) {
                         2);
   }
   const calib::ExplainOptions eo = analysisOptions(o);
-  io::RealImport in;
-  calib::ScalarCalibrationOptions so;
-  bool accel_si = true;
-  if (o.format == "imutk") {
-    if (o.gyro_file.empty()) throw CommandFailed("--format imutk needs --gyro FILE", 2);
-    in = io::readImuTkPair(o.input, o.gyro_file);
-    so.min_initial_static_s = 30.0;
-    accel_si = false;
-    if (in.unsigned_counts) {
-      so.checks.accel_min = so.checks.gyro_min = 0.0;
-      so.checks.accel_max = so.checks.gyro_max = 65535.0;
-    }
-  } else if (o.format == "mikov") {
-    in = io::readSixColumnLog(o.input, o.rate_hz_given ? o.rate_hz : io::kSixColumnLogRateHz);
-  } else {
-    in = io::readImucalCsv(o.input, o.rate_hz);
-  }
-  if (!in.ok) throw CommandFailed(in.error);
-  if (o.latitude_deg) so.latitude_rad = *o.latitude_deg * kDegToRad;
-  if (o.gravity) {
-    so.gravity_mps2 = *o.gravity;
-  } else if (o.latitude_deg) {
-    so.gravity_mps2 = nav::normalGravity(*o.latitude_deg * kDegToRad, o.height_m);
-  }
-  std::string why;
-  if (!so.IsValid(&why)) throw CommandFailed("options: " + why, 2);
+  RealRecordingOptions ro;
+  ro.format = o.format;
+  ro.path = o.input;
+  ro.gyro_file = o.gyro_file;
+  ro.rate_hz = o.rate_hz;
+  ro.gravity = o.gravity;
+  ro.latitude_deg = o.latitude_deg;
+  ro.height_m = o.height_m;
+  const RealRecording real = readRealRecording(ro);
+  const io::RealImport& in = real.import;
+  const calib::ScalarCalibrationOptions& so = real.scalar;
+  const bool accel_si = real.accel_si;
   const calib::ExplainResult r = calib::explainScalar(in.data, so, accel_si, eo);
   if (!r.ok) throw CommandFailed(o.input + ": explain: " + r.error);
   Prepared p;
@@ -394,12 +379,11 @@ void addExplainCommand(CLI::App& app) {
   sub->add_option("--format", opt->format, "imubench (default), imutk, imucal or mikov")
       ->check(CLI::IsMember({"imubench", "imutk", "imucal", "mikov"}));
   sub->add_option("--gyro", opt->gyro_file, "imutk: the gyro file of the pair");
-  CLI::Option* rate = sub->add_option("--rate", opt->rate_hz, "imucal, mikov: sampling rate, Hz");
+  sub->add_option("--rate", opt->rate_hz, "imucal, mikov: sampling rate, Hz");
   sub->add_option("--gravity", opt->gravity, "local gravity, m/s^2");
   sub->add_option("--latitude", opt->latitude_deg, "latitude, deg (gravity and Earth rate)");
   sub->add_option("--height", opt->height_m, "height, m");
-  sub->callback([opt, rate] {
-    opt->rate_hz_given = rate->count() > 0;
+  sub->callback([opt] {
     if (opt->format == "imubench") {
       runExplainTable(*opt);
     } else {
