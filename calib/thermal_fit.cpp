@@ -30,7 +30,7 @@ struct Candidate {
 // Least squares of one (order, hysteresis) model; columns scaled by `scale` (degC) and the
 // largest |rate| for conditioning, unscaled afterwards.
 Candidate solveCandidate(const CoefficientData& d, int order, bool hysteresis, double scale,
-                         double rate_scale) {
+                         double rate_scale, bool known_sigma) {
   const int n = static_cast<int>(d.value.size());
   const int p = order + 1 + (hysteresis ? 1 : 0);
   Eigen::MatrixXd A(n, p);
@@ -51,9 +51,11 @@ Candidate solveCandidate(const CoefficientData& d, int order, bool hysteresis, d
   Eigen::VectorXd xs = qr.solve(b);
   c.chi2 = (A * xs - b).squaredNorm();
   // BIC with the points' sigmas known up to one common factor (estimated): robust to the
-  // per-point sigmas being uniformly too small or too large.
+  // per-point sigmas being uniformly too small or too large. With too few points to estimate
+  // that factor, the sigmas as given.
   const double nd = static_cast<double>(n);
-  c.bic = nd * std::log(std::max(c.chi2, 1e-300) / nd) + p * std::log(nd);
+  c.bic = known_sigma ? c.chi2 + p * std::log(nd)
+                      : nd * std::log(std::max(c.chi2, 1e-300) / nd) + p * std::log(nd);
   Eigen::MatrixXd cov = (A.transpose() * A).inverse();
   Eigen::VectorXd unscale(p);
   for (int k = 0; k <= order; ++k) unscale(k) = std::pow(scale, -k);
@@ -109,12 +111,16 @@ bool fitCoefficient(const CoefficientData& d, const FitContext& ctx, model::Ther
   }
   const int max_order = std::min(o.order >= 0 ? o.order : o.max_order, distinct - 1);
   const int min_order = o.order >= 0 ? max_order : 0;
+  // Few points (no residual left for the largest model): BIC with the sigmas as given, and
+  // models may interpolate the points exactly (two temperatures: a straight line).
+  const bool few = n <= max_order + 2 + (ctx.hysteresis ? 1 : 0);
   Candidate best;
   for (int order = min_order; order <= max_order; ++order) {
     for (bool h : {false, true}) {
       if (h && !ctx.hysteresis) continue;
-      if (order + 1 + (h ? 1 : 0) >= n && !(order == 0 && !h)) continue;  // keep a residual dof
-      Candidate c = solveCandidate(d, order, h, ctx.scale, ctx.rate_scale);
+      const int p = order + 1 + (h ? 1 : 0);
+      if (p > n || (p == n && !few && p > 1)) continue;
+      Candidate c = solveCandidate(d, order, h, ctx.scale, ctx.rate_scale, few);
       if (c.bic < best.bic && ((order == min_order && !h) || significant(c, n, o.min_term_sigma))) {
         best = std::move(c);
       }

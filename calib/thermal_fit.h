@@ -11,7 +11,8 @@
 //     value_i = sum_k c_k (T_i - t_ref)^k + h Tdot_i + e_i,   e_i ~ N(0, sigma_i^2)
 // (columns scaled by the largest |T_i - t_ref| for conditioning). BIC = n ln(chi^2 / n) +
 // p ln(n) (the points' sigmas known up to a common factor, so a calibration that states its
-// sigmas uniformly too small or too large does not change the choice); the model with the
+// sigmas uniformly too small or too large does not change the choice; with too few points
+// for that, chi^2 + p ln(n) and exact interpolation allowed); the model with the
 // smallest BIC wins among the models whose highest term (and dT/dt term) exceed
 // min_term_sigma sigmas (order 0 always qualifies). Sigmas are the covariance's, scaled up by the
 // reduced chi^2 when it exceeds 1 (the points scatter more than their own sigmas say).
