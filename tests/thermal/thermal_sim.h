@@ -14,7 +14,8 @@
 
 namespace imubench::calib::testing {
 
-// c0 of a navigation-grade-like IMU (accel bias ~5 ug/degC, scales ~2 ppm/degC, misalignments
+// c0 of a navigation-grade-like IMU (accel bias ~5 ug/degC, gyro bias ~0.03 deg/h/degC,
+// scales ~2 ppm/degC, misalignments
 // ~0.2 arcsec/degC, cubic terms worth ~ a tenth of the change at the range ends); c1..c3 per kind
 // (sign and size varied by entry so no two coefficients share a curve); dT/dt hysteresis on the
 // biases only.
@@ -31,7 +32,7 @@ inline model::ThermalCoefficients cubicThermalTruth() {
                        {0.8e-3, 0.6e-3, -0.9e-3, 0.3e-3, 1.0e-3, -0.5e-3}}};
   // (c1, c2, c3) magnitudes for scale, bias, misalignment of each triad.
   const double accel_k[3][3] = {{2e-6, 2e-8, 5e-10}, {5e-5, 5e-7, 1e-8}, {1e-6, 1e-8, 2e-10}};
-  const double gyro_k[3][3] = {{2e-6, 2e-8, 5e-10}, {5e-8, 5e-10, 1e-11}, {1e-6, 1e-8, 2e-10}};
+  const double gyro_k[3][3] = {{2e-6, 2e-8, 5e-10}, {1.5e-7, 1.5e-9, 3e-11}, {1e-6, 1e-8, 2e-10}};
   const double hysteresis[2] = {2.0, 1e-3};  // accel m/s^2, gyro rad/s per degC/s
   for (const bool accel : {true, false}) {
     const auto block = (accel ? s.accel : s.gyro).block();
