@@ -11,6 +11,7 @@ target_sources(imubench_calib PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/model/bench_physics.h
   ${CMAKE_CURRENT_LIST_DIR}/model/motion_profile.h
   ${CMAKE_CURRENT_LIST_DIR}/model/thermal_lag.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/thermal_coefficients.h
   ${CMAKE_CURRENT_LIST_DIR}/model/effect_unit.h
   ${CMAKE_CURRENT_LIST_DIR}/model/effects.h
   ${CMAKE_CURRENT_LIST_DIR}/model/effects/lever_arm.h
@@ -35,5 +36,6 @@ target_sources(imubench_calib PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/effects.cpp
   ${CMAKE_CURRENT_LIST_DIR}/bench_truth.cpp
   ${CMAKE_CURRENT_LIST_DIR}/noise.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/thermal_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/simulator.cpp
 )

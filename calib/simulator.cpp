@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 #include "calib/model/bench_physics.h"
+#include "calib/thermal_model.h"
 
 namespace imubench::calib {
 namespace {
@@ -39,6 +41,24 @@ bool validTruth(const BenchTruth& t, std::string* why) {
     const char* name = tr == &t.sensors.accel ? "truth.accel" : "truth.gyro";
     if (!finite(tr->scale) || !finite(tr->bias) || (tr->scale.array() == 0.0).any()) {
       if (why) *why = std::string(name) + ": scale/bias must be finite, scale non-zero";
+      return false;
+    }
+  }
+  return true;
+}
+
+// A thermal truth must give finite coefficients and non-zero scales over its range.
+bool validThermal(const std::optional<model::ThermalCoefficients>& c, std::string* why) {
+  if (!c) return true;
+  if (!(std::isfinite(c->t_min_c) && std::isfinite(c->t_max_c) && c->t_min_c <= c->t_max_c)) {
+    if (why) *why = "thermal truth: range must be finite with t_min <= t_max";
+    return false;
+  }
+  for (const double T : {c->t_min_c, c->t_ref_c, c->t_max_c}) {
+    BenchTruth t;
+    t.sensors = thermalSensorsAt(*c, T, 0.0);
+    if (!validTruth(t, why)) {
+      if (why) *why = "thermal truth at " + std::to_string(T) + " degC: " + *why;
       return false;
     }
   }
@@ -144,6 +164,21 @@ struct ImuSimulator::Impl {
   std::uint64_t gm_every = 1;   // samples per Gauss-Markov update
   GaussianSource drift_rng{1};  // bias_instability's own stream
   DriftProcess drift_accel, drift_gyro;
+  std::optional<model::ThermalCoefficients> thermal;  // thermal truth (see simulator.h)
+  double thermal_temp = std::numeric_limits<double>::quiet_NaN();  // (T, Tdot) of `forward`
+  double thermal_rate = 0.0;
+
+  // Thermal truth: the sensors at the temperature and rate of physics time t.
+  void updateThermal(double t) {
+    if (!thermal) return;
+    const double T = motion->temperatureAt(t);
+    const double rate = motion->temperatureAt(t + 0.5) - motion->temperatureAt(t - 0.5);
+    if (T == thermal_temp && rate == thermal_rate) return;
+    thermal_temp = T;
+    thermal_rate = rate;
+    sensors = thermalSensorsAt(*thermal, T, rate);
+    forward = ForwardModel(sensors, effects);
+  }
 
   // Phase of axis a in effect at time t (the cursor moves from where it is: forward as the
   // samples advance, back by at most a few phases for the accelerometers' earlier interval).
@@ -230,7 +265,7 @@ std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, cons
     return nullptr;
   }
   if (!options.IsValid(why) || !world.noise.IsValid(why) || !validTruth(world.truth, why) ||
-      !validEffects(world.truth.extra, motion->kind, why)) {
+      !validThermal(world.thermal, why) || !validEffects(world.truth.extra, motion->kind, why)) {
     return nullptr;
   }
   if (static_cast<int>(motion->axes.size()) != axisCount(motion->kind)) {
@@ -255,6 +290,7 @@ std::unique_ptr<ImuSimulator> ImuSimulator::Create(const BenchWorld& world, cons
   impl->effects = world.truth.extra;
   impl->forward = ForwardModel(world.truth.sensors, world.truth.extra);
   impl->noise = world.noise;
+  impl->thermal = world.thermal;
   const nav::Site site = trueSite(world.site, world.truth.extra);
   impl->gravity = nav::siteGravity(site);
   impl->w_ie_L = nav::earthRateL(site.latitude_rad);
@@ -310,6 +346,7 @@ nav::ImuSample ImuSimulator::next() {
   s.t = static_cast<double>(k_) / m.rate_hz;
   const double b = s.t - m.tau;
   const double a = static_cast<double>(k_ - 1) / m.rate_hz - m.tau;
+  m.updateThermal(0.5 * (a + b));
   if (m.tau_accel == 0.0) {
     m.integrate(a, b, &s.dtheta, &s.dvel);
   } else {

@@ -26,15 +26,20 @@
 // Allan deviation peaks at the given minimum at tau_s (calib/model/effects/bias_instability.h),
 // updated every sample from its own random stream (seed-derived), so switching it on changes
 // nothing else. Temperature: Motion::temperatureAt(t_k - tau - dt/2).
+// Thermal truth (BenchWorld::thermal): the sensor coefficients of each sample are those of
+// calib/model/thermal_coefficients.h at the sample's temperature and its rate (the slope of the
+// temperature history over +-0.5 s), held over the sample; they replace truth.sensors.
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "calib/bench_truth.h"
 #include "calib/effects.h"
+#include "calib/model/thermal_coefficients.h"
 #include "calib/motion.h"
 #include "calib/noise.h"
 #include "calib/table_model.h"
@@ -49,6 +54,9 @@ struct BenchWorld {
   double outer_axis_heading_rad = kPi / 2.0;  // two-axis table: outer axis heading (East)
   BenchTruth truth;  // sensor errors, table errors (truth.table_kind ignored), extra effects
   NoiseModel noise;  // default: no noise
+  // Temperature-dependent sensor coefficients (imubench-thermal/1 form); when set they replace
+  // truth.sensors, evaluated at the IMU temperature of the motion (thermal lag included).
+  std::optional<model::ThermalCoefficients> thermal;
 };
 
 struct SimulatorInput {

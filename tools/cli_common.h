@@ -45,6 +45,8 @@ void addStoreCommands(CLI::App& app);
 // status, results, watch.
 void addControlCommands(CLI::App& app);  // cli_control.cpp
 void addResultsCommand(CLI::App& app);   // cli_results.cpp
+void addThermalCommand(CLI::App& app);   // cli_thermal.cpp (`thermal fit`)
+void addApplyCommand(CLI::App& app);     // cli_apply.cpp
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {

@@ -28,6 +28,7 @@ SimOutcome simulatePlanOrFail(const SimRequest& request) {
   input.world.outer_axis_heading_rad = out.plan.table.outer_axis_heading;
   input.world.truth = request.truth;
   input.world.noise = request.noise;
+  input.world.thermal = request.thermal;
   input.motion = out.motion;
   calib::SimOptions options;
   options.imu_rate_hz = request.imu_rate_hz;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "calib/bench_truth.h"
@@ -22,6 +23,9 @@ struct SimRequest {
   double table_rate_hz = 100.0;  // typical encoder logging rate
   std::uint64_t seed = 1;
   calib::NoiseModel noise;  // default: none
+  // Temperature-dependent coefficients (--thermal-truth, imubench-thermal/1): replace
+  // truth.sensors at the plan's IMU temperature (calib/simulator.h).
+  std::optional<calib::model::ThermalCoefficients> thermal;
 };
 
 struct SimOutcome {

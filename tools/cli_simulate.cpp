@@ -1,11 +1,13 @@
 // imubench simulate PLAN --truth T.json --out DIR [--rate HZ] [--seed N] [--site-lat DEG]
 //                   [--site-height M] [--noise none|nav-grade|nav-grade-drift|tactical|consumer]
 //                   [--effect ID.PARAM=V[,V...]]...  (adds to the truth file's "extra")
+//                   [--thermal-truth FILE]  (imubench-thermal/1: coefficients over temperature)
 #include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "io/thermal_file.h"
 #include "tools/cli_common.h"
 #include "tools/cli_sim.h"
 
@@ -20,6 +22,7 @@ struct SimulateOptions {
   double table_rate_hz = 100.0;
   SiteOptions site;
   std::vector<std::string> effects;  // "<id>.<param>=<values>", applied over the truth's extra
+  std::string thermal_truth;         // imubench-thermal/1 file; empty: coefficients constant
 };
 
 void runSimulate(const SimulateOptions& o) {
@@ -31,6 +34,11 @@ void runSimulate(const SimulateOptions& o) {
     if (!calib::setEffectParamFromText(&req.truth.extra, e, &why)) {
       throw CommandFailed("--effect " + why);
     }
+  }
+  if (!o.thermal_truth.empty()) {
+    const io::ThermalFileResult t = io::readThermalFile(o.thermal_truth);
+    if (!t.status.ok) throw CommandFailed("--thermal-truth " + t.status.message);
+    req.thermal = t.file.coefficients;
   }
   req.site = o.site;
   req.imu_rate_hz = o.sim.rate_hz;
@@ -63,6 +71,10 @@ void addSimulateCommand(CLI::App& app) {
                   "switch an effect on / set one parameter (interchange.md effect ids), e.g. "
                   "lever_arm.r_m=0.05,-0.03,0.02 or angle_harmonic.axis=inner; repeatable, "
                   "applied over the truth file's \"extra\"");
+  sub->add_option("--thermal-truth", opt->thermal_truth,
+                  "imubench-thermal/1 file: every sensor coefficient over the IMU temperature "
+                  "(replaces the truth file's accel/gyro)")
+      ->check(CLI::ExistingFile);
   sub->callback([opt] { runSimulate(*opt); });
 }
 

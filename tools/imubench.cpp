@@ -29,6 +29,8 @@ int main(int argc, char** argv) {
   addStoreCommands(app);
   addControlCommands(app);
   addResultsCommand(app);
+  addThermalCommand(app);
+  addApplyCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,117 @@
+// The thermal model fit: every coefficient of both triads (scales, biases, misalignments; the
+// table's errors stay temperature-independent and are not fitted) as a polynomial in
+// T - t_ref of an order chosen per coefficient by BIC (0..4), plus a dT/dt term where
+// heating and cooling differ (also by BIC), fitted jointly over all temperature points. The
+// data are per-point calibrations with their sigmas: the direct calibration at each soak
+// point (thermalPointsFromRun) or any other per-point estimate. The fitted form is
+// calib/model/thermal_coefficients.h, the one the compensation (calib/thermal_model.h) and
+// the simulator's truth evaluate.
+//
+// Per coefficient, over the points where it is observable, weighted least squares
+//     value_i = sum_k c_k (T_i - t_ref)^k + h Tdot_i + e_i,   e_i ~ N(0, sigma_i^2)
+// (columns scaled by the largest |T_i - t_ref| for conditioning). BIC = n ln(chi^2 / n) +
+// p ln(n) (the points' sigmas known up to a common factor, so a calibration that states its
+// sigmas uniformly too small or too large does not change the choice; with too few points
+// for that, chi^2 + p ln(n) and exact interpolation allowed); the model with the
+// smallest BIC wins among the models whose highest term (and dT/dt term) exceed
+// min_term_sigma sigmas (order 0 always qualifies). Sigmas are the covariance's, scaled up by the
+// reduced chi^2 when it exceeds 1 (the points scatter more than their own sigmas say).
+// Point covariances between coefficients are not used (the direct calibration's are
+// per-coefficient sigmas).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "calib/direct_calibration.h"
+#include "calib/model/thermal_coefficients.h"
+
+namespace imubench::calib {
+
+// One temperature point: a calibration made at (about) one IMU temperature.
+struct ThermalFitPoint {
+  std::string source;        // where it came from ("DIR segments T20C"), for messages
+  double temp_c = 0.0;       // mean IMU temperature over the data used, degC
+  double temp_rate = 0.0;    // mean IMU temperature rate over it, degC/s
+  double temp_span_c = 0.0;  // max - min IMU temperature over it, degC
+  // Parameter blocks (calib/model/sensor_equation.h offsets), their sigmas and observability.
+  std::array<double, model::kTriadSize> accel{}, gyro{};
+  std::array<double, model::kTriadSize> sigma_accel{}, sigma_gyro{};
+  std::array<bool, model::kTriadSize> observable_accel{}, observable_gyro{};
+};
+
+struct ThermalFitOptions {
+  // Polynomial order: -1 chooses per coefficient by BIC in 0..max_order; 0..4 fixes it (still
+  // limited by the number of distinct temperatures).
+  int order = -1;
+  // Highest order BIC may choose: 4 (quartic) covers the curvature navigation-grade sensors
+  // show over -40..+85 degC; more would chase noise with ~10 points.
+  int max_order = model::kMaxThermalOrder;
+  // Polynomial origin, degC: room temperature, where single-temperature calibrations are made,
+  // so c0 is the room-temperature value.
+  double t_ref_c = 20.0;
+  // Points closer than this (degC) count as one temperature when the distinct temperatures
+  // are counted (order limit, single-point refusal): soak repeatability is ~0.1 degC.
+  double same_temperature_c = 0.5;
+  // A dT/dt term is a candidate only when points were taken both heating and cooling at
+  // |Tdot| above this (degC/s, 0.036 degC/h): a sensor soaked to rest drifts slower, and the
+  // term would only fit noise.
+  double min_hysteresis_rate = 1e-5;
+  // Sigma floor relative to |value| (plus an absolute 1e-15): noise-free simulated points
+  // report zero sigmas, which would make the weights infinite.
+  double relative_sigma_floor = 1e-12;
+  // A model is a candidate only if its highest polynomial term and its dT/dt term (when
+  // present) exceed this many sigmas: BIC's ln(n) penalty alone admits a spurious extra order
+  // for ~8 % of coefficients at n ~ 20 points (a 1.8-sigma gain), and there are 24
+  // coefficients; a term below 3 sigma is no effect the data establish.
+  double min_term_sigma = 3.0;
+
+  bool IsValid(std::string* why) const;
+};
+
+// Fit diagnostics of one coefficient.
+struct ThermalCoefficientFit {
+  std::string name;   // flat name: "accel.bias.x", "gyro.misalignment.zy"
+  int points = 0;     // points used (observable)
+  double chi2 = 0.0;  // of the chosen model, with the points' own sigmas
+  double bic = 0.0;
+  double birge = 1.0;  // sqrt(reduced chi^2) applied to the sigmas (>= 1)
+};
+
+struct ThermalFitResult {
+  bool ok = false;
+  std::string error;  // why not (single temperature point, unobservable coefficient, ...)
+  model::ThermalCoefficients coefficients;
+  std::vector<ThermalCoefficientFit> fits;  // accel then gyro, block order
+  int distinct_temperatures = 0;
+  bool hysteresis_candidate = false;  // points were taken heating and cooling
+};
+
+ThermalFitResult fitThermal(const std::vector<ThermalFitPoint>& points,
+                            const ThermalFitOptions& options = {});
+
+// Flat name of entry i (block order) of a triad ("accel" / "gyro").
+std::string thermalCoefficientName(const std::string& triad, int index);
+
+// ---- Points from one run ----------------------------------------------------------------
+
+// A run is split into temperature points at its soak segments (the chamber moving to the
+// next setpoint): the static and rotation segments between two soaks are one point, calibrated
+// directly. A run without soak segments is one point.
+struct ThermalPointOptions {
+  DirectCalibrationOptions direct;  // how each point is calibrated
+};
+
+struct ThermalPointsResult {
+  bool ok = false;
+  std::string error;                    // why not (no temperatures, a point's calibration failed)
+  std::vector<ThermalFitPoint> points;  // in time order
+};
+
+// source names the run in points and messages (e.g. the recording directory).
+ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
+                                         const std::string& source,
+                                         const ThermalPointOptions& options = {});
+
+}  // namespace imubench::calib

@@ -1,0 +1,127 @@
+// imubench thermal fit RUN_OR_DIR... [--order auto|N] [--t-ref DEGC] --out comp.json
+//                                    [--csv comp.csv]
+// Each recording (imubench-csv/1 directory with IMU temperatures) is split into temperature
+// points at its soak segments, each point calibrated directly; the points of all recordings
+// are fitted jointly (calib/thermal_fit.h) into an imubench-thermal/1 file.
+// Refusals (exit 1, naming the file): a recording without temperatures, a single temperature
+// point, recordings of different IMU serials.
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "calib/thermal_fit.h"
+#include "io/recording.h"
+#include "io/sim_recording.h"
+#include "io/thermal_file.h"
+#include "tools/cli_common.h"
+
+namespace imubench::tools {
+namespace {
+
+struct ThermalFitCliOptions {
+  std::vector<std::string> runs;
+  std::string order = "auto";
+  double t_ref_c = 20.0;
+  std::string out;
+  std::string csv;
+};
+
+io::Recording readRunOrFail(const std::string& dir) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) {
+    throw CommandFailed(dir +
+                        ": not a recording directory (imubench-csv/1); export a stored "
+                        "run first (`imubench export RUN DIR`)");
+  }
+  io::RecordingReadResult r = io::readRecording(dir);
+  if (!r.status.ok) throw CommandFailed(r.status.message);
+  return std::move(r.recording);
+}
+
+int parseOrder(const std::string& s) {
+  if (s == "auto") return -1;
+  if (s.size() == 1 && s[0] >= '0' && s[0] <= '4') return s[0] - '0';
+  throw CommandFailed("--order: expected auto or 0..4, got '" + s + "'", 2);
+}
+
+void printFit(const calib::ThermalFitResult& r) {
+  std::cout << "temperature range " << r.coefficients.t_min_c << " .. " << r.coefficients.t_max_c
+            << " degC, " << r.distinct_temperatures << " distinct temperatures"
+            << (r.hysteresis_candidate ? ", heating and cooling" : "") << "\n";
+  std::size_t i = 0;
+  for (const bool accel : {true, false}) {
+    const auto& t = accel ? r.coefficients.accel : r.coefficients.gyro;
+    for (const auto& c : t) {
+      const calib::ThermalCoefficientFit& f = r.fits[i++];
+      std::cout << std::left << std::setw(24) << f.name << " order " << c.order
+                << (c.hysteresis ? " +dT/dt" : "       ") << "  c0 " << std::setprecision(9)
+                << c.poly[0] << "  chi2/n " << std::setprecision(3) << f.chi2 / f.points << "\n";
+    }
+  }
+}
+
+void runThermalFit(const ThermalFitCliOptions& o) {
+  calib::ThermalFitOptions fo;
+  fo.order = parseOrder(o.order);
+  fo.t_ref_c = o.t_ref_c;
+  std::string serial, serial_dir;
+  std::vector<calib::ThermalFitPoint> points;
+  for (const std::string& dir : o.runs) {
+    const io::Recording rec = readRunOrFail(dir);
+    if (!serial_dir.empty() && rec.imu_serial != serial) {
+      throw CommandFailed(dir + ": IMU serial '" + rec.imu_serial + "' differs from '" + serial +
+                          "' of " + serial_dir + ": a thermal model is one IMU's");
+    }
+    serial = rec.imu_serial;
+    serial_dir = dir;
+    calib::DirectCalibrationInput in;
+    in.geometry = io::geometryOf(rec);
+    in.site = rec.site();
+    in.imu = rec.imu;
+    in.table = io::tableSamples(rec);
+    in.segments = rec.segments;
+    const calib::ThermalPointsResult p = calib::thermalPointsFromRun(in, dir);
+    if (!p.ok) throw CommandFailed(p.error);
+    for (const auto& pt : p.points) {
+      std::cout << pt.source << ": " << std::setprecision(4) << pt.temp_c << " degC, "
+                << pt.temp_rate * 60.0 << " degC/min\n";
+    }
+    points.insert(points.end(), p.points.begin(), p.points.end());
+  }
+  const calib::ThermalFitResult r = calib::fitThermal(points, fo);
+  if (!r.ok) {
+    std::string files;
+    for (const auto& d : o.runs) files += (files.empty() ? "" : ", ") + d;
+    throw CommandFailed(files + ": " + r.error);
+  }
+  printFit(r);
+  const io::ThermalFile file{serial, r.coefficients};
+  if (auto st = io::writeThermalFile(o.out, file); !st.ok) throw CommandFailed(st.message);
+  if (!o.csv.empty()) {
+    if (auto st = io::writeThermalCsv(o.csv, file); !st.ok) throw CommandFailed(st.message);
+  }
+  std::cout << "wrote " << o.out << (o.csv.empty() ? "" : " and " + o.csv) << "\n";
+}
+
+}  // namespace
+
+void addThermalCommand(CLI::App& app) {
+  CLI::App* thermal = app.add_subcommand("thermal", "thermal calibration over temperature");
+  thermal->require_subcommand(1);
+  auto opt = std::make_shared<ThermalFitCliOptions>();
+  CLI::App* fit = thermal->add_subcommand(
+      "fit", "fit every coefficient over temperature from recordings at several temperatures");
+  fit->add_option("runs", opt->runs, "recording directories (imubench-csv/1 with temperatures)")
+      ->required();
+  fit->add_option("--order", opt->order, "polynomial order: auto (BIC per coefficient) or 0..4")
+      ->capture_default_str();
+  fit->add_option("--t-ref", opt->t_ref_c, "polynomial origin, degC")->capture_default_str();
+  fit->add_option("--out", opt->out, "imubench-thermal/1 JSON file to write")->required();
+  fit->add_option("--csv", opt->csv, "also write the CSV form");
+  fit->callback([opt] { runThermalFit(*opt); });
+}
+
+}  // namespace imubench::tools
