@@ -13,6 +13,7 @@
 #include <chrono>
 
 #include "bench/calibration/plan_fixture.h"
+#include "calib/effects.h"
 #include "calib/explain.h"
 #include "calib/explain_baseline.h"
 #include "calib/explain_model.h"
@@ -114,6 +115,38 @@ void BM_Explain12Run2kHz(benchmark::State& state) {
 }
 // Manual step timing: the wall time Google Benchmark reports also holds the separate bins_s.
 BENCHMARK(BM_Explain12Run2kHz)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(2);
+
+// Where the analysis' time goes (the step timing above puts ~85 % of it in explainRecording
+// after the bins, and stack samples put it in ExplainPredictor::predict inside the
+// central-difference Jacobians): the per-node cost of forwardReadings, which builds the
+// sensors' and effects' parameter blocks on every call, against ForwardModel::readings with
+// them prepared once (calib/effects.h). ns per reading, and the ratio (prepare_overhead_x).
+void BM_ForwardReadingsPerNode(benchmark::State& state) {
+  SensorModel sensors;
+  sensors.accel.scale = Vec3(1.0002, 0.9997, 1.0001);
+  sensors.gyro.mis = {-2e-4, 1e-4, -3e-4, 2e-4, -1e-4, 3e-4};
+  const EffectSet effects;
+  PhysicsPoint p;
+  p.f_B = Vec3(0.1, -0.2, 9.8);
+  p.w_IB_B = Vec3(1e-5, 2e-5, 0.17);
+  p.w_LB_B = Vec3(0.0, 0.0, 0.17);
+  constexpr int kCalls = 200000;
+  Vec3 sum = Vec3::Zero();
+  for (auto _ : state) {
+    auto t0 = Clock::now();
+    for (int i = 0; i < kCalls; ++i) sum += forwardReadings(sensors, effects, p).gyro;
+    const double built = secondsSince(t0);
+    t0 = Clock::now();
+    const ForwardModel prepared(sensors, effects);
+    for (int i = 0; i < kCalls; ++i) sum += prepared.readings(p).gyro;
+    const double once = secondsSince(t0);
+    state.counters["forwardReadings_ns"] = 1e9 * built / kCalls;
+    state.counters["prepared_ns"] = 1e9 * once / kCalls;
+    state.counters["prepare_overhead_x"] = built / once;
+  }
+  benchmark::DoNotOptimize(sum);
+}
+BENCHMARK(BM_ForwardReadingsPerNode)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 
