@@ -20,6 +20,8 @@ run "strapdown update (target >= 5 M samples/s, counter x_5M_target)" \
 run "simulator (target >= 2 M samples/s)" "$build/bench/calib/imubench_calib_bench"
 run "indirect calibration of a 2 kHz 12-run recording (target < 10 s)" \
   "$build/bench/calibration/imubench_bench_indirect_calibration"
+run "imubench explain of a 2 kHz 12-run recording: baseline calibration + analysis (target < 10 s, counter fraction_of_10s_target; baseline_s / bins_s / analysis_s / json_s: where the time goes)" \
+  "$build/bench/calibration/imubench_bench_explain"
 run "reading a 1 h, 2 kHz imubench-csv/1 recording (target < 10 s)" \
   "$build/bench/daemon/imubench_daemon_bench"
 run "SQLite store: appending a 2 kHz IMU + 100 Hz table run (target >= 10x real time, counter x_realtime)" \

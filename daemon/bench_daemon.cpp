@@ -937,6 +937,12 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
   if (f.calibrated) keep("coefficients", f.coefficients);
   keep("report", f.report);
   keep("verdict", f.verdict);
+  if (f.explain) keep("explain", *f.explain);
+  if (f.explain) {
+    log_.info(who + ": " + f.explain_summary);
+  } else {
+    log_.warning(who + ": " + f.explain_error);
+  }
   const json pass = f.verdict.value("pass", json());
   const std::string verdict = pass.is_boolean() ? (pass.get<bool>() ? "PASS" : "FAIL") : "none";
   log_.info(who + ": calibration " + (f.calibrated ? "done" : "FAILED") + ", verdict " + verdict +
@@ -948,6 +954,7 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
                       {"pass", pass},
                       {"imu_serial", f.imu_serial},
                       {"temperature_c", f.temperature_c},
+                      {"explain", f.explain ? f.explain_summary : f.explain_error},
                       {"results", stored}});
 }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <utility>
 
+#include "daemon/run_explain.h"
 #include "daemon/store.h"
 #include "nav/rotation.h"
 
@@ -237,8 +238,6 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
   out.imu_serial = run.recording.imu_serial;
   out.temperature_c = *temperature;
   const RunCalibration c = calibrateRun(setup.method, run.recording, direct ? &*direct : nullptr);
-  // Hook: the missing-physics analysis (calib's explain, when it exists) runs here on
-  // run.recording and c; its report is then stored as a result of kind "explain".
   out.calibrated = c.ok;
   if (c.ok) out.coefficients = calib::toJson(c.coefficients);
   out.report = c.report;
@@ -252,6 +251,15 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
   if (run.recording.table_kind == calib::TableKind::kTwoAxis)
     out.report["outer_axis_heading_deg"] = run.recording.outerAxisHeadingDeg();
   out.verdict = acceptanceVerdict(c, setup.acceptance);
+  // The missing-physics analysis from the final coefficients, on this worker like them.
+  RunExplain e = explainRun(setup.method, run.recording, c, setup.explain);
+  if (e.ok) {
+    out.explain = std::move(e.report);
+    out.explain_summary = std::move(e.summary);
+  } else {
+    out.explain_error = "missing-physics analysis not stored: " + e.error;
+    out.verdict["notes"].push_back(out.explain_error);
+  }
   return out;
 }
 

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/explain.h"
 #include "calib/motion.h"
 #include "daemon/bench_file.h"
 #include "daemon/off_loop.h"
@@ -62,6 +63,9 @@ struct OnlineSetup {
   std::string db_path;                     // the store (its own connection, off the loop)
   io::Recording meta;                      // the run's meta data (site, table, serial)
   std::vector<AcceptanceLimit> acceptance;
+  // The end-of-plan missing-physics analysis (daemon/run_explain.h): calib's defaults, which
+  // its concealed-effect suite tunes; a field so a bench (or a test) can change them.
+  calib::ExplainOptions explain;
 };
 
 class OnlineEngine {
@@ -128,8 +132,11 @@ class OnlineEngine {
 
 // The full calibration of a completed run from the store (runs on a worker thread): loads the
 // run (and the pipeline's direct run) on its own connection, calibrates, judges. Its result:
-// the results to store ("coefficients": interchange coefficient JSON; "report"; "verdict")
+// the results to store ("coefficients": interchange coefficient JSON; "report"; "verdict";
+// "explain": the missing-physics analysis from the final coefficients, daemon/run_explain.h)
 // with the run's IMU serial and mean temperature, or an error naming why none could be made.
+// A failed analysis never fails the run: no "explain" result, its reason in explain_error and
+// as a note of the verdict.
 struct FinalCalibration {
   bool ok = false;  // the run could be read (the calibration itself may still have failed)
   std::string error;
@@ -139,6 +146,9 @@ struct FinalCalibration {
   nlohmann::json coefficients;  // when calibrated
   nlohmann::json report;
   nlohmann::json verdict;
+  std::optional<nlohmann::json> explain;  // imubench-explain/1, when the analysis ran
+  std::string explain_summary;            // when it ran: one line (accepted effects, RMS)
+  std::string explain_error;              // when it did not: why
 };
 FinalCalibration finalCalibration(const OnlineSetup& setup);
 

@@ -3,12 +3,13 @@
 //
 // The calibration results the daemon stored for a run (daemon/online_engine.h): the verdict
 // against the bench file's acceptance limits, the coefficients with sigmas, what the plan could
-// not observe. --truth compares the stored coefficients with a known truth (a simulated bench)
-// per parameter against 3 arcsec / 10 ppm / 2 sigma, the truth put into the frame the method
-// refers to (gyro-referenced for indirect and pipeline); exit 1 when a judged parameter is
-// outside. --coefficients writes the stored coefficient file (interchange.md). --serial lists
-// an IMU's history: every calibrated run with its temperature and verdict.
-// The store is read through imubench-store (tools/cli_store.h).
+// not observe, and the missing-physics analysis (its accepted effects, residual RMS before and
+// after against the noise floor, unexplained windows). --truth compares the stored coefficients
+// with a known truth (a simulated bench) per parameter against 3 arcsec / 10 ppm / 2 sigma, the
+// truth put into the frame the method refers to (gyro-referenced for indirect and pipeline); exit 1
+// when a judged parameter is outside. --coefficients writes the stored coefficient file
+// (interchange.md). --serial lists an IMU's history: every calibrated run with its temperature and
+// verdict. The store is read through imubench-store (tools/cli_store.h).
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -68,6 +69,71 @@ void printVerdict(const json& verdict) {
     }
     std::cout << buf;
   }
+  if (verdict.contains("notes") && verdict["notes"].is_array()) {
+    for (const json& n : verdict["notes"]) {
+      if (n.is_string()) std::cout << "  note: " << n.get<std::string>() << "\n";
+    }
+  }
+}
+
+// A stored parameter value of an explain report (scalar, vector or matrix; null when not
+// finite) in a few significant digits.
+std::string compact(const json& v) {
+  if (v.is_number()) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4g", v.get<double>());
+    return buf;
+  }
+  if (!v.is_array()) return v.is_null() ? "-" : v.dump();
+  std::string out = "[";
+  for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + compact(v[i]);
+  return out + "]";
+}
+
+// The stored missing-physics analysis (imubench-explain/1, interchange.md "Explain report"),
+// read as stored: one line per accepted effect with its parameters and sigmas, the residual
+// RMS per channel before and after against what the noise floor alone gives, the windows
+// nothing in the library explains.
+void printExplain(const json& e) {
+  if (e.value("format", std::string()) != "imubench-explain/1") {
+    std::cout << "missing physics: stored report is not imubench-explain/1\n";
+    return;
+  }
+  const json base = e.value("baseline", json::object());
+  std::printf(
+      "missing physics (%s baseline): normalised residual RMS %.3g -> %.3g "
+      "(1 = noise floor)\n",
+      base.value("method", std::string("?")).c_str(), base.value("normalised_rms", 0.0),
+      e.value("normalised_rms_after", 0.0));
+  const json accepted = e.value("accepted", json::array());
+  if (accepted.empty()) std::cout << "  no effect accepted\n";
+  for (const json& a : accepted) {
+    std::string line = "  accepted " + a.value("effect", std::string("?")) + ":";
+    const json none = json::object();
+    const json& sigma = a.contains("sigma") ? a["sigma"] : none;
+    const json& parameters = a.contains("parameters") ? a["parameters"] : none;
+    for (const auto& [name, v] : parameters.items()) {
+      line += " " + name + " = " + compact(v);
+      if (sigma.contains(name)) line += " +/- " + compact(sigma[name]);
+    }
+    std::printf("%s (delta BIC %.1f)\n", line.c_str(), a.value("delta_bic", 0.0));
+  }
+  const json before = e.value("rms_before", json::object());
+  const json after = e.value("rms_after", json::object());
+  const json noise = e.value("noise_rms", json::object());
+  for (const char* triad : {"accel", "gyro"}) {
+    const char* unit = std::string(triad) == "accel" ? "m/s^2" : "rad/s";
+    for (std::size_t i = 0; i < 3; ++i) {
+      auto at = [&](const json& j) {
+        return j.contains(triad) && j[triad].size() > i && j[triad][i].is_number()
+                   ? j[triad][i].get<double>()
+                   : std::nan("");
+      };
+      std::printf("  %s.%c rms before %10.3e  after %10.3e  noise floor %10.3e %s\n", triad,
+                  static_cast<char>('x' + i), at(before), at(after), at(noise), unit);
+    }
+  }
+  std::printf("  unexplained windows: %zu\n", e.value("unexplained", json::array()).size());
 }
 
 void printEstimate(const json& estimate) {
@@ -152,6 +218,7 @@ void runOne(const ResultsOptions& o, std::int64_t run) {
   if (report.contains("error")) std::cout << "  " << report["error"].get<std::string>() << "\n";
   if (report.contains("estimate")) printEstimate(report["estimate"]);
   if (k.count("verdict")) printVerdict(k["verdict"]);
+  if (k.count("explain")) printExplain(k["explain"]);
   if (!o.coefficients.empty()) std::cout << "coefficients written to " << o.coefficients << "\n";
   if (!o.truth.empty()) {
     if (!k.count("coefficients")) throw CommandFailed("--truth: no coefficients stored");
@@ -210,7 +277,9 @@ void runResults(const ResultsOptions& o) {
 void addResultsCommand(CLI::App& app) {
   auto o = std::make_shared<ResultsOptions>();
   CLI::App* sub = app.add_subcommand(
-      "results", "a run's stored calibration results (verdict, coefficients), or an IMU's history");
+      "results",
+      "a run's stored calibration results (verdict, coefficients, missing physics), or an "
+      "IMU's history");
   sub->add_option("RUN", o->run, "run id (N or run:N)");
   sub->add_option("--serial", o->serial, "list the results of this IMU serial");
   sub->add_flag("--json", o->json, "print the stored results as JSON");

@@ -12,6 +12,8 @@
 #     pipeline coefficients within 3 arcsec / 10 ppm of the truth (biases: 2 sigma, at most one
 #     of them outside by chance, none beyond 3 sigma), the verdict PASS, and
 #     `imubench results --serial` lists both runs;
+#   - with them the missing-physics analysis from the run's own calibration (imubench-explain/1,
+#     baseline "direct" / "indirect"), which `imubench results RUN` shows;
 #   - a pipeline plan without a completed direct run of its IMU is refused before anything moves.
 # The IMU runs at 200 Hz (the bundled layout with a 5 ms period) so that the accelerated stream
 # stays light for user-mode Linux.
@@ -84,7 +86,19 @@ def run_plan(path, method, min_estimates):
     print(imubench("results", str(run), "--db", work + "/imubench.db", ok=None), flush=True)
     check(len(estimates) >= min_estimates, "run %d: %d estimate events (>= %d)" % (run, len(estimates), min_estimates))
     check(e["ok"] and e["calibrated"], "run %d: results stored: %s" % (run, e))
+    check_explain(run, "direct" if method == "direct" else "indirect", e)
     return run, estimates, e
+
+def check_explain(run, baseline, event):
+    """The end-of-plan missing-physics analysis is stored with the run's results as
+    imubench-explain/1, from the run's own calibration (not "given")."""
+    check("explain" in event["results"], "run %d: explain result stored: %s" % (run, event.get("explain")))
+    stored = {r["kind"]: r["json"] for r in c.reply({"cmd": "results", "run": run})["result"]["results"]}
+    x = stored.get("explain", {})
+    check(x.get("format") == "imubench-explain/1", "run %d: explain is imubench-explain/1" % run)
+    check(x["baseline"]["method"] == baseline, "run %d: explain baseline %s" % (run, x["baseline"]))
+    for key in ("noise_floor", "rms_before", "rms_after", "accepted", "unexplained", "coefficients"):
+        check(key in x, "run %d: explain report has %s" % (run, key))
 
 def sigma_trend(estimates, prefix):
     usable = [x for x in estimates if x["ok"]]
@@ -143,6 +157,8 @@ out=$("$CLI" results 2 --db "$W/imubench.db" --truth "$SRC/tests/tools/data/trut
 echo "$out"
 grep -q '^verdict: PASS' <<<"$out" || fail "results 2: verdict PASS"
 grep -q 'pipeline calibration' <<<"$out" || fail "results 2: pipeline"
+grep -q '^missing physics (indirect baseline)' <<<"$out" || fail "results 2: explain shown"
+grep -qE '^  unexplained windows: [0-9]+' <<<"$out" || fail "results 2: unexplained windows"
 python3 - "$out" <<'PY' || fail "stored coefficients against the truth"
 import re, sys
 rows = [l for l in sys.argv[1].splitlines() if " error " in l and " limit " in l]

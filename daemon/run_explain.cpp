@@ -1,0 +1,79 @@
+#include "daemon/run_explain.h"
+
+#include <cstdio>
+#include <exception>
+
+#include "io/sim_recording.h"
+
+namespace imubench::daemon {
+namespace {
+
+std::string summaryOf(const calib::ExplainResult& r) {
+  std::string effects;
+  for (const calib::ExplainAccepted& a : r.accepted) {
+    effects += (effects.empty() ? "" : ", ") + a.effect;
+  }
+  char rms[160];
+  std::snprintf(rms, sizeof(rms),
+                "normalised residual RMS %.3g -> %.3g (1 = noise floor), %zu unexplained "
+                "window(s)",
+                r.baseline_normalised_rms, r.after_normalised_rms, r.unexplained.size());
+  return "explain (" + r.baseline_method + " baseline): " +
+         (effects.empty() ? std::string("no effect accepted") : "accepted " + effects) + "; " + rms;
+}
+
+}  // namespace
+
+const char* explainBaselineMethod(plans::CalibrationMethod method) {
+  return method == plans::CalibrationMethod::kDirect ? "direct" : "indirect";
+}
+
+std::vector<std::string> estimatedTableParams(const calib::CoefficientReport& coefficients) {
+  std::vector<std::string> out;
+  for (const auto& [name, u] : coefficients.uncertainty) {
+    if (name.rfind("table.", 0) == 0 && u.observable && u.sigma) out.push_back(name);
+  }
+  return out;
+}
+
+RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
+                      const RunCalibration& c, const calib::ExplainOptions& options) {
+  RunExplain out;
+  if (!c.ok) {
+    out.error = "no final calibration to start from (" + c.error + ")";
+    return out;
+  }
+  const std::vector<calib::TableSample> table = io::tableSamples(rec);
+  calib::ExplainInput in;
+  in.geometry = io::geometryOf(rec);
+  in.site = rec.site();
+  in.imu = rec.imu;
+  in.table = table;
+  in.segments = rec.segments;
+  in.baseline = c.coefficients;
+  in.baseline_method = explainBaselineMethod(method);
+  in.baseline_table_params = estimatedTableParams(c.coefficients);
+  calib::ExplainResult r;
+  try {
+    r = calib::explainRecording(in, options);
+  } catch (const std::exception& e) {
+    // The analysis never fails the run: whatever it throws (allocation) is its error.
+    out.error = std::string("the analysis failed: ") + e.what();
+    return out;
+  }
+  if (!r.ok) {
+    out.error = r.error;
+    return out;
+  }
+  if (method == plans::CalibrationMethod::kPipeline) {
+    r.notes.push_back(
+        "baseline: the run's pipeline calibration (direct plan run, then the navigation-based "
+        "refinement over this run)");
+  }
+  out.ok = true;
+  out.report = calib::toJson(r);
+  out.summary = summaryOf(r);
+  return out;
+}
+
+}  // namespace imubench::daemon

@@ -1,0 +1,42 @@
+// The missing-physics analysis of a completed run as the daemon runs it (issue 14 item 9,
+// issue 15 item 2): calib's explain (calib/explain.h) on the run's recording, starting from the
+// run's final calibration — the coefficients the plan's method estimated, and the table errors
+// it estimated — so the report says what that calibration left in the residuals. Runs on a
+// worker thread with the final calibration (daemon/online_engine.h finalCalibration). Pure:
+// value types in, value types out.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "calib/explain.h"
+#include "daemon/run_calibration.h"
+#include "io/recording.h"
+#include "plans/plan.h"
+
+namespace imubench::daemon {
+
+struct RunExplain {
+  bool ok = false;
+  std::string error;      // why no report, when !ok (the run itself is not affected)
+  nlohmann::json report;  // imubench-explain/1 (interchange.md "Explain report"), when ok
+  // One line for the log and the `results` event: the accepted effects, the whitened residual
+  // RMS before and after (1 = the noise floor), the windows nothing explains.
+  std::string summary;
+};
+
+// The baseline method the explain report names for a plan's calibration ("direct" |
+// "indirect"): the pipeline's final coefficients are its navigation-based refinement.
+const char* explainBaselineMethod(plans::CalibrationMethod method);
+
+// The table error coefficients (flat names, "table.*") the calibration estimated: observable
+// with a sigma in its report. The other table errors are candidate effects of the analysis.
+std::vector<std::string> estimatedTableParams(const calib::CoefficientReport& coefficients);
+
+// The analysis of rec from c (the final calibration of rec with `method`). !c.ok: no
+// analysis (nothing to start from), the error says why.
+RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
+                      const RunCalibration& c, const calib::ExplainOptions& options = {});
+
+}  // namespace imubench::daemon

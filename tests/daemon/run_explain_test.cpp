@@ -1,0 +1,173 @@
+// The end-of-plan missing-physics analysis (daemon/run_explain.h) through finalCalibration, as
+// the daemon's worker runs it: a simulated direct plan stored in a scratch store, calibrated,
+// analysed; the report is imubench-explain/1 with the run's own calibration as the baseline. A
+// failing analysis stores nothing, leaves the calibration alone and notes why in the verdict.
+#include "daemon/run_explain.h"
+
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+
+#include "calib/simulator.h"
+#include "daemon/online_engine.h"
+#include "daemon/store.h"
+#include "io/sim_recording.h"
+#include "plans/expand.h"
+#include "plans/plan.h"
+#include "plans/validator.h"
+
+namespace imubench::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ScratchDir {
+ public:
+  ScratchDir() {
+    const char* base = std::getenv("TMPDIR");
+    std::string templ = std::string(base != nullptr ? base : "/tmp") + "/imubench-explain-XXXXXX";
+    if (mkdtemp(templ.data()) == nullptr) ADD_FAILURE() << "mkdtemp " << templ << " failed";
+    path_ = templ;
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  fs::path path_;
+};
+
+// The bundled direct two-axis plan simulated at 100 Hz with sensor errors and navigation-grade
+// noise, as a stored run would load.
+io::Recording directPlanRecording() {
+  const std::string path = std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/direct_two_axis.toml";
+  io::Diagnostics diag(path);
+  auto plan = plans::loadPlanFile(path, diag);
+  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
+  if (!plan) return {};
+  const plans::ExpandResult e = plans::expand(*plan);
+  EXPECT_TRUE(e.ok) << e.error;
+  calib::SimulatorInput in;
+  in.motion = e.motion;
+  in.world.site.latitude_rad = 55.75 * kDegToRad;
+  in.world.site.height_m = 150.0;
+  in.world.noise = calib::NoiseModel::navigationGrade();
+  in.world.truth.sensors.accel.bias = Vec3(5e-4, -3e-4, 2e-4);
+  in.world.truth.sensors.gyro.scale = Vec3(1.0002, 0.9998, 1.0001);
+  in.world.truth.sensors.gyro.bias = Vec3(2e-7, -1e-7, 3e-7);
+  calib::SimOptions opt;
+  opt.imu_rate_hz = 100.0;
+  opt.table_rate_hz = 100.0;
+  opt.seed = 4242;
+  const calib::Simulation sim = calib::simulate(in, opt);
+  EXPECT_TRUE(sim.ok) << sim.error;
+  io::RecordingIdentity id;
+  id.imu_serial = "SIM-EXPLAIN";
+  id.imu_rate_hz = opt.imu_rate_hz;
+  return io::recordingFromSimulation(sim, in.world.site, id);
+}
+
+// The run stored in a fresh store; the setup finalCalibration gets for it.
+OnlineSetup storedRun(const ScratchDir& dir, const io::Recording& rec) {
+  OnlineSetup setup;
+  setup.db_path = dir.file("bench.db");
+  auto opened = Store::open(setup.db_path, StoreOptions{});
+  EXPECT_TRUE(opened.status.ok) << opened.status.message;
+  if (!opened.status.ok) return setup;
+  RunStart start = runStartFromRecording(rec);
+  start.plan_name = "direct-two-axis";
+  start.bench_name = "bench-a";
+  const RunIdResult run = opened.store->importRecording(start, rec);
+  EXPECT_TRUE(run.status.ok) << run.status.message;
+  setup.run_id = run.run_id;
+  setup.method = plans::CalibrationMethod::kDirect;
+  setup.meta = rec;
+  return setup;
+}
+
+const io::Recording& recording() {
+  static const io::Recording rec = directPlanRecording();
+  return rec;
+}
+
+TEST(RunExplain, FinalCalibrationStoresAnExplainReportFromItsOwnCoefficients) {
+  ScratchDir dir;
+  const OnlineSetup setup = storedRun(dir, recording());
+  const FinalCalibration f = finalCalibration(setup);
+  ASSERT_TRUE(f.ok) << f.error;
+  ASSERT_TRUE(f.calibrated) << f.report.dump(2);
+  ASSERT_TRUE(f.explain.has_value()) << f.explain_error;
+  EXPECT_TRUE(f.explain_error.empty());
+  EXPECT_FALSE(f.verdict.contains("notes")) << f.verdict.dump(2);
+  // The stored text parses back as the interchange report.
+  const nlohmann::json j = nlohmann::json::parse(f.explain->dump());
+  EXPECT_EQ(j.at("format"), "imubench-explain/1");
+  EXPECT_EQ(j.at("baseline").at("method"), "direct");  // the run's method, not "given"
+  for (const char* key : {"noise_floor", "rms_before", "rms_after", "accepted", "rejected",
+                          "unseparable", "unexplained", "coefficients"}) {
+    EXPECT_TRUE(j.contains(key)) << key;
+  }
+  for (const char* triad : {"accel", "gyro"}) {
+    ASSERT_EQ(j["rms_before"][triad].size(), 3u);
+    ASSERT_EQ(j["rms_after"][triad].size(), 3u);
+    ASSERT_EQ(j["noise_floor"][triad].size(), 3u);
+    for (int i = 0; i < 3; ++i) EXPECT_GT(j["noise_floor"][triad][i].get<double>(), 0.0);
+  }
+  // Its coefficients are a coefficient file; with no physics added to the simulation the
+  // refit starts from (and stays near) the run's own calibration: the simulated gyro scale.
+  calib::CoefficientReport coefficients;
+  std::string why;
+  ASSERT_TRUE(calib::fromJson(j["coefficients"], &coefficients, &why)) << why;
+  EXPECT_NEAR(coefficients.values.sensors.gyro.scale.x(), 1.0002, 20e-6);
+  EXPECT_TRUE(j["accepted"].empty()) << j["accepted"].dump(2);
+  EXPECT_NE(f.explain_summary.find("direct baseline"), std::string::npos) << f.explain_summary;
+  EXPECT_NE(f.explain_summary.find("no effect accepted"), std::string::npos) << f.explain_summary;
+}
+
+TEST(RunExplain, AFailedAnalysisStoresNothingAndNotesWhyInTheVerdict) {
+  ScratchDir dir;
+  OnlineSetup setup = storedRun(dir, recording());
+  // No hold of the plan is a day long: no noise floor, so no analysis.
+  setup.explain.min_static_s = 86400.0;
+  const FinalCalibration f = finalCalibration(setup);
+  ASSERT_TRUE(f.ok) << f.error;
+  EXPECT_TRUE(f.calibrated) << f.report.dump(2);  // the run's calibration is untouched
+  EXPECT_FALSE(f.coefficients.is_null());
+  EXPECT_FALSE(f.explain.has_value());
+  EXPECT_NE(f.explain_error.find("no static hold"), std::string::npos) << f.explain_error;
+  ASSERT_TRUE(f.verdict.contains("notes")) << f.verdict.dump(2);
+  ASSERT_EQ(f.verdict["notes"].size(), 1u);
+  EXPECT_EQ(f.verdict["notes"][0], f.explain_error);
+}
+
+TEST(RunExplain, NoAnalysisWithoutACalibrationToStartFrom) {
+  RunCalibration failed;
+  failed.error = "direct calibration: too few positions";
+  const RunExplain e = explainRun(plans::CalibrationMethod::kDirect, recording(), failed);
+  EXPECT_FALSE(e.ok);
+  EXPECT_NE(e.error.find("too few positions"), std::string::npos) << e.error;
+  EXPECT_TRUE(e.report.is_null());
+}
+
+TEST(RunExplain, BaselineIsWhatTheMethodEstimated) {
+  EXPECT_STREQ(explainBaselineMethod(plans::CalibrationMethod::kDirect), "direct");
+  EXPECT_STREQ(explainBaselineMethod(plans::CalibrationMethod::kIndirect), "indirect");
+  EXPECT_STREQ(explainBaselineMethod(plans::CalibrationMethod::kPipeline), "indirect");
+  calib::CoefficientReport r;
+  r.setSigma("table.base_tilt.x", 1e-6);
+  r.setSigma("table.nonorthogonality.inner_y", 2e-6);
+  r.setUnobservable("table.mounting.x");
+  r.setSigma("gyro.bias.x", 1e-8);
+  r.uncertainty["table.base_tilt.y"];  // no sigma: not estimated
+  const std::vector<std::string> names = estimatedTableParams(r);
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"table.base_tilt.x", "table.nonorthogonality.inner_y"}));
+}
+
+}  // namespace
+}  // namespace imubench::daemon
