@@ -38,6 +38,29 @@ TEST(ExplainEngine, DirectPlanClean) {
   EXPECT_TRUE(r.accepted.empty());
 }
 
+// The direct plan turns the table about one axis at a time from level holds: a base tilt and
+// the encoder zeros change the readings the same way there. The analysis must say so (with the
+// motion that would separate them) and select neither, here with a base tilt concealed.
+TEST(ExplainEngine, DirectPlanCannotSeparateBaseTiltFromEncoderZero) {
+  EffectSet e;
+  e.enable(EffectId::kBaseTilt);
+  e.base_tilt->x = 20.0 / 206264.8;  // 20 arcsec
+  const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), e, 8);
+  const ExplainResult r = explainSimulated(rec);
+  ASSERT_TRUE(r.ok) << r.error;
+  std::cout << summary(r);
+  bool pair = false;
+  for (const ExplainUnseparable& u : r.unseparable) {
+    if (u.effects == std::vector<std::string>{"base_tilt", "encoder_zero"}) {
+      pair = true;
+      EXPECT_NE(u.reason.find("To separate them record"), std::string::npos) << u.reason;
+    }
+  }
+  EXPECT_TRUE(pair);
+  EXPECT_EQ(findAccepted(r, "base_tilt"), nullptr);
+  EXPECT_EQ(findAccepted(r, "encoder_zero"), nullptr);
+}
+
 // Physics outside the library, added to the recorded increments after simulation: a gyro z
 // bias step of 0.5 deg/h at 37 % of the recording. It is no library effect: the analysis must
 // name nothing and report the residual as unexplained, on the right channel and where it is.

@@ -65,6 +65,14 @@ EffectSet accelDelay(double ms) {
   return e;
 }
 
+// A gravity model error of mGal (1e-5 m/s^2).
+EffectSet gravityError(double mgal) {
+  EffectSet e;
+  e.enable(EffectId::kGravityError);
+  e.gravity_error->dg_mps2 = mgal * 1e-5;
+  return e;
+}
+
 std::vector<EffectFamily> families() {
   return {
       {"lever_arm",
@@ -78,6 +86,7 @@ std::vector<EffectFamily> families() {
       {"thermal_bias", "ug/degC", {1, 10}, thermalBias},
       {"scale_asymmetry", "ppm", {20, 200}, scaleAsymmetry},
       {"accel_k2", "ug/g^2", {10, 50}, accelK2},
+      {"gravity_error", "mGal", {10, 50}, gravityError},
   };
 }
 
@@ -87,7 +96,16 @@ struct Invisible {
   std::string plan, effect, why;
 };
 const std::vector<Invisible>& invisible() {
-  static const std::vector<Invisible> v = {};
+  // A gravity error scales every specific force the accelerometers see on a table by the same
+  // factor: the accelerometer scale factors of the baseline absorb it on any table plan.
+  static const std::vector<Invisible> v = {
+      {"direct_two_axis", "gravity_error",
+       "a common accelerometer scale (needs a gravity reference)"},
+      {"two_axis_12run", "gravity_error",
+       "a common accelerometer scale (needs a gravity reference)"},
+      {"three_axis_indirect", "gravity_error",
+       "a common accelerometer scale (needs a gravity reference)"},
+  };
   return v;
 }
 const Invisible* invisibleOn(const std::string& plan, const std::string& effect) {
