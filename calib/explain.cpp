@@ -54,7 +54,13 @@ std::string separatingMotion(const std::string& id) {
                            : "a motion that excites it differently from the baseline terms";
 }
 
-enum class GateStatus { kActive, kUnexcited, kBaselineCollinear, kPairUnseparable };
+enum class GateStatus {
+  kActive,
+  kUnexcited,
+  kBaselineCollinear,
+  kPairUnseparable,
+  kInconsistent  // accepted, but its parameters change along the recording (see below)
+};
 
 struct Candidate {
   std::string id;
@@ -62,7 +68,8 @@ struct Candidate {
   std::vector<int> cols;           // their columns in the candidate matrix
   std::vector<int> active;         // columns that enter the fit
   GateStatus status = GateStatus::kActive;
-  std::string held_note;  // parameters held and why
+  std::string held_note;     // parameters held and why
+  std::string inconsistent;  // why it was withdrawn (kInconsistent)
 };
 
 // Static holds of the recording as readings (rates), trimmed.
@@ -486,6 +493,8 @@ void reportGate(const std::vector<Candidate>& cands, ExplainResult* res) {
           {{c.id},
            c.id + " is unseparable from the baseline coefficients on this recording (" +
                c.held_note + "): to separate it record " + separatingMotion(c.id)});
+    } else if (c.status == GateStatus::kInconsistent) {
+      res->rejected.push_back({c.id, "withdrawn: " + c.inconsistent, 0.0});
     } else if (c.status == GateStatus::kActive && !c.held_note.empty()) {
       res->notes.push_back(c.id + ": held at zero: " + c.held_note);
     }
@@ -582,10 +591,12 @@ bool ExplainOptions::IsValid(std::string* why) const {
   }
   if (!(baseline_collinear > 0.0 && baseline_collinear < 1.0 && unseparable_cos > 0.0 &&
         unseparable_cos < 1.0 && unexplained_sigma > 0.0 && fd_step > 0.0 &&
-        refit_iterations >= 1)) {
+        refit_iterations >= 1 && passes >= 1 && consistency_parts >= 1 && consistency_p > 0.0 &&
+        consistency_p < 1.0)) {
     *why =
         "baseline_collinear and unseparable_cos in (0, 1), unexplained_sigma, fd_step > 0, "
-        "refit_iterations >= 1 required";
+        "refit_iterations >= 1, passes >= 1, consistency_parts >= 1, consistency_p in (0, 1) "
+        "required";
     return false;
   }
   for (const std::string& c : candidates) {
@@ -611,10 +622,10 @@ struct Linearised {
   int dof_b = 0;
 };
 
-Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval) {
+Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval, const ExplainState& at) {
   Linearised L;
-  L.r0 = eval->residual(p.start);
-  L.Jb = eval->jacobian(p.start, p.baseline_names);
+  L.r0 = eval->residual(at);
+  L.Jb = eval->jacobian(at, p.baseline_names);
   L.Ub = columnBasis(L.Jb, 1e-7);
   for (const ExplainCandidateSpec& spec : p.candidates) {
     Candidate c;
@@ -626,11 +637,93 @@ Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval) {
     }
     L.cands.push_back(std::move(c));
   }
-  L.C = eval->jacobian(p.start, L.cnames, &L.raw_max);
+  L.C = eval->jacobian(at, L.cnames, &L.raw_max);
   L.Cperp = projectOff(L.Ub, L.C);
   L.rperp = projectOff(L.Ub, L.r0);
   L.dof_b = eval->rows() - static_cast<int>(L.Ub.cols());
   return L;
+}
+
+// Chi^2 of the least-squares fit of r on the columns of A (normalised columns, rank-revealing
+// solve: columns the others already span add nothing).
+double fitChi2(const Eigen::MatrixXd& A, const Eigen::VectorXd& r, int* rank) {
+  if (A.cols() == 0) {
+    *rank = 0;
+    return r.squaredNorm();
+  }
+  Eigen::VectorXd d(A.cols());
+  for (int j = 0; j < A.cols(); ++j) {
+    const double n = A.col(j).norm();
+    d(j) = n > 0.0 ? 1.0 / n : 0.0;
+  }
+  const Eigen::MatrixXd An = A * d.asDiagonal();
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(An);
+  cod.setThreshold(1e-9);
+  *rank = static_cast<int>(cod.rank());
+  return (r - An * cod.solve(r)).squaredNorm();
+}
+
+// Constancy test of the accepted effects (a Chow test): a physical effect has the same
+// parameters all along the recording, so letting an accepted effect's parameters take other
+// values in each of consistency_parts consecutive parts of it (by time) must not improve the
+// fit beyond noise. Residual structure outside the library (a bias step, a drift, a
+// sinusoid) that an effect merely correlates with does improve it: that effect is withdrawn.
+// Returns the accepted effect with the most significant change (and its reason), or npos.
+std::size_t leastConstant(const Linearised& L, const std::vector<ExplainBin>& bins,
+                          const std::vector<std::size_t>& accepted, double scale,
+                          const ExplainOptions& o, std::string* why) {
+  const int parts = o.consistency_parts;
+  if (accepted.empty() || parts < 2 || bins.empty()) return std::string::npos;
+  // Part of each row: consecutive spans of equal duration.
+  const double t0 = bins.front().t0, span = bins.back().t1 - t0;
+  std::vector<int> part(bins.size());
+  for (std::size_t b = 0; b < bins.size(); ++b) {
+    const double mid = 0.5 * (bins[b].t0 + bins[b].t1);
+    part[b] = std::clamp(static_cast<int>((mid - t0) / span * parts), 0, parts - 1);
+  }
+  std::vector<int> cols;
+  for (std::size_t g : accepted) {
+    for (int j : L.cands[g].active) cols.push_back(j);
+  }
+  const Eigen::MatrixXd A = columnsOf(L.Cperp, cols);
+  int rank = 0;
+  const double chi2 = fitChi2(A, L.rperp, &rank);
+  std::size_t worst = std::string::npos;
+  double worst_p = o.consistency_p;
+  for (std::size_t g : accepted) {
+    const std::vector<int>& act = L.cands[g].active;
+    // The effect's columns restricted to parts 1.. (part 0 keeps the common value), projected
+    // off the baseline coefficients like every candidate column.
+    Eigen::MatrixXd S(A.rows(), static_cast<int>(act.size()) * (parts - 1));
+    for (int q = 1; q < parts; ++q) {
+      for (std::size_t k = 0; k < act.size(); ++k) {
+        Eigen::VectorXd c = L.C.col(act[k]);
+        for (std::size_t b = 0; b < bins.size(); ++b) {
+          if (part[b] != q) c.segment(static_cast<int>(b) * 6, 6).setZero();
+        }
+        S.col((q - 1) * static_cast<int>(act.size()) + static_cast<int>(k)) = c;
+      }
+    }
+    Eigen::MatrixXd AS(A.rows(), A.cols() + S.cols());
+    AS << A, projectOff(L.Ub, S);
+    int rank_s = 0;
+    const double chi2_s = fitChi2(AS, L.rperp, &rank_s);
+    const int k = rank_s - rank;
+    if (k <= 0) continue;
+    const double lr = std::max(0.0, (chi2 - chi2_s) / scale);
+    const double p = chiSquareSurvival(lr, k);
+    if (p >= worst_p) continue;
+    worst_p = p;
+    worst = g;
+    char buf[240];
+    std::snprintf(buf, sizeof(buf),
+                  "its parameters would have to change along the recording (fitted separately "
+                  "over %d parts: LR %.1f on %d parameters, p = %.2g): the residual it fits is "
+                  "not a constant effect",
+                  parts, lr, k, p);
+    *why = buf;
+  }
+  return worst;
 }
 
 // Residuals before and after, RMS, located windows, coefficients, bins.
@@ -681,6 +774,80 @@ std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& o) {
   return out;
 }
 
+namespace {
+
+// One linearisation, gate, selection and joint refit, about the state `at` (its baseline
+// coefficients; the candidates' parameters are zero there).
+struct Pass {
+  Linearised L;
+  Selection sel;
+  double scale = 1.0;
+  std::vector<std::string> names;  // what the refit varied
+  RefitResult fit;
+  ExplainResult gate;  // the gate's and the constancy test's verdicts (unseparable, rejected)
+};
+
+Pass selectAndRefit(const ExplainProblem& p, const ExplainOptions& o, ExplainEvaluator* eval,
+                    const ExplainState& at, double log_n, bool test_constancy) {
+  Pass q;
+  q.L = linearise(p, eval, at);
+  Linearised& L = q.L;
+  const GateInput gate{&L.Jb, &p.baseline_names, &L.C, &L.Cperp, &L.raw_max};
+  for (Candidate& c : L.cands) gateParameters(gate, o, &c);
+  gatePairs(gate, o, &L.cands, &q.gate);
+  const Selector selector(L.Cperp, L.rperp, &L.cands);
+  std::vector<std::size_t> all;
+  for (std::size_t g = 0; g < L.cands.size(); ++g) {
+    if (L.cands[g].status == GateStatus::kActive) all.push_back(g);
+  }
+  q.scale = std::max(1.0, selector.chi2(all) / std::max(1, L.dof_b - selector.params(all)));
+  q.sel = selectEffects(selector, L.cands, q.scale, log_n);
+  for (std::size_t round = 0; test_constancy && round < L.cands.size(); ++round) {
+    std::string why;
+    const std::size_t g = leastConstant(L, *p.bins, q.sel.accepted, q.scale, o, &why);
+    if (g == std::string::npos) break;
+    L.cands[g].status = GateStatus::kInconsistent;
+    L.cands[g].inconsistent = why;
+    q.sel = selectEffects(selector, L.cands, q.scale, log_n);
+  }
+  reportGate(L.cands, &q.gate);
+  q.names = p.baseline_names;
+  ExplainState start = at;
+  for (std::size_t g : q.sel.accepted) {
+    for (int j : L.cands[g].active) {
+      const std::string& n = L.cnames[static_cast<std::size_t>(j)];
+      q.names.push_back(n);
+      std::string why;
+      setStateValue(&start, n, stateValue(at, n), &why);  // enables the effect in the state
+    }
+  }
+  q.fit = refitJointly(eval, start, q.names, o.refit_iterations);
+  return q;
+}
+
+// The refitted state with the accepted effects' parameters back at their start values: the
+// baseline coefficients as the accepted effects left them.
+ExplainState withoutCandidates(const Pass& q, const ExplainState& start) {
+  ExplainState s = q.fit.state;
+  for (std::size_t g : q.sel.accepted) {
+    for (int j : q.L.cands[g].active) {
+      const std::string& n = q.L.cnames[static_cast<std::size_t>(j)];
+      std::string why;
+      setStateValue(&s, n, stateValue(start, n), &why);
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
+// Selection is on the problem linearised at the baseline. A large concealed effect moves the
+// baseline calibration far from the truth (it absorbed what it could of the effect), and the
+// linearisation there makes small candidates look significant; when a pass accepts anything,
+// the analysis is repeated about the refitted baseline coefficients (candidates at zero), where
+// the model is linear to far below the noise, and that pass is reported. The constancy test
+// (leastConstant) runs in that pass only: about a biased baseline the linearisation error
+// itself changes along the recording.
 ExplainResult analyseProblem(const ExplainProblem& p, const ExplainOptions& o) {
   ExplainResult res;
   res.baseline_method = p.baseline_method;
@@ -688,39 +855,25 @@ ExplainResult analyseProblem(const ExplainProblem& p, const ExplainOptions& o) {
   res.noise = p.noise;
   ExplainEvaluator eval(p.bins, p.forward, p.sigma, o.fd_step);
   const double log_n = std::log(static_cast<double>(eval.rows()));
-  Linearised L = linearise(p, &eval);
-  res.baseline_normalised_rms = std::sqrt(L.rperp.squaredNorm() / std::max(1, L.dof_b));
-
-  // Gate, selection on the linearised problem, joint refit.
-  const GateInput gate{&L.Jb, &p.baseline_names, &L.C, &L.Cperp, &L.raw_max};
-  for (Candidate& c : L.cands) gateParameters(gate, o, &c);
-  gatePairs(gate, o, &L.cands, &res);
-  reportGate(L.cands, &res);
-  const Selector selector(L.Cperp, L.rperp, &L.cands);
-  std::vector<std::size_t> all;
-  for (std::size_t g = 0; g < L.cands.size(); ++g) {
-    if (L.cands[g].status == GateStatus::kActive) all.push_back(g);
+  Pass q = selectAndRefit(p, o, &eval, p.start, log_n, o.passes == 1);
+  const Linearised first = q.L;  // residuals before: about the given baseline
+  res.baseline_normalised_rms = std::sqrt(first.rperp.squaredNorm() / std::max(1, first.dof_b));
+  for (int pass = 1; pass < o.passes && q.fit.ok && !q.sel.accepted.empty(); ++pass) {
+    q = selectAndRefit(p, o, &eval, withoutCandidates(q, p.start), log_n, true);
   }
-  res.scale = std::max(1.0, selector.chi2(all) / std::max(1, L.dof_b - selector.params(all)));
-  const Selection sel = selectEffects(selector, L.cands, res.scale, log_n);
-  std::vector<std::string> names = p.baseline_names;
-  ExplainState start = p.start;
-  for (std::size_t g : sel.accepted) {
-    for (int j : L.cands[g].active) {
-      names.push_back(L.cnames[static_cast<std::size_t>(j)]);
-      std::string why;
-      setStateValue(&start, L.cnames[static_cast<std::size_t>(j)], 0.0, &why);
-    }
-  }
-  const RefitResult fit = refitJointly(&eval, start, names, o.refit_iterations);
-  if (!fit.ok) {
-    res.error = fit.error;
+  if (!q.fit.ok) {
+    res.error = q.fit.error;
     return res;
   }
-  res.error = givenMismatch(p, o, fit.state.model);
+  res.error = givenMismatch(p, o, q.fit.state.model);
   if (!res.error.empty()) return res;
-  reportSelection(L.cands, sel, selector, res.scale, log_n, names, fit, &res);
-  finish(p, o, L, &eval, fit, names, &res);
+  res.scale = q.scale;
+  res.unseparable = q.gate.unseparable;
+  res.rejected = q.gate.rejected;
+  res.notes = q.gate.notes;
+  const Selector selector(q.L.Cperp, q.L.rperp, &q.L.cands);
+  reportSelection(q.L.cands, q.sel, selector, q.scale, log_n, q.names, q.fit, &res);
+  finish(p, o, first, &eval, q.fit, q.names, &res);
   res.ok = true;
   return res;
 }

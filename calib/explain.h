@@ -21,6 +21,12 @@
 //   5. Selection: forward and backward steps by nested likelihood-ratio tests and BIC, the
 //      noise floor as scale (inflated by the fullest model's chi^2 per degree of freedom when
 //      that exceeds 1, so unmodelled structure does not make every candidate look significant).
+//      An accepted effect whose parameters would have to change along the recording (a
+//      constancy test over consecutive parts) is withdrawn and the selection repeated: what it
+//      fitted is structure outside the library.
+//      When effects were accepted, selection is repeated once about the refitted baseline
+//      (ExplainOptions::passes): a large effect biases the baseline calibration, and the
+//      linearisation about it makes small candidates look significant.
 //   6. Refit: Gauss-Newton on the baseline coefficients and the accepted effects jointly, with
 //      sigmas from the inverse information times that scale.
 //   7. Locate: windows (segments cut to ExplainOptions::window_s) whose mean residual exceeds
@@ -79,11 +85,26 @@ struct ExplainOptions {
   // Significance of an unexplained window, in noise-floor sigmas: with a few thousand
   // windows x channels, 5 sigma keeps chance detections below one in a hundred recordings.
   double unexplained_sigma = 5.0;
+  // Constancy test of the accepted effects (a Chow test, calib/explain.cpp leastConstant): the
+  // recording is cut into this many consecutive parts of equal duration and an accepted
+  // effect whose parameters fit significantly better with a value per part is withdrawn (its
+  // fit was of structure outside the library: a step, a drift). Three parts see a change
+  // anywhere in the recording, not only at its middle; 1 switches the test off.
+  int consistency_parts = 3;
+  // Significance of that change: 1e-4 keeps real (constant) effects withdrawn in fewer than
+  // one recording in a thousand even with a few accepted effects, while structure an effect
+  // only mimics changes the fit by far more.
+  double consistency_p = 1e-4;
   // Longest window for locating residual structure, s (segments longer are cut).
   double window_s = 30.0;
   // Gauss-Newton iterations of the joint refit: the model is nearly linear in its
   // coefficients, two or three iterations converge to far below the sigmas.
   int refit_iterations = 3;
+  // Linearisations of the selection: a pass that accepts effects is repeated about the
+  // refitted baseline coefficients (candidates at zero), up to this many passes. Two: the
+  // second linearisation is about coefficients within their sigmas of the truth, where the
+  // model is linear to far below the noise.
+  int passes = 2;
   // Central-difference step of every regressor (SI units of the parameter): small against any
   // realistic parameter, large against the rounding of readings of order 10.
   double fd_step = 1e-6;
