@@ -344,17 +344,18 @@ void ExplainPredictor::predict(const ExplainState& state, std::vector<double>* o
   const PhysicsKey key = keyOf(model);
   if (!have_physics_ || !(key == key_)) computePhysics(model, key);
   out->assign(data_->bins.size() * 6, 0.0);
+  const ForwardModel forward(model.sensors, model.extra);  // parameter blocks prepared once
   for (std::size_t b = 0; b < data_->bins.size(); ++b) {
     const ExplainBin& bin = data_->bins[b];
     Vec3 accel = Vec3::Zero(), gyro = Vec3::Zero();
     for (std::size_t i = bin.node_begin; i < bin.node_end; ++i) {
       const double w = data_->nodes[i].weight;
-      const Readings r = forwardReadings(model.sensors, model.extra, physics_[i]);
+      const Readings r = forward.readings(physics_[i]);
       gyro += w * r.gyro;
       if (accel_physics_.empty()) {
         accel += w * r.accel;
       } else {
-        accel += w * forwardReadings(model.sensors, model.extra, accel_physics_[i]).accel;
+        accel += w * forward.readings(accel_physics_[i]).accel;
       }
     }
     for (int c = 0; c < 3; ++c) {
