@@ -16,6 +16,7 @@
 #include "io/recording.h"
 #include "io/thermal_file.h"
 #include "tools/cli_common.h"
+#include "tools/cli_store.h"
 
 namespace imubench::tools {
 namespace {
@@ -23,6 +24,7 @@ namespace {
 struct ApplyOptions {
   std::string comp;
   std::string run;
+  std::string db;  // run store for run ids
   std::string out;
   double rate_window_s = 60.0;
 };
@@ -52,8 +54,7 @@ std::string extrapolatedSpans(const nav::ImuSamples& imu, const std::vector<bool
 void runApply(const ApplyOptions& o) {
   const io::ThermalFileResult comp = io::readThermalFile(o.comp);
   if (!comp.status.ok) throw CommandFailed(comp.status.message);
-  io::RecordingReadResult rec = io::readRecording(o.run);
-  if (!rec.status.ok) throw CommandFailed(rec.status.message);
+  ResolvedRecording rec = loadRunOrDir(o.run, o.db);
   const std::string& want = comp.file.imu_serial;
   if (!want.empty() && want != rec.recording.imu_serial) {
     throw CommandFailed(o.comp + ": compensation file for IMU serial '" + want + "', but " + o.run +
@@ -92,9 +93,11 @@ void addApplyCommand(CLI::App& app) {
   sub->add_option("comp", opt->comp, "compensation file (imubench thermal fit --out)")
       ->required()
       ->check(CLI::ExistingFile);
-  sub->add_option("run", opt->run, "recording directory (imubench-csv/1 with temperatures)")
+  sub->add_option("run", opt->run,
+                  "recording with temperatures: imubench-csv/1 directory or run id (N, run:N)")
       ->required();
   sub->add_option("--out", opt->out, "output recording directory")->required();
+  addStoreOption(*sub, &opt->db);
   sub->add_option("--rate-window", opt->rate_window_s, "window of the temperature-rate estimate, s")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();

@@ -17,6 +17,7 @@
 #include "io/sim_recording.h"
 #include "io/thermal_file.h"
 #include "tools/cli_common.h"
+#include "tools/cli_store.h"
 
 namespace imubench::tools {
 namespace {
@@ -27,18 +28,12 @@ struct ThermalFitCliOptions {
   double t_ref_c = 20.0;
   std::string out;
   std::string csv;
+  std::string db;  // run store for run ids
 };
 
-io::Recording readRunOrFail(const std::string& dir) {
-  std::error_code ec;
-  if (!std::filesystem::is_directory(dir, ec)) {
-    throw CommandFailed(dir +
-                        ": not a recording directory (imubench-csv/1); export a stored "
-                        "run first (`imubench export RUN DIR`)");
-  }
-  io::RecordingReadResult r = io::readRecording(dir);
-  if (!r.status.ok) throw CommandFailed(r.status.message);
-  return std::move(r.recording);
+// A recording directory or a run of the store (tools/cli_store.h RUN_OR_DIR).
+io::Recording readRunOrFail(const std::string& arg, const std::string& db) {
+  return loadRunOrDir(arg, db).recording;
 }
 
 int parseOrder(const std::string& s) {
@@ -70,7 +65,7 @@ void runThermalFit(const ThermalFitCliOptions& o) {
   std::string serial, serial_dir;
   std::vector<calib::ThermalFitPoint> points;
   for (const std::string& dir : o.runs) {
-    const io::Recording rec = readRunOrFail(dir);
+    const io::Recording rec = readRunOrFail(dir, o.db);
     if (!serial_dir.empty() && rec.imu_serial != serial) {
       throw CommandFailed(dir + ": IMU serial '" + rec.imu_serial + "' differs from '" + serial +
                           "' of " + serial_dir + ": a thermal model is one IMU's");
@@ -114,13 +109,16 @@ void addThermalCommand(CLI::App& app) {
   auto opt = std::make_shared<ThermalFitCliOptions>();
   CLI::App* fit = thermal->add_subcommand(
       "fit", "fit every coefficient over temperature from recordings at several temperatures");
-  fit->add_option("runs", opt->runs, "recording directories (imubench-csv/1 with temperatures)")
+  fit->add_option(
+         "runs", opt->runs,
+         "recordings at several temperatures: imubench-csv/1 directories or run ids (N, run:N)")
       ->required();
   fit->add_option("--order", opt->order, "polynomial order: auto (BIC per coefficient) or 0..4")
       ->capture_default_str();
   fit->add_option("--t-ref", opt->t_ref_c, "polynomial origin, degC")->capture_default_str();
   fit->add_option("--out", opt->out, "imubench-thermal/1 JSON file to write")->required();
   fit->add_option("--csv", opt->csv, "also write the CSV form");
+  addStoreOption(*fit, &opt->db);
   fit->callback([opt] { runThermalFit(*opt); });
 }
 
