@@ -191,8 +191,21 @@ GL_X = np.array([-np.sqrt(3 / 5), 0.0, np.sqrt(3 / 5)])
 GL_W = np.array([5 / 9, 8 / 9, 5 / 9])
 
 
-def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2):
-    """Increments over (t_end - dt, t_end] by Gauss-Legendre (sub sub-intervals x 3 nodes)."""
+def lever_arm_force(table, sched, tt, w_LB_B, r, h=1e-4):
+    """interchange.md lever_arm: w' x r + w x (w x r), w the table rate in B; w' by central
+    differences of the table kinematics (h s)."""
+    _, wp = table.kinematics(*sched.state(tt + h))
+    _, wm = table.kinematics(*sched.state(tt - h))
+    wdot = (wp - wm) / (2 * h)
+    return np.cross(wdot, r) + np.cross(w_LB_B, np.cross(w_LB_B, r))
+
+
+def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2, extra=None):
+    """Increments over (t_end - dt, t_end] by Gauss-Legendre (sub sub-intervals x 3 nodes).
+    extra (interchange.md effect ids): "lever_arm" r_m (m, B); "time_delay" tau_s (a sample
+    stamped t was taken at t - tau_s)."""
+    extra = extra or {}
+    tau = extra.get("time_delay", 0.0)
     n = len(t_end)
     h = dt / sub
     offs = []
@@ -206,11 +219,13 @@ def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2)
     dv = np.zeros((n, 3))
     chunk = 20000
     for a in range(0, n, chunk):
-        tt = (t_end[a:a + chunk, None] + offs[None, :]).ravel()
+        tt = (t_end[a:a + chunk, None] + offs[None, :]).ravel() - tau
         q, qd = sched.state(tt)
         C_LB, w_LB_B = table.kinematics(q, qd)
         C_BL = np.transpose(C_LB, (0, 2, 1))
         f_B = C_BL @ np.array([0.0, 0.0, g])
+        if "lever_arm" in extra:
+            f_B = f_B + lever_arm_force(table, sched, tt, w_LB_B, np.array(extra["lever_arm"]))
         w_IB_B = C_BL @ w_ie_L + w_LB_B
         ra = accel.reading(f_B).reshape(-1, len(offs), 3)
         rg = gyro.reading(w_IB_B).reshape(-1, len(offs), 3)
@@ -235,7 +250,8 @@ def write_case(out, spec):
     dt = 1.0 / rate
     n = int((sched.t - sched.steps[0][0]) * rate)
     t_end = sched.steps[0][0] + dt * np.arange(1, n + 1)
-    dth, dv = integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt)
+    dth, dv = integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt,
+                                   extra=spec.get("extra"))
     if spec.get("noise", True):
         # white noise inside the sensor equation: diag(scale) * noise, integrated
         dv += rng.normal(0, 3e-5 * np.sqrt(dt), (n, 3)) * accel.scale  # 3e-5 m/s/sqrt(s)
@@ -272,6 +288,9 @@ def write_case(out, spec):
     truth = {"accel": accel.json(), "gyro": gyro.json(),
              "table": {"base_tilt": list(table.theta), "nonorthogonality": list(table.nu),
                        "mounting": list(table.mu), "encoder_zero": list(table.zero[: table.naxes])}}
+    if spec.get("extra"):
+        truth["extra"] = {k: ({"r_m": list(v)} if k == "lever_arm" else {"tau_s": v})
+                          for k, v in spec["extra"].items()}
     with open(os.path.join(out, "truth.json"), "w") as f:
         json.dump(truth, f, indent=1)
     return truth
@@ -400,12 +419,29 @@ def make_cases():
     return c
 
 
+def make_explain_cases():
+    """Recordings with physics the calibration model lacks, for `imubench explain`
+    (explain_cases.py): the two-axis combined schedule at other rates than ours."""
+    def two(**kw):
+        return {**dict(kind="two-axis", schedule=two_axis_combined, rate_hz=100.0,
+                       table_errors=table_errors("two-axis")), **kw}
+    c = {
+        "explain_clean": two(seed=11),
+        "explain_lever_arm": two(seed=12, rate_hz=125.0, extra={"lever_arm": (0.05, -0.03, 0.04)}),
+        "explain_time_delay": two(seed=13, rate_hz=200.0, extra={"time_delay": 0.003}),
+    }
+    for name, spec in c.items():
+        spec["name"] = name
+    return c
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out")
-    ap.add_argument("--case", required=True, choices=sorted(make_cases()))
+    cases = {**make_cases(), **make_explain_cases()}
+    ap.add_argument("--case", required=True, choices=sorted(cases))
     args = ap.parse_args()
-    write_case(args.out, make_cases()[args.case])
+    write_case(args.out, cases[args.case])
 
 
 if __name__ == "__main__":
