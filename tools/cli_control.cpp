@@ -186,6 +186,11 @@ void applyEvent(WatchState& s, const json& event, std::vector<std::string>* note
     line += event.value("calibrated", false) ? (pass ? ": calibrated, PASS" : ": calibrated, FAIL")
                                              : ": calibration failed";
     notes->push_back(line + " (imubench results RUN)");
+    // The end-of-plan missing-physics analysis (daemon/run_explain.h): its one-line summary,
+    // or why it did not run.
+    if (auto ex = textField(event, "explain"); ex && !ex->empty()) {
+      notes->push_back("missing physics: " + *ex);
+    }
   } else if (name == "estimate") {
     std::string line = "estimate " + textField(event, "parameter").value_or("?");
     if (auto v = numField(event, "value")) line += " = " + formatNumber(*v);

@@ -76,8 +76,9 @@ Calibration (plans with calibration = "direct" | "indirect" | "pipeline"): the d
 an "estimate" event (topic "run") after each step that allows one -- {"run", "step", "label",
 "method", "ok", "parameters": {name: {"value", "sigma", "unit"}}, "unobservable": [names],
 "summary"} -- and a "results" event when the end-of-plan calibration is stored ({"run",
-"calibrated", "pass"}); calibration(run) returns the stored results by kind ("coefficients",
-"report", "verdict").
+"calibrated", "pass", "explain": one-line summary of the missing-physics analysis, or why it
+did not run}); calibration(run) returns the stored results by kind ("coefficients",
+"report", "verdict", "explain": the imubench-explain/1 report).
 """
 
 import json
