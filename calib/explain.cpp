@@ -457,7 +457,8 @@ std::string checkInput(const ExplainInput& in, const ExplainOptions& o,
                        const std::vector<HoldReadings>& holds) {
   std::string why;
   if (!o.IsValid(&why)) return "options: " + why;
-  const RecordingCheck c = checkIncrements(in.imu, o.checks, "recording");
+  // Gaps between segments (a daemon restart during a run) are allowed, as for calibration.
+  const RecordingCheck c = checkIncrements(in.imu, o.checks, "recording", in.segments);
   if (!c.ok()) return c.reason;
   if (in.table.size() < 2) return "the recording has no table angles (imu.csv needs table.csv)";
   if (holds.empty()) {

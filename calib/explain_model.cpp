@@ -216,9 +216,16 @@ ExplainData prepareExplainData(const TableGeometry& geometry, const nav::Site& s
     temp_sum = 0.0;
     count = 0;
   };
+  // A sample after a gap (the daemon was down between two segments: the caller's check lets
+  // only such gaps through) covers an unknown interval: it is left out and no bin spans it.
+  std::vector<double> steps;
+  for (std::size_t i = 1; i < imu.size(); ++i) steps.push_back(imu[i].t - imu[i - 1].t);
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  const double max_step = steps.empty() ? 0.0 : 5.0 * steps[steps.size() / 2];
   for (std::size_t i = 0; i < imu.size(); ++i) {
     const nav::ImuSample& s = imu[i];
-    if (t_start < t_first || s.t > t_last) {  // no encoder kinematics here
+    const bool after_gap = i > 0 && max_step > 0.0 && s.t - t_start > max_step;
+    if (after_gap || t_start < t_first || s.t > t_last) {  // no encoder kinematics here
       if (count > 0) close(t_start);
       t_start = s.t;
       continue;
