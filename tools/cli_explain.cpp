@@ -62,11 +62,9 @@ struct ExplainCliOptions {
   std::optional<double> bin_s;
   std::string db;
   std::string format = "imubench";
-  std::string gyro_file;
-  std::optional<double> rate_hz;  // imucal, mikov: default the source's rate
-  std::optional<double> gravity;
-  std::optional<double> latitude_deg;
-  double height_m = 0.0;
+  // --format recordings: --gyro, --rate, --gravity, --latitude, --height (format and path
+  // are `format` and `input`).
+  RealRecordingOptions real;
 };
 
 // Display units of the six channels: SI recordings in ug and deg/h; third-party recordings in
@@ -324,14 +322,9 @@ void runExplainScalar(const ExplainCliOptions& o) {
                         2);
   }
   const calib::ExplainOptions eo = analysisOptions(o);
-  RealRecordingOptions ro;
+  RealRecordingOptions ro = o.real;
   ro.format = o.format;
   ro.path = o.input;
-  ro.gyro_file = o.gyro_file;
-  ro.rate_hz = o.rate_hz;
-  ro.gravity = o.gravity;
-  ro.latitude_deg = o.latitude_deg;
-  ro.height_m = o.height_m;
   const RealRecording real = readRealRecording(ro);
   const io::RealImport& in = real.import;
   const calib::ScalarCalibrationOptions& so = real.scalar;
@@ -378,11 +371,11 @@ void addExplainCommand(CLI::App& app) {
   addStoreOption(*sub, &opt->db);
   sub->add_option("--format", opt->format, "imubench (default), imutk, imucal or mikov")
       ->check(CLI::IsMember({"imubench", "imutk", "imucal", "mikov"}));
-  sub->add_option("--gyro", opt->gyro_file, "imutk: the gyro file of the pair");
-  sub->add_option("--rate", opt->rate_hz, "imucal, mikov: sampling rate, Hz");
-  sub->add_option("--gravity", opt->gravity, "local gravity, m/s^2");
-  sub->add_option("--latitude", opt->latitude_deg, "latitude, deg (gravity and Earth rate)");
-  sub->add_option("--height", opt->height_m, "height, m");
+  sub->add_option("--gyro", opt->real.gyro_file, "imutk: the gyro file of the pair");
+  sub->add_option("--rate", opt->real.rate_hz, "imucal, mikov: sampling rate, Hz");
+  sub->add_option("--gravity", opt->real.gravity, "local gravity, m/s^2");
+  sub->add_option("--latitude", opt->real.latitude_deg, "latitude, deg (gravity and Earth rate)");
+  sub->add_option("--height", opt->real.height_m, "height, m");
   sub->callback([opt] {
     if (opt->format == "imubench") {
       runExplainTable(*opt);
