@@ -196,6 +196,24 @@ struct BenchDaemon::ActiveRun {
   bool imuStill() const { return rate_filtered.norm() < kStillRateRadps; }
   double poll_unix_s = 0.0;  // when the newest table reading was requested
   std::optional<double> last_table_t;
+  // A table reading waits for its IMU time: the controller sampled its encoders somewhere
+  // between request and reply, so the reading stands at their midpoint (CLOCK_REALTIME, like
+  // the frames' kernel receive times), and the IMU samples received on either side of that
+  // instant give its time on the recording's clock by interpolation. (Stamping it with the
+  // newest sample before the request lags the table by the reply's round trip and the frames
+  // queued meanwhile: the analysis then finds a time delay that is the daemon's own.) The
+  // anchors are the last samples of the bursts the IMU sends (frames received within
+  // kBurstGapS of each other): a sender that batches its samples sends a burst when its newest
+  // sample is due, so that sample, not the burst's first, stands at the receive time; an IMU
+  // that sends each sample alone makes every sample an anchor. Frames without a receive time:
+  // the first sample after the reading.
+  static constexpr double kBurstGapS = 1e-4;
+  struct PendingTable {
+    double at_unix_s = 0.0;
+    io::TableSample sample;  // angles set, t to be found
+  };
+  std::optional<PendingTable> pending_table;
+  std::optional<double> last_rx_unix_s, last_rx_t;  // newest sample with a receive time
   // The encoder angles as stored: continuous across the controller's +-180 deg wrap (the
   // recording's convention, as the plan writes them), so a three-turn rate run reads 1080 deg.
   // Unwrapped from the previous reading: the table turns far less than half a turn between
@@ -390,6 +408,10 @@ void BenchDaemon::onImuReadable() {
   // senses the table still: a sender that lags the table sends the motion's end later.
   std::size_t first = 0;
   for (std::size_t i = 0; i < decoded_.size(); ++i) {
+    const bool burst_end =
+        i + 1 == decoded_.size() ||
+        decoded_[i + 1].rx_time_s - decoded_[i].rx_time_s > ActiveRun::kBurstGapS;
+    stampPendingTable(decoded_[i], burst_end);
     run_->trackStillness(decoded_[i].sample);
     if (!run_->closing) continue;
     const double rx = decoded_[i].rx_time_s;
@@ -442,18 +464,13 @@ void BenchDaemon::onPoll() {
   run_->poll_unix_s = unixNow();  // before the table is read: see closeStep
   BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
   obs.plan_time_s = imu_last_t_;
-  if (imu_last_t_ && (!run_->last_table_t || *imu_last_t_ > *run_->last_table_t) && obs.table_ok) {
-    io::TableSample ts;
-    ts.t = *imu_last_t_;
+  if (obs.table_ok) {
+    ActiveRun::PendingTable p;
+    p.at_unix_s = 0.5 * (run_->poll_unix_s + unixNow());
     for (std::size_t a = 0; a < obs.angles.size() && a < 3; ++a) {
-      ts.angles_deg[a] = run_->unwrapped(a, obs.angles[a]) * kRadToDeg;
+      p.sample.angles_deg[a] = run_->unwrapped(a, obs.angles[a]) * kRadToDeg;
     }
-    if (auto st = run_->writer->appendTable(std::span(&ts, 1)); !st.ok) {
-      log_.error("store: " + st.message);
-    } else if (run_->engine) {
-      run_->engine->addTable(ts);
-    }
-    run_->last_table_t = ts.t;
+    run_->pending_table = p;  // a reading no sample has stamped yet is superseded
   }
   run_->runner->tick(obs);
   publish(run_->runner->takeEvents());
@@ -461,6 +478,37 @@ void BenchDaemon::onPoll() {
   if (run_ && (run_->runner->state() == RunnerState::kFinished ||
                run_->runner->state() == RunnerState::kFaulted)) {
     closeRun();
+  }
+}
+
+// The pending table reading gets its IMU time from the sample d (see ActiveRun::PendingTable)
+// once d, the last of its burst, was received after the reading, and is stored.
+void BenchDaemon::stampPendingTable(const drivers::DecodedImuSample& d, bool burst_end) {
+  ActiveRun& run = *run_;
+  const double rx = d.rx_time_s;
+  const double t = d.sample.t;
+  if (rx > 0.0 && !burst_end) return;
+  if (run.pending_table && (rx <= 0.0 || rx >= run.pending_table->at_unix_s)) {
+    io::TableSample ts = run.pending_table->sample;
+    ts.t = t;
+    if (rx > 0.0 && run.last_rx_unix_s && rx > *run.last_rx_unix_s) {
+      const double f =
+          (run.pending_table->at_unix_s - *run.last_rx_unix_s) / (rx - *run.last_rx_unix_s);
+      ts.t = *run.last_rx_t + std::clamp(f, 0.0, 1.0) * (t - *run.last_rx_t);
+    }
+    run.pending_table.reset();
+    if (!run.last_table_t || ts.t > *run.last_table_t) {
+      if (auto st = run.writer->appendTable(std::span(&ts, 1)); !st.ok) {
+        log_.error("store: " + st.message);
+      } else if (run.engine) {
+        run.engine->addTable(ts);
+      }
+      run.last_table_t = ts.t;
+    }
+  }
+  if (rx > 0.0) {
+    run.last_rx_unix_s = rx;
+    run.last_rx_t = t;
   }
 }
 

@@ -123,6 +123,7 @@ class BenchDaemon {
 
   void onImuReadable();
   void onPoll();
+  void stampPendingTable(const drivers::DecodedImuSample& d, bool burst_end);
   void onChamberPoll();
   void reportImuProblems();
   void onStatusTimer();
