@@ -156,7 +156,7 @@ class ServerThread {
     }
     EXPECT_TRUE(run_status_.ok) << run_status_.message;
   }
-  const io::IoStatus& startStatus() const { return start_status_; }
+  const Status& startStatus() const { return start_status_; }
   template <typename F>
   auto onLoop(F fn) {
     std::packaged_task<decltype(fn())()> task(std::move(fn));
@@ -174,8 +174,8 @@ class ServerThread {
  private:
   EventLoop loop_;
   std::unique_ptr<ControlServer> server_;
-  io::IoStatus start_status_;
-  io::IoStatus run_status_;
+  Status start_status_;
+  Status run_status_;
   std::thread thread_;
 };
 
