@@ -3,37 +3,17 @@
 #include <cmath>
 
 #include "calib/simulator.h"
+#include "tests/calib/sim_fixtures.h"
 
 namespace imubench::calib {
 namespace {
 
-constexpr double kLat = 55.75 * kDegToRad;
-
-BenchWorld idealWorld() {
-  BenchWorld w;
-  w.site.latitude_rad = kLat;
-  w.site.height_m = 150.0;
-  return w;
-}
-
-// Two-axis motion: each axis holds still, or turns at a constant rate from t = 0.
-Motion twoAxis(double duration, AxisPhase outer, AxisPhase inner) {
-  Motion m;
-  m.kind = TableKind::kTwoAxis;
-  m.axes.resize(2);
-  m.axes[0].append(outer);
-  m.axes[1].append(inner);
-  m.duration = duration;
-  return m;
-}
+using testing::idealWorld;
+using testing::kLat;
+using testing::twoAxis;
 
 Simulation run(const BenchWorld& w, const Motion& m, double rate = 100.0, std::uint64_t seed = 1) {
-  SimOptions o;
-  o.imu_rate_hz = rate;
-  o.seed = seed;
-  const Simulation s = simulate({w, m}, o);
-  EXPECT_TRUE(s.ok) << s.error;
-  return s;
+  return testing::simulateOk(w, m, rate, seed);
 }
 
 TEST(Simulator, StationaryAtZeroAnglesIsEarthRateAndGravityExactly) {

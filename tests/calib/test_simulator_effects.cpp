@@ -7,38 +7,20 @@
 
 #include "calib/bench_truth.h"
 #include "calib/simulator.h"
+#include "tests/calib/sim_fixtures.h"
 
 namespace imubench::calib {
 namespace {
 
-constexpr double kLat = 55.75 * kDegToRad;
+using testing::idealWorld;
+using testing::kLat;
+using testing::twoAxis;
+
 constexpr double kRate = 100.0;
 constexpr double kDt = 1.0 / kRate;
 
-BenchWorld idealWorld() {
-  BenchWorld w;
-  w.site.latitude_rad = kLat;
-  w.site.height_m = 150.0;
-  return w;
-}
-
-Motion twoAxis(double duration, AxisPhase outer, AxisPhase inner) {
-  Motion m;
-  m.kind = TableKind::kTwoAxis;
-  m.axes.resize(2);
-  m.axes[0].append(outer);
-  m.axes[1].append(inner);
-  m.duration = duration;
-  return m;
-}
-
 Simulation run(const BenchWorld& w, const Motion& m, std::uint64_t seed = 1) {
-  SimOptions o;
-  o.imu_rate_hz = kRate;
-  o.seed = seed;
-  const Simulation s = simulate({w, m}, o);
-  EXPECT_TRUE(s.ok) << s.error;
-  return s;
+  return testing::simulateOk(w, m, kRate, seed);
 }
 
 TEST(SimulatorEffects, SizeEffectAtConstantRateIsTheCentripetalDifference) {
