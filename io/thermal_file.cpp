@@ -198,13 +198,7 @@ bool fromJson(const nlohmann::json& j, ThermalFile* file, std::string* why) {
 }
 
 ThermalFileResult readThermalFile(const std::string& path) {
-  ThermalFileResult r;
-  nlohmann::json j;
-  r.status = readJsonFile(path, &j);
-  if (!r.status.ok) return r;
-  std::string why;
-  if (!fromJson(j, &r.value, &why)) r.status = Status::Error(path + ": " + why);
-  return r;
+  return readJsonFileAs<ThermalFile>(path);
 }
 
 Status writeThermalFile(const std::string& path, const ThermalFile& file) {

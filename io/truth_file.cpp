@@ -56,16 +56,7 @@ Status writeJsonFile(const std::string& path, const nlohmann::json& j) {
 }
 
 TruthFileResult readTruthFile(const std::string& path) {
-  TruthFileResult r;
-  nlohmann::json j;
-  r.status = readJsonFile(path, &j);
-  if (!r.status.ok) return r;
-  std::string why;
-  if (!calib::fromJson(j, &r.value, &why)) {
-    r.status = Status::Error(path + ": " + why);
-    r.value = {};
-  }
-  return r;
+  return readJsonFileAs<calib::BenchTruth>(path);
 }
 
 Status writeTruthFile(const std::string& path, const calib::BenchTruth& truth) {
@@ -73,16 +64,7 @@ Status writeTruthFile(const std::string& path, const calib::BenchTruth& truth) {
 }
 
 CoefficientFileResult readCoefficientFile(const std::string& path) {
-  CoefficientFileResult r;
-  nlohmann::json j;
-  r.status = readJsonFile(path, &j);
-  if (!r.status.ok) return r;
-  std::string why;
-  if (!calib::fromJson(j, &r.value, &why)) {
-    r.status = Status::Error(path + ": " + why);
-    r.value = {};
-  }
-  return r;
+  return readJsonFileAs<calib::CoefficientReport>(path);
 }
 
 Status writeCoefficientFile(const std::string& path, const calib::CoefficientReport& report) {

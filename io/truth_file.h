@@ -28,4 +28,20 @@ Status writeCoefficientFile(const std::string& path, const calib::CoefficientRep
 Status readJsonFile(const std::string& path, nlohmann::json* out);
 Status writeJsonFile(const std::string& path, const nlohmann::json& j);
 
+// Reads a JSON file into a T by fromJson(json, T*, why) (found by argument-dependent lookup):
+// the file's error, or "path: why" when fromJson refuses the content.
+template <class T>
+Result<T> readJsonFileAs(const std::string& path) {
+  Result<T> r;
+  nlohmann::json j;
+  r.status = readJsonFile(path, &j);
+  if (!r.status.ok) return r;
+  std::string why;
+  if (!fromJson(j, &r.value, &why)) {
+    r.status = Status::Error(path + ": " + why);
+    r.value = T{};
+  }
+  return r;
+}
+
 }  // namespace imubench::io

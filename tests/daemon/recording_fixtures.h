@@ -138,4 +138,20 @@ inline nav::ImuSamples awkwardImu(AwkwardDoubles& d, std::size_t n) {
   return imu;
 }
 
+// A recording of a 2000 Hz IMU at an awkward latitude and gravity (and, two-axis, outer axis
+// heading) with n_imu awkward samples (awkwardImu); no table, chamber or segment rows.
+inline io::Recording awkwardRecording(AwkwardDoubles& d, calib::TableKind kind, std::size_t n_imu,
+                                      double height_m, const std::string& imu_serial) {
+  io::Recording rec;
+  rec.latitude_deg = 55.7558 + d.odd() * 1e-3;
+  rec.height_m = height_m;
+  rec.gravity_mps2 = 9.8154321987654321;
+  rec.imu_serial = imu_serial;
+  rec.imu_rate_hz = 2000.0;
+  rec.table_kind = kind;
+  if (kind == calib::TableKind::kTwoAxis) rec.outer_axis_heading_deg = 90.0 + d.odd();
+  rec.imu = awkwardImu(d, n_imu);
+  return rec;
+}
+
 }  // namespace imubench::daemon::testing

@@ -17,7 +17,6 @@ namespace imubench::daemon {
 namespace {
 
 using testing::AwkwardDoubles;
-using testing::awkwardImu;
 using testing::expectSameRecording;
 using testing::ScratchDir;
 
@@ -27,15 +26,8 @@ namespace fs = std::filesystem;
 // extremes.
 io::Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
   AwkwardDoubles d(seed);
-  io::Recording rec;
-  rec.latitude_deg = 55.7558 + d.odd() * 1e-3;
-  rec.height_m = 156.0 + d.odd();
-  rec.gravity_mps2 = 9.8154321987654321;
-  rec.imu_serial = "SN-0042 \"test\"";
-  rec.imu_rate_hz = 2000.0;
-  rec.table_kind = kind;
-  if (kind == calib::TableKind::kTwoAxis) rec.outer_axis_heading_deg = 90.0 + d.odd();
-  rec.imu = awkwardImu(d, n_imu);
+  const double height_m = 156.0 + d.odd();
+  io::Recording rec = testing::awkwardRecording(d, kind, n_imu, height_m, "SN-0042 \"test\"");
   for (int i = 0; i < 50; ++i) {
     io::TableSample s;
     s.t = 0.01 * i + d.odd() * 1e-6;

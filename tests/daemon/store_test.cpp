@@ -26,7 +26,6 @@ namespace imubench::daemon {
 namespace {
 
 using testing::AwkwardDoubles;
-using testing::awkwardImu;
 using testing::ScratchDir;
 
 namespace fs = std::filesystem;
@@ -35,15 +34,8 @@ namespace fs = std::filesystem;
 // subnormals, extremes, NaN temperatures (not reported).
 io::Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
   AwkwardDoubles d(seed);
-  io::Recording rec;
-  rec.latitude_deg = 55.7558 + d.odd() * 1e-3;
-  rec.height_m = -0.0;
-  rec.gravity_mps2 = 9.8154321987654321;
-  rec.imu_serial = "SN-0042 \"test\", with comma";
-  rec.imu_rate_hz = 2000.0;
-  rec.table_kind = kind;
-  if (kind == calib::TableKind::kTwoAxis) rec.outer_axis_heading_deg = 90.0 + d.odd();
-  rec.imu = awkwardImu(d, n_imu);
+  io::Recording rec =
+      testing::awkwardRecording(d, kind, n_imu, -0.0, "SN-0042 \"test\", with comma");
   rec.imu[5].dvel.x() = 3.0;  // integral: SQLite REAL affinity would store it as an integer
   for (int i = 0; i < 300; ++i) {
     io::TableSample s;
