@@ -117,7 +117,7 @@ class MalformedRecording : public ::testing::TestWithParam<BadCase> {};
 
 TEST_P(MalformedRecording, IsRefusedWithFileLineAndReason) {
   const BadCase& c = GetParam();
-  ScratchDir dir("rec-" + c.name);
+  ScratchDir dir(std::string("rec-") + c.name);
   writeText(dir.file("meta.json"), kGoodMeta);
   writeText(dir.file("imu.csv"), kGoodImu);
   writeText(dir.file("table.csv"), kGoodTable);
