@@ -31,6 +31,14 @@ inline Motion twoAxis(double duration, AxisPhase outer, AxisPhase inner) {
   return m;
 }
 
+// The delay tests' motion (3 s): the outer axis turns at +45 deg/s from 1 s, the inner at
+// -45 deg/s from 0.5 s, both `later_s` later (a delayed IMU on the motion sees what an
+// undelayed one sees on it delayed).
+inline Motion delayTestMotion(double later_s = 0.0) {
+  const double w = 45.0 * kDegToRad;
+  return twoAxis(3.0, {1.0 + later_s, 0.0, w, 0.0}, {0.5 + later_s, 0.0, -w, 0.0});
+}
+
 // The simulation at `rate` Hz with noise seed `seed`; a failure fails the test.
 inline Simulation simulateOk(const BenchWorld& w, const Motion& m, double rate,
                              std::uint64_t seed) {

@@ -8,6 +8,7 @@
 namespace imubench::calib {
 namespace {
 
+using testing::delayTestMotion;
 using testing::idealWorld;
 using testing::kLat;
 using testing::twoAxis;
@@ -154,14 +155,13 @@ TEST(Simulator, ScaleAsymmetryDependsOnRateSign) {
 TEST(Simulator, TimeDelayShiftsThePhysics) {
   // A delayed IMU at stamp t sees what an undelayed one sees at t - tau: equivalently, the
   // undelayed IMU on a motion that happens tau later.
-  const double w = 45.0 * kDegToRad, tau = 0.0037;
+  const double tau = 0.0037;
   BenchWorld delayed = idealWorld();
   delayed.truth.extra.time_delay = TimeDelay{tau};
-  const Simulation a = run(delayed, twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
-  const Simulation b =
-      run(idealWorld(), twoAxis(3.0, {1.0 + tau, 0.0, w, 0.0}, {0.5 + tau, 0.0, -w, 0.0}));
+  const Simulation a = run(delayed, delayTestMotion());
+  const Simulation b = run(idealWorld(), delayTestMotion(tau));
   double worst = 0.0, moved = 0.0;
-  const Simulation c = run(idealWorld(), twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
+  const Simulation c = run(idealWorld(), delayTestMotion());
   for (std::size_t k = 0; k < a.imu.size(); ++k) {
     worst = std::max(
         worst, (a.imu[k].dvel - b.imu[k].dvel).norm() + (a.imu[k].dtheta - b.imu[k].dtheta).norm());

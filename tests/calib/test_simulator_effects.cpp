@@ -12,6 +12,7 @@
 namespace imubench::calib {
 namespace {
 
+using testing::delayTestMotion;
 using testing::idealWorld;
 using testing::kLat;
 using testing::twoAxis;
@@ -48,13 +49,12 @@ TEST(SimulatorEffects, SizeEffectAtConstantRateIsTheCentripetalDifference) {
 TEST(SimulatorEffects, AccelDelayShiftsOnlyTheAccelerometers) {
   // Accelerometers delayed by tau see what undelayed ones see on a motion tau later; the
   // gyros are those of the undelayed motion.
-  const double w = 45.0 * kDegToRad, tau = 0.0043;
+  const double tau = 0.0043;
   BenchWorld delayed = idealWorld();
   delayed.truth.extra.accel_delay = AccelDelay{tau};
-  const Simulation a = run(delayed, twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
-  const Simulation later =
-      run(idealWorld(), twoAxis(3.0, {1.0 + tau, 0.0, w, 0.0}, {0.5 + tau, 0.0, -w, 0.0}));
-  const Simulation now = run(idealWorld(), twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
+  const Simulation a = run(delayed, delayTestMotion());
+  const Simulation later = run(idealWorld(), delayTestMotion(tau));
+  const Simulation now = run(idealWorld(), delayTestMotion());
   double worst = 0.0, moved = 0.0;
   for (std::size_t k = 0; k < a.imu.size(); ++k) {
     worst = std::max(worst, (a.imu[k].dvel - later.imu[k].dvel).norm() +
@@ -66,9 +66,8 @@ TEST(SimulatorEffects, AccelDelayShiftsOnlyTheAccelerometers) {
   // With time_delay too, the accelerometers are tau_s + accel tau behind the table clock.
   BenchWorld both = delayed;
   both.truth.extra.time_delay = TimeDelay{0.002};
-  const Simulation c = run(both, twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
-  const Simulation c_ref = run(idealWorld(), twoAxis(3.0, {1.0 + tau + 0.002, 0.0, w, 0.0},
-                                                     {0.5 + tau + 0.002, 0.0, -w, 0.0}));
+  const Simulation c = run(both, delayTestMotion());
+  const Simulation c_ref = run(idealWorld(), delayTestMotion(tau + 0.002));
   worst = 0.0;
   for (std::size_t k = 0; k < c.imu.size(); ++k) {
     worst = std::max(worst, (c.imu[k].dvel - c_ref.imu[k].dvel).norm());
