@@ -22,28 +22,9 @@
 
 #include "daemon/control_server.h"
 #include "daemon/event_loop.h"
+#include "tests/daemon/scratch_dir.h"
 
 namespace imubench::daemon::testing {
-
-// A fresh directory per call (mkdtemp under $TMPDIR or /tmp); removed by the destructor.
-class ScratchDir {
- public:
-  ScratchDir() {
-    const char* base = std::getenv("TMPDIR");
-    path_ = std::string(base != nullptr ? base : "/tmp") + "/imubench-ctl-XXXXXX";
-    if (mkdtemp(path_.data()) == nullptr) ADD_FAILURE() << "mkdtemp " << path_ << " failed";
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-  std::string file(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
 
 using Clock = std::chrono::steady_clock;
 inline int msLeft(Clock::time_point deadline) {

@@ -1,5 +1,6 @@
-// Test fixtures shared by the recording, store, simulation round-trip and run-explain tests: a
-// scratch directory, bit-exact comparison of recordings, and awkward doubles for round trips.
+// Test fixtures shared by the recording, store, simulation round-trip and run-explain tests:
+// bit-exact comparison of recordings and awkward doubles for round trips (and the scratch
+// directory, scratch_dir.h).
 #pragma once
 
 #include <gtest/gtest.h>
@@ -13,35 +14,9 @@
 #include <string>
 
 #include "io/recording.h"
+#include "tests/daemon/scratch_dir.h"
 
 namespace imubench::daemon::testing {
-
-// A fresh mkdtemp directory $TMPDIR/imubench-<tag>-XXXXXX (or under /tmp), removed at the end
-// of the test. Not a pid-named path: concurrent user-mode-linux boots share /tmp and hand out
-// the same pids.
-class ScratchDir {
- public:
-  explicit ScratchDir(const std::string& tag = "test") {
-    const char* base = std::getenv("TMPDIR");
-    std::string templ =
-        std::string(base != nullptr ? base : "/tmp") + "/imubench-" + tag + "-XXXXXX";
-    if (mkdtemp(templ.data()) == nullptr) ADD_FAILURE() << "mkdtemp " << templ << " failed";
-    path_ = templ;
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-
-  const std::filesystem::path& path() const { return path_; }
-  std::string str() const { return path_.string(); }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  std::filesystem::path path_;
-};
 
 inline bool sameBits(double a, double b) {
   return std::memcmp(&a, &b, sizeof(double)) == 0;
