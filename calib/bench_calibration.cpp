@@ -104,7 +104,7 @@ BenchCalibrationResult runBench(const BenchCalibrationInput& in, const BenchCali
 BenchCalibrationResult calibrateBench(const BenchCalibrationInput& in,
                                       const BenchCalibrationOptions& o) {
   BenchCalibrationResult r = runBench(in, o);
-  r.status = r.ok ? r.refined.status : FitStatus{FitStatusCode::kFailed, r.error, {}, {}};
+  r.status = r.ok ? r.refined.status : FitStatus::Failed(r.error);
   return r;
 }
 

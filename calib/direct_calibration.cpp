@@ -577,7 +577,7 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
   DirectCalibrationResult res;
   res.reason = checkInput(in, o);
   if (!res.reason.empty()) {
-    res.status = {FitStatusCode::kFailed, res.reason, {}, {}};
+    res.status = FitStatus::Failed(res.reason);
     return res;
   }
   const RowContext c{in,
@@ -602,7 +602,7 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
   if (res.statics_used < 4) {
     res.reason = "only " + std::to_string(res.statics_used) +
                  " usable static positions: need >= 4 (12 accelerometer unknowns, 4 per axis)";
-    res.status = {FitStatusCode::kFailed, res.reason, {}, {}};
+    res.status = FitStatus::Failed(res.reason);
     return res;
   }
   setRowNoise(&rows);

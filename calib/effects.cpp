@@ -20,7 +20,7 @@ double* dataOf(Mat3& m) {
 }  // column-major; storageOffset maps row-major
 
 // The optional member of EffectSet holding an effect, and its parameters' fields in the
-// unit's kParams order.
+// order of the unit's parameters (its row of kUnitRows, calib/model/effects.h).
 template <auto Member, auto... Fields>
 struct Storage {
   static bool has(const EffectSet& s) { return (s.*Member).has_value(); }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "calib/model/bench_physics.h"
+#include "calib/static_detection.h"
 #include "nav/free_navigation.h"
 
 namespace imubench::calib {
@@ -218,10 +219,7 @@ ExplainData prepareExplainData(const TableGeometry& geometry, const nav::Site& s
   };
   // A sample after a gap (the daemon was down between two segments: the caller's check lets
   // only such gaps through) covers an unknown interval: it is left out and no bin spans it.
-  std::vector<double> steps;
-  for (std::size_t i = 1; i < imu.size(); ++i) steps.push_back(imu[i].t - imu[i - 1].t);
-  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
-  const double max_step = steps.empty() ? 0.0 : 5.0 * steps[steps.size() / 2];
+  const double max_step = 5.0 * medianSampleStep(imu);
   for (std::size_t i = 0; i < imu.size(); ++i) {
     const nav::ImuSample& s = imu[i];
     const bool after_gap = i > 0 && max_step > 0.0 && s.t - t_start > max_step;

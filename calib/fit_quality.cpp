@@ -52,12 +52,21 @@ void judgeCoefficients(const CoefficientReport& report, const FitQualityOptions&
   }
 }
 
+FitStatus FitStatus::Failed(std::string why) {
+  FitStatus s;
+  s.ok = false;
+  s.message = std::move(why);
+  s.code = FitStatusCode::kFailed;
+  return s;
+}
+
 FitStatus fitStatusFrom(std::vector<std::string> reasons,
                         std::vector<std::string> largest_residuals) {
   FitStatus s;
   s.largest_residuals = std::move(largest_residuals);
   if (reasons.empty()) return s;
   s.code = FitStatusCode::kUnusable;
+  s.ok = false;
   s.reasons = std::move(reasons);
   s.message = "result unusable: " + s.reasons.front();
   if (s.reasons.size() > 1) {

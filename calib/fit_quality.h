@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/status.h"
 
 namespace imubench::calib {
 
@@ -20,12 +21,15 @@ enum class FitStatusCode {
   kUnusable,  // a result exists but must not be used (see message and reasons)
 };
 
-struct FitStatus {
+// The one Status (calib/status.h) with the calibrators' code and evidence: ok exactly when
+// the code is kUsable; message is one line saying why not ("" when usable).
+struct FitStatus : Status {
   FitStatusCode code = FitStatusCode::kUsable;
-  std::string message;                         // one line: why not usable ("" when usable)
   std::vector<std::string> reasons;            // every finding, plain language
   std::vector<std::string> largest_residuals;  // "hold 'h3' (12.0-40.0 s) accel: 35 sigma"
   bool IsSolutionUsable() const { return code == FitStatusCode::kUsable; }
+  // No result (kFailed): bad input, nothing to fit, solver failure.
+  static FitStatus Failed(std::string why);
 };
 
 struct FitQualityOptions {

@@ -779,7 +779,7 @@ CalibrationResult runIndirect(const IndirectInput& in, const IndirectOptions& op
 
 CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptions& opt) {
   CalibrationResult r = runIndirect(in, opt);
-  if (!r.ok) r.status = {FitStatusCode::kFailed, r.error, {}, {}};
+  if (!r.ok) r.status = FitStatus::Failed(r.error);
   return r;
 }
 

@@ -232,6 +232,13 @@ bool gapHarms(double t_a, double t_b, std::span<const Segment> segments) {
 
 }  // namespace
 
+double medianSampleStep(std::span<const nav::ImuSample> samples) {
+  std::vector<double> t;
+  t.reserve(samples.size());
+  for (const nav::ImuSample& s : samples) t.push_back(s.t);
+  return medianStep(t);
+}
+
 RecordingCheck checkIncrements(std::span<const nav::ImuSample> imu, const IncrementCheckOptions& o,
                                const std::string& what, std::span<const Segment> segments) {
   std::string why;
@@ -244,8 +251,6 @@ RecordingCheck checkIncrements(std::span<const nav::ImuSample> imu, const Increm
     s << what << ": IMU sample " << i << " (t = " << imu[i].t << " s)";
     return s.str();
   };
-  std::vector<double> steps;
-  steps.reserve(imu.size());
   for (std::size_t i = 0; i < imu.size(); ++i) {
     if (!std::isfinite(imu[i].t) || !imu[i].dtheta.allFinite() || !imu[i].dvel.allFinite()) {
       return RecordingCheck::Error(RecordingStatusCode::kNonFinite,
@@ -255,11 +260,10 @@ RecordingCheck checkIncrements(std::span<const nav::ImuSample> imu, const Increm
       return RecordingCheck::Error(RecordingStatusCode::kTimeNotIncreasing,
                                    at(i) + ": time does not increase");
     }
-    if (i > 0) steps.push_back(imu[i].t - imu[i - 1].t);
   }
-  const double step = median(steps);
+  const double step = medianSampleStep(imu);
   for (std::size_t i = 1; i < imu.size(); ++i) {
-    const double dt = steps[i - 1];
+    const double dt = imu[i].t - imu[i - 1].t;
     if (dt > o.max_gap_factor * step && gapHarms(imu[i - 1].t, imu[i].t, segments)) {
       std::ostringstream s;
       s << at(i) << ": gap of " << dt << " s after t = " << imu[i - 1].t << " s (median step "

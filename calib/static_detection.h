@@ -130,6 +130,10 @@ RecordingCheck checkIncrements(std::span<const nav::ImuSample> samples,
                                const IncrementCheckOptions& options, const std::string& what,
                                std::span<const Segment> segments = {});
 
+// The median interval between consecutive samples (0 for fewer than two): the recording's
+// nominal step, against which checkIncrements and the explain analysis judge a gap.
+double medianSampleStep(std::span<const nav::ImuSample> samples);
+
 // Per-span mean of a series.
 Vec3 spanMean(const std::vector<Vec3>& v, const StaticSpan& span);
 

@@ -85,33 +85,33 @@ std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& t
 // would drop the process's SQLite locks on it).
 constexpr mode_t kDatabaseMode = 0640;
 
-io::IoStatus chmodDatabaseFiles(const std::string& db) {
+Status chmodDatabaseFiles(const std::string& db) {
   for (const std::string& f : {db, db + "-wal", db + "-shm"}) {
     if (::chmod(f.c_str(), kDatabaseMode) != 0 && errno != ENOENT)
-      return io::IoStatus::Error(f + ": chmod 0640: " + std::strerror(errno));
+      return Status::Error(f + ": chmod 0640: " + std::strerror(errno));
   }
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus createDatabaseFile(const std::string& db) {
+Status createDatabaseFile(const std::string& db) {
   const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, kDatabaseMode);
-  if (fd < 0) return io::IoStatus::Error(db + ": cannot open: " + std::strerror(errno));
+  if (fd < 0) return Status::Error(db + ": cannot open: " + std::strerror(errno));
   ::close(fd);
   return chmodDatabaseFiles(db);
 }
 
 // The directory exports go to (exports/ next to the database), created 0750 when missing.
 // Refused when it is anything but a real directory (e.g. a symlink planted there).
-io::IoStatus exportRoot(const std::string& db, std::string* root) {
+Status exportRoot(const std::string& db, std::string* root) {
   std::error_code ec;
   *root = (fs::absolute(fs::path(db), ec).parent_path() / "exports").string();
-  if (ec) return io::IoStatus::Error(db + ": " + ec.message());
+  if (ec) return Status::Error(db + ": " + ec.message());
   if (::mkdir(root->c_str(), 0750) != 0 && errno != EEXIST)
-    return io::IoStatus::Error(*root + ": cannot create: " + std::strerror(errno));
+    return Status::Error(*root + ": cannot create: " + std::strerror(errno));
   struct stat st {};
   if (::lstat(root->c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
-    return io::IoStatus::Error(*root + ": not a directory");
-  return io::IoStatus::Ok();
+    return Status::Error(*root + ": not a directory");
+  return Status::Ok();
 }
 
 // Writes run `run` of the store at db to exports/<name> next to it (runs off the loop: its own
@@ -123,7 +123,7 @@ Reply exportToStateDir(const std::string& db, std::int64_t run, const std::strin
     return errorReply(id, ErrorCode::kInternal, st.message);
   auto opened = Store::open(db, StoreOptions{});
   if (!opened.status.ok) return errorReply(id, ErrorCode::kInternal, opened.status.message);
-  auto rec = opened.store->loadRecording(run);
+  auto rec = opened.value->loadRecording(run);
   if (!rec.status.ok) return errorReply(id, ErrorCode::kNotFound, rec.status.message);
   const std::string dir = root + "/" + name;
   if (::mkdir(dir.c_str(), 0750) != 0) {
@@ -132,9 +132,9 @@ Reply exportToStateDir(const std::string& db, std::int64_t run, const std::strin
                       dir + (exists ? ": exists already; name another export directory (dir)"
                                     : ": cannot create: " + std::string(std::strerror(errno))));
   }
-  if (auto st = io::writeRecording(dir, rec.recording); !st.ok)
+  if (auto st = io::writeRecording(dir, rec.value); !st.ok)
     return errorReply(id, ErrorCode::kInternal, st.message);
-  return okReply(id, toJson(ExportReply{run, dir, rec.recording.imu.size()}));
+  return okReply(id, toJson(ExportReply{run, dir, rec.value.imu.size()}));
 }
 
 // A runner event as its protocol event (daemon/control_protocol.h); exit: the run's, if ended.
@@ -255,22 +255,22 @@ double BenchDaemon::wallNow() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
 }
 
-io::IoStatus BenchDaemon::start() {
+Status BenchDaemon::start() {
   std::string why;
-  if (!options_.IsValid(&why)) return io::IoStatus::Error("daemon options: " + why);
+  if (!options_.IsValid(&why)) return Status::Error("daemon options: " + why);
   if (auto st = loop_.open(); !st.ok) return st;
 
   const std::string db =
       options_.storage_path.empty() ? bench_.storage_path : options_.storage_path;
-  if (auto st = createDatabaseFile(db); !st.ok) return io::IoStatus::Error("store: " + st.message);
+  if (auto st = createDatabaseFile(db); !st.ok) return Status::Error("store: " + st.message);
   auto opened = Store::open(db, StoreOptions{});
-  if (!opened.status.ok) return io::IoStatus::Error("store: " + opened.status.message);
-  store_ = std::move(opened.store);
-  if (auto st = chmodDatabaseFiles(db); !st.ok) return io::IoStatus::Error("store: " + st.message);
+  if (!opened.status.ok) return Status::Error("store: " + opened.status.message);
+  store_ = std::move(opened.value);
+  if (auto st = chmodDatabaseFiles(db); !st.ok) return Status::Error("store: " + st.message);
   db_path_ = db;
   const auto cut = store_->markInterruptedRuns();
-  if (cut.status.ok && cut.count > 0) {
-    log_.warning(std::to_string(cut.count) + " run(s) cut off by a crash marked interrupted");
+  if (cut.status.ok && cut.value > 0) {
+    log_.warning(std::to_string(cut.value) + " run(s) cut off by a crash marked interrupted");
   }
 
   // The drivers report every retry and fault: on a dead link that is every poll.
@@ -280,17 +280,17 @@ io::IoStatus BenchDaemon::start() {
     };
   };
   table_ = drivers::makeTableDriver(bench_.table, sink("table"));
-  if (auto st = table_->connect(); !st.ok) return io::IoStatus::Error("table: " + st.message);
+  if (auto st = table_->connect(); !st.ok) return Status::Error("table: " + st.message);
   if (bench_.chamber) {
     chamber_ = drivers::makeChamberDriver(bench_.chamber->device, sink("chamber"));
-    if (auto st = chamber_->connect(); !st.ok) return io::IoStatus::Error("chamber: " + st.message);
+    if (auto st = chamber_->connect(); !st.ok) return Status::Error("chamber: " + st.message);
   }
   port_ = std::make_unique<DriverBenchPort>(*table_, chamber_.get());
 
   drivers::ImuCanReaderOptions imu_options;
   imu_options.interface = bench_.imu.interface;
   imu_ = std::make_unique<drivers::ImuCanReader>(bench_.imu.layout, imu_options);
-  if (auto st = imu_->open(); !st.ok) return io::IoStatus::Error("IMU: " + st.message);
+  if (auto st = imu_->open(); !st.ok) return Status::Error("IMU: " + st.message);
   if (auto st = loop_.add(imu_->socket().fd(), EPOLLIN, [this](std::uint32_t) { onImuReadable(); });
       !st.ok) {
     return st;
@@ -331,11 +331,11 @@ io::IoStatus BenchDaemon::start() {
   notifier_.status("idle");
   log_.info("bench '" + bench_.name + "' ready: control socket " + socket_path + ", store " + db +
             ", IMU on " + bench_.imu.interface);
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 // The control socket (with its access policy), the plan library and the export worker.
-io::IoStatus BenchDaemon::startControl(std::string* socket_path) {
+Status BenchDaemon::startControl(std::string* socket_path) {
   ControlServerOptions server_options;
   server_options.socket_path =
       options_.socket_path.empty() ? bench_.control_socket : options_.socket_path;
@@ -356,17 +356,16 @@ io::IoStatus BenchDaemon::startControl(std::string* socket_path) {
   PlanLibraryOptions library;
   std::error_code ec;
   if (!bench_.plan_dir.empty()) library.plan_dir = fs::absolute(bench_.plan_dir, ec).string();
-  if (ec) return io::IoStatus::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
+  if (ec) return Status::Error("plan_dir " + bench_.plan_dir + ": " + ec.message());
   plans_ = std::make_unique<PlanLibrary>(&loop_, library);
   exports_ = std::make_unique<OffLoop>(&loop_, kMaxPendingExports);
   calibrations_ = std::make_unique<OffLoop>(&loop_, kMaxPendingCalibrations);
-  if (auto st = server_->start(); !st.ok)
-    return io::IoStatus::Error("control socket: " + st.message);
+  if (auto st = server_->start(); !st.ok) return Status::Error("control socket: " + st.message);
   *socket_path = server_options.socket_path;
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus BenchDaemon::run() {
+Status BenchDaemon::run() {
   return loop_.run();
 }
 
@@ -750,7 +749,7 @@ Reply BenchDaemon::startLoaded(const Request& request, const std::string& name,
     const auto waiting = store_->queueList();
     if (!waiting.status.ok)
       return errorReply(request.id, ErrorCode::kInternal, waiting.status.message);
-    if (run_ || !waiting.entries.empty()) return enqueue(request, name, *loaded);
+    if (run_ || !waiting.value.empty()) return enqueue(request, name, *loaded);
   }
   return launch(*loaded, request.id);
 }
@@ -777,7 +776,7 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   // Started before the run is recorded: a bench that cannot move (controller unreachable,
   // emergency stop not cleared) gets no run record, nothing was attempted. The runner's
   // first events wait in its queue until the run has an id.
-  if (const CommandResult started = runner->start(wallNow()); !started.ok) {
+  if (const Status started = runner->start(wallNow()); !started.ok) {
     return errorReply(id, ErrorCode::kBadState, started.message);
   }
   RunStart start;
@@ -796,10 +795,10 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   auto begun = store_->beginRun(start);
   if (!begun.status.ok) return errorReply(id, ErrorCode::kInternal, begun.status.message);
   auto run = std::make_unique<ActiveRun>();
-  run->id = begun.run_id;
+  run->id = begun.value;
   run->plan_name = loaded.plan.name;
   run->runner = std::move(runner);
-  run->writer = std::make_unique<RunWriter>(*store_, begun.run_id);
+  run->writer = std::make_unique<RunWriter>(*store_, begun.value);
   if (calibration) attachCalibration(*run, std::move(*calibration));
   run_ = std::move(run);
   publish(run_->runner->takeEvents());
@@ -819,7 +818,7 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   if (run_) return busyReply(request);
   const RunInfoResult info = store_->runInfo(run_id);
   if (!info.status.ok) return errorReply(id, ErrorCode::kNotFound, info.status.message);
-  const RunInfo& run = info.run;
+  const RunInfo& run = info.value;
   if (run.state != RunState::kInterrupted) {
     return errorReply(id, ErrorCode::kBadState,
                       which + " is " + runStateName(run.state) +
@@ -853,7 +852,7 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   const int next = point.last_finished_step + 1;
   const bool done = next >= static_cast<int>(runner->steps().size());
   if (!done) {
-    if (const CommandResult started = runner->startAt(wallNow(), next); !started.ok) {
+    if (const Status started = runner->startAt(wallNow(), next); !started.ok) {
       return errorReply(id, ErrorCode::kBadState, which + ": " + started.message);
     }
   }
@@ -927,7 +926,7 @@ std::optional<OnlineSetup> BenchDaemon::calibrationSetup(const LoadedPlan& loade
     *why = "store: " + runs.status.message;
     return std::nullopt;
   }
-  for (auto it = runs.runs.rbegin(); it != runs.runs.rend(); ++it) {
+  for (auto it = runs.value.rbegin(); it != runs.value.rend(); ++it) {
     if (it->state == RunState::kFinished && it->exit_reason == runExitName(RunExit::kCompleted) &&
         it->start.plan_name == plan.direct_plan && it->start.imu_serial == bench_.imu.serial) {
       setup.direct_run = it->id;
@@ -980,7 +979,7 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
   auto keep = [&](const char* kind, const json& j) {
     const auto r = store_->storeResult(setup.run_id, f.imu_serial, f.temperature_c, kind, j.dump());
     if (!r.status.ok) log_.error("store: " + r.status.message);
-    if (r.status.ok) stored[kind] = r.result_id;
+    if (r.status.ok) stored[kind] = r.value;
   };
   if (f.calibrated) keep("coefficients", f.coefficients);
   keep("report", f.report);
@@ -1018,9 +1017,9 @@ Reply BenchDaemon::enqueue(const Request& request, const std::string& name,
   entry.label = std::get<StartArgs>(request.args).options.label;
   const QueueAddResult added = store_->queueAdd(entry);
   if (!added.status.ok) return errorReply(request.id, ErrorCode::kInternal, added.status.message);
-  const QueuedEvent queued{added.entry_id, added.position, entry.plan_name};
-  log_.info("plan '" + entry.plan_name + "' queued: entry " + std::to_string(added.entry_id) +
-            ", position " + std::to_string(added.position));
+  const QueuedEvent queued{added.value.entry_id, added.value.position, entry.plan_name};
+  log_.info("plan '" + entry.plan_name + "' queued: entry " + std::to_string(added.value.entry_id) +
+            ", position " + std::to_string(added.value.position));
   server_->broadcast(queued);
   return okReply(request.id, toJson(QueuedReply{queued}));
 }
@@ -1035,8 +1034,8 @@ Reply BenchDaemon::startQueued(const json& id) {
   }
   const QueueListResult list = store_->queueList();
   if (!list.status.ok) return errorReply(id, ErrorCode::kInternal, list.status.message);
-  if (list.entries.empty()) return errorReply(id, ErrorCode::kNotFound, "the queue is empty");
-  const QueueEntry& head = list.entries.front();
+  if (list.value.empty()) return errorReply(id, ErrorCode::kNotFound, "the queue is empty");
+  const QueueEntry& head = list.value.front();
   const std::string which =
       "queue entry " + std::to_string(head.id) + " (plan '" + head.plan_name + "')";
   std::string why;
@@ -1067,8 +1066,8 @@ Reply BenchDaemon::queueReply(const json& id) {
   const QueueListResult list = store_->queueList();
   if (!list.status.ok) return errorReply(id, ErrorCode::kInternal, list.status.message);
   QueueReply reply;
-  for (std::size_t i = 0; i < list.entries.size(); ++i) {
-    const QueueEntry& e = list.entries[i];
+  for (std::size_t i = 0; i < list.value.size(); ++i) {
+    const QueueEntry& e = list.value[i];
     reply.queue.push_back(
         {e.id, static_cast<std::int64_t>(i + 1), e.plan_name, e.source, e.label, e.added_unix_s});
   }
@@ -1083,16 +1082,16 @@ Reply BenchDaemon::queueChange(const Request& request) {
   const QueueListResult list = store_->queueList();
   if (!list.status.ok) return errorReply(request.id, ErrorCode::kInternal, list.status.message);
   const std::string which = "queue entry " + std::to_string(entry);
-  if (std::none_of(list.entries.begin(), list.entries.end(),
+  if (std::none_of(list.value.begin(), list.value.end(),
                    [entry](const QueueEntry& e) { return e.id == entry; }))
     return errorReply(request.id, ErrorCode::kNotFound, which + " is not queued");
-  io::IoStatus st;
+  Status st;
   if (move) {
     const int position = std::get<QueueMoveArgs>(request.args).position;
-    if (static_cast<std::size_t>(position) > list.entries.size())
+    if (static_cast<std::size_t>(position) > list.value.size())
       return errorReply(request.id, ErrorCode::kBadArgument,
                         "position: " + std::to_string(position) + " is beyond the queue's " +
-                            std::to_string(list.entries.size()) + " entries");
+                            std::to_string(list.value.size()) + " entries");
     st = store_->queueMove(entry, position);
   } else {
     st = store_->queueRemove(entry);
@@ -1111,7 +1110,7 @@ Reply BenchDaemon::runnerCommand(const Request& request) {
       publish(run_->runner->takeEvents());
       closeRun();
     } else {
-      const drivers::Status st = port_->emergencyStop();
+      const Status st = port_->emergencyStop();
       log_.warning("emergency stop (no run)" + (st.ok ? std::string() : ": " + st.message));
     }
     return okReply(request.id, toJson(StopReply{true}));
@@ -1121,7 +1120,7 @@ Reply BenchDaemon::runnerCommand(const Request& request) {
     if (which && (!run_ || run_->id != *which)) return resumeInterrupted(request, *which);
   }
   if (!run_) return errorReply(request.id, ErrorCode::kBadState, "no run in progress");
-  CommandResult r;
+  Status r;
   if (request.command == Command::kPause) r = run_->runner->pause(now);
   if (request.command == Command::kResume) r = run_->runner->resume(now);
   if (request.command == Command::kAbort) r = run_->runner->abort(now);
@@ -1140,7 +1139,7 @@ Reply BenchDaemon::rearm(const Request& request) {
                       std::string("re-arm only with no run or a paused one; the run is ") +
                           runnerStateName(run_->runner->state()) + " (pause it first)");
   }
-  const drivers::Status st = port_->prepare();
+  const Status st = port_->prepare();
   const std::string who = run_ ? "run " + std::to_string(run_->id) + ": " : std::string();
   if (!st.ok) {
     log_.warning(who + "re-arm refused: " + st.message);
@@ -1191,7 +1190,7 @@ Reply BenchDaemon::status() const {
   s.imu_restarts = imu_->decoder().counters().restarts;
   s.table = tableStatus();
   if (const auto waiting = store_->queueList(); waiting.status.ok) {
-    s.queued = waiting.entries.size();  // plans in the queue (queue_list)
+    s.queued = waiting.value.size();  // plans in the queue (queue_list)
   }
   if (run_) {
     const PlanRunner& r = *run_->runner;
@@ -1236,7 +1235,7 @@ Reply BenchDaemon::results(const Request& request) {
     const auto runs = store_->listRuns();
     if (!runs.status.ok) return errorReply(request.id, ErrorCode::kInternal, runs.status.message);
     RunListReply list;
-    for (const RunInfo& r : runs.runs) {
+    for (const RunInfo& r : runs.value) {
       list.runs.push_back(
           {r.id, r.start.plan_name, runStateName(r.state), r.exit_reason, r.started_unix_s});
     }
@@ -1247,8 +1246,8 @@ Reply BenchDaemon::results(const Request& request) {
   ResultFilter filter;
   filter.run_id = *args.run;
   const auto stored = store_->results(filter);
-  RunResultsReply reply{*args.run, runStateName(info.run.state), info.run.exit_reason, {}};
-  for (const StoredResult& r : stored.results) {
+  RunResultsReply reply{*args.run, runStateName(info.value.state), info.value.exit_reason, {}};
+  for (const StoredResult& r : stored.value) {
     json doc = json::parse(r.json, nullptr, false);
     if (doc.is_discarded()) doc = nullptr;  // unreadable stored text: null, never invalid JSON
     reply.results.push_back({r.kind, std::move(doc)});

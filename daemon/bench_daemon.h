@@ -76,9 +76,9 @@ class BenchDaemon {
 
   // Opens the store (runs cut off by a crash become "interrupted"), connects the devices,
   // opens the IMU interface and the control socket; then READY=1. An error names the part.
-  io::IoStatus start();
+  Status start();
   // Runs the loop until stop() (thread-safe, e.g. from a signal's self-pipe).
-  io::IoStatus run();
+  Status run();
   void stop();
   EventLoop& loop() { return loop_; }
 
@@ -89,7 +89,7 @@ class BenchDaemon {
   using PlanUse = std::function<Reply(const std::string& name, const std::string& text)>;
 
   // nullopt: the reply follows through the server (a plan read from the plan library).
-  io::IoStatus startControl(std::string* socket_path);
+  Status startControl(std::string* socket_path);
   std::optional<Reply> handle(const Request& request, ClientId client);
   std::optional<Reply> withPlanText(const Request& request, ClientId client,
                                     const PlanSource& source, const PlanUse& use);

@@ -29,15 +29,15 @@ DriverBenchPort::DriverBenchPort(drivers::TableDriver& table, drivers::ChamberDr
 
 // The controller may have been switched by someone else (its front panel, a stop): the mode
 // is set whenever we have not set it ourselves since the last stop.
-drivers::Status DriverBenchPort::positionMode(int axis) {
+Status DriverBenchPort::positionMode(int axis) {
   auto& mode = modes_.at(static_cast<std::size_t>(axis));
   if (mode == drivers::AxisMode::kPosition) return {};
-  drivers::Status st = table_.setMode(axis, drivers::AxisMode::kPosition);
+  Status st = table_.setMode(axis, drivers::AxisMode::kPosition);
   if (st.ok) mode = drivers::AxisMode::kPosition;
   return st;
 }
 
-drivers::Status DriverBenchPort::prepare() {
+Status DriverBenchPort::prepare() {
   if (table_.state() == drivers::DeviceState::kOffline) {
     if (auto st = table_.connect(); !st.ok) return st;
   }
@@ -53,46 +53,43 @@ drivers::Status DriverBenchPort::prepare() {
   // plan does not start on a table that is not cleared.
   drivers::TableReading& r = reading_;
   r = drivers::TableReading{};
-  const drivers::Status st = table_.read(&r);
+  const Status st = table_.read(&r);
   table_error_ = st.ok ? std::string() : st.message;
   if (r.estop || r.interlock_tripped || r.fault) {
-    return drivers::Status::Error("the table reports " +
-                                  (st.ok ? std::string("a fault") : st.message) +
-                                  ": clear it at the controller before starting");
+    return Status::Error("the table reports " + (st.ok ? std::string("a fault") : st.message) +
+                         ": clear it at the controller before starting");
   }
   return st;
 }
 
-drivers::Status DriverBenchPort::moveTo(int axis, double angle_rad,
-                                        const drivers::MotionLimits& limits) {
+Status DriverBenchPort::moveTo(int axis, double angle_rad, const drivers::MotionLimits& limits) {
   if (auto st = positionMode(axis); !st.ok) return st;
   if (auto st = table_.setProfile(axis, limits); !st.ok) return st;
   return table_.moveTo(axis, angle_rad);
 }
 
-drivers::Status DriverBenchPort::rotateBy(int axis, double delta_rad,
-                                          const drivers::MotionLimits& limits) {
+Status DriverBenchPort::rotateBy(int axis, double delta_rad, const drivers::MotionLimits& limits) {
   if (auto st = positionMode(axis); !st.ok) return st;
   if (auto st = table_.setProfile(axis, limits); !st.ok) return st;
   return table_.rotateBy(axis, delta_rad);
 }
 
-drivers::Status DriverBenchPort::stopAll() {
-  drivers::Status first;
+Status DriverBenchPort::stopAll() {
+  Status first;
   for (int a = 0; a < table_.spec().axisCount(); ++a) {
-    const drivers::Status st = table_.stop(a);
+    const Status st = table_.stop(a);
     modes_[static_cast<std::size_t>(a)].reset();
     if (!st.ok && first.ok) first = st;  // stop every axis even when one fails
   }
   return first;
 }
 
-drivers::Status DriverBenchPort::emergencyStop() {
+Status DriverBenchPort::emergencyStop() {
   for (auto& m : modes_) m.reset();
   return table_.emergencyStop();
 }
 
-drivers::Status DriverBenchPort::chamberSetpoint(double setpoint_c) {
+Status DriverBenchPort::chamberSetpoint(double setpoint_c) {
   if (chamber_ == nullptr) return {};
   if (auto st = chamber_->setSetpoint(setpoint_c); !st.ok) return st;
   return chamber_->run(true);
@@ -107,7 +104,7 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
   if (steadyNowS() < table_silence_.retry_at_s) return o;  // silent: next attempt later
   reading_ = drivers::TableReading{};
   table_.setSingleAttempt(true);  // a polling read: the next poll is its retry
-  const drivers::Status st = table_.read(&reading_);
+  const Status st = table_.read(&reading_);
   table_error_ = st.ok ? std::string() : st.message;
   // A controller that reports a tripped interlock, an emergency stop or a fault answered:
   // that is a fault to raise now, not a silence to wait out.
@@ -132,7 +129,7 @@ bool DriverBenchPort::readChamber(drivers::ChamberReading* out) {
   *out = drivers::ChamberReading{};
   chamber_->setSingleAttempt(true);  // a polling read: the next poll is its retry
   // An alarm still fills the reading; a communication error does not.
-  const drivers::Status st = chamber_->read(out);
+  const Status st = chamber_->read(out);
   const bool answered = st.ok || out->alarms_raw != 0;
   afterPollingRead(answered, chamber_, &chamber_silence_.reads, &chamber_silence_.retry_at_s);
   if (!answered) return false;

@@ -21,14 +21,13 @@ class DriverBenchPort : public BenchPort {
   // Connects if needed and closes the interlock (motion needs it closed); refuses a table in
   // emergency stop, tripped or faulted (cleared at the controller on purpose, never by us).
   // Also the operator's re-arm after a controller restart. Updates lastReading().
-  drivers::Status prepare() override;
+  Status prepare() override;
   // Each motion sets the axis' profile first (the controller keeps the last one it was given).
-  drivers::Status moveTo(int axis, double angle_rad, const drivers::MotionLimits& limits) override;
-  drivers::Status rotateBy(int axis, double delta_rad,
-                           const drivers::MotionLimits& limits) override;
-  drivers::Status stopAll() override;
-  drivers::Status emergencyStop() override;
-  drivers::Status chamberSetpoint(double setpoint_c) override;
+  Status moveTo(int axis, double angle_rad, const drivers::MotionLimits& limits) override;
+  Status rotateBy(int axis, double delta_rad, const drivers::MotionLimits& limits) override;
+  Status stopAll() override;
+  Status emergencyStop() override;
+  Status chamberSetpoint(double setpoint_c) override;
 
   // A device that does not answer would block its caller for the device file's whole retry
   // chain (timeout x attempts) on every call. The polling reads make one attempt each (the
@@ -56,7 +55,7 @@ class DriverBenchPort : public BenchPort {
   const std::string& lastTableError() const { return table_error_; }
 
  private:
-  drivers::Status positionMode(int axis);
+  Status positionMode(int axis);
 
   drivers::TableDriver& table_;
   drivers::ChamberDriver* chamber_;

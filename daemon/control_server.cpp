@@ -58,8 +58,8 @@ std::string errnoText(const std::string& what) {
   return what + ": " + std::strerror(errno);
 }
 
-io::IoStatus errnoStatus(const std::string& what) {
-  return io::IoStatus::Error(errnoText(what));
+Status errnoStatus(const std::string& what) {
+  return Status::Error(errnoText(what));
 }
 
 bool fillAddress(const std::string& path, sockaddr_un* addr) {
@@ -71,24 +71,24 @@ bool fillAddress(const std::string& path, sockaddr_un* addr) {
 }
 
 // A stale socket file (its server died) is replaced; a live server or a non-socket is kept.
-io::IoStatus clearStaleSocket(const std::string& path, const sockaddr_un& addr) {
+Status clearStaleSocket(const std::string& path, const sockaddr_un& addr) {
   struct stat st {};
   if (::lstat(path.c_str(), &st) != 0)
-    return errno == ENOENT ? io::IoStatus::Ok() : errnoStatus(path + ": lstat");
-  if (!S_ISSOCK(st.st_mode)) return io::IoStatus::Error(path + ": exists and is not a socket");
+    return errno == ENOENT ? Status::Ok() : errnoStatus(path + ": lstat");
+  if (!S_ISSOCK(st.st_mode)) return Status::Error(path + ": exists and is not a socket");
   const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (probe < 0) return errnoStatus("socket(AF_UNIX)");
   const int rc = ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
   const int err = errno;
   ::close(probe);
-  if (rc == 0) return io::IoStatus::Error(path + ": another server is listening there");
+  if (rc == 0) return Status::Error(path + ": another server is listening there");
   if (err != ECONNREFUSED) {
     errno = err;
     return errnoStatus(path + ": probing the existing socket");
   }
   if (::unlink(path.c_str()) != 0 && errno != ENOENT)
     return errnoStatus(path + ": removing the stale socket");
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 }  // namespace
@@ -129,27 +129,27 @@ ControlServer::~ControlServer() {
     ::unlink(options_.socket_path.c_str());
 }
 
-io::IoStatus ControlServer::start() {
+Status ControlServer::start() {
   std::string why;
-  if (!options_.IsValid(&why)) return io::IoStatus::Error("control server options: " + why);
-  const io::IoStatus s = options_.listen_fd >= 0 ? adoptListenFd() : listenOnPath();
+  if (!options_.IsValid(&why)) return Status::Error("control server options: " + why);
+  const Status s = options_.listen_fd >= 0 ? adoptListenFd() : listenOnPath();
   if (!s.ok) return s;
   if (options_.idle_timeout_s > 0.0) {
     const double period =
         std::clamp(options_.idle_timeout_s / kIdleChecksPerTimeout, kMinIdleCheckS, kMaxIdleCheckS);
     const auto ns = std::chrono::nanoseconds(static_cast<std::int64_t>(period * 1e9));
-    const io::IoStatus t = loop_->addTimer(
+    const Status t = loop_->addTimer(
         ns, ns, [this] { closeIdleClients(); }, &idle_timer_);
     if (!t.ok) return t;
   }
   return loop_->add(listen_fd_, EPOLLIN, [this](std::uint32_t) { onListenReadable(); });
 }
 
-io::IoStatus ControlServer::listenOnPath() {
+Status ControlServer::listenOnPath() {
   const std::string& path = options_.socket_path;
   sockaddr_un addr{};
-  if (!fillAddress(path, &addr)) return io::IoStatus::Error(path + ": not a usable socket path");
-  io::IoStatus s = clearStaleSocket(path, addr);
+  if (!fillAddress(path, &addr)) return Status::Error(path + ": not a usable socket path");
+  Status s = clearStaleSocket(path, addr);
   if (!s.ok) return s;
   listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (listen_fd_ < 0) return errnoStatus("socket(AF_UNIX)");
@@ -163,26 +163,26 @@ io::IoStatus ControlServer::listenOnPath() {
   if (::chmod(path.c_str(), options_.socket_mode) != 0) return errnoStatus(path + ": chmod");
   if (::listen(listen_fd_, SOMAXCONN) != 0) return errnoStatus(path + ": listen");
   log(LogLevel::kInfo, "control socket listening on " + path);
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus ControlServer::adoptListenFd() {
+Status ControlServer::adoptListenFd() {
   const int fd = options_.listen_fd;
   int type = 0;
   int listening = 0;
   socklen_t len = sizeof type;
   if (::getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &len) != 0 || type != SOCK_STREAM)
-    return io::IoStatus::Error("inherited fd " + std::to_string(fd) + ": not a stream socket");
+    return Status::Error("inherited fd " + std::to_string(fd) + ": not a stream socket");
   len = sizeof listening;
   if (::getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &len) != 0 || listening == 0)
-    return io::IoStatus::Error("inherited fd " + std::to_string(fd) + ": not listening");
+    return Status::Error("inherited fd " + std::to_string(fd) + ": not listening");
   const int flags = ::fcntl(fd, F_GETFL);
   if (flags < 0 || ::fcntl(fd, F_SETFL, flags | O_NONBLOCK) != 0)
     return errnoStatus("inherited fd " + std::to_string(fd) + ": O_NONBLOCK");
   ::fcntl(fd, F_SETFD, FD_CLOEXEC);
   listen_fd_ = fd;
   log(LogLevel::kInfo, "control socket inherited (fd " + std::to_string(fd) + ")");
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 void ControlServer::onListenReadable() {
@@ -203,7 +203,7 @@ void ControlServer::onListenReadable() {
 void ControlServer::pauseAccepting() {
   if (accept_pause_timer_ >= 0) return;
   (void)loop_->modify(listen_fd_, 0);
-  const io::IoStatus s = loop_->addTimer(
+  const Status s = loop_->addTimer(
       kAcceptPause, std::chrono::nanoseconds(0),
       [this] {
         loop_->cancelTimer(accept_pause_timer_);
@@ -239,7 +239,7 @@ void ControlServer::acceptOne(int fd) {
   c->fd = fd;
   c->reserved = reserved;
   const ClientId id = c->id;
-  const io::IoStatus s =
+  const Status s =
       loop_->add(fd, EPOLLIN, [this, id](std::uint32_t events) { onClientEvent(id, events); });
   if (!s.ok) {
     log(LogLevel::kWarning, "control socket: " + s.message);

@@ -35,11 +35,11 @@
 #include <string>
 #include <string_view>
 
+#include "calib/status.h"
 #include "daemon/control_protocol.h"
 #include "daemon/control_rights.h"
 #include "daemon/event_loop.h"
 #include "daemon/logging.h"
-#include "io/io_status.h"
 
 namespace imubench::daemon {
 
@@ -99,7 +99,7 @@ class ControlServer {
   ControlServer& operator=(const ControlServer&) = delete;
 
   // Listens (or adopts listen_fd) and registers with the loop.
-  io::IoStatus start();
+  Status start();
   // Consulted for every request from now on (empty: allow all).
   void setAccessPolicy(AccessPolicy policy) { policy_ = std::move(policy); }
 
@@ -123,8 +123,8 @@ class ControlServer {
 
  private:
   struct Client;
-  io::IoStatus listenOnPath();
-  io::IoStatus adoptListenFd();
+  Status listenOnPath();
+  Status adoptListenFd();
   void onListenReadable();
   void pauseAccepting();
   void acceptOne(int fd);

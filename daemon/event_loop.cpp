@@ -16,8 +16,8 @@ namespace {
 
 constexpr int kMaxEventsPerTurn = 64;
 
-io::IoStatus errnoStatus(const std::string& what) {
-  return io::IoStatus::Error(what + ": " + std::strerror(errno));
+Status errnoStatus(const std::string& what) {
+  return Status::Error(what + ": " + std::strerror(errno));
 }
 
 timespec toTimespec(std::chrono::nanoseconds ns) {
@@ -37,7 +37,7 @@ EventLoop::~EventLoop() {
   if (epoll_fd_ >= 0) ::close(epoll_fd_);
 }
 
-io::IoStatus EventLoop::open() {
+Status EventLoop::open() {
   epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
   if (epoll_fd_ < 0) return errnoStatus("epoll_create1");
   wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -45,7 +45,7 @@ io::IoStatus EventLoop::open() {
   return add(wake_fd_, EPOLLIN, [this](std::uint32_t) { drainWake(); });
 }
 
-io::IoStatus EventLoop::add(int fd, std::uint32_t events, FdCallback callback) {
+Status EventLoop::add(int fd, std::uint32_t events, FdCallback callback) {
   const std::uint32_t generation = next_generation_++;
   epoll_event ev{};
   ev.events = events;
@@ -53,18 +53,18 @@ io::IoStatus EventLoop::add(int fd, std::uint32_t events, FdCallback callback) {
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) != 0)
     return errnoStatus("epoll_ctl(ADD, fd " + std::to_string(fd) + ")");
   watches_[fd] = {generation, std::make_shared<FdCallback>(std::move(callback))};
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus EventLoop::modify(int fd, std::uint32_t events) {
+Status EventLoop::modify(int fd, std::uint32_t events) {
   const auto it = watches_.find(fd);
-  if (it == watches_.end()) return io::IoStatus::Error("fd " + std::to_string(fd) + " not watched");
+  if (it == watches_.end()) return Status::Error("fd " + std::to_string(fd) + " not watched");
   epoll_event ev{};
   ev.events = events;
   ev.data.u64 = eventData(fd, it->second.generation);
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_MOD, fd, &ev) != 0)
     return errnoStatus("epoll_ctl(MOD, fd " + std::to_string(fd) + ")");
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 void EventLoop::remove(int fd) {
@@ -72,8 +72,8 @@ void EventLoop::remove(int fd) {
   ::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr);
 }
 
-io::IoStatus EventLoop::addTimer(std::chrono::nanoseconds first, std::chrono::nanoseconds interval,
-                                 std::function<void()> callback, TimerId* id) {
+Status EventLoop::addTimer(std::chrono::nanoseconds first, std::chrono::nanoseconds interval,
+                           std::function<void()> callback, TimerId* id) {
   const int tfd = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
   if (tfd < 0) return errnoStatus("timerfd_create");
   itimerspec spec{};
@@ -81,7 +81,7 @@ io::IoStatus EventLoop::addTimer(std::chrono::nanoseconds first, std::chrono::na
   spec.it_value = toTimespec(std::max(first, std::chrono::nanoseconds(1)));
   spec.it_interval = toTimespec(interval);
   if (::timerfd_settime(tfd, 0, &spec, nullptr) != 0) {
-    const io::IoStatus s = errnoStatus("timerfd_settime");
+    const Status s = errnoStatus("timerfd_settime");
     ::close(tfd);
     return s;
   }
@@ -89,14 +89,14 @@ io::IoStatus EventLoop::addTimer(std::chrono::nanoseconds first, std::chrono::na
     std::uint64_t expirations = 0;
     if (::read(tfd, &expirations, sizeof expirations) == sizeof expirations) callback();
   };
-  const io::IoStatus s = add(tfd, EPOLLIN, std::move(cb));
+  const Status s = add(tfd, EPOLLIN, std::move(cb));
   if (!s.ok) {
     ::close(tfd);
     return s;
   }
   timers_.insert(tfd);
   *id = tfd;
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 void EventLoop::cancelTimer(TimerId id) {
@@ -135,10 +135,10 @@ void EventLoop::drainWake() {
   for (auto& fn : work) fn();
 }
 
-io::IoStatus EventLoop::runOnce(int timeout_ms) {
+Status EventLoop::runOnce(int timeout_ms) {
   std::array<epoll_event, kMaxEventsPerTurn> events{};
   const int n = ::epoll_wait(epoll_fd_, events.data(), kMaxEventsPerTurn, timeout_ms);
-  if (n < 0) return errno == EINTR ? io::IoStatus::Ok() : errnoStatus("epoll_wait");
+  if (n < 0) return errno == EINTR ? Status::Ok() : errnoStatus("epoll_wait");
   for (int i = 0; i < n; ++i) {
     const int fd = static_cast<int>(events[i].data.u64 & 0xffffffffu);
     const auto generation = static_cast<std::uint32_t>(events[i].data.u64 >> 32);
@@ -148,16 +148,16 @@ io::IoStatus EventLoop::runOnce(int timeout_ms) {
     const std::shared_ptr<FdCallback> callback = it->second.callback;
     (*callback)(events[i].events);
   }
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus EventLoop::run() {
+Status EventLoop::run() {
   while (!stop_) {
-    const io::IoStatus s = runOnce(-1);
+    const Status s = runOnce(-1);
     if (!s.ok) return s;
   }
   stop_ = false;  // a later run() starts afresh
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 }  // namespace imubench::daemon

@@ -16,7 +16,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include "io/io_status.h"
+#include "calib/status.h"
 
 namespace imubench::daemon {
 
@@ -32,27 +32,27 @@ class EventLoop {
   EventLoop& operator=(const EventLoop&) = delete;
 
   // Creates the epoll instance and the wake-up eventfd. Call once before anything else.
-  io::IoStatus open();
+  Status open();
 
   // Watches fd for events (EPOLLIN | EPOLLOUT ...). The loop does not own fd; remove() it
   // before closing it. A callback may add, modify or remove any fd, including its own.
-  io::IoStatus add(int fd, std::uint32_t events, FdCallback callback);
-  io::IoStatus modify(int fd, std::uint32_t events);
+  Status add(int fd, std::uint32_t events, FdCallback callback);
+  Status modify(int fd, std::uint32_t events);
   void remove(int fd);
 
   // A timer firing first after `first`, then every `interval` (zero: once). The callback gets
   // no arguments; a one-shot timer stays allocated until cancelTimer().
-  io::IoStatus addTimer(std::chrono::nanoseconds first, std::chrono::nanoseconds interval,
-                        std::function<void()> callback, TimerId* id);
+  Status addTimer(std::chrono::nanoseconds first, std::chrono::nanoseconds interval,
+                  std::function<void()> callback, TimerId* id);
   void cancelTimer(TimerId id);
 
   // Thread-safe: runs fn on the loop's thread during its next turn.
   void post(std::function<void()> fn);
 
   // One epoll_wait (up to timeout_ms, -1 = forever) and the callbacks of what fired.
-  io::IoStatus runOnce(int timeout_ms);
+  Status runOnce(int timeout_ms);
   // Turns until stop(); returns the first epoll error, if any.
-  io::IoStatus run();
+  Status run();
   // Thread-safe: run() returns after the current turn.
   void stop();
 

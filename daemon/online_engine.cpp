@@ -166,10 +166,10 @@ void OnlineEngine::startEstimate() {
     if (method == plans::CalibrationMethod::kPipeline && !reference->tried && direct_run) {
       reference->tried = true;
       auto opened = Store::open(db, StoreOptions{});
-      auto loaded = opened.status.ok ? opened.store->loadRecording(*direct_run)
+      auto loaded = opened.status.ok ? opened.value->loadRecording(*direct_run)
                                      : io::RecordingReadResult{opened.status, {}};
       if (loaded.status.ok) {
-        reference->recording = std::move(loaded.recording);
+        reference->recording = std::move(loaded.value);
       } else {
         reference->error = loaded.status.message;
       }
@@ -214,30 +214,30 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
     out.error = opened.status.message;
     return out;
   }
-  auto run = opened.store->loadRecording(setup.run_id);
+  auto run = opened.value->loadRecording(setup.run_id);
   if (!run.status.ok) {
     out.error = run.status.message;
     return out;
   }
   std::optional<io::Recording> direct;
   if (setup.direct_run) {
-    auto d = opened.store->loadRecording(*setup.direct_run);
+    auto d = opened.value->loadRecording(*setup.direct_run);
     if (!d.status.ok) {
       out.error = "direct run " + std::to_string(*setup.direct_run) + ": " + d.status.message;
       return out;
     }
-    direct = std::move(d.recording);
+    direct = std::move(d.value);
   }
-  const auto temperature = runTemperature(run.recording);
+  const auto temperature = runTemperature(run.value);
   if (!temperature) {
     out.error = "run " + std::to_string(setup.run_id) +
                 " recorded no temperature (no chamber samples, no IMU temperature)";
     return out;
   }
   out.ok = true;
-  out.imu_serial = run.recording.imu_serial;
+  out.imu_serial = run.value.imu_serial;
   out.temperature_c = *temperature;
-  const RunCalibration c = calibrateRun(setup.method, run.recording, direct ? &*direct : nullptr);
+  const RunCalibration c = calibrateRun(setup.method, run.value, direct ? &*direct : nullptr);
   out.calibrated = c.ok;
   if (c.ok) out.coefficients = calib::toJson(c.coefficients);
   out.report = c.report;
@@ -247,12 +247,12 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
   if (setup.direct_run) out.report["direct_run"] = *setup.direct_run;
   out.report["temperature_c"] = *temperature;
   out.report["table_kind"] =
-      run.recording.table_kind == calib::TableKind::kTwoAxis ? "two-axis" : "three-axis";
-  if (run.recording.table_kind == calib::TableKind::kTwoAxis)
-    out.report["outer_axis_heading_deg"] = run.recording.outerAxisHeadingDeg();
+      run.value.table_kind == calib::TableKind::kTwoAxis ? "two-axis" : "three-axis";
+  if (run.value.table_kind == calib::TableKind::kTwoAxis)
+    out.report["outer_axis_heading_deg"] = run.value.outerAxisHeadingDeg();
   out.verdict = acceptanceVerdict(c, setup.acceptance);
   // The missing-physics analysis from the final coefficients, on this worker like them.
-  RunExplain e = explainRun(setup.method, run.recording, c, setup.explain);
+  RunExplain e = explainRun(setup.method, run.value, c, setup.explain);
   if (e.ok) {
     out.explain = std::move(e.report);
     out.explain_summary = std::move(e.summary);

@@ -199,11 +199,11 @@ std::vector<RunnerEvent> PlanRunner::takeEvents() {
   return std::exchange(events_, {});
 }
 
-CommandResult PlanRunner::start(double now_s) {
+Status PlanRunner::start(double now_s) {
   return startAt(now_s, 0);
 }
 
-CommandResult PlanRunner::startAt(double now_s, int first_step) {
+Status PlanRunner::startAt(double now_s, int first_step) {
   if (state_ != RunnerState::kIdle) {
     return {false, std::string("busy: the runner is ") + runnerStateName(state_)};
   }
@@ -212,7 +212,7 @@ CommandResult PlanRunner::startAt(double now_s, int first_step) {
     return {false, "step " + std::to_string(first_step) + " is outside the plan's " +
                        std::to_string(steps_.size()) + " steps"};
   }
-  if (const drivers::Status st = port_.prepare(); !st.ok) {
+  if (const Status st = port_.prepare(); !st.ok) {
     return {false, "the bench is not ready: " + st.message};
   }
   step_ = first_step;
@@ -222,7 +222,7 @@ CommandResult PlanRunner::startAt(double now_s, int first_step) {
   return {};
 }
 
-CommandResult PlanRunner::pause(double now_s) {
+Status PlanRunner::pause(double now_s) {
   if (state_ != RunnerState::kRunning) {
     return {false, std::string("nothing to pause: the runner is ") + runnerStateName(state_)};
   }
@@ -231,7 +231,7 @@ CommandResult PlanRunner::pause(double now_s) {
   return {};
 }
 
-CommandResult PlanRunner::resume(double now_s) {
+Status PlanRunner::resume(double now_s) {
   if (state_ != RunnerState::kPaused) {
     return {false, std::string("nothing to resume: the runner is ") + runnerStateName(state_)};
   }
@@ -257,7 +257,7 @@ CommandResult PlanRunner::resume(double now_s) {
   return {};
 }
 
-CommandResult PlanRunner::abort(double now_s) {
+Status PlanRunner::abort(double now_s) {
   if (state_ != RunnerState::kRunning && state_ != RunnerState::kPaused) {
     return {false, std::string("nothing to abort: the runner is ") + runnerStateName(state_)};
   }
@@ -270,7 +270,7 @@ CommandResult PlanRunner::abort(double now_s) {
 }
 
 void PlanRunner::emergencyStop(double now_s, const std::string& who) {
-  const drivers::Status st = port_.emergencyStop();
+  const Status st = port_.emergencyStop();
   exit_ = RunExit::kEmergencyStop;
   emit(RunnerEvent::Kind::kAlarm, now_s,
        "emergency stop by " + who + (st.ok ? "" : " (the bench reported: " + st.message + ")"));
@@ -278,7 +278,7 @@ void PlanRunner::emergencyStop(double now_s, const std::string& who) {
 }
 
 // A failed command is a communication fault: alarm and pause (the step re-runs on resume).
-bool PlanRunner::issue(const drivers::Status& st, double now_s, const std::string& what) {
+bool PlanRunner::issue(const Status& st, double now_s, const std::string& what) {
   if (st.ok) return true;
   emit(RunnerEvent::Kind::kAlarm, now_s, what + " failed: " + st.message);
   if (state_ == RunnerState::kRunning) interruptStep(now_s);

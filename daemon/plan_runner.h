@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "calib/motion.h"
+#include "calib/status.h"
 #include "drivers/device_errors.h"
 #include "drivers/table.h"
 
@@ -68,16 +69,14 @@ class BenchPort {
  public:
   virtual ~BenchPort() = default;
   // Before the first step: the table ready to move (interlock closed). Refusal = no start.
-  virtual drivers::Status prepare() = 0;
+  virtual Status prepare() = 0;
   // Position-mode motion at the step's rate and acceleration profile: moveTo takes the
   // shortest way, rotateBy's sign is the direction.
-  virtual drivers::Status moveTo(int axis, double angle_rad,
-                                 const drivers::MotionLimits& limits) = 0;
-  virtual drivers::Status rotateBy(int axis, double delta_rad,
-                                   const drivers::MotionLimits& limits) = 0;
-  virtual drivers::Status stopAll() = 0;                           // controlled stop
-  virtual drivers::Status emergencyStop() = 0;                     // table and chamber
-  virtual drivers::Status chamberSetpoint(double setpoint_c) = 0;  // no chamber: Ok
+  virtual Status moveTo(int axis, double angle_rad, const drivers::MotionLimits& limits) = 0;
+  virtual Status rotateBy(int axis, double delta_rad, const drivers::MotionLimits& limits) = 0;
+  virtual Status stopAll() = 0;                           // controlled stop
+  virtual Status emergencyStop() = 0;                     // table and chamber
+  virtual Status chamberSetpoint(double setpoint_c) = 0;  // no chamber: Ok
 };
 
 struct BenchObservation {
@@ -124,24 +123,19 @@ struct RunnerEvent {
 };
 const char* runnerEventKindName(RunnerEvent::Kind k);
 
-// Operator commands return this: ok, or why the command does not apply now.
-struct CommandResult {
-  bool ok = true;
-  std::string message;
-};
-
 class PlanRunner {
  public:
   PlanRunner(std::vector<RunStep> steps, RunnerOptions options, BenchPort& port);
 
-  CommandResult start(double now_s);
+  // Operator commands return ok, or why the command does not apply now.
+  Status start(double now_s);
   // A run interrupted by a daemon crash or stop goes on at `first_step` (the step after its
   // last finished one): the table returns to that step's start and it runs whole; the steps
   // before it count as done. first_step == 0 is start().
-  CommandResult startAt(double now_s, int first_step);
-  CommandResult pause(double now_s);
-  CommandResult resume(double now_s);
-  CommandResult abort(double now_s);
+  Status startAt(double now_s, int first_step);
+  Status pause(double now_s);
+  Status resume(double now_s);
+  Status abort(double now_s);
   void emergencyStop(double now_s, const std::string& who);  // works in every state
 
   void tick(const BenchObservation& obs);
@@ -171,7 +165,7 @@ class PlanRunner {
   void commandStep(const BenchObservation& obs);
   void finishStep(double now_s);
   bool arrived(const BenchObservation& obs, const std::vector<double>& target) const;
-  bool issue(const drivers::Status& st, double now_s, const std::string& what);
+  bool issue(const Status& st, double now_s, const std::string& what);
   // The profile of a return to a step's start (not a planned motion): the axis' own fastest
   // planned profile, else the fastest of the plan's, so no return outruns the plan.
   drivers::MotionLimits returnLimits(int axis) const;

@@ -9,21 +9,21 @@
 namespace imubench::daemon {
 namespace {
 
-io::IoStatus notify(const std::string& state, bool* sent) {
+Status notify(const std::string& state, bool* sent) {
   // unset_environment = 0: helper processes and later calls still find NOTIFY_SOCKET.
   const int rc = ::sd_notify(0, state.c_str());
   if (sent != nullptr) *sent = rc > 0;
-  if (rc < 0) return io::IoStatus::Error("sd_notify(" + state + "): " + std::strerror(-rc));
-  return io::IoStatus::Ok();
+  if (rc < 0) return Status::Error("sd_notify(" + state + "): " + std::strerror(-rc));
+  return Status::Ok();
 }
 
 }  // namespace
 
-io::IoStatus SystemdNotifier::ready(bool* sent) const {
+Status SystemdNotifier::ready(bool* sent) const {
   return notify("READY=1", sent);
 }
 
-io::IoStatus SystemdNotifier::status(std::string_view text, bool* sent) const {
+Status SystemdNotifier::status(std::string_view text, bool* sent) const {
   // The message is newline-separated VAR=value lines: a newline in the text would let it
   // inject e.g. READY=1 or STOPPING=1, so it becomes a space.
   std::string clean(text);
@@ -32,11 +32,11 @@ io::IoStatus SystemdNotifier::status(std::string_view text, bool* sent) const {
   return notify("STATUS=" + clean, sent);
 }
 
-io::IoStatus SystemdNotifier::watchdog(bool* sent) const {
+Status SystemdNotifier::watchdog(bool* sent) const {
   return notify("WATCHDOG=1", sent);
 }
 
-io::IoStatus SystemdNotifier::stopping(bool* sent) const {
+Status SystemdNotifier::stopping(bool* sent) const {
   return notify("STOPPING=1", sent);
 }
 
@@ -46,21 +46,21 @@ std::optional<std::chrono::microseconds> SystemdNotifier::watchdogInterval() con
   return std::chrono::microseconds(usec);
 }
 
-io::IoStatus systemdListenFd(int* fd) {
+Status systemdListenFd(int* fd) {
   *fd = -1;
   // unset_environment = 1: children (e.g. tools the daemon runs) must not think the fds are
   // theirs.
   const int n = ::sd_listen_fds(1);
-  if (n < 0) return io::IoStatus::Error(std::string("sd_listen_fds: ") + std::strerror(-n));
-  if (n == 0) return io::IoStatus::Ok();
+  if (n < 0) return Status::Error(std::string("sd_listen_fds: ") + std::strerror(-n));
+  if (n == 0) return Status::Ok();
   if (n > 1)
-    return io::IoStatus::Error("socket activation passed " + std::to_string(n) +
-                               " fds; imubenchd.socket declares exactly one");
+    return Status::Error("socket activation passed " + std::to_string(n) +
+                         " fds; imubenchd.socket declares exactly one");
   const int candidate = SD_LISTEN_FDS_START;
   if (::sd_is_socket_unix(candidate, SOCK_STREAM, 1, nullptr, 0) <= 0)
-    return io::IoStatus::Error("socket activation fd is not a listening AF_UNIX stream socket");
+    return Status::Error("socket activation fd is not a listening AF_UNIX stream socket");
   *fd = candidate;
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 }  // namespace imubench::daemon

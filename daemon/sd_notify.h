@@ -8,7 +8,7 @@
 #include <optional>
 #include <string_view>
 
-#include "io/io_status.h"
+#include "calib/status.h"
 
 namespace imubench::daemon {
 
@@ -16,10 +16,10 @@ class SystemdNotifier {
  public:
   // Each returns an error only when NOTIFY_SOCKET is set and sending failed; *sent (optional)
   // tells whether a message went out (false outside systemd).
-  io::IoStatus ready(bool* sent = nullptr) const;  // READY=1: the control socket is up
-  io::IoStatus status(std::string_view text, bool* sent = nullptr) const;  // STATUS=text
-  io::IoStatus watchdog(bool* sent = nullptr) const;  // WATCHDOG=1: the loop is alive
-  io::IoStatus stopping(bool* sent = nullptr) const;  // STOPPING=1: orderly shutdown begun
+  Status ready(bool* sent = nullptr) const;  // READY=1: the control socket is up
+  Status status(std::string_view text, bool* sent = nullptr) const;  // STATUS=text
+  Status watchdog(bool* sent = nullptr) const;  // WATCHDOG=1: the loop is alive
+  Status stopping(bool* sent = nullptr) const;  // STOPPING=1: orderly shutdown begun
 
   // WatchdogSec= of the unit when the watchdog is enabled for this process (WATCHDOG_USEC and
   // WATCHDOG_PID): ping at half of it. nullopt when disabled.
@@ -29,6 +29,6 @@ class SystemdNotifier {
 // The listening control socket passed by systemd (imubenchd.socket): its fd, or -1 when the
 // process was not socket-activated. Exactly one AF_UNIX stream socket is expected; anything
 // else is an error (a unit misconfiguration).
-io::IoStatus systemdListenFd(int* fd);
+Status systemdListenFd(int* fd);
 
 }  // namespace imubench::daemon

@@ -168,37 +168,35 @@ bool finiteRow(const io::ChamberSample& s) {
 
 // Finite values and strictly increasing times (also after `last_t`, the previous row).
 template <typename Row>
-io::IoStatus checkRows(const char* what, std::span<const Row> rows, std::optional<double> last_t) {
+Status checkRows(const char* what, std::span<const Row> rows, std::optional<double> last_t) {
   for (std::size_t i = 0; i < rows.size(); ++i) {
     if (!finiteRow(rows[i])) {
-      return io::IoStatus::Error(std::string(what) + " " + std::to_string(i) +
-                                 " has a non-finite value");
+      return Status::Error(std::string(what) + " " + std::to_string(i) + " has a non-finite value");
     }
     if (last_t && !(rows[i].t > *last_t)) {
-      return io::IoStatus::Error(std::string(what) + " " + std::to_string(i) +
-                                 ": time does not increase");
+      return Status::Error(std::string(what) + " " + std::to_string(i) +
+                           ": time does not increase");
     }
     last_t = rows[i].t;
   }
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus checkSegments(std::span<const calib::Segment> segments,
-                           std::optional<double> last_t1) {
+Status checkSegments(std::span<const calib::Segment> segments, std::optional<double> last_t1) {
   for (std::size_t i = 0; i < segments.size(); ++i) {
     const auto& s = segments[i];
     const std::string which = "segment " + std::to_string(i);
     if (!std::isfinite(s.t0) || !std::isfinite(s.t1) || !std::isfinite(s.angle))
-      return io::IoStatus::Error(which + " has a non-finite value");
-    if (!(s.t1 > s.t0)) return io::IoStatus::Error(which + ": t1 is not after t0");
+      return Status::Error(which + " has a non-finite value");
+    if (!(s.t1 > s.t0)) return Status::Error(which + ": t1 is not after t0");
     if (last_t1 && s.t0 < *last_t1)
-      return io::IoStatus::Error(which + " starts before the previous one ends");
+      return Status::Error(which + " starts before the previous one ends");
     last_t1 = s.t1;
   }
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus checkBatch(const RunBatch& b) {
+Status checkBatch(const RunBatch& b) {
   if (auto st = checkRows<nav::ImuSample>("IMU sample", b.imu, std::nullopt); !st.ok) return st;
   if (auto st = checkRows<io::TableSample>("table sample", b.table, std::nullopt); !st.ok)
     return st;
@@ -286,20 +284,20 @@ struct Store::Impl {
   DbPtr db;
   std::unordered_map<const char*, StmtPtr> statements;  // keyed by the SQL literal
 
-  io::IoStatus sqlError(std::string_view what) const {
-    return io::IoStatus::Error(path + ": " + std::string(what) + ": " + sqlite3_errmsg(db.get()));
+  Status sqlError(std::string_view what) const {
+    return Status::Error(path + ": " + std::string(what) + ": " + sqlite3_errmsg(db.get()));
   }
   // A file that is not SQLite, or is damaged, fails with these codes on its first read.
   bool notADatabase() const {
     const int code = sqlite3_errcode(db.get()) & 0xff;
     return code == SQLITE_NOTADB || code == SQLITE_CORRUPT;
   }
-  io::IoStatus error(std::string_view what) const {
-    return io::IoStatus::Error(path + ": " + std::string(what));
+  Status error(std::string_view what) const {
+    return Status::Error(path + ": " + std::string(what));
   }
 
   // The cached statement for `sql` (a string literal), prepared on first use.
-  Bound use(const char* sql, io::IoStatus* st) {
+  Bound use(const char* sql, Status* st) {
     auto& slot = statements[sql];
     if (!slot) {
       sqlite3_stmt* s = nullptr;
@@ -314,59 +312,58 @@ struct Store::Impl {
     return Bound(slot.get());
   }
 
-  io::IoStatus execSql(const char* sql, std::string_view what) {
+  Status execSql(const char* sql, std::string_view what) {
     char* msg = nullptr;
-    if (sqlite3_exec(db.get(), sql, nullptr, nullptr, &msg) == SQLITE_OK) return io::IoStatus::Ok();
+    if (sqlite3_exec(db.get(), sql, nullptr, nullptr, &msg) == SQLITE_OK) return Status::Ok();
     std::string why = msg != nullptr ? msg : sqlite3_errmsg(db.get());
     sqlite3_free(msg);
     return error(std::string(what) + ": " + why);
   }
 
-  // Runs `body` (returning io::IoStatus) in one write transaction; rolls back on failure.
+  // Runs `body` (returning Status) in one write transaction; rolls back on failure.
   template <typename Fn>
-  io::IoStatus transaction(std::string_view what, Fn&& body) {
+  Status transaction(std::string_view what, Fn&& body) {
     if (auto st = execSql("BEGIN IMMEDIATE", what); !st.ok) return st;
-    io::IoStatus st = body();
+    Status st = body();
     if (st.ok) st = execSql("COMMIT", what);
     if (!st.ok) sqlite3_exec(db.get(), "ROLLBACK", nullptr, nullptr, nullptr);
     return st;
   }
 
   // A single integer from a query without parameters (pragmas, counts).
-  io::IoStatus queryInt(const char* sql, std::string_view what, std::int64_t* out) {
-    io::IoStatus st;
+  Status queryInt(const char* sql, std::string_view what, std::int64_t* out) {
+    Status st;
     Bound q = use(sql, &st);
     if (!q) return st;
     if (q.step() != SQLITE_ROW) return sqlError(what);
     *out = q.integer(0);
-    return io::IoStatus::Ok();
+    return Status::Ok();
   }
 
-  io::IoStatus openConnection();
-  io::IoStatus checkSchemaVersion(std::int64_t* version);
-  io::IoStatus configure();
-  io::IoStatus createSchemaIfNew();
-  io::IoStatus migrateSchema();
-  io::IoStatus queueIds(std::vector<std::int64_t>* ids);
-  io::IoStatus runState(std::int64_t run_id, RunState* state);
+  Status openConnection();
+  Status checkSchemaVersion(std::int64_t* version);
+  Status configure();
+  Status createSchemaIfNew();
+  Status migrateSchema();
+  Status queueIds(std::vector<std::int64_t>* ids);
+  Status runState(std::int64_t run_id, RunState* state);
   // A one-value query on run ?1 (a max(...)); NULL leaves *out unset.
-  io::IoStatus lastTime(const char* sql, std::int64_t run_id, std::optional<double>* out);
-  io::IoStatus requireRunning(std::int64_t run_id);
-  io::IoStatus insertRun(const RunStart& start, RunState state, std::int64_t* run_id);
-  io::IoStatus insertEvent(const RunEvent& event);
-  io::IoStatus insertRows(std::int64_t run_id, const RunBatch& batch);
-  io::IoStatus insertImu(std::int64_t run_id, std::span<const nav::ImuSample> rows);
-  io::IoStatus insertTable(std::int64_t run_id, std::span<const io::TableSample> rows);
-  io::IoStatus insertChamber(std::int64_t run_id, std::span<const io::ChamberSample> rows);
-  io::IoStatus insertSegments(std::int64_t run_id, std::span<const calib::Segment> rows);
-  io::IoStatus readRun(Bound& q, RunInfo* run);
-  io::IoStatus loadSamples(std::int64_t run_id, io::Recording* rec);
+  Status lastTime(const char* sql, std::int64_t run_id, std::optional<double>* out);
+  Status requireRunning(std::int64_t run_id);
+  Status insertRun(const RunStart& start, RunState state, std::int64_t* run_id);
+  Status insertEvent(const RunEvent& event);
+  Status insertRows(std::int64_t run_id, const RunBatch& batch);
+  template <class Row, class BindFn, class WhatFn>
+  Status insertEach(const char* sql, std::int64_t run_id, const std::vector<Row>& rows,
+                    BindFn&& bind, WhatFn&& what_of);
+  Status readRun(Bound& q, RunInfo* run);
+  Status loadSamples(std::int64_t run_id, io::Recording* rec);
   template <class RowFn>
-  io::IoStatus forEachRunRow(const char* sql, std::int64_t run_id, const char* what, RowFn&& row);
-  io::IoStatus loadSegments(std::int64_t run_id, io::Recording* rec);
+  Status forEachRunRow(const char* sql, std::int64_t run_id, const char* what, RowFn&& row);
+  Status loadSegments(std::int64_t run_id, io::Recording* rec);
 };
 
-io::IoStatus Store::Impl::openConnection() {
+Status Store::Impl::openConnection() {
   sqlite3* raw = nullptr;
   const int rc =
       sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
@@ -377,12 +374,12 @@ io::IoStatus Store::Impl::openConnection() {
   }
   sqlite3_extended_result_codes(db.get(), 1);
   sqlite3_busy_timeout(db.get(), options.busy_timeout_ms);
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 // The first read of the file: also where a file that is not SQLite is found.
-io::IoStatus Store::Impl::checkSchemaVersion(std::int64_t* version) {
-  io::IoStatus st;
+Status Store::Impl::checkSchemaVersion(std::int64_t* version) {
+  Status st;
   Bound q = use("PRAGMA user_version", &st);
   if (!q || q.step() != SQLITE_ROW) {
     if (!notADatabase()) return sqlError("cannot read the schema version");
@@ -396,11 +393,11 @@ io::IoStatus Store::Impl::checkSchemaVersion(std::int64_t* version) {
                  "); use a newer imubench");
   }
   if (*version < 0) return error("invalid schema version " + std::to_string(*version));
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::configure() {
-  io::IoStatus st;
+Status Store::Impl::configure() {
+  Status st;
   {
     Bound q = use("PRAGMA journal_mode=WAL", &st);
     if (!q) return st;
@@ -417,7 +414,7 @@ io::IoStatus Store::Impl::configure() {
   return execSql("PRAGMA foreign_keys=ON", "cannot enable foreign keys");
 }
 
-io::IoStatus Store::Impl::createSchemaIfNew() {
+Status Store::Impl::createSchemaIfNew() {
   return transaction("cannot create the schema", [&]() {
     std::int64_t version = 0;
     std::int64_t objects = 0;
@@ -436,7 +433,7 @@ io::IoStatus Store::Impl::createSchemaIfNew() {
 }
 
 // Version 1 (before the queue) -> 2.
-io::IoStatus Store::Impl::migrateSchema() {
+Status Store::Impl::migrateSchema() {
   return transaction("cannot migrate the schema to version 2", [&]() {
     std::int64_t version = 0;
     // Re-read inside the write transaction: another process may have migrated it meanwhile.
@@ -447,18 +444,18 @@ io::IoStatus Store::Impl::migrateSchema() {
 }
 
 // The queue's entry ids in order.
-io::IoStatus Store::Impl::queueIds(std::vector<std::int64_t>* ids) {
-  io::IoStatus st;
+Status Store::Impl::queueIds(std::vector<std::int64_t>* ids) {
+  Status st;
   Bound q = use("SELECT id FROM queue ORDER BY pos, id", &st);
   if (!q) return st;
   int rc;
   while ((rc = q.step()) == SQLITE_ROW) ids->push_back(q.integer(0));
   if (rc != SQLITE_DONE) return sqlError("cannot read the queue");
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::runState(std::int64_t run_id, RunState* state) {
-  io::IoStatus st;
+Status Store::Impl::runState(std::int64_t run_id, RunState* state) {
+  Status st;
   Bound q = use("SELECT state FROM runs WHERE id = ?1", &st);
   if (!q) return st;
   q.bind(1, run_id);
@@ -468,31 +465,30 @@ io::IoStatus Store::Impl::runState(std::int64_t run_id, RunState* state) {
   const auto s = runStateFromName(q.text(0));
   if (!s) return error(runLabel(run_id) + " has an unknown state '" + q.text(0) + "'");
   *state = *s;
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::lastTime(const char* sql, std::int64_t run_id,
-                                   std::optional<double>* out) {
-  io::IoStatus st;
+Status Store::Impl::lastTime(const char* sql, std::int64_t run_id, std::optional<double>* out) {
+  Status st;
   Bound q = use(sql, &st);
   if (!q) return st;
   q.bind(1, run_id);
   if (q.step() != SQLITE_ROW) return sqlError("cannot read the end of " + runLabel(run_id));
   *out = q.optReal(0);
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::requireRunning(std::int64_t run_id) {
+Status Store::Impl::requireRunning(std::int64_t run_id) {
   RunState state{};
   if (auto st = runState(run_id, &state); !st.ok) return st;
   if (state != RunState::kRunning) {
     return error(runLabel(run_id) + " is " + runStateName(state) + ", not running");
   }
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::insertRun(const RunStart& s, RunState state, std::int64_t* run_id) {
-  io::IoStatus st;
+Status Store::Impl::insertRun(const RunStart& s, RunState state, std::int64_t* run_id) {
+  Status st;
   Bound q =
       use("INSERT INTO runs(plan_name, plan_toml, bench_name, imu_serial, imu_rate_hz, "
           "latitude_deg, height_m, gravity_mps2, table_kind, outer_axis_heading_deg, "
@@ -515,14 +511,14 @@ io::IoStatus Store::Impl::insertRun(const RunStart& s, RunState state, std::int6
   q.bind(13, std::string_view(runStateName(state)));
   if (q.step() != SQLITE_DONE) return sqlError("cannot start a run");
   *run_id = sqlite3_last_insert_rowid(db.get());
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::insertEvent(const RunEvent& e) {
+Status Store::Impl::insertEvent(const RunEvent& e) {
   if (!nlohmann::json::accept(e.json)) {
     return error(runLabel(e.run_id) + ": event '" + e.kind + "' details are not valid JSON");
   }
-  io::IoStatus st;
+  Status st;
   Bound q = use(
       "INSERT INTO events(run_id, wall_unix_s, severity, kind, json) VALUES(?1, ?2, ?3, ?4, ?5)",
       &st);
@@ -533,105 +529,85 @@ io::IoStatus Store::Impl::insertEvent(const RunEvent& e) {
   q.bind(4, e.kind);
   q.bind(5, e.json);
   if (q.step() != SQLITE_DONE) return sqlError(runLabel(e.run_id) + ": cannot add event");
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::insertImu(std::int64_t run_id, std::span<const nav::ImuSample> rows) {
-  io::IoStatus st;
-  Bound q =
-      use("INSERT INTO imu_samples(run_id, t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c) "
-          "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
-          &st);
+// Inserts every row with `sql` (?1 is the run id; bind(q, row) binds the rest); a refusal
+// names the row by what_of(row).
+template <class Row, class BindFn, class WhatFn>
+Status Store::Impl::insertEach(const char* sql, std::int64_t run_id, const std::vector<Row>& rows,
+                               BindFn&& bind, WhatFn&& what_of) {
+  Status st;
+  Bound q = use(sql, &st);
   if (!q) return st;
   q.bind(1, run_id);
-  for (const auto& s : rows) {
-    q.bind(2, s.t);
-    for (int i = 0; i < 3; ++i) {
-      q.bind(3 + i, s.dtheta[i]);
-      q.bind(6 + i, s.dvel[i]);
-    }
-    q.bind(9, s.temp_c);
+  for (const Row& row : rows) {
+    bind(q, row);
     if (q.step() != SQLITE_DONE)
-      return sqlError(runLabel(run_id) + ": cannot store IMU sample at t=" + std::to_string(s.t));
+      return sqlError(runLabel(run_id) + ": cannot store " + what_of(row));
     q.rewind();
   }
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::insertTable(std::int64_t run_id, std::span<const io::TableSample> rows) {
-  io::IoStatus st;
-  Bound q =
-      use("INSERT INTO table_samples(run_id, t, angle0_deg, angle1_deg, angle2_deg) "
-          "VALUES(?1, ?2, ?3, ?4, ?5)",
-          &st);
-  if (!q) return st;
-  q.bind(1, run_id);
-  for (const auto& s : rows) {
-    q.bind(2, s.t);
-    for (int a = 0; a < 3; ++a) q.bind(3 + a, s.angles_deg[static_cast<std::size_t>(a)]);
-    if (q.step() != SQLITE_DONE) {
-      return sqlError(runLabel(run_id) + ": cannot store table sample at t=" + std::to_string(s.t));
-    }
-    q.rewind();
-  }
-  return io::IoStatus::Ok();
-}
-
-io::IoStatus Store::Impl::insertChamber(std::int64_t run_id,
-                                        std::span<const io::ChamberSample> rows) {
-  io::IoStatus st;
-  Bound q =
-      use("INSERT INTO chamber_samples(run_id, t, setpoint_c, temp_c) VALUES(?1, ?2, ?3, ?4)", &st);
-  if (!q) return st;
-  q.bind(1, run_id);
-  for (const auto& s : rows) {
-    q.bind(2, s.t);
-    q.bind(3, s.setpoint_c);
-    q.bind(4, s.temp_c);
-    if (q.step() != SQLITE_DONE) {
-      return sqlError(runLabel(run_id) +
-                      ": cannot store chamber sample at t=" + std::to_string(s.t));
-    }
-    q.rewind();
-  }
-  return io::IoStatus::Ok();
-}
-
-io::IoStatus Store::Impl::insertSegments(std::int64_t run_id,
-                                         std::span<const calib::Segment> rows) {
-  io::IoStatus st;
+Status Store::Impl::insertRows(std::int64_t run_id, const RunBatch& b) {
+  auto at = [](const char* what) {
+    return [what](const auto& s) { return std::string(what) + " at t=" + std::to_string(s.t); };
+  };
+  Status st = insertEach(
+      "INSERT INTO imu_samples(run_id, t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c) "
+      "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+      run_id, b.imu,
+      [](Bound& q, const nav::ImuSample& s) {
+        q.bind(2, s.t);
+        for (int i = 0; i < 3; ++i) {
+          q.bind(3 + i, s.dtheta[i]);
+          q.bind(6 + i, s.dvel[i]);
+        }
+        q.bind(9, s.temp_c);
+      },
+      at("IMU sample"));
+  if (!st.ok) return st;
+  st = insertEach(
+      "INSERT INTO table_samples(run_id, t, angle0_deg, angle1_deg, angle2_deg) "
+      "VALUES(?1, ?2, ?3, ?4, ?5)",
+      run_id, b.table,
+      [](Bound& q, const io::TableSample& s) {
+        q.bind(2, s.t);
+        for (int a = 0; a < 3; ++a) q.bind(3 + a, s.angles_deg[static_cast<std::size_t>(a)]);
+      },
+      at("table sample"));
+  if (!st.ok) return st;
+  st = insertEach(
+      "INSERT INTO chamber_samples(run_id, t, setpoint_c, temp_c) VALUES(?1, ?2, ?3, ?4)", run_id,
+      b.chamber,
+      [](Bound& q, const io::ChamberSample& s) {
+        q.bind(2, s.t);
+        q.bind(3, s.setpoint_c);
+        q.bind(4, s.temp_c);
+      },
+      at("chamber sample"));
+  if (!st.ok) return st;
   // idx continues the run's numbering: segments arrive one by one during a run.
-  Bound q =
-      use("INSERT INTO segments(run_id, idx, t0, t1, kind, label, recording, axis, angle_rad) "
-          "VALUES(?1, (SELECT coalesce(max(idx) + 1, 0) FROM segments WHERE run_id = ?1), "
-          "?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-          &st);
-  if (!q) return st;
-  q.bind(1, run_id);
-  for (const auto& s : rows) {
-    q.bind(2, s.t0);
-    q.bind(3, s.t1);
-    q.bind(4, std::string_view(calib::segmentKindName(s.kind)));
-    q.bind(5, s.label);
-    q.bind(6, s.recording ? 1 : 0);
-    q.bind(7, s.axis);
-    q.bind(8, s.angle);
-    if (q.step() != SQLITE_DONE)
-      return sqlError(runLabel(run_id) + ": cannot store segment '" + s.label + "'");
-    q.rewind();
-  }
-  return io::IoStatus::Ok();
-}
-
-io::IoStatus Store::Impl::insertRows(std::int64_t run_id, const RunBatch& b) {
-  if (auto st = insertImu(run_id, b.imu); !st.ok) return st;
-  if (auto st = insertTable(run_id, b.table); !st.ok) return st;
-  if (auto st = insertChamber(run_id, b.chamber); !st.ok) return st;
-  return insertSegments(run_id, b.segments);
+  return insertEach(
+      "INSERT INTO segments(run_id, idx, t0, t1, kind, label, recording, axis, angle_rad) "
+      "VALUES(?1, (SELECT coalesce(max(idx) + 1, 0) FROM segments WHERE run_id = ?1), "
+      "?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+      run_id, b.segments,
+      [](Bound& q, const calib::Segment& s) {
+        q.bind(2, s.t0);
+        q.bind(3, s.t1);
+        q.bind(4, std::string_view(calib::segmentKindName(s.kind)));
+        q.bind(5, s.label);
+        q.bind(6, s.recording ? 1 : 0);
+        q.bind(7, s.axis);
+        q.bind(8, s.angle);
+      },
+      [](const calib::Segment& s) { return "segment '" + s.label + "'"; });
 }
 
 // One row of kSelectRunsSql.
-io::IoStatus Store::Impl::readRun(Bound& q, RunInfo* run) {
+Status Store::Impl::readRun(Bound& q, RunInfo* run) {
   run->id = q.integer(0);
   RunStart& s = run->start;
   s.plan_name = q.text(1);
@@ -652,27 +628,27 @@ io::IoStatus Store::Impl::readRun(Bound& q, RunInfo* run) {
   if (!state) return error(runLabel(run->id) + " has an unknown state '" + q.text(14) + "'");
   run->state = *state;
   run->exit_reason = q.text(15);
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 // Runs a "... WHERE run_id = ?1 ..." query and hands every row to row(q), which may refuse it.
 template <class RowFn>
-io::IoStatus Store::Impl::forEachRunRow(const char* sql, std::int64_t run_id, const char* what,
-                                        RowFn&& row) {
-  io::IoStatus st;
+Status Store::Impl::forEachRunRow(const char* sql, std::int64_t run_id, const char* what,
+                                  RowFn&& row) {
+  Status st;
   Bound q = use(sql, &st);
   if (!q) return st;
   q.bind(1, run_id);
   int rc;
   while ((rc = q.step()) == SQLITE_ROW) {
-    if (io::IoStatus r = row(q); !r.ok) return r;
+    if (Status r = row(q); !r.ok) return r;
   }
   if (rc != SQLITE_DONE) return sqlError(runLabel(run_id) + ": cannot read " + what);
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::Impl::loadSamples(std::int64_t run_id, io::Recording* rec) {
-  io::IoStatus st = forEachRunRow(
+Status Store::Impl::loadSamples(std::int64_t run_id, io::Recording* rec) {
+  Status st = forEachRunRow(
       "SELECT t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c FROM imu_samples "
       "WHERE run_id = ?1 ORDER BY t",
       run_id, "IMU samples", [rec](Bound& q) {
@@ -681,7 +657,7 @@ io::IoStatus Store::Impl::loadSamples(std::int64_t run_id, io::Recording* rec) {
         s.dtheta = Vec3(q.real(1), q.real(2), q.real(3));
         s.dvel = Vec3(q.real(4), q.real(5), q.real(6));
         s.temp_c = q.realOrNaN(7);
-        return io::IoStatus::Ok();
+        return Status::Ok();
       });
   if (!st.ok) return st;
   st = forEachRunRow(
@@ -689,18 +665,18 @@ io::IoStatus Store::Impl::loadSamples(std::int64_t run_id, io::Recording* rec) {
       "WHERE run_id = ?1 ORDER BY t",
       run_id, "table samples", [rec](Bound& q) {
         rec->table.push_back(io::TableSample{q.real(0), {q.real(1), q.real(2), q.real(3)}});
-        return io::IoStatus::Ok();
+        return Status::Ok();
       });
   if (!st.ok) return st;
   return forEachRunRow(
       "SELECT t, setpoint_c, temp_c FROM chamber_samples WHERE run_id = ?1 ORDER BY t", run_id,
       "chamber samples", [rec](Bound& q) {
         rec->chamber.push_back(io::ChamberSample{q.real(0), q.real(1), q.real(2)});
-        return io::IoStatus::Ok();
+        return Status::Ok();
       });
 }
 
-io::IoStatus Store::Impl::loadSegments(std::int64_t run_id, io::Recording* rec) {
+Status Store::Impl::loadSegments(std::int64_t run_id, io::Recording* rec) {
   return forEachRunRow(
       "SELECT t0, t1, kind, label, recording, axis, angle_rad FROM segments "
       "WHERE run_id = ?1 ORDER BY idx",
@@ -715,7 +691,7 @@ io::IoStatus Store::Impl::loadSegments(std::int64_t run_id, io::Recording* rec) 
         s.recording = q.integer(4) != 0;
         s.axis = static_cast<int>(q.integer(5));
         s.angle = q.real(6);
-        return io::IoStatus::Ok();
+        return Status::Ok();
       });
 }
 
@@ -822,14 +798,14 @@ StoreOpenResult Store::open(const std::string& path, const StoreOptions& options
   StoreOpenResult r;
   std::string why;
   if (!options.IsValid(&why)) {
-    r.status = io::IoStatus::Error(path + ": invalid store options: " + why);
+    r.status = Status::Error(path + ": invalid store options: " + why);
     return r;
   }
   auto impl = std::make_unique<Impl>();
   impl->path = path;
   impl->options = options;
   std::int64_t version = 0;
-  io::IoStatus st = impl->openConnection();
+  Status st = impl->openConnection();
   if (st.ok) st = impl->checkSchemaVersion(&version);
   if (st.ok) st = impl->configure();
   if (st.ok && version == 0) st = impl->createSchemaIfNew();
@@ -838,7 +814,7 @@ StoreOpenResult Store::open(const std::string& path, const StoreOptions& options
     r.status = st;
     return r;
   }
-  r.store.reset(new Store(std::move(impl)));
+  r.value.reset(new Store(std::move(impl)));
   return r;
 }
 
@@ -849,17 +825,17 @@ RunIdResult Store::beginRun(const RunStart& start) {
     r.status = impl_->error("cannot start a run: " + why);
     return r;
   }
-  r.status = impl_->insertRun(start, RunState::kRunning, &r.run_id);
+  r.status = impl_->insertRun(start, RunState::kRunning, &r.value);
   return r;
 }
 
-io::IoStatus Store::finishRun(std::int64_t run_id, RunState state, const std::string& reason) {
+Status Store::finishRun(std::int64_t run_id, RunState state, const std::string& reason) {
   if (state == RunState::kRunning) {
     return impl_->error("cannot finish " + runLabel(run_id) + " in state running");
   }
   return impl_->transaction("cannot finish " + runLabel(run_id), [&]() {
     if (auto st = impl_->requireRunning(run_id); !st.ok) return st;
-    io::IoStatus st;
+    Status st;
     Bound q = impl_->use(
         "UPDATE runs SET state = ?2, exit_reason = ?3, finished_unix_s = ?4 WHERE id = ?1", &st);
     if (!q) return st;
@@ -878,7 +854,7 @@ CountResult Store::markInterruptedRuns() {
   CountResult r;
   r.status = impl_->transaction("cannot mark interrupted runs", [&]() {
     std::vector<std::int64_t> ids;
-    io::IoStatus st;
+    Status st;
     {
       Bound q = impl_->use("SELECT id FROM runs WHERE state = 'running' ORDER BY id", &st);
       if (!q) return st;
@@ -904,14 +880,14 @@ CountResult Store::markInterruptedRuns() {
           {id, nowUnixS(), EventSeverity::kWarning, "interrupted", details.dump()});
       if (!st.ok) return st;
     }
-    r.count = static_cast<int>(ids.size());
-    return io::IoStatus::Ok();
+    r.value = static_cast<int>(ids.size());
+    return Status::Ok();
   });
-  if (!r.status.ok) r.count = 0;
+  if (!r.status.ok) r.value = 0;
   return r;
 }
 
-io::IoStatus Store::resumeRun(std::int64_t run_id) {
+Status Store::resumeRun(std::int64_t run_id) {
   return impl_->transaction("cannot resume " + runLabel(run_id), [&]() {
     RunState state{};
     if (auto st = impl_->runState(run_id, &state); !st.ok) return st;
@@ -919,7 +895,7 @@ io::IoStatus Store::resumeRun(std::int64_t run_id) {
       return impl_->error(runLabel(run_id) + " is " + runStateName(state) +
                           "; only an interrupted run can be resumed");
     }
-    io::IoStatus st;
+    Status st;
     Bound q = impl_->use(
         "UPDATE runs SET state = 'running', exit_reason = '', finished_unix_s = NULL "
         "WHERE id = ?1",
@@ -956,7 +932,7 @@ RunListResult Store::listRuns() {
   if (!q) return r;
   int rc;
   while ((rc = q.step()) == SQLITE_ROW) {
-    if (r.status = impl_->readRun(q, &r.runs.emplace_back()); !r.status.ok) return r;
+    if (r.status = impl_->readRun(q, &r.value.emplace_back()); !r.status.ok) return r;
   }
   if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot list runs");
   return r;
@@ -973,12 +949,12 @@ RunInfoResult Store::runInfo(std::int64_t run_id) {
   } else if (rc != SQLITE_ROW) {
     r.status = impl_->sqlError("cannot read " + runLabel(run_id));
   } else {
-    r.status = impl_->readRun(q, &r.run);
+    r.status = impl_->readRun(q, &r.value);
   }
   return r;
 }
 
-io::IoStatus Store::appendBatch(std::int64_t run_id, const RunBatch& batch) {
+Status Store::appendBatch(std::int64_t run_id, const RunBatch& batch) {
   if (auto st = checkBatch(batch); !st.ok) {
     return impl_->error(runLabel(run_id) + ": batch refused: " + st.message);
   }
@@ -988,7 +964,7 @@ io::IoStatus Store::appendBatch(std::int64_t run_id, const RunBatch& batch) {
   });
 }
 
-io::IoStatus Store::addEvent(const RunEvent& event) {
+Status Store::addEvent(const RunEvent& event) {
   return impl_->transaction("cannot add event", [&]() {
     RunState state{};
     if (auto st = impl_->runState(event.run_id, &state); !st.ok) return st;
@@ -1011,7 +987,7 @@ EventListResult Store::events(std::int64_t run_id) {
     const EventSeverity severity = sev == "error"     ? EventSeverity::kError
                                    : sev == "warning" ? EventSeverity::kWarning
                                                       : EventSeverity::kInfo;
-    r.events.push_back({run_id, q.real(0), severity, q.text(2), q.text(3)});
+    r.value.push_back({run_id, q.real(0), severity, q.text(2), q.text(3)});
   }
   if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot read events of " + runLabel(run_id));
   return r;
@@ -1030,19 +1006,19 @@ RunIdResult Store::importRecording(const RunStart& start, const io::Recording& r
     return r;
   }
   r.status = impl_->transaction("cannot import recording", [&]() {
-    if (auto st = impl_->insertRun(start, RunState::kRunning, &r.run_id); !st.ok) return st;
-    if (auto st = impl_->insertRows(r.run_id, batch); !st.ok) return st;
-    io::IoStatus st;
+    if (auto st = impl_->insertRun(start, RunState::kRunning, &r.value); !st.ok) return st;
+    if (auto st = impl_->insertRows(r.value, batch); !st.ok) return st;
+    Status st;
     Bound q = impl_->use(
         "UPDATE runs SET state = 'finished', exit_reason = 'imported', "
         "finished_unix_s = started_unix_s WHERE id = ?1",
         &st);
     if (!q) return st;
-    q.bind(1, r.run_id);
+    q.bind(1, r.value);
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot finish the imported run");
-    return io::IoStatus::Ok();
+    return Status::Ok();
   });
-  if (!r.status.ok) r.run_id = 0;
+  if (!r.status.ok) r.value = 0;
   return r;
 }
 
@@ -1053,8 +1029,8 @@ io::RecordingReadResult Store::loadRecording(std::int64_t run_id) {
     r.status = info.status;
     return r;
   }
-  const RunStart& s = info.run.start;
-  io::Recording& rec = r.recording;
+  const RunStart& s = info.value.start;
+  io::Recording& rec = r.value;
   rec.latitude_deg = s.latitude_deg;
   rec.height_m = s.height_m;
   rec.gravity_mps2 = s.gravity_mps2;
@@ -1064,13 +1040,13 @@ io::RecordingReadResult Store::loadRecording(std::int64_t run_id) {
   rec.outer_axis_heading_deg = s.outer_axis_heading_deg;
   rec.segments_from_file = s.segments_from_file;
   // A read transaction around the reads: one consistent snapshot while the daemon writes.
-  io::IoStatus st = impl_->execSql("BEGIN", "cannot read " + runLabel(run_id));
+  Status st = impl_->execSql("BEGIN", "cannot read " + runLabel(run_id));
   if (st.ok) st = impl_->loadSamples(run_id, &rec);
   if (st.ok) st = impl_->loadSegments(run_id, &rec);
   sqlite3_exec(impl_->db.get(), "COMMIT", nullptr, nullptr, nullptr);
   if (!st.ok) {
     r.status = st;
-    r.recording = io::Recording{};
+    r.value = io::Recording{};
   }
   return r;
 }
@@ -1090,7 +1066,7 @@ ResultIdResult Store::storeResult(std::int64_t run_id, const std::string& imu_se
   r.status = impl_->transaction("cannot store result", [&]() {
     RunState state{};
     if (auto st = impl_->runState(run_id, &state); !st.ok) return st;
-    io::IoStatus st;
+    Status st;
     Bound q = impl_->use(
         "INSERT INTO results(run_id, imu_serial, temperature_c, kind, json, created_unix_s) "
         "VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
@@ -1103,8 +1079,8 @@ ResultIdResult Store::storeResult(std::int64_t run_id, const std::string& imu_se
     q.bind(5, json_text);
     q.bind(6, nowUnixS());
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot store result");
-    r.result_id = sqlite3_last_insert_rowid(impl_->db.get());
-    return io::IoStatus::Ok();
+    r.value = sqlite3_last_insert_rowid(impl_->db.get());
+    return Status::Ok();
   });
   return r;
 }
@@ -1120,7 +1096,7 @@ ResultListResult Store::results(const ResultFilter& filter) {
   if (filter.run_id) q.bind(2, *filter.run_id);
   int rc;
   while ((rc = q.step()) == SQLITE_ROW) {
-    r.results.push_back(
+    r.value.push_back(
         {q.integer(0), q.integer(1), q.text(2), q.real(3), q.text(4), q.text(5), q.real(6)});
   }
   if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot list results");
@@ -1130,7 +1106,7 @@ ResultListResult Store::results(const ResultFilter& filter) {
 QueueAddResult Store::queueAdd(const QueueEntry& entry) {
   QueueAddResult r;
   r.status = impl_->transaction("cannot queue plan '" + entry.plan_name + "'", [&]() {
-    io::IoStatus st;
+    Status st;
     Bound q = impl_->use(
         "INSERT INTO queue(pos, plan_name, source, plan_toml, label, added_unix_s) "
         "VALUES((SELECT coalesce(max(pos), 0) + 1 FROM queue), ?1, ?2, ?3, ?4, ?5)",
@@ -1142,13 +1118,13 @@ QueueAddResult Store::queueAdd(const QueueEntry& entry) {
     q.bind(4, entry.label);
     q.bind(5, nowUnixS());
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot queue the plan");
-    r.entry_id = sqlite3_last_insert_rowid(impl_->db.get());
+    r.value.entry_id = sqlite3_last_insert_rowid(impl_->db.get());
     std::int64_t count = 0;
     st = impl_->queryInt("SELECT count(*) FROM queue", "cannot count the queue", &count);
-    r.position = static_cast<int>(count);
+    r.value.position = static_cast<int>(count);
     return st;
   });
-  if (!r.status.ok) r.entry_id = 0;
+  if (!r.status.ok) r.value.entry_id = 0;
   return r;
 }
 
@@ -1160,13 +1136,13 @@ QueueListResult Store::queueList() {
   if (!q) return r;
   int rc;
   while ((rc = q.step()) == SQLITE_ROW) {
-    r.entries.push_back({q.integer(0), q.text(1), q.text(2), q.text(3), q.text(4), q.real(5)});
+    r.value.push_back({q.integer(0), q.text(1), q.text(2), q.text(3), q.text(4), q.real(5)});
   }
   if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot read the queue");
   return r;
 }
 
-io::IoStatus Store::queueMove(std::int64_t entry_id, int position) {
+Status Store::queueMove(std::int64_t entry_id, int position) {
   const std::string what = "queue entry " + std::to_string(entry_id);
   return impl_->transaction("cannot move " + what, [&]() {
     std::vector<std::int64_t> ids;
@@ -1178,7 +1154,7 @@ io::IoStatus Store::queueMove(std::int64_t entry_id, int position) {
                           std::to_string(ids.size()));
     ids.erase(it);
     ids.insert(ids.begin() + (position - 1), entry_id);
-    io::IoStatus st;
+    Status st;
     for (std::size_t i = 0; i < ids.size(); ++i) {
       Bound q = impl_->use("UPDATE queue SET pos = ?2 WHERE id = ?1", &st);
       if (!q) return st;
@@ -1186,23 +1162,23 @@ io::IoStatus Store::queueMove(std::int64_t entry_id, int position) {
       q.bind(2, static_cast<std::int64_t>(i + 1));
       if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot move " + what);
     }
-    return io::IoStatus::Ok();
+    return Status::Ok();
   });
 }
 
-io::IoStatus Store::queueRemove(std::int64_t entry_id) {
+Status Store::queueRemove(std::int64_t entry_id) {
   const std::string what = "queue entry " + std::to_string(entry_id);
-  io::IoStatus st;
+  Status st;
   Bound q = impl_->use("DELETE FROM queue WHERE id = ?1", &st);
   if (!q) return st;
   q.bind(1, entry_id);
   if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot remove " + what);
   if (sqlite3_changes(impl_->db.get()) == 0) return impl_->error(what + " not found");
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus Store::integrityCheck() {
-  io::IoStatus st;
+Status Store::integrityCheck() {
+  Status st;
   Bound q = impl_->use("PRAGMA integrity_check", &st);
   if (!q) return st;
   std::string problems;
@@ -1213,7 +1189,7 @@ io::IoStatus Store::integrityCheck() {
   }
   if (rc != SQLITE_DONE) return impl_->sqlError("integrity check failed");
   if (!problems.empty()) return impl_->error("integrity check: " + problems);
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1234,32 +1210,32 @@ RunWriter::~RunWriter() {
 }
 
 template <class Row>
-io::IoStatus RunWriter::appendRows(const char* what, std::span<const Row> rows,
-                                   std::optional<double>* last_t, std::vector<Row>* buffer) {
-  if (rows.empty()) return io::IoStatus::Ok();
+Status RunWriter::appendRows(const char* what, std::span<const Row> rows,
+                             std::optional<double>* last_t, std::vector<Row>* buffer) {
+  if (rows.empty()) return Status::Ok();
   if (auto st = checkRows(what, rows, *last_t); !st.ok) {
-    return io::IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+    return Status::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
   }
   buffer->insert(buffer->end(), rows.begin(), rows.end());
   *last_t = rows.back().t;
   return buffered(rows.front().t, rows.back().t);
 }
 
-io::IoStatus RunWriter::appendImu(std::span<const nav::ImuSample> samples) {
+Status RunWriter::appendImu(std::span<const nav::ImuSample> samples) {
   return appendRows("IMU sample", samples, &last_imu_t_, &buffer_.imu);
 }
 
-io::IoStatus RunWriter::appendTable(std::span<const io::TableSample> samples) {
+Status RunWriter::appendTable(std::span<const io::TableSample> samples) {
   return appendRows("table sample", samples, &last_table_t_, &buffer_.table);
 }
 
-io::IoStatus RunWriter::appendChamber(std::span<const io::ChamberSample> samples) {
+Status RunWriter::appendChamber(std::span<const io::ChamberSample> samples) {
   return appendRows("chamber sample", samples, &last_chamber_t_, &buffer_.chamber);
 }
 
-io::IoStatus RunWriter::appendSegment(const calib::Segment& segment) {
+Status RunWriter::appendSegment(const calib::Segment& segment) {
   if (auto st = checkSegments(std::span(&segment, 1), last_segment_t1_); !st.ok) {
-    return io::IoStatus::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+    return Status::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
   }
   buffer_.segments.push_back(segment);
   last_segment_t1_ = segment.t1;
@@ -1267,26 +1243,26 @@ io::IoStatus RunWriter::appendSegment(const calib::Segment& segment) {
   return buffered(segment.t1, segment.t1);
 }
 
-io::IoStatus RunWriter::buffered(double oldest_new_t, double newest_t) {
+Status RunWriter::buffered(double oldest_new_t, double newest_t) {
   if (!oldest_buffered_t_ || oldest_new_t < *oldest_buffered_t_) oldest_buffered_t_ = oldest_new_t;
   if (buffer_.rows() >= store_->options().max_unflushed_rows) return flush();
   return flushIfDue(newest_t);
 }
 
-io::IoStatus RunWriter::flushIfDue(double now_t) {
+Status RunWriter::flushIfDue(double now_t) {
   if (oldest_buffered_t_ && now_t - *oldest_buffered_t_ >= store_->options().max_unflushed_s) {
     return flush();
   }
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
-io::IoStatus RunWriter::flush() {
-  if (buffer_.rows() == 0) return io::IoStatus::Ok();
+Status RunWriter::flush() {
+  if (buffer_.rows() == 0) return Status::Ok();
   // On failure the rows stay buffered, so a later flush can retry them.
   if (auto st = store_->appendBatch(run_id_, buffer_); !st.ok) return st;
   buffer_.clear();
   oldest_buffered_t_.reset();
-  return io::IoStatus::Ok();
+  return Status::Ok();
 }
 
 }  // namespace imubench::daemon

@@ -9,7 +9,7 @@
 // loadRecording(run) rebuilds the exact io::Recording value (doubles bit-exact, -0.0 included), so
 // writeRecording() exports a run as imubench-csv/1 and the calibrators run on a run id.
 //
-// Errors are returned as io::IoStatus naming the database path; nothing here prints or throws.
+// Errors are returned as Status naming the database path; nothing here prints or throws.
 // A Store is one connection and is not thread-safe; other processes may read concurrently.
 #pragma once
 
@@ -22,7 +22,7 @@
 #include <string_view>
 #include <vector>
 
-#include "io/io_status.h"
+#include "calib/status.h"
 #include "io/recording.h"
 
 namespace imubench::daemon {
@@ -133,52 +133,26 @@ struct RunBatch {
 
 class Store;
 
-struct StoreOpenResult {
-  io::IoStatus status;
-  std::unique_ptr<Store> store;  // set only when status.ok
-};
-struct RunIdResult {
-  io::IoStatus status;
-  std::int64_t run_id = 0;
-};
-struct RunInfoResult {
-  io::IoStatus status;
-  RunInfo run;
-};
-struct RunListResult {
-  io::IoStatus status;
-  std::vector<RunInfo> runs;  // by id
-};
-struct EventListResult {
-  io::IoStatus status;
-  std::vector<RunEvent> events;  // in insertion order
-};
-struct ResultIdResult {
-  io::IoStatus status;
-  std::int64_t result_id = 0;
-};
-struct ResultListResult {
-  io::IoStatus status;
-  std::vector<StoredResult> results;  // by id
-};
-struct QueueAddResult {
-  io::IoStatus status;
+// What the store's calls return: the status and, when ok(), the payload in `value`.
+using StoreOpenResult = Result<std::unique_ptr<Store>>;
+using RunIdResult = Result<std::int64_t>;
+using RunInfoResult = Result<RunInfo>;
+using RunListResult = Result<std::vector<RunInfo>>;     // by id
+using EventListResult = Result<std::vector<RunEvent>>;  // in insertion order
+using ResultIdResult = Result<std::int64_t>;
+using ResultListResult = Result<std::vector<StoredResult>>;  // by id
+struct QueuePlace {
   std::int64_t entry_id = 0;
   int position = 0;  // 1-based: where it landed (the last place)
 };
-struct QueueListResult {
-  io::IoStatus status;
-  std::vector<QueueEntry> entries;  // in queue order, the next to start first
-};
-struct CountResult {
-  io::IoStatus status;
-  int count = 0;
-};
+using QueueAddResult = Result<QueuePlace>;
+using QueueListResult = Result<std::vector<QueueEntry>>;  // in queue order, the next first
+using CountResult = Result<int>;
 // Where an interrupted run stands (Store::resumePoint): the last step whose step_finished
 // event was stored (its segment is committed before the event), and the newest stored row of
 // each stream, so the resumed run's rows continue after them.
 struct ResumePoint {
-  io::IoStatus status;
+  Status status;
   int last_finished_step = -1;  // -1: no step finished yet
   std::optional<double> last_imu_t;
   std::optional<double> last_table_t;
@@ -202,13 +176,13 @@ class Store {
   // A new run in state running, started now.
   RunIdResult beginRun(const RunStart& start);
   // Ends a running run; `state` must not be kRunning.
-  io::IoStatus finishRun(std::int64_t run_id, RunState state, const std::string& reason);
+  Status finishRun(std::int64_t run_id, RunState state, const std::string& reason);
   // Daemon start-up: every run still `running` was cut off by a crash or kill; it becomes
   // `interrupted` with an event naming the time of its last stored IMU sample. Returns how many.
   CountResult markInterruptedRuns();
   // An interrupted run goes on (imubench resume RUN): back to `running`, with a "resumed"
   // event. Refuses any other state.
-  io::IoStatus resumeRun(std::int64_t run_id);
+  Status resumeRun(std::int64_t run_id);
   // The checkpoint an interrupted run resumes from.
   ResumePoint resumePoint(std::int64_t run_id);
   RunListResult listRuns();
@@ -216,9 +190,9 @@ class Store {
 
   // Commits the rows in one transaction. Refuses (nothing written) non-finite values, naming
   // the row; IMU temp_c may be NaN (not reported).
-  io::IoStatus appendBatch(std::int64_t run_id, const RunBatch& batch);
+  Status appendBatch(std::int64_t run_id, const RunBatch& batch);
 
-  io::IoStatus addEvent(const RunEvent& event);  // json must be valid JSON
+  Status addEvent(const RunEvent& event);  // json must be valid JSON
   EventListResult events(std::int64_t run_id);
 
   // A whole recording as one finished run (import of an imubench-csv/1 directory).
@@ -237,11 +211,11 @@ class Store {
   QueueListResult queueList();
   // Moves an entry to `position` (1..size); the others keep their order. Refuses an unknown
   // entry or a position out of range (nothing changes).
-  io::IoStatus queueMove(std::int64_t entry_id, int position);
-  io::IoStatus queueRemove(std::int64_t entry_id);  // refuses an unknown entry
+  Status queueMove(std::int64_t entry_id, int position);
+  Status queueRemove(std::int64_t entry_id);  // refuses an unknown entry
 
   // PRAGMA integrity_check: ok, or the problems it lists.
-  io::IoStatus integrityCheck();
+  Status integrityCheck();
 
  private:
   struct Impl;
@@ -264,25 +238,25 @@ class RunWriter {
   RunWriter(const RunWriter&) = delete;
   RunWriter& operator=(const RunWriter&) = delete;
 
-  io::IoStatus appendImu(std::span<const nav::ImuSample> samples);
-  io::IoStatus appendTable(std::span<const io::TableSample> samples);
-  io::IoStatus appendChamber(std::span<const io::ChamberSample> samples);
-  io::IoStatus appendSegment(const calib::Segment& segment);
+  Status appendImu(std::span<const nav::ImuSample> samples);
+  Status appendTable(std::span<const io::TableSample> samples);
+  Status appendChamber(std::span<const io::ChamberSample> samples);
+  Status appendSegment(const calib::Segment& segment);
 
   // Flushes when the oldest buffered row is max_unflushed_s older than `now_t` (sample
   // clock): a timer calls this so a stalled stream does not hold rows back.
-  io::IoStatus flushIfDue(double now_t);
-  io::IoStatus flush();
+  Status flushIfDue(double now_t);
+  Status flush();
 
   std::size_t bufferedRows() const { return buffer_.rows(); }
   std::int64_t runId() const { return run_id_; }
 
  private:
-  io::IoStatus buffered(double oldest_new_t, double newest_t);
+  Status buffered(double oldest_new_t, double newest_t);
   // Checks rows of one stream (finite, time increasing past *last_t), then buffers them.
   template <class Row>
-  io::IoStatus appendRows(const char* what, std::span<const Row> rows,
-                          std::optional<double>* last_t, std::vector<Row>* buffer);
+  Status appendRows(const char* what, std::span<const Row> rows, std::optional<double>* last_t,
+                    std::vector<Row>* buffer);
 
   Store* store_;
   std::int64_t run_id_;

@@ -1,8 +1,9 @@
-// Driver status shared by every device family: what a driver call returns, so callers check
-// it (like Ceres' Summary) instead of catching exceptions. External input never crashes.
+// Device state shared by every device family. A driver call returns imubench::Status
+// (calib/status.h) naming the device, the request and why, so callers check it instead of
+// catching exceptions. External input never crashes.
 #pragma once
 
-#include <string>
+#include "calib/status.h"
 
 namespace imubench::drivers {
 
@@ -14,12 +15,5 @@ enum class DeviceState {
 };
 
 const char* deviceStateName(DeviceState s);
-
-struct Status {
-  bool ok = true;
-  std::string message;  // empty when ok; otherwise names the device, the request and why
-  static Status Ok() { return {}; }
-  static Status Error(std::string why) { return {false, std::move(why)}; }
-};
 
 }  // namespace imubench::drivers

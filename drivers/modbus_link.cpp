@@ -147,24 +147,24 @@ void ModbusLink::drainUntilQuiet() {
   modbus_flush(ctx_);
 }
 
-Status ModbusLink::read(const RegisterField& f, std::string_view what, double* si) {
-  uint16_t regs[2] = {0, 0};
-  Status s = transact(what, [&](_modbus* ctx) {
+Status ModbusLink::readRegisters(const RegisterField& f, std::string_view what, uint16_t regs[2]) {
+  return transact(what, [&](_modbus* ctx) {
     return f.bank == RegisterBank::kInput
                ? modbus_read_input_registers(ctx, f.address, f.width(), regs)
                : modbus_read_registers(ctx, f.address, f.width(), regs);
   });
+}
+
+Status ModbusLink::read(const RegisterField& f, std::string_view what, double* si) {
+  uint16_t regs[2] = {0, 0};
+  Status s = readRegisters(f, what, regs);
   if (s.ok) *si = decodeRegister(f, order_, regs);
   return s;
 }
 
 Status ModbusLink::readBits(const RegisterField& f, std::string_view what, uint32_t* bits) {
   uint16_t regs[2] = {0, 0};
-  Status s = transact(what, [&](_modbus* ctx) {
-    return f.bank == RegisterBank::kInput
-               ? modbus_read_input_registers(ctx, f.address, f.width(), regs)
-               : modbus_read_registers(ctx, f.address, f.width(), regs);
-  });
+  Status s = readRegisters(f, what, regs);
   if (s.ok)
     *bits = f.width() == 1 ? regs[0] : static_cast<uint32_t>(decodeRegister(f, order_, regs));
   return s;

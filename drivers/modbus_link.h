@@ -41,6 +41,8 @@ class ModbusLink {
   void setSingleAttempt(bool on) { single_attempt_ = on; }
 
  private:
+  // Reads the field's one or two registers from its bank (holding or input) into regs.
+  Status readRegisters(const RegisterField& f, std::string_view what, uint16_t regs[2]);
   // Runs one request with the retry policy; `attempt` returns libmodbus' rc (-1: errno set).
   Status transact(std::string_view what, const std::function<int(_modbus*)>& attempt,
                   bool retry = true);

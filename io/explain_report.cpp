@@ -216,23 +216,23 @@ std::string explainReportHtml(const calib::ExplainResult& r, const std::string& 
   return o.str();
 }
 
-IoStatus writeExplainReport(const std::string& dir, const calib::ExplainResult& r,
-                            const std::string& title) {
+Status writeExplainReport(const std::string& dir, const calib::ExplainResult& r,
+                          const std::string& title) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) return IoStatus::Error(dir + ": cannot create: " + ec.message());
+  if (ec) return Status::Error(dir + ": cannot create: " + ec.message());
   const std::string path = dir + "/report.html", tmp = path + ".tmp";
   const std::string text = explainReportHtml(r, title);
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) return IoStatus::Error(tmp + ": cannot create: " + std::strerror(errno));
+  if (!f) return Status::Error(tmp + ": cannot create: " + std::strerror(errno));
   const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
   if (std::fclose(f) != 0 || !ok) {
     std::remove(tmp.c_str());
-    return IoStatus::Error(tmp + ": write error");
+    return Status::Error(tmp + ": write error");
   }
   std::filesystem::rename(tmp, path, ec);
-  if (ec) return IoStatus::Error(path + ": cannot replace: " + ec.message());
-  return IoStatus::Ok();
+  if (ec) return Status::Error(path + ": cannot replace: " + ec.message());
+  return Status::Ok();
 }
 
 }  // namespace imubench::io

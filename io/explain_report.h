@@ -14,7 +14,7 @@
 #include <string>
 
 #include "calib/explain.h"
-#include "io/io_status.h"
+#include "calib/status.h"
 
 namespace imubench::io {
 
@@ -22,7 +22,7 @@ namespace imubench::io {
 std::string explainReportHtml(const calib::ExplainResult& result, const std::string& title);
 
 // Creates DIR when needed and writes DIR/report.html (temp file + rename).
-IoStatus writeExplainReport(const std::string& dir, const calib::ExplainResult& result,
-                            const std::string& title);
+Status writeExplainReport(const std::string& dir, const calib::ExplainResult& result,
+                          const std::string& title);
 
 }  // namespace imubench::io

@@ -6,12 +6,12 @@
 #include <functional>
 #include <string>
 
-#include "io/io_status.h"
+#include "calib/status.h"
 
 namespace imubench::io {
 
 // Reads the whole file into *out. Errors: "path: missing file", "path: cannot open: ...".
-IoStatus readWholeFile(const std::string& path, std::string* out);
+Status readWholeFile(const std::string& path, std::string* out);
 
 // A file a user names (a plan to send or to run), read so that nothing the path names can
 // block or exhaust the reader: opened O_NONBLOCK (a FIFO without a writer or a file under a

@@ -202,39 +202,37 @@ std::vector<std::string_view> columnNames(std::string_view header) {
 }
 
 // Checks the header line; on success *body is the text after it.
-RecordingStatus checkHeader(const std::string& name, std::string_view text, std::string_view header,
-                            std::string_view what_header, std::string_view* body) {
+Status checkHeader(const std::string& name, std::string_view text, std::string_view header,
+                   std::string_view what_header, std::string_view* body) {
   LineCursor cur(text);
   std::string_view line;
   if (!cur.next(&line)) {
-    return RecordingStatus::Error(
-        at(name, 1, "empty file, expected header '" + std::string(header) + "'"));
+    return Status::Error(at(name, 1, "empty file, expected header '" + std::string(header) + "'"));
   }
   if (line != header) {
-    return RecordingStatus::Error(at(name, 1,
-                                     "wrong header " + quoteForMessage(line) + ", expected '" +
-                                         std::string(header) + "'" + std::string(what_header)));
+    return Status::Error(at(name, 1,
+                            "wrong header " + quoteForMessage(line) + ", expected '" +
+                                std::string(header) + "'" + std::string(what_header)));
   }
   const size_t nl = text.find('\n');
   *body = nl == std::string_view::npos ? std::string_view() : text.substr(nl + 1);
-  return RecordingStatus::Ok();
+  return Status::Ok();
 }
 
 template <typename RowFn>
-RecordingStatus readNumericCsv(const std::string& name, std::string_view text,
-                               std::string_view header, std::string_view what_header,
-                               int empty_ok_column, RowFn&& row) {
+Status readNumericCsv(const std::string& name, std::string_view text, std::string_view header,
+                      std::string_view what_header, int empty_ok_column, RowFn&& row) {
   std::string_view body;
   if (auto st = checkHeader(name, text, header, what_header, &body); !st.ok) return st;
   const BodyParse r = parseBody(body, columnNames(header), empty_ok_column, row);
-  if (!r.ok) return RecordingStatus::Error(at(name, 1 + r.error_line, r.why));
-  return RecordingStatus::Ok();
+  if (!r.ok) return Status::Error(at(name, 1 + r.error_line, r.why));
+  return Status::Ok();
 }
 
 // imu.csv, the big one (7.2 M rows for 1 h at 2 kHz): the body is cut at line boundaries into
 // one chunk per hardware thread, parsed in parallel into per-chunk vectors, then joined; time
 // order across chunk boundaries and the line numbers of errors are checked after the join.
-RecordingStatus readImuCsv(const std::string& name, std::string_view text, nav::ImuSamples* out) {
+Status readImuCsv(const std::string& name, std::string_view text, nav::ImuSamples* out) {
   std::string_view body;
   if (auto st = checkHeader(name, text, kImuHeader, "", &body); !st.ok) return st;
   const auto names = columnNames(kImuHeader);
@@ -276,11 +274,11 @@ RecordingStatus readImuCsv(const std::string& name, std::string_view text, nav::
   size_t total = 0;
   for (size_t k = 0; k < chunks.size(); ++k) {
     const BodyParse& r = results[k];
-    if (!r.ok) return RecordingStatus::Error(at(name, line0 + r.error_line, r.why));
+    if (!r.ok) return Status::Error(at(name, line0 + r.error_line, r.why));
     if (k > 0 && r.any && results[k - 1].any) {
       std::string why;
       if (!checkTimeOrder(false, results[k - 1].last_t, r.first_t, &why)) {
-        return RecordingStatus::Error(at(name, line0 + 1, why));
+        return Status::Error(at(name, line0 + 1, why));
       }
     }
     line0 += r.lines;
@@ -296,7 +294,7 @@ RecordingStatus readImuCsv(const std::string& name, std::string_view text, nav::
       nav::ImuSamples().swap(p);
     }
   }
-  return RecordingStatus::Ok();
+  return Status::Ok();
 }
 
 std::optional<calib::SegmentKind> segmentKindFromName(std::string_view s) {
@@ -338,22 +336,22 @@ bool parseLabel(std::string_view field, std::string* label, std::string* why) {
   return true;
 }
 
-RecordingStatus readSegments(const std::string& path, std::string_view text,
-                             std::vector<calib::Segment>* out) {
+Status readSegments(const std::string& path, std::string_view text,
+                    std::vector<calib::Segment>* out) {
   LineCursor cur(text);
   std::string_view line;
   if (!cur.next(&line))
-    return RecordingStatus::Error(
+    return Status::Error(
         at(path, 1, "empty file, expected header '" + std::string(kSegmentsHeader) + "'"));
   if (line != kSegmentsHeader) {
-    return RecordingStatus::Error(at(path, 1,
-                                     "wrong header " + quoteForMessage(line) + ", expected '" +
-                                         std::string(kSegmentsHeader) + "'"));
+    return Status::Error(at(path, 1,
+                            "wrong header " + quoteForMessage(line) + ", expected '" +
+                                std::string(kSegmentsHeader) + "'"));
   }
   std::string why;
   while (cur.next(&line)) {
     const long ln = cur.lineNo();
-    if (line.empty()) return RecordingStatus::Error(at(path, ln, "empty line"));
+    if (line.empty()) return Status::Error(at(path, ln, "empty line"));
     // t0,t1,kind are unquoted; the label is everything after the third comma.
     std::array<std::string_view, 4> f;
     size_t s = 0;
@@ -367,33 +365,33 @@ RecordingStatus readSegments(const std::string& path, std::string_view text,
       f[static_cast<size_t>(i)] = line.substr(s, c - s);
       s = c + 1;
     }
-    if (!ok) return RecordingStatus::Error(at(path, ln, "expected 4 fields t0,t1,kind,label"));
+    if (!ok) return Status::Error(at(path, ln, "expected 4 fields t0,t1,kind,label"));
     f[3] = line.substr(s);
     calib::Segment seg;
     if (!parseNumber(f[0], "t0", &seg.t0, &why) || !parseNumber(f[1], "t1", &seg.t1, &why)) {
-      return RecordingStatus::Error(at(path, ln, why));
+      return Status::Error(at(path, ln, why));
     }
     if (!(seg.t1 > seg.t0)) {
-      return RecordingStatus::Error(
+      return Status::Error(
           at(path, ln, "t1 " + fmtDouble(seg.t1) + " is not after t0 " + fmtDouble(seg.t0)));
     }
     const auto kind = segmentKindFromName(f[2]);
     if (!kind) {
-      return RecordingStatus::Error(at(path, ln,
-                                       "unknown segment kind " + quoteForMessage(f[2]) +
-                                           " (expected static, rotate, move or soak)"));
+      return Status::Error(at(path, ln,
+                              "unknown segment kind " + quoteForMessage(f[2]) +
+                                  " (expected static, rotate, move or soak)"));
     }
     seg.kind = *kind;
-    if (!parseLabel(f[3], &seg.label, &why)) return RecordingStatus::Error(at(path, ln, why));
+    if (!parseLabel(f[3], &seg.label, &why)) return Status::Error(at(path, ln, why));
     if (!out->empty() && seg.t0 < out->back().t1) {
-      return RecordingStatus::Error(
-          at(path, ln,
-             "segment starts at " + fmtDouble(seg.t0) + " before the previous one ends at " +
-                 fmtDouble(out->back().t1) + " (segments must be sorted and not overlap)"));
+      return Status::Error(at(path, ln,
+                              "segment starts at " + fmtDouble(seg.t0) +
+                                  " before the previous one ends at " + fmtDouble(out->back().t1) +
+                                  " (segments must be sorted and not overlap)"));
     }
     out->push_back(std::move(seg));
   }
-  return RecordingStatus::Ok();
+  return Status::Ok();
 }
 
 // meta.json -------------------------------------------------------------------------------
@@ -446,16 +444,16 @@ long lineOfByte(std::string_view text, size_t byte) {
          static_cast<long>(std::count(text.begin(), text.begin() + static_cast<long>(byte), '\n'));
 }
 
-RecordingStatus readMeta(const std::string& path, const std::string& text, Recording* rec) {
+Status readMeta(const std::string& path, const std::string& text, Recording* rec) {
   json j;
   try {
     j = json::parse(text);
   } catch (const json::parse_error& e) {
-    return RecordingStatus::Error(at(path, lineOfByte(text, e.byte == 0 ? 0 : e.byte - 1),
-                                     std::string("JSON syntax error: ") + e.what()));
+    return Status::Error(at(path, lineOfByte(text, e.byte == 0 ? 0 : e.byte - 1),
+                            std::string("JSON syntax error: ") + e.what()));
   }
   std::string why;
-  auto fail = [&](const std::string& w) { return RecordingStatus::Error(path + ": " + w); };
+  auto fail = [&](const std::string& w) { return Status::Error(path + ": " + w); };
   if (!j.is_object()) return fail("top level must be an object");
   const json* format = member(j, "format");
   if (!format) return fail("missing 'format' (expected \"" + std::string(kRecordingFormat) + "\")");
@@ -502,7 +500,7 @@ RecordingStatus readMeta(const std::string& path, const std::string& text, Recor
   rec->imu_serial = serial->get<std::string>();
   rec->imu_rate_hz = *rate;
   rec->outer_axis_heading_deg = heading;
-  return RecordingStatus::Ok();
+  return Status::Ok();
 }
 
 void fillRotateAxes(const std::vector<TableSample>& table, calib::TableKind kind,
@@ -564,15 +562,15 @@ class CsvWriter {
 };
 
 template <typename Fn>
-RecordingStatus writeFile(const std::string& path, Fn&& body) {
+Status writeFile(const std::string& path, Fn&& body) {
   FilePtr f(std::fopen(path.c_str(), "wb"));
-  if (!f) return RecordingStatus::Error(path + ": cannot create: " + std::strerror(errno));
+  if (!f) return Status::Error(path + ": cannot create: " + std::strerror(errno));
   CsvWriter w(f.get());
   body(w);
-  if (!w.finish()) return RecordingStatus::Error(path + ": write error: " + std::strerror(errno));
+  if (!w.finish()) return Status::Error(path + ": write error: " + std::strerror(errno));
   if (std::fclose(f.release()) != 0)
-    return RecordingStatus::Error(path + ": close error: " + std::strerror(errno));
-  return RecordingStatus::Ok();
+    return Status::Error(path + ": close error: " + std::strerror(errno));
+  return Status::Ok();
 }
 
 std::string quoteLabel(const std::string& label) {
@@ -589,9 +587,9 @@ std::string quoteLabel(const std::string& label) {
 }
 
 // Pre-write validation: everything written must read back.
-RecordingStatus validateForWrite(const Recording& rec) {
+Status validateForWrite(const Recording& rec) {
   auto bad = [](const std::string& what) {
-    return RecordingStatus::Error("cannot write recording: " + what);
+    return Status::Error("cannot write recording: " + what);
   };
   if (!std::isfinite(rec.latitude_deg) || std::abs(rec.latitude_deg) > 90.0)
     return bad("latitude out of range");
@@ -639,7 +637,7 @@ RecordingStatus validateForWrite(const Recording& rec) {
     if (s.label.find_first_of("\n\r") != std::string::npos)
       return bad("segment " + std::to_string(i) + " label contains a line break");
   }
-  return RecordingStatus::Ok();
+  return Status::Ok();
 }
 
 }  // namespace
@@ -658,11 +656,11 @@ std::vector<double> tableAnglesRad(calib::TableKind kind, const TableSample& s) 
   return r;
 }
 
-RecordingStatus writeRecording(const std::string& dir, const Recording& rec) {
+Status writeRecording(const std::string& dir, const Recording& rec) {
   if (auto st = validateForWrite(rec); !st.ok) return st;
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec) return RecordingStatus::Error(dir + ": cannot create directory: " + ec.message());
+  if (ec) return Status::Error(dir + ": cannot create directory: " + ec.message());
   const fs::path d(dir);
 
   // meta.json
@@ -754,20 +752,20 @@ RecordingStatus writeRecording(const std::string& dir, const Recording& rec) {
   } else {
     fs::remove(d / "segments.csv", ec);
   }
-  return RecordingStatus::Ok();
+  return Status::Ok();
 }
 
 RecordingReadResult readRecording(const std::string& dir) {
   RecordingReadResult result;
-  Recording& rec = result.recording;
+  Recording& rec = result.value;
   const fs::path d(dir);
-  auto fail = [&](RecordingStatus st) {
+  auto fail = [&](Status st) {
     result.status = std::move(st);
-    result.recording = Recording{};
+    result.value = Recording{};
     return result;
   };
   std::error_code ec;
-  if (!fs::is_directory(d, ec)) return fail(RecordingStatus::Error(dir + ": not a directory"));
+  if (!fs::is_directory(d, ec)) return fail(Status::Error(dir + ": not a directory"));
 
   std::string text;
   const std::string meta_path = (d / "meta.json").string();
@@ -779,8 +777,7 @@ RecordingReadResult readRecording(const std::string& dir) {
   if (auto st = readWholeFile(imu_path, &text); !st.ok) return fail(st);
   {
     if (auto st = readImuCsv(imu_path, text, &rec.imu); !st.ok) return fail(st);
-    if (rec.imu.empty())
-      return fail(RecordingStatus::Error(at(imu_path, 2, "no samples after the header")));
+    if (rec.imu.empty()) return fail(Status::Error(at(imu_path, 2, "no samples after the header")));
     std::string().swap(text);  // release the imu.csv text (1 GB for an hour at 2 kHz)
   }
   // table.csv
@@ -799,7 +796,7 @@ RecordingReadResult readRecording(const std::string& dir) {
     });
     if (!st.ok) return fail(st);
     if (rec.table.empty())
-      return fail(RecordingStatus::Error(at(table_path, 2, "no samples after the header")));
+      return fail(Status::Error(at(table_path, 2, "no samples after the header")));
   }
   // chamber.csv (optional)
   const std::string chamber_path = (d / "chamber.csv").string();
@@ -821,7 +818,7 @@ RecordingReadResult readRecording(const std::string& dir) {
     rec.segments = deriveSegments(rec.table_kind, rec.table);
     rec.segments_from_file = false;
   }
-  result.status = RecordingStatus::Ok();
+  result.status = Status::Ok();
   return result;
 }
 

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "calib/motion.h"
-#include "io/io_status.h"
+#include "calib/status.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"
 
@@ -59,17 +59,13 @@ struct Recording {
   double outerAxisHeadingDeg() const { return outer_axis_heading_deg.value_or(90.0); }
 };
 
-using RecordingStatus = IoStatus;
-
-struct RecordingReadResult {
-  RecordingStatus status;
-  Recording recording;  // valid only when status.ok
-};
+// The recording in value, valid only when ok().
+using RecordingReadResult = Result<Recording>;
 
 // Writes the directory (created if missing; existing files are overwritten). segments.csv is
 // written when rec.segments is non-empty, chamber.csv when rec.chamber is non-empty.
 // Refuses (status) values that cannot be read back: non-finite numbers, unsorted times.
-RecordingStatus writeRecording(const std::string& dir, const Recording& rec);
+Status writeRecording(const std::string& dir, const Recording& rec);
 
 // Reads and validates the directory.
 RecordingReadResult readRecording(const std::string& dir);

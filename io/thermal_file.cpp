@@ -198,20 +198,14 @@ bool fromJson(const nlohmann::json& j, ThermalFile* file, std::string* why) {
 }
 
 ThermalFileResult readThermalFile(const std::string& path) {
-  ThermalFileResult r;
-  nlohmann::json j;
-  r.status = readJsonFile(path, &j);
-  if (!r.status.ok) return r;
-  std::string why;
-  if (!fromJson(j, &r.file, &why)) r.status = IoStatus::Error(path + ": " + why);
-  return r;
+  return readJsonFileAs<ThermalFile>(path);
 }
 
-IoStatus writeThermalFile(const std::string& path, const ThermalFile& file) {
+Status writeThermalFile(const std::string& path, const ThermalFile& file) {
   return writeJsonFile(path, toJson(file));
 }
 
-IoStatus writeThermalCsv(const std::string& path, const ThermalFile& file) {
+Status writeThermalCsv(const std::string& path, const ThermalFile& file) {
   std::ostringstream os;
   os.precision(17);
   os << "triad,coefficient,axis,c0,c1,c2,c3,c4,dTdt,tmin,tmax\n";
@@ -230,11 +224,11 @@ IoStatus writeThermalCsv(const std::string& path, const ThermalFile& file) {
     }
   }
   std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) return IoStatus::Error(path + ": cannot create");
+  if (!f) return Status::Error(path + ": cannot create");
   const std::string text = os.str();
   const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-  if (std::fclose(f) != 0 || !ok) return IoStatus::Error(path + ": write failed");
-  return IoStatus::Ok();
+  if (std::fclose(f) != 0 || !ok) return Status::Error(path + ": write failed");
+  return Status::Ok();
 }
 
 }  // namespace imubench::io

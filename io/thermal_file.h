@@ -13,7 +13,7 @@
 #include <string>
 
 #include "calib/model/thermal_coefficients.h"
-#include "io/io_status.h"
+#include "calib/status.h"
 
 namespace imubench::io {
 
@@ -28,13 +28,11 @@ nlohmann::json toJson(const ThermalFile& file);
 // false with *why naming the JSON path at fault ("accel.bias[1].poly: ...").
 bool fromJson(const nlohmann::json& j, ThermalFile* file, std::string* why);
 
-struct ThermalFileResult {
-  IoStatus status;   // "path: why" / "path:line: JSON syntax error"
-  ThermalFile file;  // valid only when status.ok
-};
+// status "path: why" / "path:line: JSON syntax error"; the file in value, valid only when ok().
+using ThermalFileResult = Result<ThermalFile>;
 
 ThermalFileResult readThermalFile(const std::string& path);
-IoStatus writeThermalFile(const std::string& path, const ThermalFile& file);
-IoStatus writeThermalCsv(const std::string& path, const ThermalFile& file);
+Status writeThermalFile(const std::string& path, const ThermalFile& file);
+Status writeThermalCsv(const std::string& path, const ThermalFile& file);
 
 }  // namespace imubench::io

@@ -19,73 +19,55 @@ long lineOfByte(const std::string& text, size_t byte) {
 
 }  // namespace
 
-IoStatus readJsonFile(const std::string& path, nlohmann::json* out) {
+Status readJsonFile(const std::string& path, nlohmann::json* out) {
   std::string text;
   if (auto st = readWholeFile(path, &text); !st.ok) return st;
   try {
     *out = nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     const size_t byte = e.byte == 0 ? 0 : e.byte - 1;
-    return IoStatus::Error(path + ":" + std::to_string(lineOfByte(text, byte)) +
-                           ": JSON syntax error: " + e.what());
+    return Status::Error(path + ":" + std::to_string(lineOfByte(text, byte)) +
+                         ": JSON syntax error: " + e.what());
   }
-  return IoStatus::Ok();
+  return Status::Ok();
 }
 
-IoStatus writeJsonFile(const std::string& path, const nlohmann::json& j) {
+Status writeJsonFile(const std::string& path, const nlohmann::json& j) {
   const std::string tmp = path + ".tmp";
   {
     std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) return IoStatus::Error(tmp + ": cannot create: " + std::strerror(errno));
+    if (!f) return Status::Error(tmp + ": cannot create: " + std::strerror(errno));
     // nlohmann writes doubles with max_digits10, so every number reads back bit-exactly.
     const std::string text = j.dump(2) + "\n";
     const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
     const bool closed = std::fclose(f) == 0;
     if (!ok || !closed) {
       std::remove(tmp.c_str());
-      return IoStatus::Error(tmp + ": write error");
+      return Status::Error(tmp + ": write error");
     }
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
     std::remove(tmp.c_str());
-    return IoStatus::Error(path + ": cannot replace: " + ec.message());
+    return Status::Error(path + ": cannot replace: " + ec.message());
   }
-  return IoStatus::Ok();
+  return Status::Ok();
 }
 
 TruthFileResult readTruthFile(const std::string& path) {
-  TruthFileResult r;
-  nlohmann::json j;
-  r.status = readJsonFile(path, &j);
-  if (!r.status.ok) return r;
-  std::string why;
-  if (!calib::fromJson(j, &r.truth, &why)) {
-    r.status = IoStatus::Error(path + ": " + why);
-    r.truth = {};
-  }
-  return r;
+  return readJsonFileAs<calib::BenchTruth>(path);
 }
 
-IoStatus writeTruthFile(const std::string& path, const calib::BenchTruth& truth) {
+Status writeTruthFile(const std::string& path, const calib::BenchTruth& truth) {
   return writeJsonFile(path, calib::toJson(truth));
 }
 
 CoefficientFileResult readCoefficientFile(const std::string& path) {
-  CoefficientFileResult r;
-  nlohmann::json j;
-  r.status = readJsonFile(path, &j);
-  if (!r.status.ok) return r;
-  std::string why;
-  if (!calib::fromJson(j, &r.report, &why)) {
-    r.status = IoStatus::Error(path + ": " + why);
-    r.report = {};
-  }
-  return r;
+  return readJsonFileAs<calib::CoefficientReport>(path);
 }
 
-IoStatus writeCoefficientFile(const std::string& path, const calib::CoefficientReport& report) {
+Status writeCoefficientFile(const std::string& path, const calib::CoefficientReport& report) {
   return writeJsonFile(path, calib::toJson(report));
 }
 

@@ -5,33 +5,43 @@
 #include <string>
 
 #include "calib/bench_truth.h"
-#include "io/io_status.h"
+#include "calib/status.h"
 
 namespace imubench::io {
 
-struct TruthFileResult {
-  IoStatus status;
-  calib::BenchTruth truth;  // valid only when status.ok
-};
-
-struct CoefficientFileResult {
-  IoStatus status;
-  calib::CoefficientReport report;  // valid only when status.ok
-};
+// The file's content in value, valid only when ok().
+using TruthFileResult = Result<calib::BenchTruth>;
+using CoefficientFileResult = Result<calib::CoefficientReport>;
 
 // Reads a truth file ("file:line: JSON syntax error ..." or "file: accel.bias: ...").
 TruthFileResult readTruthFile(const std::string& path);
 // Writes a truth file (pretty-printed, numbers in round-trip precision).
-IoStatus writeTruthFile(const std::string& path, const calib::BenchTruth& truth);
+Status writeTruthFile(const std::string& path, const calib::BenchTruth& truth);
 
 // The same for estimates with "sigma" / "observable" (calibration results).
 CoefficientFileResult readCoefficientFile(const std::string& path);
-IoStatus writeCoefficientFile(const std::string& path, const calib::CoefficientReport& report);
+Status writeCoefficientFile(const std::string& path, const calib::CoefficientReport& report);
 
 // Low-level helpers shared by the above (and usable for other JSON files of daemon/ and
 // tools/): whole-file JSON parse with file:line errors, and an atomic-enough write (temp
 // file + rename, so a reader never sees half a file).
-IoStatus readJsonFile(const std::string& path, nlohmann::json* out);
-IoStatus writeJsonFile(const std::string& path, const nlohmann::json& j);
+Status readJsonFile(const std::string& path, nlohmann::json* out);
+Status writeJsonFile(const std::string& path, const nlohmann::json& j);
+
+// Reads a JSON file into a T by fromJson(json, T*, why) (found by argument-dependent lookup):
+// the file's error, or "path: why" when fromJson refuses the content.
+template <class T>
+Result<T> readJsonFileAs(const std::string& path) {
+  Result<T> r;
+  nlohmann::json j;
+  r.status = readJsonFile(path, &j);
+  if (!r.status.ok) return r;
+  std::string why;
+  if (!fromJson(j, &r.value, &why)) {
+    r.status = Status::Error(path + ": " + why);
+    r.value = T{};
+  }
+  return r;
+}
 
 }  // namespace imubench::io

@@ -55,7 +55,7 @@ void runApply(const ApplyOptions& o) {
   const io::ThermalFileResult comp = io::readThermalFile(o.comp);
   if (!comp.status.ok) throw CommandFailed(comp.status.message);
   ResolvedRecording rec = loadRunOrDir(o.run, o.db);
-  const std::string& want = comp.file.imu_serial;
+  const std::string& want = comp.value.imu_serial;
   if (!want.empty() && want != rec.recording.imu_serial) {
     throw CommandFailed(o.comp + ": compensation file for IMU serial '" + want + "', but " + o.run +
                         " was recorded with IMU '" + rec.recording.imu_serial + "'");
@@ -63,7 +63,7 @@ void runApply(const ApplyOptions& o) {
   calib::ThermalApplyOptions ao;
   ao.rate.window_s = o.rate_window_s;
   const calib::ThermalApplyResult r =
-      calib::applyThermal(comp.file.coefficients, rec.recording.imu, ao);
+      calib::applyThermal(comp.value.coefficients, rec.recording.imu, ao);
   if (!r.ok) throw CommandFailed(o.run + "/imu.csv: " + r.error + "; nothing to compensate with");
   io::Recording out = std::move(rec.recording);
   out.imu = r.compensated;
@@ -74,7 +74,7 @@ void runApply(const ApplyOptions& o) {
   if (!f || std::fwrite(spans.data(), 1, spans.size(), f) != spans.size() || std::fclose(f)) {
     throw CommandFailed(spans_path + ": cannot write");
   }
-  const auto& c = comp.file.coefficients;
+  const auto& c = comp.value.coefficients;
   std::cout << "compensated " << out.imu.size() << " samples (" << r.temp_min_c << " .. "
             << r.temp_max_c << " degC) -> " << o.out << "\n";
   if (r.extrapolated_count > 0) {

@@ -216,14 +216,7 @@ enum class TruthFrame {
 
 calib::BenchTruth expectedTruth(const calib::BenchTruth& truth, const calib::TableGeometry& g,
                                 TruthFrame frame) {
-  if (frame == TruthFrame::kAsIs) return truth;
-  const calib::GyroReferencedTruth m = calib::toGyroReferenced(truth, g);
-  calib::BenchTruth e;
-  e.sensors = m.sensors;
-  e.table.base_tilt = m.base_tilt;
-  e.table.nonorthogonality = m.nonorthogonality;
-  e.table_kind = g.kind;
-  return e;
+  return frame == TruthFrame::kAsIs ? truth : gyroReferencedTruth(truth, g);
 }
 
 nlohmann::json comparisonJson(const calib::TruthComparison& c) {
@@ -251,11 +244,7 @@ void printComparison(const calib::TruthComparison& c, const std::string& truth_p
                   ? "truth mapped into the gyro-referenced platform frame"
                   : "truth as written: direct/scalar misalignments also carry mounting and "
                     "base tilt, as the seed analyses");
-  for (const calib::ComparisonRow& r : c.rows) {
-    std::printf("  %-34s error %+10.3f %-6s limit %8.3f  %s\n", r.name.c_str(), r.error_in_unit,
-                r.unit.c_str(), r.limit_in_unit,
-                !r.observable ? "held (not judged)" : (r.within ? "ok" : "OUTSIDE"));
-  }
+  printComparisonRows(c);
   std::printf(
       "  %d of %d judged parameters within target (a 2-sigma bias bound is a 95 %% statement: "
       "about one bias in twenty lies outside it by chance)\n",
@@ -279,7 +268,7 @@ void emit(const CalibrateOptions& o, const ResolvedRecording& src,
     if (cmp) printComparison(*cmp, o.truth, frame);
   }
   if (!o.out.empty()) {
-    const io::IoStatus s = io::writeCoefficientFile(o.out, report);
+    const Status s = io::writeCoefficientFile(o.out, report);
     if (!s.ok) throw CommandFailed(s.message);
     if (!o.json) std::cout << "coefficients written to " << o.out << "\n";
   }
@@ -331,7 +320,7 @@ void runCalibrateReal(const CalibrateOptions& o) {
     std::cout << j.dump(2) << "\n";
   }
   if (!o.out.empty()) {
-    const io::IoStatus s = io::writeCoefficientFile(o.out, r.report);
+    const Status s = io::writeCoefficientFile(o.out, r.report);
     if (!s.ok) throw CommandFailed(s.message);
   }
 }
@@ -486,9 +475,9 @@ void runRefinementFrom(const CalibrateOptions& o, const ResolvedRecording& src,
   in.segments = rec.segments;
   const io::CoefficientFileResult s = io::readCoefficientFile(o.start);
   if (!s.status.ok) throw CommandFailed(s.status.message);
-  in.start = s.report.values.sensors;
-  in.start_uncertainty = s.report.uncertainty;
-  in.start_base_tilt = s.report.values.table.base_tilt;
+  in.start = s.value.values.sensors;
+  in.start_uncertainty = s.value.uncertainty;
+  in.start_base_tilt = s.value.values.table.base_tilt;
   calib::IndirectOptions io;
   io.checks = checksOf(o);
   if (!o.table_errors.empty()) {

@@ -1,10 +1,12 @@
 #include "tools/cli_common.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
 #include <vector>
 
+#include "calib/indirect_calibration.h"
 #include "io/truth_file.h"
 
 namespace imubench::tools {
@@ -103,7 +105,26 @@ calib::BenchTruth defaultTruth() {
 calib::BenchTruth loadTruthOrFail(const std::string& path) {
   auto r = io::readTruthFile(path);
   if (!r.status.ok) throw CommandFailed(r.status.message);
-  return r.truth;
+  return r.value;
+}
+
+calib::BenchTruth gyroReferencedTruth(const calib::BenchTruth& truth,
+                                      const calib::TableGeometry& g) {
+  const calib::GyroReferencedTruth m = calib::toGyroReferenced(truth, g);
+  calib::BenchTruth e;
+  e.sensors = m.sensors;
+  e.table.base_tilt = m.base_tilt;
+  e.table.nonorthogonality = m.nonorthogonality;
+  e.table_kind = g.kind;
+  return e;
+}
+
+void printComparisonRows(const calib::TruthComparison& c) {
+  for (const calib::ComparisonRow& r : c.rows) {
+    std::printf("  %-34s error %+10.3f %-6s limit %8.3f  %s\n", r.name.c_str(), r.error_in_unit,
+                r.unit.c_str(), r.limit_in_unit,
+                !r.observable ? "held (not judged)" : (r.within ? "ok" : "OUTSIDE"));
+  }
 }
 
 RealRecording readRealRecording(const RealRecordingOptions& o) {

@@ -22,6 +22,8 @@
 #include "calib/bench_truth.h"
 #include "calib/noise.h"
 #include "calib/scalar_calibration.h"
+#include "calib/table_model.h"
+#include "calib/truth_comparison.h"
 #include "io/import_real.h"
 #include "nav/earth.h"
 #include "tools/cli11.h"
@@ -92,6 +94,14 @@ const char* defaultTruthJson();
 
 // Reads --truth FILE (throws CommandFailed with the file error).
 calib::BenchTruth loadTruthOrFail(const std::string& path);
+
+// The truth in the gyro-referenced platform frame the navigation-based coefficients refer to
+// (calib::toGyroReferenced: mounting absorbed, outer zero in the tilt) for table geometry g.
+calib::BenchTruth gyroReferencedTruth(const calib::BenchTruth& truth,
+                                      const calib::TableGeometry& g);
+// One line per compared parameter: its error and limit in the parameter's unit, and ok,
+// OUTSIDE or "held (not judged)".
+void printComparisonRows(const calib::TruthComparison& c);
 
 // A third-party recording without table angles (--format imutk|imucal|mikov), as `calibrate`
 // and `explain` read it: its readings and the scalar calibration options it implies (imu_tk's

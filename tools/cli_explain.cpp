@@ -141,9 +141,9 @@ std::vector<std::string> givenTableParams(const calib::CoefficientReport& r,
 void baselineFromFile(const ExplainCliOptions& o, Prepared* p) {
   const io::CoefficientFileResult f = io::readCoefficientFile(o.coeffs);
   if (!f.status.ok) throw CommandFailed(f.status.message);
-  p->input.baseline = f.report;
+  p->input.baseline = f.value;
   p->input.baseline_method = "given";
-  p->input.baseline_table_params = givenTableParams(f.report, p->input.geometry.kind);
+  p->input.baseline_table_params = givenTableParams(f.value, p->input.geometry.kind);
   p->said.push_back("baseline: the coefficients of " + o.coeffs +
                     " (refitted jointly with any accepted effect)");
 }
@@ -266,12 +266,12 @@ void printSummary(const Prepared& p, const calib::ExplainResult& r) {
 void writeOutputs(const ExplainCliOptions& o, const std::string& label,
                   const calib::ExplainResult& r) {
   if (!o.json_out.empty()) {
-    const io::IoStatus s = io::writeJsonFile(o.json_out, calib::toJson(r));
+    const Status s = io::writeJsonFile(o.json_out, calib::toJson(r));
     if (!s.ok) throw CommandFailed(s.message);
     std::printf("report JSON written to %s\n", o.json_out.c_str());
   }
   if (!o.report_dir.empty()) {
-    const io::IoStatus s = io::writeExplainReport(o.report_dir, r, label);
+    const Status s = io::writeExplainReport(o.report_dir, r, label);
     if (!s.ok) throw CommandFailed(s.message);
     std::printf("report written to %s/report.html\n", o.report_dir.c_str());
   }

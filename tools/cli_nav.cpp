@@ -31,7 +31,7 @@ std::string fmt(const char* f, double a, double b, double c, double d, double e)
 void runNav(const NavOptions& o) {
   const auto read = io::readRecording(o.dir);
   if (!read.status.ok) throw CommandFailed(read.status.message);
-  const io::Recording& rec = read.recording;
+  const io::Recording& rec = read.value;
   if (rec.imu.size() < 2) throw CommandFailed(o.dir + ": fewer than two IMU samples");
 
   calib::TableGeometry geometry;

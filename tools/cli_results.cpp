@@ -162,13 +162,7 @@ calib::BenchTruth expectedTruth(const calib::BenchTruth& truth, const json& repo
   calib::TableGeometry g;
   g.kind = coefficients.values.table_kind;
   g.outer_axis_heading_rad = report.value("outer_axis_heading_deg", 90.0) * kDegToRad;
-  const calib::GyroReferencedTruth m = calib::toGyroReferenced(truth, g);
-  calib::BenchTruth e;
-  e.sensors = m.sensors;
-  e.table.base_tilt = m.base_tilt;
-  e.table.nonorthogonality = m.nonorthogonality;
-  e.table_kind = g.kind;
-  return e;
+  return gyroReferencedTruth(truth, g);
 }
 
 // --truth: per parameter against the targets; false when one is outside.
@@ -184,11 +178,7 @@ bool compareTruth(const ResultsOptions& o, const json& coefficients, const json&
               o.truth.c_str(),
               method == "direct" ? "truth as written"
                                  : "truth mapped into the gyro-referenced platform frame");
-  for (const calib::ComparisonRow& r : c.rows) {
-    std::printf("  %-34s error %+10.3f %-6s limit %8.3f  %s\n", r.name.c_str(), r.error_in_unit,
-                r.unit.c_str(), r.limit_in_unit,
-                !r.observable ? "held (not judged)" : (r.within ? "ok" : "OUTSIDE"));
-  }
+  printComparisonRows(c);
   std::printf("  %d of %d judged parameters within target\n", c.judged - c.outside, c.judged);
   return c.outside == 0;
 }

@@ -38,7 +38,7 @@ void runSimulate(const SimulateOptions& o) {
   if (!o.thermal_truth.empty()) {
     const io::ThermalFileResult t = io::readThermalFile(o.thermal_truth);
     if (!t.status.ok) throw CommandFailed("--thermal-truth " + t.status.message);
-    req.thermal = t.file.coefficients;
+    req.thermal = t.value.coefficients;
   }
   req.site = o.site;
   req.imu_rate_hz = o.sim.rate_hz;

@@ -44,7 +44,7 @@ ResolvedRecording loadRunOrDir(const std::string& arg, const std::string& db_pat
   if (fs::is_directory(arg, ec)) {
     io::RecordingReadResult r = io::readRecording(arg);
     if (!r.status.ok) throw CommandFailed(r.status.message);
-    out.recording = std::move(r.recording);
+    out.recording = std::move(r.value);
     out.label = arg;
     return out;
   }

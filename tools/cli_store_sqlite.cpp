@@ -55,7 +55,7 @@ std::unique_ptr<daemon::Store> openStoreOrFail(const std::string& db_path, Store
   }
   daemon::StoreOpenResult r = daemon::Store::open(db_path);
   if (!r.status.ok) throw CommandFailed(r.status.message);
-  return std::move(r.store);
+  return std::move(r.value);
 }
 
 nlohmann::json runJson(const daemon::RunInfo& r) {
@@ -83,7 +83,7 @@ io::Recording loadStoredRun(std::int64_t id, const std::string& db_path) {
   const std::unique_ptr<daemon::Store> store = openStoreOrFail(db_path, StoreAccess::kExisting);
   io::RecordingReadResult r = store->loadRecording(id);
   if (!r.status.ok) throw CommandFailed(r.status.message);
-  return std::move(r.recording);
+  return std::move(r.value);
 }
 
 std::int64_t storeRunResult(const std::string& db_path, std::int64_t run_id,
@@ -93,7 +93,7 @@ std::int64_t storeRunResult(const std::string& db_path, std::int64_t run_id,
   const daemon::ResultIdResult r =
       store->storeResult(run_id, imu_serial, temperature_c, kind, json);
   if (!r.status.ok) throw CommandFailed(r.status.message);
-  return r.result_id;
+  return r.value;
 }
 
 // ---- runs ----
@@ -104,17 +104,17 @@ void runRuns(const RunsOptions& o) {
   if (!list.status.ok) throw CommandFailed(list.status.message);
   if (o.json) {
     nlohmann::json a = nlohmann::json::array();
-    for (const daemon::RunInfo& r : list.runs) a.push_back(runJson(r));
+    for (const daemon::RunInfo& r : list.value) a.push_back(runJson(r));
     std::cout << a.dump(2) << "\n";
     return;
   }
-  if (list.runs.empty()) {
+  if (list.value.empty()) {
     std::cout << "no runs in " << o.db << "\n";
     return;
   }
   std::printf("%6s  %-11s  %-20s  %-24s  %-16s  %s\n", "id", "state", "started (UTC)", "plan",
               "IMU serial", "exit reason");
-  for (const daemon::RunInfo& r : list.runs) {
+  for (const daemon::RunInfo& r : list.value) {
     std::printf("%6lld  %-11s  %-20s  %-24s  %-16s  %s\n", static_cast<long long>(r.id),
                 daemon::runStateName(r.state), utcTime(r.started_unix_s).c_str(),
                 orDash(r.start.plan_name).c_str(), orDash(r.start.imu_serial).c_str(),
@@ -130,18 +130,18 @@ void runExport(const ExportOptions& o) {
   const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kExisting);
   const io::RecordingReadResult rec = store->loadRecording(*id);
   if (!rec.status.ok) throw CommandFailed(rec.status.message);
-  if (const io::IoStatus s = io::writeRecording(o.csv_dir, rec.recording); !s.ok) {
+  if (const Status s = io::writeRecording(o.csv_dir, rec.value); !s.ok) {
     throw CommandFailed(s.message);
   }
   std::cout << "run " << *id << " written to " << o.csv_dir << " (" << io::kRecordingFormat << ", "
-            << rec.recording.imu.size() << " IMU samples)\n";
+            << rec.value.imu.size() << " IMU samples)\n";
   if (o.results.empty()) return;
   daemon::ResultFilter filter;
   filter.run_id = *id;
   const daemon::ResultListResult results = store->results(filter);
   if (!results.status.ok) throw CommandFailed(results.status.message);
   nlohmann::json a = nlohmann::json::array();
-  for (const daemon::StoredResult& r : results.results) {
+  for (const daemon::StoredResult& r : results.value) {
     nlohmann::json value = nlohmann::json::parse(r.json, nullptr, false);
     if (value.is_discarded()) value = r.json;  // the store checks JSON on insert; keep the text
     a.push_back({{"id", r.id},
@@ -152,10 +152,10 @@ void runExport(const ExportOptions& o) {
                  {"created_unix_s", r.created_unix_s},
                  {"json", value}});
   }
-  if (const io::IoStatus s = io::writeJsonFile(o.results, a); !s.ok) {
+  if (const Status s = io::writeJsonFile(o.results, a); !s.ok) {
     throw CommandFailed(s.message);
   }
-  std::cout << results.results.size() << " result(s) of run " << *id << " written to " << o.results
+  std::cout << results.value.size() << " result(s) of run " << *id << " written to " << o.results
             << "\n";
 }
 
@@ -164,14 +164,14 @@ void runExport(const ExportOptions& o) {
 void runImport(const ImportOptions& o) {
   const io::RecordingReadResult rec = io::readRecording(o.dir);
   if (!rec.status.ok) throw CommandFailed(rec.status.message);
-  daemon::RunStart start = daemon::runStartFromRecording(rec.recording);
+  daemon::RunStart start = daemon::runStartFromRecording(rec.value);
   start.plan_name = o.plan_name;
   if (o.serial) start.imu_serial = *o.serial;
   const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kCreate);
-  const daemon::RunIdResult r = store->importRecording(start, rec.recording);
+  const daemon::RunIdResult r = store->importRecording(start, rec.value);
   if (!r.status.ok) throw CommandFailed(r.status.message);
-  std::cerr << "imported " << o.dir << " into " << o.db << " as run " << r.run_id << "\n";
-  std::cout << r.run_id << "\n";
+  std::cerr << "imported " << o.dir << " into " << o.db << " as run " << r.value << "\n";
+  std::cout << r.value << "\n";
 }
 
 std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
@@ -188,7 +188,7 @@ std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
   const daemon::ResultListResult r = store->results(filter);
   if (!r.status.ok) throw CommandFailed(r.status.message);
   std::vector<StoredResultRow> out;
-  for (const daemon::StoredResult& s : r.results) {
+  for (const daemon::StoredResult& s : r.value) {
     out.push_back(
         {s.id, s.run_id, s.imu_serial, s.temperature_c, s.kind, s.json, s.created_unix_s});
   }

@@ -215,7 +215,7 @@ std::unique_ptr<ImuStreamer> startImu(const Args& a, VirtualWorld& world, const 
       *why = t.status.message;
       return nullptr;
     }
-    bench.truth = t.truth;
+    bench.truth = t.value;
   }
   bench.noise = *calib::NoiseModel::byName(a.noise);  // checked by CLI11
   bench.site.latitude_rad = a.latitude_deg * kDegToRad;

@@ -64,8 +64,8 @@ void BM_ReadRecording1h2kHz(benchmark::State& state, const std::string& dir) {
       state.SkipWithError(r.status.message.c_str());
       return;
     }
-    rows = r.recording.imu.size();
-    benchmark::DoNotOptimize(r.recording.imu.data());
+    rows = r.value.imu.size();
+    benchmark::DoNotOptimize(r.value.imu.data());
   }
   const double per_read_s = wall_s / static_cast<double>(state.iterations());
   state.SetItemsProcessed(static_cast<int64_t>(rows) * state.iterations());

@@ -62,9 +62,9 @@ bool appendSecond(daemon::RunWriter& writer, long second, std::mt19937_64& rng) 
 void BM_StoreAppendSecondOf2kHz(benchmark::State& state, const std::string& db_path) {
   auto opened = daemon::Store::open(db_path);
   if (!opened.status.ok) return state.SkipWithError(opened.status.message.c_str());
-  const auto run = opened.store->beginRun(benchStart());
+  const auto run = opened.value->beginRun(benchStart());
   if (!run.status.ok) return state.SkipWithError(run.status.message.c_str());
-  daemon::RunWriter writer(*opened.store, run.run_id);
+  daemon::RunWriter writer(*opened.value, run.value);
   std::mt19937_64 rng(42);
   long second = 0;
   double wall_s = 0.0;  // own wall clock: rate counters would use CPU time
@@ -83,10 +83,10 @@ void BM_StoreAppendSecondOf2kHz(benchmark::State& state, const std::string& db_p
 void BM_StoreLoad10MinRun(benchmark::State& state, const std::string& db_path) {
   auto opened = daemon::Store::open(db_path);
   if (!opened.status.ok) return state.SkipWithError(opened.status.message.c_str());
-  const auto run = opened.store->beginRun(benchStart());
+  const auto run = opened.value->beginRun(benchStart());
   if (!run.status.ok) return state.SkipWithError(run.status.message.c_str());
   {
-    daemon::RunWriter writer(*opened.store, run.run_id);
+    daemon::RunWriter writer(*opened.value, run.value);
     std::mt19937_64 rng(7);
     for (long s = 0; s < 600; ++s)
       if (!appendSecond(writer, s, rng)) return state.SkipWithError("append failed");
@@ -94,10 +94,10 @@ void BM_StoreLoad10MinRun(benchmark::State& state, const std::string& db_path) {
   }
   size_t rows = 0;
   for (auto _ : state) {
-    auto r = opened.store->loadRecording(run.run_id);
+    auto r = opened.value->loadRecording(run.value);
     if (!r.status.ok) return state.SkipWithError(r.status.message.c_str());
-    rows = r.recording.imu.size() + r.recording.table.size();
-    benchmark::DoNotOptimize(r.recording.imu.data());
+    rows = r.value.imu.size() + r.value.table.size();
+    benchmark::DoNotOptimize(r.value.imu.data());
   }
   state.SetItemsProcessed(static_cast<int64_t>(rows) * state.iterations());
   state.counters["rows"] = static_cast<double>(rows);

@@ -3,10 +3,10 @@
 // the double-precision front (EffectSet, JSON names) is calib/effects.h.
 //
 // A unit is a struct with
-//   kId      the EffectId (interchange.md "Effect identifiers" gives the string, kName),
-//   kParams  its parameters (name, shape, unit, kind) in flat-vector order, with a named
-//            offset per parameter (e.g. LeverArm::kR) into the unit's parameter block,
-//   kStage   where the term acts (below), and kTerm, the term in words for reports,
+//   kId      the EffectId that links it to its row of the registry's metadata table
+//            (kUnitRows in calib/model/effects.h: name, parameters, stage, term in words),
+//   a named offset per parameter (e.g. LeverArm::kR) into the unit's parameter block, in
+//            the flat-vector order of its row's parameters (name, shape, unit, kind),
 //   the term itself, templated on the scalar T (double or ceres::Jet) and reading the
 //   parameter block `const T* p`: `apply(p, ReadingState<T>*)` for the reading stages, a
 //   named function for the others (sampleTime, latitude, addTo, jointState, ...).

@@ -59,27 +59,157 @@ using EffectUnits =
 // What the double front (calib/effects.*) reads of a unit.
 struct UnitInfo {
   EffectId id;
-  const char* name;
-  std::span<const ParamSpec> params;
-  Stage stage;
-  const char* term;
+  const char* name;                   // interchange.md "Effect identifiers"
+  std::span<const ParamSpec> params;  // in flat-vector order: the unit's offsets index them
+  Stage stage;                        // where the term acts
+  const char* term;                   // the term in words, for reports
 };
 
-template <class... U>
-constexpr std::array<UnitInfo, sizeof...(U)> unitInfos(UnitList<U...>) {
-  return {
-      UnitInfo{U::kId, U::kName, std::span<const ParamSpec>(U::kParams), U::kStage, U::kTerm}...};
-}
-inline constexpr auto kUnitInfos = unitInfos(EffectUnits{});
-static_assert(kUnitInfos.size() == kEffectCount, "every EffectId has one unit");
+// One row of the table below: a unit's parameters inline (up to kMaxUnitParams; the unused
+// entries have no name).
+inline constexpr int kMaxUnitParams = 4;
+struct UnitRow {
+  EffectId id;
+  const char* name;
+  Stage stage;
+  const char* term;
+  std::array<ParamSpec, kMaxUnitParams> params;
+};
 
-constexpr bool registryInIdOrder() {
+// THE metadata of every unit, in EffectId order (checked below); the unit's header holds its
+// parameter offsets and its term.
+inline constexpr UnitRow kUnitRows[] = {
+    {EffectId::kLeverArm,
+     "lever_arm",
+     Stage::kBodyInput,
+     "f += w' x r + w x (w x r), w = w_LB_B",
+     {{{"r_m", ParamShape::kVec3, "m"}}}},
+    {EffectId::kTimeDelay,
+     "time_delay",
+     Stage::kTime,
+     "physics sampled at t - tau_s",
+     {{{"tau_s", ParamShape::kScalar, "s"}}}},
+    {EffectId::kGyroGSensitivity,
+     "gyro_g_sensitivity",
+     Stage::kBodyInput,
+     "w += G f",
+     {{{"G", ParamShape::kMat3, "rad/s/(m/s^2)"}}}},
+    {EffectId::kThermalBias,
+     "thermal_bias",
+     Stage::kCoefficients,
+     "bias(T) = bias + k (T - t_ref_c)",
+     {{{"k_accel", ParamShape::kVec3, "m/s^2/degC"},
+       {"k_gyro", ParamShape::kVec3, "rad/s/degC"},
+       {"t_ref_c", ParamShape::kScalar, "degC"}}}},
+    {EffectId::kThermalScale,
+     "thermal_scale",
+     Stage::kCoefficients,
+     "scale(T) = scale (1 + k (T - t_ref_c))",
+     {{{"k_accel", ParamShape::kVec3, "1/degC"},
+       {"k_gyro", ParamShape::kVec3, "1/degC"},
+       {"t_ref_c", ParamShape::kScalar, "degC"}}}},
+    {EffectId::kScaleAsymmetry,
+     "scale_asymmetry",
+     Stage::kReading,
+     "gyro_k += a_k |u_k|, u = M w - bias",
+     {{{"gyro", ParamShape::kVec3, "1"}}}},
+    {EffectId::kAccelK2,
+     "accel_k2",
+     Stage::kAxisNonlinear,
+     "u_k += k2_k u_k^2, u = M f",
+     {{{"k2", ParamShape::kVec3, "1/(m/s^2)"}}}},
+    {EffectId::kLatitudeError,
+     "latitude_error",
+     Stage::kSite,
+     "latitude = assumed + dlat_rad",
+     {{{"dlat_rad", ParamShape::kScalar, "rad"}}}},
+    {EffectId::kGravityError,
+     "gravity_error",
+     Stage::kSite,
+     "gravity = assumed + dg_mps2",
+     {{{"dg_mps2", ParamShape::kScalar, "m/s^2"}}}},
+    {EffectId::kSizeEffect,
+     "size_effect",
+     Stage::kAxisInput,
+     "u_k += M_k . (w' x d_k + w x (w x d_k)), k = y, z",
+     {{{"d_y_m", ParamShape::kVec3, "m"}, {"d_z_m", ParamShape::kVec3, "m"}}}},
+    {EffectId::kAccelDelay,
+     "accel_delay",
+     Stage::kTime,
+     "accelerometer physics sampled at t_gyro - tau_s",
+     {{{"tau_s", ParamShape::kScalar, "s"}}}},
+    {EffectId::kAngleHarmonic,
+     "angle_harmonic",
+     Stage::kAngle,
+     "angle = encoder + cos_rad cos(k a) + sin_rad sin(k a)",
+     {{{"axis", ParamShape::kScalar, "", ParamKind::kTableAxis},
+       {"order", ParamShape::kScalar, "", ParamKind::kInteger},
+       {"cos_rad", ParamShape::kScalar, "rad"},
+       {"sin_rad", ParamShape::kScalar, "rad"}}}},
+    {EffectId::kBiasInstability,
+     "bias_instability",
+     Stage::kNoise,
+     "Gauss-Markov bias drift, Allan maximum B at tau_s",
+     {{{"accel", ParamShape::kVec3, "m/s^2"},
+       {"gyro", ParamShape::kVec3, "rad/s"},
+       {"tau_s", ParamShape::kScalar, "s"}}}},
+    {EffectId::kBaseTilt,
+     "base_tilt",
+     Stage::kTable,
+     "table base_tilt += (x, y)",
+     {{{"x", ParamShape::kScalar, "rad"}, {"y", ParamShape::kScalar, "rad"}}}},
+    {EffectId::kNonorthogonality,
+     "nonorthogonality",
+     Stage::kTable,
+     "table nonorthogonality += (inner_y, middle_x, middle_y)",
+     {{{"inner_y", ParamShape::kScalar, "rad"},
+       {"middle_x", ParamShape::kScalar, "rad"},
+       {"middle_y", ParamShape::kScalar, "rad"}}}},
+    {EffectId::kEncoderZero,
+     "encoder_zero",
+     Stage::kTable,
+     "table encoder_zero += (outer, middle, inner)",
+     {{{"outer", ParamShape::kScalar, "rad"},
+       {"middle", ParamShape::kScalar, "rad"},
+       {"inner", ParamShape::kScalar, "rad"}}}},
+    {EffectId::kMounting,
+     "mounting",
+     Stage::kTable,
+     "table mounting += (x, y)",
+     {{{"x", ParamShape::kScalar, "rad"}, {"y", ParamShape::kScalar, "rad"}}}},
+};
+
+constexpr std::array<UnitInfo, kEffectCount> unitInfos() {
+  std::array<UnitInfo, kEffectCount> out{};
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const UnitRow& row = kUnitRows[i];
+    std::size_t n = 0;
+    while (n < row.params.size() && row.params[n].name != nullptr) ++n;
+    out[i] = {row.id, row.name, std::span<const ParamSpec>(row.params.data(), n), row.stage,
+              row.term};
+  }
+  return out;
+}
+inline constexpr std::array<UnitInfo, kEffectCount> kUnitInfos = unitInfos();
+static_assert(std::size(kUnitRows) == kEffectCount, "every EffectId has one row");
+
+// The stage of a unit (by its kId) from the table.
+template <class Unit>
+inline constexpr Stage kStageOf = kUnitInfos[static_cast<std::size_t>(Unit::kId)].stage;
+
+constexpr bool rowsInIdOrder() {
   for (int i = 0; i < kEffectCount; ++i) {
     if (static_cast<int>(kUnitInfos[static_cast<std::size_t>(i)].id) != i) return false;
   }
   return true;
 }
-static_assert(registryInIdOrder(), "EffectUnits lists the units in EffectId order");
+static_assert(rowsInIdOrder(), "kUnitRows lists the units in EffectId order");
+template <class... U>
+constexpr bool unitsInIdOrder(UnitList<U...>) {
+  int i = 0;
+  return sizeof...(U) == kEffectCount && ((static_cast<int>(U::kId) == i++) && ...);
+}
+static_assert(unitsInIdOrder(EffectUnits{}), "EffectUnits lists the units in EffectId order");
 
 // Largest flat parameter count of any unit (callers size fixed buffers with it).
 constexpr int maxUnitFlatSize() {
@@ -119,7 +249,7 @@ template <Stage S, typename T, class... U>
 void applyStage(const EffectBlocks<T>& fx, ReadingState<T>* s, UnitList<U...>) {
   const auto one = [&](auto unit) {
     using Unit = decltype(unit);
-    if constexpr (Unit::kStage == S) {
+    if constexpr (kStageOf<Unit> == S) {
       if (const T* p = blockOf(fx, Unit::kId)) Unit::apply(p, s);
     }
   };
@@ -176,7 +306,7 @@ template <typename T, class... U>
 void addTableEffects(const EffectBlocks<T>& fx, T* axes, T* device, UnitList<U...>) {
   const auto one = [&](auto unit) {
     using Unit = decltype(unit);
-    if constexpr (Unit::kStage == Stage::kTable) {
+    if constexpr (kStageOf<Unit> == Stage::kTable) {
       if (const T* p = blockOf(fx, Unit::kId)) Unit::addTo(p, axes, device);
     }
   };
@@ -194,7 +324,7 @@ void trueJointStates(const EffectBlocks<T>& fx, std::array<JointState<T>, 3>* jo
                      UnitList<U...>) {
   const auto one = [&](auto unit) {
     using Unit = decltype(unit);
-    if constexpr (Unit::kStage == Stage::kAngle) {
+    if constexpr (kStageOf<Unit> == Stage::kAngle) {
       if (const T* p = blockOf(fx, Unit::kId)) {
         const long axis = std::lround(valueOf(p[Unit::kAxis]));
         if (axis >= kTableAxisOuter && axis <= kTableAxisInner) {

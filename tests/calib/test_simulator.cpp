@@ -3,37 +3,18 @@
 #include <cmath>
 
 #include "calib/simulator.h"
+#include "tests/calib/sim_fixtures.h"
 
 namespace imubench::calib {
 namespace {
 
-constexpr double kLat = 55.75 * kDegToRad;
-
-BenchWorld idealWorld() {
-  BenchWorld w;
-  w.site.latitude_rad = kLat;
-  w.site.height_m = 150.0;
-  return w;
-}
-
-// Two-axis motion: each axis holds still, or turns at a constant rate from t = 0.
-Motion twoAxis(double duration, AxisPhase outer, AxisPhase inner) {
-  Motion m;
-  m.kind = TableKind::kTwoAxis;
-  m.axes.resize(2);
-  m.axes[0].append(outer);
-  m.axes[1].append(inner);
-  m.duration = duration;
-  return m;
-}
+using testing::delayTestMotion;
+using testing::idealWorld;
+using testing::kLat;
+using testing::twoAxis;
 
 Simulation run(const BenchWorld& w, const Motion& m, double rate = 100.0, std::uint64_t seed = 1) {
-  SimOptions o;
-  o.imu_rate_hz = rate;
-  o.seed = seed;
-  const Simulation s = simulate({w, m}, o);
-  EXPECT_TRUE(s.ok) << s.error;
-  return s;
+  return testing::simulateOk(w, m, rate, seed);
 }
 
 TEST(Simulator, StationaryAtZeroAnglesIsEarthRateAndGravityExactly) {
@@ -174,14 +155,13 @@ TEST(Simulator, ScaleAsymmetryDependsOnRateSign) {
 TEST(Simulator, TimeDelayShiftsThePhysics) {
   // A delayed IMU at stamp t sees what an undelayed one sees at t - tau: equivalently, the
   // undelayed IMU on a motion that happens tau later.
-  const double w = 45.0 * kDegToRad, tau = 0.0037;
+  const double tau = 0.0037;
   BenchWorld delayed = idealWorld();
   delayed.truth.extra.time_delay = TimeDelay{tau};
-  const Simulation a = run(delayed, twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
-  const Simulation b =
-      run(idealWorld(), twoAxis(3.0, {1.0 + tau, 0.0, w, 0.0}, {0.5 + tau, 0.0, -w, 0.0}));
+  const Simulation a = run(delayed, delayTestMotion());
+  const Simulation b = run(idealWorld(), delayTestMotion(tau));
   double worst = 0.0, moved = 0.0;
-  const Simulation c = run(idealWorld(), twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
+  const Simulation c = run(idealWorld(), delayTestMotion());
   for (std::size_t k = 0; k < a.imu.size(); ++k) {
     worst = std::max(
         worst, (a.imu[k].dvel - b.imu[k].dvel).norm() + (a.imu[k].dtheta - b.imu[k].dtheta).norm());

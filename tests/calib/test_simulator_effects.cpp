@@ -7,38 +7,21 @@
 
 #include "calib/bench_truth.h"
 #include "calib/simulator.h"
+#include "tests/calib/sim_fixtures.h"
 
 namespace imubench::calib {
 namespace {
 
-constexpr double kLat = 55.75 * kDegToRad;
+using testing::delayTestMotion;
+using testing::idealWorld;
+using testing::kLat;
+using testing::twoAxis;
+
 constexpr double kRate = 100.0;
 constexpr double kDt = 1.0 / kRate;
 
-BenchWorld idealWorld() {
-  BenchWorld w;
-  w.site.latitude_rad = kLat;
-  w.site.height_m = 150.0;
-  return w;
-}
-
-Motion twoAxis(double duration, AxisPhase outer, AxisPhase inner) {
-  Motion m;
-  m.kind = TableKind::kTwoAxis;
-  m.axes.resize(2);
-  m.axes[0].append(outer);
-  m.axes[1].append(inner);
-  m.duration = duration;
-  return m;
-}
-
 Simulation run(const BenchWorld& w, const Motion& m, std::uint64_t seed = 1) {
-  SimOptions o;
-  o.imu_rate_hz = kRate;
-  o.seed = seed;
-  const Simulation s = simulate({w, m}, o);
-  EXPECT_TRUE(s.ok) << s.error;
-  return s;
+  return testing::simulateOk(w, m, kRate, seed);
 }
 
 TEST(SimulatorEffects, SizeEffectAtConstantRateIsTheCentripetalDifference) {
@@ -66,13 +49,12 @@ TEST(SimulatorEffects, SizeEffectAtConstantRateIsTheCentripetalDifference) {
 TEST(SimulatorEffects, AccelDelayShiftsOnlyTheAccelerometers) {
   // Accelerometers delayed by tau see what undelayed ones see on a motion tau later; the
   // gyros are those of the undelayed motion.
-  const double w = 45.0 * kDegToRad, tau = 0.0043;
+  const double tau = 0.0043;
   BenchWorld delayed = idealWorld();
   delayed.truth.extra.accel_delay = AccelDelay{tau};
-  const Simulation a = run(delayed, twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
-  const Simulation later =
-      run(idealWorld(), twoAxis(3.0, {1.0 + tau, 0.0, w, 0.0}, {0.5 + tau, 0.0, -w, 0.0}));
-  const Simulation now = run(idealWorld(), twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
+  const Simulation a = run(delayed, delayTestMotion());
+  const Simulation later = run(idealWorld(), delayTestMotion(tau));
+  const Simulation now = run(idealWorld(), delayTestMotion());
   double worst = 0.0, moved = 0.0;
   for (std::size_t k = 0; k < a.imu.size(); ++k) {
     worst = std::max(worst, (a.imu[k].dvel - later.imu[k].dvel).norm() +
@@ -84,9 +66,8 @@ TEST(SimulatorEffects, AccelDelayShiftsOnlyTheAccelerometers) {
   // With time_delay too, the accelerometers are tau_s + accel tau behind the table clock.
   BenchWorld both = delayed;
   both.truth.extra.time_delay = TimeDelay{0.002};
-  const Simulation c = run(both, twoAxis(3.0, {1.0, 0.0, w, 0.0}, {0.5, 0.0, -w, 0.0}));
-  const Simulation c_ref = run(idealWorld(), twoAxis(3.0, {1.0 + tau + 0.002, 0.0, w, 0.0},
-                                                     {0.5 + tau + 0.002, 0.0, -w, 0.0}));
+  const Simulation c = run(both, delayTestMotion());
+  const Simulation c_ref = run(idealWorld(), delayTestMotion(tau + 0.002));
   worst = 0.0;
   for (std::size_t k = 0; k < c.imu.size(); ++k) {
     worst = std::max(worst, (c.imu[k].dvel - c_ref.imu[k].dvel).norm());

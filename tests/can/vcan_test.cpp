@@ -17,6 +17,7 @@
 #include "drivers/imu_can_reader.h"
 #include "drivers/virtual_imu_can.h"
 #include "tests/can/can_test_util.h"
+#include "tests/can/child_process.h"
 
 extern char** environ;
 
@@ -52,39 +53,8 @@ bool waitForReceivers(int count, int timeout_ms = 20000) {
   return false;
 }
 
-// Starts argv with stdout redirected to out_path (or inherited when empty).
-pid_t spawn(const std::vector<std::string>& args, const std::string& out_path) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  if (!out_path.empty())
-    posix_spawn_file_actions_addopen(&fa, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  pid_t pid = -1;
-  const int rc = posix_spawnp(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
-}
-
-// Waits for a child to exit (pidfd + poll: wakes on the exit itself). Returns its exit code,
-// or -1 on timeout (the child is then killed).
-int waitExit(pid_t pid, int timeout_ms) {
-  const int pfd = static_cast<int>(syscall(SYS_pidfd_open, pid, 0));
-  if (pfd >= 0) {
-    pollfd p{pfd, POLLIN, 0};
-    const int r = poll(&p, 1, timeout_ms);
-    close(pfd);
-    if (r == 0) {
-      kill(pid, SIGKILL);
-      waitpid(pid, nullptr, 0);
-      return -1;
-    }
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using testing::spawnChild;
+using testing::waitChild;
 
 // Reads until `want` samples arrived or no frame came for idle_ms.
 std::vector<DecodedImuSample> readSamples(ImuCanReader& reader, std::size_t want,
@@ -200,7 +170,7 @@ TEST_P(Interop, CandumpLogReplayedByCanplayerDecodesIdentically) {
   ASSERT_TRUE(live.open().ok);
   const int base = vcanReceivers();
   const pid_t dump =
-      spawn({"candump", "-L", "-r", "16777216", "-n", std::to_string(frames), kIf}, log);
+      spawnChild({"candump", "-L", "-r", "16777216", "-n", std::to_string(frames), kIf}, log);
   ASSERT_GT(dump, 0) << "cannot start candump (package can-utils)";
   ASSERT_TRUE(waitForReceivers(base + 1)) << "candump did not open its socket";
   VirtualImuCan imu(layout, imuOptions());
@@ -217,7 +187,7 @@ TEST_P(Interop, CandumpLogReplayedByCanplayerDecodesIdentically) {
       ASSERT_GT(live.framesReceived(), before) << "frames stopped arriving";
     }
   }
-  ASSERT_EQ(waitExit(dump, 20000), 0) << "candump did not capture " << frames << " frames";
+  ASSERT_EQ(waitChild(dump, 20000), 0) << "candump did not capture " << frames << " frames";
   expectSameWithinResolution(layout, samples, live_samples);
 
   // The log is candump's own text format: "(time) vcan0 120#..." or "##" for FD.
@@ -229,9 +199,9 @@ TEST_P(Interop, CandumpLogReplayedByCanplayerDecodesIdentically) {
 
   ImuCanReader replay(layout, readerOptions());
   ASSERT_TRUE(replay.open().ok);
-  const pid_t player = spawn({"canplayer", "-t", "-g", "0", "-I", log}, "");
+  const pid_t player = spawnChild({"canplayer", "-t", "-g", "0", "-I", log}, "");
   ASSERT_GT(player, 0) << "cannot start canplayer";
-  ASSERT_EQ(waitExit(player, 60000), 0);
+  ASSERT_EQ(waitChild(player, 60000), 0);
   const auto replayed = readSamples(replay, samples.size());
   ASSERT_EQ(replayed.size(), live_samples.size());
   for (std::size_t k = 0; k < replayed.size(); ++k) {
@@ -256,9 +226,10 @@ TEST(InteropCansend, BadLengthAndUnknownIdCountedNotFatal) {
   VirtualImuCan imu(layout, imuOptions());
   ASSERT_TRUE(imu.open().ok);
   ASSERT_TRUE(imu.sendSamples(std::span(samples).first(10)).ok);
-  EXPECT_EQ(waitExit(spawn({"cansend", kIf, "121#0102"}, ""), 10000), 0);      // accel, 2 bytes
-  EXPECT_EQ(waitExit(spawn({"cansend", kIf, "7FF#00"}, ""), 10000), 0);        // unknown id
-  EXPECT_EQ(waitExit(spawn({"cansend", kIf, "120#11223344"}, ""), 10000), 0);  // info, 4 bytes
+  EXPECT_EQ(waitChild(spawnChild({"cansend", kIf, "121#0102"}, ""), 10000), 0);  // accel, 2 bytes
+  EXPECT_EQ(waitChild(spawnChild({"cansend", kIf, "7FF#00"}, ""), 10000), 0);    // unknown id
+  EXPECT_EQ(waitChild(spawnChild({"cansend", kIf, "120#11223344"}, ""), 10000),
+            0);  // info, 4 bytes
   ASSERT_TRUE(imu.sendSamples(std::span(samples).subspan(10)).ok);
   const auto got = readSamples(reader, 20);
   const auto& c = reader.decoder().counters();

@@ -27,6 +27,7 @@
 #include "drivers/imu_layout.h"
 #include "io/truth_file.h"
 #include "scratch_dir.h"
+#include "tests/can/child_process.h"
 
 extern char** environ;
 
@@ -50,35 +51,11 @@ std::string tempPath(const std::string& name) {
   return testing::scratchPath(name);
 }
 
-// Starts argv with stdout and stderr redirected to out_path. Returns -1 on failure.
-pid_t spawn(const std::vector<std::string>& args, const std::string& out_path) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
-}
-
-// Sends SIGTERM and waits for the exit (pidfd + poll, bounded; SIGKILL after the timeout).
-// Returns the exit code, or -1 when it had to be killed or died by a signal.
+// Sends SIGTERM and waits for the exit (bounded; SIGKILL after the timeout). Returns the exit
+// code, or -1 when it had to be killed or died by a signal.
 int stopChild(pid_t pid, int timeout_ms = 10000) {
   kill(pid, SIGTERM);
-  const int pfd = static_cast<int>(syscall(SYS_pidfd_open, pid, 0));
-  if (pfd >= 0) {
-    pollfd p{pfd, POLLIN, 0};
-    const int r = poll(&p, 1, timeout_ms);
-    close(pfd);
-    if (r == 0) kill(pid, SIGKILL);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return testing::waitChild(pid, timeout_ms);
 }
 
 std::string slurp(const std::string& path) {
@@ -95,7 +72,7 @@ nav::ImuSamples expectedSamples(const ImuLayout& layout, std::size_t n) {
   calib::BenchWorld world;
   auto truth = io::readTruthFile(truthPath());
   EXPECT_TRUE(truth.status.ok) << truth.status.message;
-  world.truth = truth.truth;
+  world.truth = truth.value;
   world.noise = calib::NoiseModel::tactical();
   calib::Motion motion;
   motion.kind = calib::TableKind::kTwoAxis;  // imubench-ref-2axis-tcp.toml
@@ -138,7 +115,7 @@ TEST_P(VirtualBenchVcan, SamplesEqualInProcessSimulatorWithinResolution) {
   // About 2 s of wall time for the whole stream at either rate (100 Hz x 10, 1 kHz x 1).
   const double scale = std::max(1.0, 1.0 / (1000.0 * layout.sample_period_s));
   const std::string out_path = tempPath(std::string(GetParam()) + ".out");
-  const pid_t pid = spawn(
+  const pid_t pid = testing::spawnChild(
       {IMUBENCH_VIRTUAL_BENCH, "--table", devicePath("tables/imubench-ref-2axis-tcp.toml"),
        "--chamber", devicePath("chambers/generic-float-chamber.toml"), "--table-port", "0",
        "--chamber-port", "0", "--imu", layout_file, "--can", kIf, "--truth", truthPath(), "--noise",
@@ -146,7 +123,7 @@ TEST_P(VirtualBenchVcan, SamplesEqualInProcessSimulatorWithinResolution) {
        // the in-process world's default site (nav::Site{})
        "--latitude", std::to_string(nav::Site{}.latitude_rad * kRadToDeg), "--height",
        std::to_string(nav::Site{}.height_m)},
-      out_path);
+      out_path, /*with_stderr=*/true);
   ASSERT_GT(pid, 0) << "cannot start " << IMUBENCH_VIRTUAL_BENCH;
 
   std::vector<DecodedImuSample> got;

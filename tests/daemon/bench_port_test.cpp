@@ -169,7 +169,7 @@ TEST_F(RunnerOverModbus, InterlockTripIsATableFaultThatPausesTheRun) {
   world_->withTable([](drivers::VirtualTable& t, double now) { t.trip(now, "door opened"); });
   ASSERT_TRUE(pollUntil([&] { return runner_->state() == RunnerState::kPaused; }, 30.0));
   EXPECT_NE(alarms().find("table fault"), std::string::npos) << alarms();
-  const CommandResult r = runner_->resume(wallNow());
+  const Status r = runner_->resume(wallNow());
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.message.find("fault"), std::string::npos) << r.message;
 }

@@ -22,28 +22,9 @@
 
 #include "daemon/control_server.h"
 #include "daemon/event_loop.h"
+#include "tests/daemon/scratch_dir.h"
 
 namespace imubench::daemon::testing {
-
-// A fresh directory per call (mkdtemp under $TMPDIR or /tmp); removed by the destructor.
-class ScratchDir {
- public:
-  ScratchDir() {
-    const char* base = std::getenv("TMPDIR");
-    path_ = std::string(base != nullptr ? base : "/tmp") + "/imubench-ctl-XXXXXX";
-    if (mkdtemp(path_.data()) == nullptr) ADD_FAILURE() << "mkdtemp " << path_ << " failed";
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-  std::string file(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
 
 using Clock = std::chrono::steady_clock;
 inline int msLeft(Clock::time_point deadline) {
@@ -156,7 +137,7 @@ class ServerThread {
     }
     EXPECT_TRUE(run_status_.ok) << run_status_.message;
   }
-  const io::IoStatus& startStatus() const { return start_status_; }
+  const Status& startStatus() const { return start_status_; }
   template <typename F>
   auto onLoop(F fn) {
     std::packaged_task<decltype(fn())()> task(std::move(fn));
@@ -174,8 +155,8 @@ class ServerThread {
  private:
   EventLoop loop_;
   std::unique_ptr<ControlServer> server_;
-  io::IoStatus start_status_;
-  io::IoStatus run_status_;
+  Status start_status_;
+  Status run_status_;
   std::thread thread_;
 };
 

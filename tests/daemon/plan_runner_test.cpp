@@ -19,36 +19,36 @@ class FakeBench : public BenchPort {
  public:
   explicit FakeBench(int axes) : angle_(axes, 0.0), target_(axes, 0.0) {}
 
-  drivers::Status prepare() override {
+  Status prepare() override {
     ++prepares;
     return {};
   }
-  drivers::Status moveTo(int axis, double angle, const drivers::MotionLimits& l) override {
+  Status moveTo(int axis, double angle, const drivers::MotionLimits& l) override {
     log.push_back("move " + std::to_string(axis));
     profiles.push_back(l);
-    if (fail_commands) return drivers::Status::Error("injected: no reply");
+    if (fail_commands) return Status::Error("injected: no reply");
     target_[axis] = angle_[axis] + std::remainder(angle - angle_[axis], 2.0 * kPi);
     return {};
   }
-  drivers::Status rotateBy(int axis, double delta, const drivers::MotionLimits& l) override {
+  Status rotateBy(int axis, double delta, const drivers::MotionLimits& l) override {
     log.push_back("rotate " + std::to_string(axis));
     profiles.push_back(l);
     rotated.push_back(delta);
-    if (fail_commands) return drivers::Status::Error("injected: no reply");
+    if (fail_commands) return Status::Error("injected: no reply");
     if (!stuck) target_[axis] = angle_[axis] + delta;
     return {};
   }
-  drivers::Status stopAll() override {
+  Status stopAll() override {
     ++stops;
     target_ = angle_;
     return {};
   }
-  drivers::Status emergencyStop() override {
+  Status emergencyStop() override {
     ++estops;
     target_ = angle_;
     return {};
   }
-  drivers::Status chamberSetpoint(double c) override {
+  Status chamberSetpoint(double c) override {
     setpoints.push_back(c);
     return {};
   }
@@ -260,7 +260,7 @@ TEST(PlanRunner, EmergencyStopWorksInEveryState) {
 TEST(PlanRunner, SecondStartWhileBusyIsRefused) {
   Harness h;
   ASSERT_TRUE(h.runner.start(h.now).ok);
-  const CommandResult again = h.runner.start(h.now);
+  const Status again = h.runner.start(h.now);
   EXPECT_FALSE(again.ok);
   EXPECT_NE(again.message.find("busy"), std::string::npos) << again.message;
   EXPECT_EQ(h.runner.state(), RunnerState::kRunning);
@@ -314,7 +314,7 @@ TEST(PlanRunner, ChamberOverTemperatureGoesToTheSafeSetpointAndPauses) {
   EXPECT_EQ(h.bench.setpoints.back(), 23.0);
   EXPECT_NE(h.lastAlarm().find("over temperature"), std::string::npos) << h.lastAlarm();
   // Resume is refused while it is still too hot, accepted once it is back below the limit.
-  const CommandResult hot = h.runner.resume(h.now);
+  const Status hot = h.runner.resume(h.now);
   EXPECT_FALSE(hot.ok);
   EXPECT_NE(hot.message.find("over temperature"), std::string::npos) << hot.message;
   h.bench.chamber_temp = 30.0;
@@ -353,7 +353,7 @@ TEST(PlanRunner, InterlockOpenedByAControllerRestartPausesUntilRearmed) {
   EXPECT_NE(h.lastAlarm().find("interlock open"), std::string::npos) << h.lastAlarm();
   EXPECT_NE(h.lastAlarm().find("imubench rearm"), std::string::npos) << h.lastAlarm();
   h.tick();
-  const CommandResult refused = h.runner.resume(h.now);
+  const Status refused = h.runner.resume(h.now);
   EXPECT_FALSE(refused.ok);
   EXPECT_NE(refused.message.find("re-arm"), std::string::npos) << refused.message;
   h.bench.interlock_open = false;  // re-armed

@@ -11,74 +11,31 @@
 #include <random>
 #include <sstream>
 
+#include "tests/daemon/recording_fixtures.h"
+
 namespace imubench::daemon {
 namespace {
 
+using testing::AwkwardDoubles;
+using testing::expectSameRecording;
+using testing::ScratchDir;
+
 namespace fs = std::filesystem;
-
-// A fresh directory under the system temp dir, removed at the end of the test.
-class TempDir {
- public:
-  explicit TempDir(const std::string& name) {
-    path_ = fs::temp_directory_path() /
-            ("imubench-rec-" + name + "-" +
-             std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "-" +
-             std::to_string(reinterpret_cast<std::uintptr_t>(this)));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string str() const { return path_.string(); }
-  std::string file(const std::string& f) const { return (path_ / f).string(); }
-
- private:
-  fs::path path_;
-};
-
-bool sameBits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof(double)) == 0;
-}
 
 // Awkward doubles on purpose: random mantissas over many exponents, negative zero, subnormal,
 // extremes.
 io::Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::uniform_int_distribution<int> ex(-30, 5);
-  auto odd = [&]() { return std::ldexp(u(rng), ex(rng)); };
-  io::Recording rec;
-  rec.latitude_deg = 55.7558 + odd() * 1e-3;
-  rec.height_m = 156.0 + odd();
-  rec.gravity_mps2 = 9.8154321987654321;
-  rec.imu_serial = "SN-0042 \"test\"";
-  rec.imu_rate_hz = 2000.0;
-  rec.table_kind = kind;
-  if (kind == calib::TableKind::kTwoAxis) rec.outer_axis_heading_deg = 90.0 + odd();
-  double t = 0.1 + 1.0 / 3.0;
-  for (size_t i = 0; i < n_imu; ++i) {
-    t += 1.0 / 2000.0;
-    nav::ImuSample s;
-    s.t = t;
-    s.dtheta = Vec3(odd(), odd(), odd());
-    s.dvel = Vec3(odd(), odd(), odd());
-    s.temp_c = (i % 7 == 3) ? std::numeric_limits<double>::quiet_NaN() : 25.0 + odd();
-    rec.imu.push_back(s);
-  }
-  rec.imu[1].dtheta.x() = -0.0;
-  rec.imu[2].dvel.y() = std::numeric_limits<double>::denorm_min();
-  rec.imu[3].dvel.z() = std::numeric_limits<double>::max();
-  rec.imu[4].dtheta.z() = -std::numeric_limits<double>::min();
+  AwkwardDoubles d(seed);
+  const double height_m = 156.0 + d.odd();
+  io::Recording rec = testing::awkwardRecording(d, kind, n_imu, height_m, "SN-0042 \"test\"");
   for (int i = 0; i < 50; ++i) {
     io::TableSample s;
-    s.t = 0.01 * i + odd() * 1e-6;
+    s.t = 0.01 * i + d.odd() * 1e-6;
     for (int a = 0; a < calib::axisCount(kind); ++a)
-      s.angles_deg[static_cast<size_t>(a)] = 180.0 * u(rng);
+      s.angles_deg[static_cast<size_t>(a)] = 180.0 * d.unit();
     rec.table.push_back(s);
   }
-  rec.chamber = {{0.0, 25.0, 24.9 + odd()}, {10.0 / 3.0, 25.0, 25.0 + odd()}};
+  rec.chamber = {{0.0, 25.0, 24.9 + d.odd()}, {10.0 / 3.0, 25.0, 25.0 + d.odd()}};
   calib::Segment a;
   a.t0 = 0.0;
   a.t1 = 0.2;
@@ -93,69 +50,19 @@ io::Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) 
   return rec;
 }
 
-void expectSame(const io::Recording& a, const io::Recording& b) {
-  EXPECT_TRUE(sameBits(a.latitude_deg, b.latitude_deg));
-  EXPECT_TRUE(sameBits(a.height_m, b.height_m));
-  ASSERT_EQ(a.gravity_mps2.has_value(), b.gravity_mps2.has_value());
-  if (a.gravity_mps2) {
-    EXPECT_TRUE(sameBits(*a.gravity_mps2, *b.gravity_mps2));
-  }
-  EXPECT_EQ(a.imu_serial, b.imu_serial);
-  EXPECT_TRUE(sameBits(a.imu_rate_hz, b.imu_rate_hz));
-  EXPECT_EQ(a.table_kind, b.table_kind);
-  ASSERT_EQ(a.outer_axis_heading_deg.has_value(), b.outer_axis_heading_deg.has_value());
-  if (a.outer_axis_heading_deg) {
-    EXPECT_TRUE(sameBits(*a.outer_axis_heading_deg, *b.outer_axis_heading_deg));
-  }
-  ASSERT_EQ(a.imu.size(), b.imu.size());
-  size_t mismatches = 0;
-  for (size_t i = 0; i < a.imu.size(); ++i) {
-    const auto& x = a.imu[i];
-    const auto& y = b.imu[i];
-    bool same = sameBits(x.t, y.t);
-    for (int k = 0; k < 3; ++k)
-      same = same && sameBits(x.dtheta[k], y.dtheta[k]) && sameBits(x.dvel[k], y.dvel[k]);
-    same = same && (std::isnan(x.temp_c) ? std::isnan(y.temp_c) : sameBits(x.temp_c, y.temp_c));
-    if (!same) ++mismatches;
-  }
-  EXPECT_EQ(mismatches, 0u);
-  ASSERT_EQ(a.table.size(), b.table.size());
-  const int n = calib::axisCount(a.table_kind);
-  for (size_t i = 0; i < a.table.size(); ++i) {
-    EXPECT_TRUE(sameBits(a.table[i].t, b.table[i].t)) << i;
-    for (int k = 0; k < n; ++k) {
-      EXPECT_TRUE(sameBits(a.table[i].angles_deg[static_cast<size_t>(k)],
-                           b.table[i].angles_deg[static_cast<size_t>(k)]));
-    }
-  }
-  ASSERT_EQ(a.chamber.size(), b.chamber.size());
-  for (size_t i = 0; i < a.chamber.size(); ++i) {
-    EXPECT_TRUE(sameBits(a.chamber[i].t, b.chamber[i].t));
-    EXPECT_TRUE(sameBits(a.chamber[i].setpoint_c, b.chamber[i].setpoint_c));
-    EXPECT_TRUE(sameBits(a.chamber[i].temp_c, b.chamber[i].temp_c));
-  }
-  ASSERT_EQ(a.segments.size(), b.segments.size());
-  for (size_t i = 0; i < a.segments.size(); ++i) {
-    EXPECT_TRUE(sameBits(a.segments[i].t0, b.segments[i].t0));
-    EXPECT_TRUE(sameBits(a.segments[i].t1, b.segments[i].t1));
-    EXPECT_EQ(a.segments[i].kind, b.segments[i].kind);
-    EXPECT_EQ(a.segments[i].label, b.segments[i].label);
-  }
-}
-
 TEST(RecordingRoundTrip, TwoAxisIsBitExact) {
-  TempDir dir("rt2");
+  ScratchDir dir("rec-rt2");
   const io::Recording rec = makeRecording(7, calib::TableKind::kTwoAxis, 20000);
   const auto st = io::writeRecording(dir.str(), rec);
   ASSERT_TRUE(st.ok) << st.message;
   const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
-  EXPECT_TRUE(r.recording.segments_from_file);
-  expectSame(rec, r.recording);
+  EXPECT_TRUE(r.value.segments_from_file);
+  expectSameRecording(rec, r.value);
 }
 
 TEST(RecordingRoundTrip, ThreeAxisWithoutOptionalFilesIsBitExact) {
-  TempDir dir("rt3");
+  ScratchDir dir("rec-rt3");
   io::Recording rec = makeRecording(11, calib::TableKind::kThreeAxis, 500);
   rec.chamber.clear();
   rec.segments.clear();
@@ -165,14 +72,14 @@ TEST(RecordingRoundTrip, ThreeAxisWithoutOptionalFilesIsBitExact) {
   EXPECT_FALSE(fs::exists(dir.file("segments.csv")));
   auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
-  EXPECT_FALSE(r.recording.segments_from_file);
-  EXPECT_FALSE(r.recording.segments.empty());  // derived from the table motion
-  r.recording.segments.clear();
-  expectSame(rec, r.recording);
+  EXPECT_FALSE(r.value.segments_from_file);
+  EXPECT_FALSE(r.value.segments.empty());  // derived from the table motion
+  r.value.segments.clear();
+  expectSameRecording(rec, r.value);
 }
 
 TEST(RecordingRoundTrip, WriteRefusesNonFinite) {
-  TempDir dir("nf");
+  ScratchDir dir("rec-nf");
   io::Recording rec = makeRecording(3, calib::TableKind::kTwoAxis, 10);
   rec.imu[5].dvel.x() = std::numeric_limits<double>::infinity();
   const auto st = io::writeRecording(dir.str(), rec);
@@ -210,7 +117,7 @@ class MalformedRecording : public ::testing::TestWithParam<BadCase> {};
 
 TEST_P(MalformedRecording, IsRefusedWithFileLineAndReason) {
   const BadCase& c = GetParam();
-  TempDir dir(c.name);
+  ScratchDir dir(std::string("rec-") + c.name);
   writeText(dir.file("meta.json"), kGoodMeta);
   writeText(dir.file("imu.csv"), kGoodImu);
   writeText(dir.file("table.csv"), kGoodTable);
@@ -317,16 +224,16 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<BadCase>& p) { return std::string(p.param.name); });
 
 TEST(Recording, CrLfLineEndingsAreAccepted) {
-  TempDir dir("crlf");
+  ScratchDir dir("rec-crlf");
   writeText(dir.file("meta.json"), kGoodMeta);
   writeText(dir.file("imu.csv"),
             "t,dthx,dthy,dthz,dvx,dvy,dvz,temp\r\n0.01,0,0,0,0,0,0.098,25\r\n");
   writeText(dir.file("table.csv"), "t,outer,inner\r\n0,0,0\r\n1,0,0");  // no final newline
   const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
-  EXPECT_EQ(r.recording.imu.size(), 1u);
-  EXPECT_EQ(r.recording.table.size(), 2u);
-  EXPECT_DOUBLE_EQ(r.recording.imu[0].dvel.z(), 0.098);
+  EXPECT_EQ(r.value.imu.size(), 1u);
+  EXPECT_EQ(r.value.table.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.value.imu[0].dvel.z(), 0.098);
 }
 
 TEST(Recording, NotADirectory) {
@@ -392,7 +299,7 @@ TEST(DeriveSegments, ShortPauseStaysInsideTheMotion) {
 }
 
 TEST(DeriveSegments, ReadUsesDerivedSegmentsWhenFileAbsent) {
-  TempDir dir("derive");
+  ScratchDir dir("rec-derive");
   writeText(dir.file("meta.json"), kGoodMeta);
   writeText(dir.file("imu.csv"), kGoodImu);
   std::ostringstream t;
@@ -402,13 +309,13 @@ TEST(DeriveSegments, ReadUsesDerivedSegmentsWhenFileAbsent) {
   writeText(dir.file("table.csv"), t.str());
   const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
-  ASSERT_EQ(r.recording.segments.size(), 5u);
-  EXPECT_EQ(r.recording.segments[1].kind, calib::SegmentKind::kRotate);
-  EXPECT_NEAR(r.recording.segments[1].angle, kPi, 1e-6);
+  ASSERT_EQ(r.value.segments.size(), 5u);
+  EXPECT_EQ(r.value.segments[1].kind, calib::SegmentKind::kRotate);
+  EXPECT_NEAR(r.value.segments[1].angle, kPi, 1e-6);
 }
 
 TEST(DeriveSegments, RotateAxisFilledFromTableWhenSegmentsFileGiven) {
-  TempDir dir("segfile");
+  ScratchDir dir("rec-segfile");
   writeText(dir.file("meta.json"), kGoodMeta);
   writeText(dir.file("imu.csv"), kGoodImu);
   std::ostringstream t;
@@ -421,10 +328,10 @@ TEST(DeriveSegments, RotateAxisFilledFromTableWhenSegmentsFileGiven) {
             "t0,t1,kind,label\n0,4.9,static,\"A, up\"\n4.95,23.05,rotate,Z180\n");
   const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
-  ASSERT_EQ(r.recording.segments.size(), 2u);
-  EXPECT_EQ(r.recording.segments[0].label, "A, up");
-  EXPECT_EQ(r.recording.segments[1].axis, 1);
-  EXPECT_NEAR(r.recording.segments[1].angle, kPi, 1e-6);
+  ASSERT_EQ(r.value.segments.size(), 2u);
+  EXPECT_EQ(r.value.segments[0].label, "A, up");
+  EXPECT_EQ(r.value.segments[1].axis, 1);
+  EXPECT_NEAR(r.value.segments[1].angle, kPi, 1e-6);
 }
 
 TEST(DeriveSegments, OptionsValidation) {
@@ -462,20 +369,20 @@ class LargeImuCsv : public ::testing::Test {
 };
 
 TEST_F(LargeImuCsv, ReadsAllRowsInOrder) {
-  TempDir dir("large-ok");
+  ScratchDir dir("rec-large-ok");
   writeText(dir.file("meta.json"), kGoodMeta);
   writeText(dir.file("table.csv"), kGoodTable);
   writeText(dir.file("imu.csv"), text(-1, ""));
   const auto r = io::readRecording(dir.str());
   ASSERT_TRUE(r.status.ok) << r.status.message;
-  ASSERT_EQ(r.recording.imu.size(), static_cast<size_t>(kRows));
+  ASSERT_EQ(r.value.imu.size(), static_cast<size_t>(kRows));
   for (int k = 0; k < kRows; ++k)
-    ASSERT_DOUBLE_EQ(r.recording.imu[static_cast<size_t>(k)].t, (k + 1) * 0.0005);
-  EXPECT_DOUBLE_EQ(r.recording.imu.back().temp_c, 25.5);
+    ASSERT_DOUBLE_EQ(r.value.imu[static_cast<size_t>(k)].t, (k + 1) * 0.0005);
+  EXPECT_DOUBLE_EQ(r.value.imu.back().temp_c, 25.5);
 }
 
 TEST_F(LargeImuCsv, ErrorsNameTheirLineAcrossChunks) {
-  TempDir dir("large-bad");
+  ScratchDir dir("rec-large-bad");
   writeText(dir.file("meta.json"), kGoodMeta);
   writeText(dir.file("table.csv"), kGoodTable);
   // Lines around the chunk boundaries for 2, 3 and 4 threads (halves, thirds, quarters).

@@ -18,29 +18,14 @@
 #include "plans/expand.h"
 #include "plans/plan.h"
 #include "plans/validator.h"
+#include "tests/daemon/recording_fixtures.h"
 
 namespace imubench::daemon {
 namespace {
 
 namespace fs = std::filesystem;
 
-class ScratchDir {
- public:
-  ScratchDir() {
-    const char* base = std::getenv("TMPDIR");
-    std::string templ = std::string(base != nullptr ? base : "/tmp") + "/imubench-explain-XXXXXX";
-    if (mkdtemp(templ.data()) == nullptr) ADD_FAILURE() << "mkdtemp " << templ << " failed";
-    path_ = templ;
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
-};
+using testing::ScratchDir;
 
 // The bundled direct two-axis plan simulated at 100 Hz with sensor errors and navigation-grade
 // noise, as a stored run would load.
@@ -82,9 +67,9 @@ OnlineSetup storedRun(const ScratchDir& dir, const io::Recording& rec) {
   RunStart start = runStartFromRecording(rec);
   start.plan_name = "direct-two-axis";
   start.bench_name = "bench-a";
-  const RunIdResult run = opened.store->importRecording(start, rec);
+  const RunIdResult run = opened.value->importRecording(start, rec);
   EXPECT_TRUE(run.status.ok) << run.status.message;
-  setup.run_id = run.run_id;
+  setup.run_id = run.value;
   setup.method = plans::CalibrationMethod::kDirect;
   setup.meta = rec;
   return setup;
@@ -96,7 +81,7 @@ const io::Recording& recording() {
 }
 
 TEST(RunExplain, FinalCalibrationStoresAnExplainReportFromItsOwnCoefficients) {
-  ScratchDir dir;
+  ScratchDir dir("explain");
   const OnlineSetup setup = storedRun(dir, recording());
   const FinalCalibration f = finalCalibration(setup);
   ASSERT_TRUE(f.ok) << f.error;
@@ -130,7 +115,7 @@ TEST(RunExplain, FinalCalibrationStoresAnExplainReportFromItsOwnCoefficients) {
 }
 
 TEST(RunExplain, AFailedAnalysisStoresNothingAndNotesWhyInTheVerdict) {
-  ScratchDir dir;
+  ScratchDir dir("explain");
   OnlineSetup setup = storedRun(dir, recording());
   // No hold of the plan is a day long: no noise floor, so no analysis.
   setup.explain.min_static_s = 86400.0;

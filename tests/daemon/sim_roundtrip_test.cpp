@@ -11,6 +11,7 @@
 #include "io/sim_recording.h"
 #include "io/truth_file.h"
 #include "plans/expand.h"
+#include "tests/daemon/recording_fixtures.h"
 
 namespace imubench::daemon {
 namespace {
@@ -25,9 +26,8 @@ fs::path freshDir(const std::string& name) {
   return p;
 }
 
-bool sameBits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof(double)) == 0;
-}
+using testing::imuMismatches;
+using testing::sameBits;
 
 // Two-axis: hold 3 s, inner +180 deg at 30 deg/s, hold 3 s, outer -90 deg, hold 3 s.
 calib::Motion shortMotion() {
@@ -77,20 +77,10 @@ TEST(SimulatedRecording, WriteReadIsBitExact) {
   ASSERT_TRUE(io::writeRecording(dir.string(), rec).ok);
   const auto back = io::readRecording(dir.string());
   ASSERT_TRUE(back.status.ok) << back.status.message;
-  const io::Recording& r = back.recording;
+  const io::Recording& r = back.value;
 
   ASSERT_EQ(r.imu.size(), sim.imu.size());
-  size_t mismatches = 0;
-  for (size_t i = 0; i < sim.imu.size(); ++i) {
-    const auto& a = sim.imu[i];
-    const auto& b = r.imu[i];
-    bool same = sameBits(a.t, b.t);
-    for (int k = 0; k < 3; ++k)
-      same = same && sameBits(a.dtheta[k], b.dtheta[k]) && sameBits(a.dvel[k], b.dvel[k]);
-    same = same && (std::isnan(a.temp_c) ? std::isnan(b.temp_c) : sameBits(a.temp_c, b.temp_c));
-    mismatches += same ? 0 : 1;
-  }
-  EXPECT_EQ(mismatches, 0u);
+  EXPECT_EQ(imuMismatches(sim.imu, r.imu), 0u);
   ASSERT_EQ(r.table.size(), rec.table.size());
   for (size_t i = 0; i < rec.table.size(); ++i) {
     EXPECT_TRUE(sameBits(r.table[i].t, rec.table[i].t));
@@ -126,7 +116,7 @@ TEST(SimulatedRecording, DerivedSegmentsMatchThePlanWhenSegmentsFileIsMissing) {
   ASSERT_TRUE(io::writeRecording(dir.string(), rec).ok);
   const auto back = io::readRecording(dir.string());
   ASSERT_TRUE(back.status.ok) << back.status.message;
-  const auto& segs = back.recording.segments;
+  const auto& segs = back.value.segments;
   ASSERT_EQ(segs.size(), 5u);
   const calib::SegmentKind kinds[] = {calib::SegmentKind::kStatic, calib::SegmentKind::kRotate,
                                       calib::SegmentKind::kStatic, calib::SegmentKind::kRotate,
@@ -155,7 +145,7 @@ TEST(TruthFile, RoundTripKeepsEveryCoefficient) {
   const auto r = io::readTruthFile(path);
   ASSERT_TRUE(r.status.ok) << r.status.message;
   const auto a = calib::flatValues(t);
-  const auto b = calib::flatValues(r.truth);
+  const auto b = calib::flatValues(r.value);
   ASSERT_EQ(a.size(), b.size());
   for (size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(sameBits(a[i], b[i])) << calib::flatNames(t)[i];
   fs::remove_all(dir);

@@ -20,73 +20,31 @@
 #include <random>
 #include <thread>
 
+#include "tests/daemon/recording_fixtures.h"
+
 namespace imubench::daemon {
 namespace {
 
+using testing::AwkwardDoubles;
+using testing::ScratchDir;
+
 namespace fs = std::filesystem;
-
-// A fresh mkdtemp directory under $TMPDIR (or /tmp), removed at the end of the test. Not a
-// pid-named path: concurrent user-mode-linux boots share /tmp and hand out the same pids.
-class ScratchDir {
- public:
-  ScratchDir() {
-    const char* base = std::getenv("TMPDIR");
-    std::string templ = std::string(base != nullptr ? base : "/tmp") + "/imubench-store-XXXXXX";
-    if (mkdtemp(templ.data()) == nullptr) ADD_FAILURE() << "mkdtemp " << templ << " failed";
-    path_ = templ;
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
-};
-
-bool sameBits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof(double)) == 0;
-}
 
 // Awkward doubles on purpose: random mantissas over many exponents, negative zero,
 // subnormals, extremes, NaN temperatures (not reported).
 io::Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::uniform_int_distribution<int> ex(-30, 5);
-  auto odd = [&]() { return std::ldexp(u(rng), ex(rng)); };
-  io::Recording rec;
-  rec.latitude_deg = 55.7558 + odd() * 1e-3;
-  rec.height_m = -0.0;
-  rec.gravity_mps2 = 9.8154321987654321;
-  rec.imu_serial = "SN-0042 \"test\", with comma";
-  rec.imu_rate_hz = 2000.0;
-  rec.table_kind = kind;
-  if (kind == calib::TableKind::kTwoAxis) rec.outer_axis_heading_deg = 90.0 + odd();
-  double t = 0.1 + 1.0 / 3.0;
-  for (size_t i = 0; i < n_imu; ++i) {
-    t += 1.0 / 2000.0;
-    nav::ImuSample s;
-    s.t = t;
-    s.dtheta = Vec3(odd(), odd(), odd());
-    s.dvel = Vec3(odd(), odd(), odd());
-    s.temp_c = (i % 7 == 3) ? std::numeric_limits<double>::quiet_NaN() : 25.0 + odd();
-    rec.imu.push_back(s);
-  }
-  rec.imu[1].dtheta.x() = -0.0;
-  rec.imu[2].dvel.y() = std::numeric_limits<double>::denorm_min();
-  rec.imu[3].dvel.z() = std::numeric_limits<double>::max();
-  rec.imu[4].dtheta.z() = -std::numeric_limits<double>::min();
+  AwkwardDoubles d(seed);
+  io::Recording rec =
+      testing::awkwardRecording(d, kind, n_imu, -0.0, "SN-0042 \"test\", with comma");
   rec.imu[5].dvel.x() = 3.0;  // integral: SQLite REAL affinity would store it as an integer
   for (int i = 0; i < 300; ++i) {
     io::TableSample s;
-    s.t = 0.01 * i + odd() * 1e-6;
-    for (int a = 0; a < 3; ++a) s.angles_deg[static_cast<size_t>(a)] = 180.0 * u(rng);
+    s.t = 0.01 * i + d.odd() * 1e-6;
+    for (int a = 0; a < 3; ++a) s.angles_deg[static_cast<size_t>(a)] = 180.0 * d.unit();
     rec.table.push_back(s);
   }
   rec.table[7].angles_deg[1] = -0.0;
-  for (int i = 0; i < 40; ++i) rec.chamber.push_back({0.1 * i + 1e-9, 25.0 + i, 24.5 + odd()});
+  for (int i = 0; i < 40; ++i) rec.chamber.push_back({0.1 * i + 1e-9, 25.0 + i, 24.5 + d.odd()});
   const double third = 1.0 / 3.0;
   rec.segments.push_back({0.5, 0.5 + third, calib::SegmentKind::kStatic, "static-1", true});
   rec.segments.push_back(
@@ -97,48 +55,15 @@ io::Recording makeRecording(unsigned seed, calib::TableKind kind, size_t n_imu) 
   return rec;
 }
 
-void expectSameRecording(const io::Recording& a, const io::Recording& b) {
-  EXPECT_TRUE(sameBits(a.latitude_deg, b.latitude_deg));
-  EXPECT_TRUE(sameBits(a.height_m, b.height_m));
-  ASSERT_EQ(a.gravity_mps2.has_value(), b.gravity_mps2.has_value());
-  EXPECT_TRUE(sameBits(a.gravity_mps2.value_or(0.0), b.gravity_mps2.value_or(0.0)));
-  EXPECT_EQ(a.imu_serial, b.imu_serial);
-  EXPECT_TRUE(sameBits(a.imu_rate_hz, b.imu_rate_hz));
-  EXPECT_EQ(a.table_kind, b.table_kind);
-  ASSERT_EQ(a.outer_axis_heading_deg.has_value(), b.outer_axis_heading_deg.has_value());
-  EXPECT_TRUE(
-      sameBits(a.outer_axis_heading_deg.value_or(0.0), b.outer_axis_heading_deg.value_or(0.0)));
+// Every field bit for bit: the store keeps segments_from_file and the segments' recording
+// flag, axis and angle too.
+void expectSameStored(const io::Recording& a, const io::Recording& b) {
   EXPECT_EQ(a.segments_from_file, b.segments_from_file);
-  ASSERT_EQ(a.imu.size(), b.imu.size());
-  for (size_t i = 0; i < a.imu.size(); ++i) {
-    const auto &x = a.imu[i], &y = b.imu[i];
-    bool same = sameBits(x.t, y.t) &&
-                (std::isnan(x.temp_c) ? std::isnan(y.temp_c) : sameBits(x.temp_c, y.temp_c));
-    for (int k = 0; k < 3; ++k)
-      same = same && sameBits(x.dtheta[k], y.dtheta[k]) && sameBits(x.dvel[k], y.dvel[k]);
-    ASSERT_TRUE(same) << "IMU sample " << i;
-  }
-  ASSERT_EQ(a.table.size(), b.table.size());
-  for (size_t i = 0; i < a.table.size(); ++i) {
-    bool same = sameBits(a.table[i].t, b.table[i].t);
-    for (size_t k = 0; k < 3; ++k)
-      same = same && sameBits(a.table[i].angles_deg[k], b.table[i].angles_deg[k]);
-    ASSERT_TRUE(same) << "table sample " << i;
-  }
-  ASSERT_EQ(a.chamber.size(), b.chamber.size());
-  for (size_t i = 0; i < a.chamber.size(); ++i) {
-    ASSERT_TRUE(sameBits(a.chamber[i].t, b.chamber[i].t) &&
-                sameBits(a.chamber[i].setpoint_c, b.chamber[i].setpoint_c) &&
-                sameBits(a.chamber[i].temp_c, b.chamber[i].temp_c))
-        << "chamber sample " << i;
-  }
+  testing::expectSameRecording(a, b);
   ASSERT_EQ(a.segments.size(), b.segments.size());
   for (size_t i = 0; i < a.segments.size(); ++i) {
     const auto &x = a.segments[i], &y = b.segments[i];
-    EXPECT_TRUE(sameBits(x.t0, y.t0) && sameBits(x.t1, y.t1) && sameBits(x.angle, y.angle))
-        << "segment " << i;
-    EXPECT_EQ(x.kind, y.kind);
-    EXPECT_EQ(x.label, y.label);
+    EXPECT_TRUE(testing::sameBits(x.angle, y.angle)) << "segment " << i;
     EXPECT_EQ(x.recording, y.recording);
     EXPECT_EQ(x.axis, y.axis);
   }
@@ -147,7 +72,7 @@ void expectSameRecording(const io::Recording& a, const io::Recording& b) {
 std::unique_ptr<Store> openOrFail(const std::string& path, const StoreOptions& options = {}) {
   auto r = Store::open(path, options);
   EXPECT_TRUE(r.status.ok) << r.status.message;
-  return std::move(r.store);
+  return std::move(r.value);
 }
 
 RunStart benchStart(const std::string& serial) {
@@ -163,7 +88,7 @@ RunStart benchStart(const std::string& serial) {
 }
 
 TEST(Store, ImportedRecordingLoadsBitExactAndExports) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
   for (auto kind : {calib::TableKind::kTwoAxis, calib::TableKind::kThreeAxis}) {
@@ -172,32 +97,31 @@ TEST(Store, ImportedRecordingLoadsBitExactAndExports) {
     start.plan_name = "imported";
     const RunIdResult run = store->importRecording(start, rec);
     ASSERT_TRUE(run.status.ok) << run.status.message;
-    const io::RecordingReadResult loaded = store->loadRecording(run.run_id);
+    const io::RecordingReadResult loaded = store->loadRecording(run.value);
     ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
-    expectSameRecording(rec, loaded.recording);
-    const RunInfoResult info = store->runInfo(run.run_id);
+    expectSameStored(rec, loaded.value);
+    const RunInfoResult info = store->runInfo(run.value);
     ASSERT_TRUE(info.status.ok);
-    EXPECT_EQ(info.run.state, RunState::kFinished);
-    EXPECT_EQ(info.run.start.plan_name, "imported");
+    EXPECT_EQ(info.value.state, RunState::kFinished);
+    EXPECT_EQ(info.value.start.plan_name, "imported");
     // The loaded value exports as imubench-csv/1.
-    const io::IoStatus st = io::writeRecording(dir.file("export"), loaded.recording);
+    const Status st = io::writeRecording(dir.file("export"), loaded.value);
     EXPECT_TRUE(st.ok) << st.message;
   }
 }
 
 TEST(Store, LiveRunThroughRunWriterLoadsBitExact) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
   const io::Recording rec = makeRecording(11, calib::TableKind::kTwoAxis, 5000);
   const RunIdResult run = store->beginRun(runStartFromRecording(rec));
   ASSERT_TRUE(run.status.ok) << run.status.message;
   {
-    RunWriter writer(*store, run.run_id);
+    RunWriter writer(*store, run.value);
     const std::span<const nav::ImuSample> imu(rec.imu);
     for (size_t i = 0; i < imu.size(); i += 37) {
-      const io::IoStatus st =
-          writer.appendImu(imu.subspan(i, std::min<size_t>(37, imu.size() - i)));
+      const Status st = writer.appendImu(imu.subspan(i, std::min<size_t>(37, imu.size() - i)));
       ASSERT_TRUE(st.ok) << st.message;
       // Time-based flushing keeps the buffer at about max_unflushed_s of samples.
       EXPECT_LE(writer.bufferedRows(), 1100u);
@@ -205,18 +129,18 @@ TEST(Store, LiveRunThroughRunWriterLoadsBitExact) {
     ASSERT_TRUE(writer.appendTable(rec.table).ok);
     ASSERT_TRUE(writer.appendChamber(rec.chamber).ok);
     for (const auto& s : rec.segments) ASSERT_TRUE(writer.appendSegment(s).ok);
-    const io::IoStatus st = writer.flush();
+    const Status st = writer.flush();
     ASSERT_TRUE(st.ok) << st.message;
     EXPECT_EQ(writer.bufferedRows(), 0u);
   }
-  ASSERT_TRUE(store->finishRun(run.run_id, RunState::kFinished, "plan complete").ok);
-  const io::RecordingReadResult loaded = store->loadRecording(run.run_id);
+  ASSERT_TRUE(store->finishRun(run.value, RunState::kFinished, "plan complete").ok);
+  const io::RecordingReadResult loaded = store->loadRecording(run.value);
   ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
-  expectSameRecording(rec, loaded.recording);
+  expectSameStored(rec, loaded.value);
 }
 
 TEST(Store, DatabaseIsWalWithSchemaVersion) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   const std::string path = dir.file("bench.db");
   ASSERT_TRUE(openOrFail(path));
   sqlite3* db = nullptr;
@@ -234,73 +158,73 @@ TEST(Store, DatabaseIsWalWithSchemaVersion) {
 }
 
 TEST(Store, RunLifeCycleEventsAndResults) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
   const auto a = store->beginRun(benchStart("SN-A"));
   const auto b = store->beginRun(benchStart("SN-B"));
   const auto c = store->beginRun(benchStart("SN-A"));
   ASSERT_TRUE(a.status.ok && b.status.ok && c.status.ok);
-  ASSERT_TRUE(store->finishRun(a.run_id, RunState::kFinished, "done").ok);
-  ASSERT_TRUE(store->finishRun(b.run_id, RunState::kFaulted, "table overtemperature").ok);
-  const io::IoStatus again = store->finishRun(a.run_id, RunState::kAborted, "x");
+  ASSERT_TRUE(store->finishRun(a.value, RunState::kFinished, "done").ok);
+  ASSERT_TRUE(store->finishRun(b.value, RunState::kFaulted, "table overtemperature").ok);
+  const Status again = store->finishRun(a.value, RunState::kAborted, "x");
   EXPECT_FALSE(again.ok);
   EXPECT_NE(again.message.find("is finished, not running"), std::string::npos) << again.message;
-  EXPECT_FALSE(store->finishRun(c.run_id, RunState::kRunning, "x").ok);
+  EXPECT_FALSE(store->finishRun(c.value, RunState::kRunning, "x").ok);
 
   const CountResult marked = store->markInterruptedRuns();
   ASSERT_TRUE(marked.status.ok) << marked.status.message;
-  EXPECT_EQ(marked.count, 1);
+  EXPECT_EQ(marked.value, 1);
   const RunListResult runs = store->listRuns();
   ASSERT_TRUE(runs.status.ok);
-  ASSERT_EQ(runs.runs.size(), 3u);
-  EXPECT_EQ(runs.runs[0].state, RunState::kFinished);
-  EXPECT_EQ(runs.runs[1].state, RunState::kFaulted);
-  EXPECT_EQ(runs.runs[1].exit_reason, "table overtemperature");
-  EXPECT_TRUE(runs.runs[1].finished_unix_s.has_value());
-  EXPECT_EQ(runs.runs[2].state, RunState::kInterrupted);
-  EXPECT_EQ(runs.runs[2].start.plan_toml, benchStart("").plan_toml);
-  const EventListResult events = store->events(c.run_id);
+  ASSERT_EQ(runs.value.size(), 3u);
+  EXPECT_EQ(runs.value[0].state, RunState::kFinished);
+  EXPECT_EQ(runs.value[1].state, RunState::kFaulted);
+  EXPECT_EQ(runs.value[1].exit_reason, "table overtemperature");
+  EXPECT_TRUE(runs.value[1].finished_unix_s.has_value());
+  EXPECT_EQ(runs.value[2].state, RunState::kInterrupted);
+  EXPECT_EQ(runs.value[2].start.plan_toml, benchStart("").plan_toml);
+  const EventListResult events = store->events(c.value);
   ASSERT_TRUE(events.status.ok);
-  ASSERT_EQ(events.events.size(), 1u);
-  EXPECT_EQ(events.events[0].kind, "interrupted");
-  EXPECT_EQ(events.events[0].severity, EventSeverity::kWarning);
-  EXPECT_EQ(store->markInterruptedRuns().count, 0);
-  const EventListResult faulted = store->events(b.run_id);
+  ASSERT_EQ(events.value.size(), 1u);
+  EXPECT_EQ(events.value[0].kind, "interrupted");
+  EXPECT_EQ(events.value[0].severity, EventSeverity::kWarning);
+  EXPECT_EQ(store->markInterruptedRuns().value, 0);
+  const EventListResult faulted = store->events(b.value);
   ASSERT_TRUE(faulted.status.ok);
-  ASSERT_EQ(faulted.events.size(), 1u);
-  EXPECT_EQ(faulted.events[0].kind, "run-end");
-  EXPECT_EQ(faulted.events[0].severity, EventSeverity::kError);
-  EXPECT_NE(faulted.events[0].json.find("table overtemperature"), std::string::npos);
+  ASSERT_EQ(faulted.value.size(), 1u);
+  EXPECT_EQ(faulted.value[0].kind, "run-end");
+  EXPECT_EQ(faulted.value[0].severity, EventSeverity::kError);
+  EXPECT_NE(faulted.value[0].json.find("table overtemperature"), std::string::npos);
 
-  EXPECT_TRUE(store->addEvent({a.run_id, 1.0, EventSeverity::kInfo, "note", "{\"x\": 1}"}).ok);
-  EXPECT_FALSE(store->addEvent({a.run_id, 1.0, EventSeverity::kInfo, "note", "{x"}).ok);
+  EXPECT_TRUE(store->addEvent({a.value, 1.0, EventSeverity::kInfo, "note", "{\"x\": 1}"}).ok);
+  EXPECT_FALSE(store->addEvent({a.value, 1.0, EventSeverity::kInfo, "note", "{x"}).ok);
 
-  ASSERT_TRUE(store->storeResult(a.run_id, "SN-A", 25.0, "coefficients", "{\"b\": 1}").status.ok);
-  ASSERT_TRUE(store->storeResult(b.run_id, "SN-B", 25.0, "coefficients", "{}").status.ok);
-  ASSERT_TRUE(store->storeResult(c.run_id, "SN-A", -10.0, "report", "[1, 2]").status.ok);
-  EXPECT_FALSE(store->storeResult(a.run_id, "SN-A", 25.0, "report", "not json").status.ok);
+  ASSERT_TRUE(store->storeResult(a.value, "SN-A", 25.0, "coefficients", "{\"b\": 1}").status.ok);
+  ASSERT_TRUE(store->storeResult(b.value, "SN-B", 25.0, "coefficients", "{}").status.ok);
+  ASSERT_TRUE(store->storeResult(c.value, "SN-A", -10.0, "report", "[1, 2]").status.ok);
+  EXPECT_FALSE(store->storeResult(a.value, "SN-A", 25.0, "report", "not json").status.ok);
   EXPECT_FALSE(store->storeResult(99, "SN-A", 25.0, "report", "{}").status.ok);
   const ResultListResult by_serial = store->results({std::string("SN-A"), std::nullopt});
   ASSERT_TRUE(by_serial.status.ok);
-  ASSERT_EQ(by_serial.results.size(), 2u);
-  EXPECT_EQ(by_serial.results[1].kind, "report");
-  EXPECT_EQ(by_serial.results[1].json, "[1, 2]");
-  EXPECT_EQ(by_serial.results[1].temperature_c, -10.0);
-  EXPECT_EQ(store->results({std::nullopt, b.run_id}).results.size(), 1u);
-  EXPECT_EQ(store->results().results.size(), 3u);
+  ASSERT_EQ(by_serial.value.size(), 2u);
+  EXPECT_EQ(by_serial.value[1].kind, "report");
+  EXPECT_EQ(by_serial.value[1].json, "[1, 2]");
+  EXPECT_EQ(by_serial.value[1].temperature_c, -10.0);
+  EXPECT_EQ(store->results({std::nullopt, b.value}).value.size(), 1u);
+  EXPECT_EQ(store->results().value.size(), 3u);
 }
 
 // Crash resume: an interrupted run names its last stored sample, resumes from the last
 // step_finished event, and its writer continues after the stored rows (never before them).
 TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
   const auto run = store->beginRun(benchStart("SN-R"));
   ASSERT_TRUE(run.status.ok);
   {
-    RunWriter w(*store, run.run_id);
+    RunWriter w(*store, run.value);
     nav::ImuSamples imu(10);
     for (std::size_t i = 0; i < imu.size(); ++i) imu[i].t = 0.1 * static_cast<double>(i + 1);
     ASSERT_TRUE(w.appendImu(imu).ok);
@@ -312,19 +236,19 @@ TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
     ASSERT_TRUE(w.flush().ok);
   }
   for (int step : {0, 1}) {
-    RunEvent e{run.run_id, 1.0, EventSeverity::kInfo, "step_finished",
+    RunEvent e{run.value, 1.0, EventSeverity::kInfo, "step_finished",
                "{\"step\":" + std::to_string(step) + "}"};
     ASSERT_TRUE(store->addEvent(e).ok);
   }
-  EXPECT_FALSE(store->resumeRun(run.run_id).ok) << "a running run is not resumable";
-  ASSERT_EQ(store->markInterruptedRuns().count, 1);
-  const RunInfoResult info = store->runInfo(run.run_id);
+  EXPECT_FALSE(store->resumeRun(run.value).ok) << "a running run is not resumable";
+  ASSERT_EQ(store->markInterruptedRuns().value, 1);
+  const RunInfoResult info = store->runInfo(run.value);
   ASSERT_TRUE(info.status.ok);
-  EXPECT_EQ(info.run.state, RunState::kInterrupted);
-  EXPECT_NE(info.run.exit_reason.find("last stored sample at t = 1.0"), std::string::npos)
-      << info.run.exit_reason;
+  EXPECT_EQ(info.value.state, RunState::kInterrupted);
+  EXPECT_NE(info.value.exit_reason.find("last stored sample at t = 1.0"), std::string::npos)
+      << info.value.exit_reason;
 
-  const ResumePoint point = store->resumePoint(run.run_id);
+  const ResumePoint point = store->resumePoint(run.value);
   ASSERT_TRUE(point.status.ok) << point.status.message;
   EXPECT_EQ(point.last_finished_step, 1);
   ASSERT_TRUE(point.last_imu_t && point.last_segment_t1);
@@ -332,10 +256,10 @@ TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
   EXPECT_DOUBLE_EQ(*point.last_segment_t1, 0.5);
   EXPECT_FALSE(point.last_table_t);
 
-  const io::IoStatus resumed = store->resumeRun(run.run_id);
+  const Status resumed = store->resumeRun(run.value);
   ASSERT_TRUE(resumed.ok) << resumed.message;
-  EXPECT_FALSE(store->resumeRun(run.run_id).ok) << "resumed twice";
-  RunWriter w(*store, run.run_id, point);
+  EXPECT_FALSE(store->resumeRun(run.value).ok) << "resumed twice";
+  RunWriter w(*store, run.value, point);
   nav::ImuSample old;
   old.t = 1.0;
   EXPECT_FALSE(w.appendImu(std::span(&old, 1)).ok) << "a row at the stored end is refused";
@@ -343,23 +267,23 @@ TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
   next.t = 5.0;
   ASSERT_TRUE(w.appendImu(std::span(&next, 1)).ok);
   ASSERT_TRUE(w.flush().ok);
-  ASSERT_TRUE(store->finishRun(run.run_id, RunState::kFinished, "completed").ok);
-  const auto rec = store->loadRecording(run.run_id);
+  ASSERT_TRUE(store->finishRun(run.value, RunState::kFinished, "completed").ok);
+  const auto rec = store->loadRecording(run.value);
   ASSERT_TRUE(rec.status.ok);
-  EXPECT_EQ(rec.recording.imu.size(), 11u);
-  const EventListResult events = store->events(run.run_id);
+  EXPECT_EQ(rec.value.imu.size(), 11u);
+  const EventListResult events = store->events(run.value);
   ASSERT_TRUE(events.status.ok);
   bool saw_resumed = false;
-  for (const RunEvent& e : events.events) saw_resumed = saw_resumed || e.kind == "resumed";
+  for (const RunEvent& e : events.value) saw_resumed = saw_resumed || e.kind == "resumed";
   EXPECT_TRUE(saw_resumed);
 }
 
 TEST(Store, UnknownRunIsAnError) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
   const std::string missing = "run 42 not found";
-  auto expectMissing = [&](const io::IoStatus& st) {
+  auto expectMissing = [&](const Status& st) {
     EXPECT_FALSE(st.ok);
     EXPECT_NE(st.message.find(missing), std::string::npos) << st.message;
   };
@@ -377,16 +301,16 @@ TEST(Store, UnknownRunIsAnError) {
 }
 
 TEST(Store, NonFiniteAndUnorderedSamplesAreRefusedWithTheirIndex) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
   const auto run = store->beginRun(benchStart("SN-A"));
   ASSERT_TRUE(run.status.ok);
-  RunWriter writer(*store, run.run_id);
+  RunWriter writer(*store, run.value);
   nav::ImuSamples imu(6);
   for (size_t i = 0; i < imu.size(); ++i) imu[i].t = 0.001 * static_cast<double>(i + 1);
   imu[3].dvel.y() = std::numeric_limits<double>::quiet_NaN();
-  io::IoStatus st = writer.appendImu(imu);
+  Status st = writer.appendImu(imu);
   EXPECT_FALSE(st.ok);
   EXPECT_NE(st.message.find("IMU sample 3 has a non-finite value"), std::string::npos)
       << st.message;
@@ -407,18 +331,18 @@ TEST(Store, NonFiniteAndUnorderedSamplesAreRefusedWithTheirIndex) {
       << st.message;
   RunBatch batch;
   batch.chamber = {{0.0, 20.0, 20.0}, {1.0, std::nan(""), 20.0}};
-  st = store->appendBatch(run.run_id, batch);
+  st = store->appendBatch(run.value, batch);
   EXPECT_NE(st.message.find("chamber sample 1 has a non-finite value"), std::string::npos)
       << st.message;
   ASSERT_TRUE(writer.flush().ok);
-  const auto loaded = store->loadRecording(run.run_id);
+  const auto loaded = store->loadRecording(run.value);
   ASSERT_TRUE(loaded.status.ok);
-  EXPECT_EQ(loaded.recording.imu.size(), 6u);
-  EXPECT_TRUE(std::isnan(loaded.recording.imu[4].temp_c));
+  EXPECT_EQ(loaded.value.imu.size(), 6u);
+  EXPECT_TRUE(std::isnan(loaded.value.imu[4].temp_c));
 }
 
 TEST(Store, CorruptFileIsRefusedNamingThePath) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   const std::string path = dir.file("garbage.db");
   {
     std::mt19937 rng(3);
@@ -427,7 +351,7 @@ TEST(Store, CorruptFileIsRefusedNamingThePath) {
   }
   const auto r = Store::open(path);
   EXPECT_FALSE(r.status.ok);
-  EXPECT_FALSE(r.store);
+  EXPECT_FALSE(r.value);
   EXPECT_EQ(r.status.message.rfind(path + ": ", 0), 0u) << r.status.message;
   EXPECT_NE(r.status.message.find("not an SQLite database"), std::string::npos) << r.status.message;
   std::cout << "corrupt file: " << r.status.message << "\n";
@@ -439,7 +363,7 @@ TEST(Store, CorruptFileIsRefusedNamingThePath) {
 }
 
 TEST(Store, ForeignDatabaseAndNewerSchemaAreRefused) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   const std::string foreign = dir.file("foreign.db");
   const std::string newer = dir.file("newer.db");
   ASSERT_TRUE(openOrFail(newer));
@@ -473,33 +397,33 @@ std::vector<std::string> queueNames(Store& store) {
   const QueueListResult list = store.queueList();
   EXPECT_TRUE(list.status.ok) << list.status.message;
   std::vector<std::string> names;
-  for (const QueueEntry& e : list.entries) names.push_back(e.plan_name);
+  for (const QueueEntry& e : list.value) names.push_back(e.plan_name);
   return names;
 }
 
 // Issue 15: the plan queue: add (at the end), list (in order), move, remove, and all of it
 // still there after the store is closed and opened again.
 TEST(StoreQueue, AddListMoveRemoveAndPersistAcrossReopen) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   const std::string path = dir.file("bench.db");
   std::vector<std::int64_t> ids;
   {
     auto store = openOrFail(path);
     ASSERT_TRUE(store);
-    EXPECT_TRUE(store->queueList().entries.empty());
+    EXPECT_TRUE(store->queueList().value.empty());
     for (const char* name : {"a", "b", "c", "d"}) {
       const QueueAddResult r = store->queueAdd(queued(name, std::string("label ") + name));
       ASSERT_TRUE(r.status.ok) << r.status.message;
-      EXPECT_EQ(r.position, static_cast<int>(ids.size()) + 1);
-      ids.push_back(r.entry_id);
+      EXPECT_EQ(r.value.position, static_cast<int>(ids.size()) + 1);
+      ids.push_back(r.value.entry_id);
     }
     EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"a", "b", "c", "d"}));
     const QueueListResult list = store->queueList();
-    EXPECT_EQ(list.entries[1].id, ids[1]);
-    EXPECT_EQ(list.entries[1].source, "/home/op/b.toml");
-    EXPECT_EQ(list.entries[1].plan_toml, "[plan]\nname = \"b\"\n");
-    EXPECT_EQ(list.entries[1].label, "label b");
-    EXPECT_GT(list.entries[1].added_unix_s, 1.6e9);
+    EXPECT_EQ(list.value[1].id, ids[1]);
+    EXPECT_EQ(list.value[1].source, "/home/op/b.toml");
+    EXPECT_EQ(list.value[1].plan_toml, "[plan]\nname = \"b\"\n");
+    EXPECT_EQ(list.value[1].label, "label b");
+    EXPECT_GT(list.value[1].added_unix_s, 1.6e9);
 
     ASSERT_TRUE(store->queueMove(ids[3], 1).ok);  // d to the head
     EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"d", "a", "b", "c"}));
@@ -529,14 +453,14 @@ TEST(StoreQueue, AddListMoveRemoveAndPersistAcrossReopen) {
   ASSERT_TRUE(store->queueRemove(ids[3]).ok);
   const QueueAddResult e = store->queueAdd(queued("e"));
   ASSERT_TRUE(e.status.ok);
-  EXPECT_GT(e.entry_id, ids[3]);
-  EXPECT_EQ(e.position, 3);
+  EXPECT_GT(e.value.entry_id, ids[3]);
+  EXPECT_EQ(e.value.position, 3);
   EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"c", "a", "e"}));
 }
 
 // A version 1 database (before the queue) is migrated when opened; its runs stay.
 TEST(StoreQueue, Version1DatabaseIsMigrated) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   const std::string path = dir.file("v1.db");
   {
     auto store = openOrFail(path);
@@ -551,7 +475,7 @@ TEST(StoreQueue, Version1DatabaseIsMigrated) {
   sqlite3_close(db);
   auto store = openOrFail(path);
   ASSERT_TRUE(store);
-  EXPECT_EQ(store->listRuns().runs.size(), 1u);
+  EXPECT_EQ(store->listRuns().value.size(), 1u);
   ASSERT_TRUE(store->queueAdd(queued("a")).status.ok);
   EXPECT_EQ(queueNames(*store), (std::vector<std::string>{"a"}));
   store.reset();
@@ -571,7 +495,7 @@ TEST(Store, OptionsAndRunStartAreValidated) {
   o.max_unflushed_s = 0.0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("max_unflushed_s"), std::string::npos);
-  ScratchDir dir;
+  ScratchDir dir("store");
   EXPECT_FALSE(Store::open(dir.file("bench.db"), o).status.ok);
   auto store = openOrFail(dir.file("bench.db"));
   ASSERT_TRUE(store);
@@ -625,9 +549,9 @@ bool readProgress(int fd, double* t) {
 [[noreturn]] void crashWriterChild(const std::string& path, int progress_fd) {
   auto opened = Store::open(path);
   if (!opened.status.ok) _exit(2);
-  const auto run = opened.store->beginRun(benchStart("KILL-9"));
+  const auto run = opened.value->beginRun(benchStart("KILL-9"));
   if (!run.status.ok) _exit(3);
-  RunWriter writer(*opened.store, run.run_id);
+  RunWriter writer(*opened.value, run.value);
   std::vector<nav::ImuSample> batch(20);
   const auto start = std::chrono::steady_clock::now();
   long k = 0;
@@ -650,19 +574,19 @@ struct CrashOutcome {
 void checkAfterKill(const std::string& path, int expected_runs, CrashOutcome* out) {
   auto store = openOrFail(path);
   ASSERT_TRUE(store);
-  const io::IoStatus integrity = store->integrityCheck();
+  const Status integrity = store->integrityCheck();
   ASSERT_TRUE(integrity.ok) << integrity.message;
   const CountResult marked = store->markInterruptedRuns();
   ASSERT_TRUE(marked.status.ok) << marked.status.message;
-  EXPECT_EQ(marked.count, 1);
+  EXPECT_EQ(marked.value, 1);
   const RunListResult runs = store->listRuns();
   ASSERT_TRUE(runs.status.ok);
-  ASSERT_EQ(static_cast<int>(runs.runs.size()), expected_runs);
-  const RunInfo& run = runs.runs.back();
+  ASSERT_EQ(static_cast<int>(runs.value.size()), expected_runs);
+  const RunInfo& run = runs.value.back();
   EXPECT_EQ(run.state, RunState::kInterrupted);
   const io::RecordingReadResult loaded = store->loadRecording(run.id);
   ASSERT_TRUE(loaded.status.ok) << loaded.status.message;
-  const nav::ImuSamples& imu = loaded.recording.imu;
+  const nav::ImuSamples& imu = loaded.value.imu;
   ASSERT_FALSE(imu.empty());
   for (size_t i = 0; i < imu.size(); ++i) {
     const nav::ImuSample want = crashSample(static_cast<long>(i + 1));
@@ -673,7 +597,7 @@ void checkAfterKill(const std::string& path, int expected_runs, CrashOutcome* ou
 }
 
 TEST(StoreCrash, KillNineLosesAtMostOneSecondOfSamples) {
-  ScratchDir dir;
+  ScratchDir dir("store");
   const std::string path = dir.file("bench.db");
   std::mt19937 rng(::testing::UnitTest::GetInstance()->random_seed());
   std::uniform_real_distribution<double> kill_after_s(2.0, 3.0);

@@ -32,30 +32,9 @@ PY
 )"
 [ "$ORDER" = high-first ] || { echo "test expects a high-first word order"; exit 1; }
 
-OUT=$(mktemp -d)
-"$BENCH" --table "$TABLE" --chamber "$CHAMBER" --table-port 0 --chamber-port 0 \
-  --time-scale 20 >"$OUT/stdout" 2>"$OUT/stderr" &
-PID=$!
-cleanup() {
-  kill "$PID" 2>/dev/null || true
-  wait "$PID" 2>/dev/null || true
-  rm -rf "$OUT"
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*"
-  echo "--- virtual bench stdout"; cat "$OUT/stdout"
-  echo "--- virtual bench stderr"; cat "$OUT/stderr"
-  exit 1
-}
-
-# Wait (deadline 30 s) for the bench to announce its servers.
-for _ in $(seq 300); do
-  grep -q '^ready' "$OUT/stdout" && break
-  kill -0 "$PID" 2>/dev/null || fail "virtual bench exited"
-  sleep 0.1
-done
-grep -q '^ready' "$OUT/stdout" || fail "virtual bench not ready after 30 s"
+. "$(dirname "$0")/virtual_bench_lib.sh"
+start_virtual_bench "$BENCH" --table "$TABLE" --chamber "$CHAMBER" --table-port 0 \
+  --chamber-port 0 --time-scale 20
 PORT=$(sed -n 's/^table modbus-tcp [0-9.]*:\([0-9]*\) .*/\1/p' "$OUT/stdout")
 [ -n "$PORT" ] || fail "no table port announced"
 echo "virtual table on 127.0.0.1:$PORT"

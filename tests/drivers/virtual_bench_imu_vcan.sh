@@ -7,29 +7,10 @@
 set -euo pipefail
 BENCH=$1
 DEV=$2
-OUT=$(mktemp -d)
-"$BENCH" --table "$DEV/tables/imubench-ref-2axis-tcp.toml" \
+. "$(dirname "$0")/virtual_bench_lib.sh"
+start_virtual_bench "$BENCH" --table "$DEV/tables/imubench-ref-2axis-tcp.toml" \
   --chamber "$DEV/chambers/generic-float-chamber.toml" --table-port 0 --chamber-port 0 \
-  --imu "$DEV/imus/sbg_ecan.toml" --can vcan0 --time-scale 1 >"$OUT/stdout" 2>"$OUT/stderr" &
-PID=$!
-cleanup() {
-  kill "$PID" 2>/dev/null || true
-  wait "$PID" 2>/dev/null || true
-  rm -rf "$OUT"
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*"
-  echo "--- stdout"; cat "$OUT/stdout"
-  echo "--- stderr"; cat "$OUT/stderr"
-  exit 1
-}
-for _ in $(seq 300); do
-  grep -q '^ready' "$OUT/stdout" && break
-  kill -0 "$PID" 2>/dev/null || fail "virtual bench exited"
-  sleep 0.1
-done
-grep -q '^ready' "$OUT/stdout" || fail "virtual bench not ready after 30 s"
+  --imu "$DEV/imus/sbg_ecan.toml" --can vcan0 --time-scale 1
 cat "$OUT/stdout"
 # candump: stop after 600 frames, or after 5 s without any frame.
 candump -n 600 -T 5000 vcan0 >"$OUT/dump" || true

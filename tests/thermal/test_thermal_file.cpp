@@ -55,13 +55,14 @@ TEST(ThermalFile, JsonRoundTripIsExact) {
   ASSERT_TRUE(writeThermalFile(path, f).ok);
   const ThermalFileResult r = readThermalFile(path);
   ASSERT_TRUE(r.status.ok) << r.status.message;
-  EXPECT_EQ(r.file.imu_serial, "IMU-42");
-  EXPECT_EQ(r.file.coefficients.t_ref_c, f.coefficients.t_ref_c);
-  EXPECT_EQ(r.file.coefficients.t_min_c, f.coefficients.t_min_c);
-  EXPECT_EQ(r.file.coefficients.t_max_c, f.coefficients.t_max_c);
+  EXPECT_EQ(r.value.imu_serial, "IMU-42");
+  EXPECT_EQ(r.value.coefficients.t_ref_c, f.coefficients.t_ref_c);
+  EXPECT_EQ(r.value.coefficients.t_min_c, f.coefficients.t_min_c);
+  EXPECT_EQ(r.value.coefficients.t_max_c, f.coefficients.t_max_c);
   for (int i = 0; i < m::kTriadSize; ++i) {
-    expectSame(r.file.coefficients.accel[i], f.coefficients.accel[i], "accel " + std::to_string(i));
-    expectSame(r.file.coefficients.gyro[i], f.coefficients.gyro[i], "gyro " + std::to_string(i));
+    expectSame(r.value.coefficients.accel[i], f.coefficients.accel[i],
+               "accel " + std::to_string(i));
+    expectSame(r.value.coefficients.gyro[i], f.coefficients.gyro[i], "gyro " + std::to_string(i));
   }
   // The interchange shape: misalignments by name, biases with dTdt, scales without.
   const nlohmann::json j = toJson(f);

@@ -161,7 +161,7 @@ class FakeDaemon {
   std::vector<json> requests_;
   EventLoop loop_;
   std::unique_ptr<ControlServer> server_;
-  io::IoStatus start_;
+  Status start_;
   std::thread thread_;
 };
 

@@ -9,11 +9,7 @@ namespace imubench::calib::model::effects {
 
 struct AccelDelay {
   static constexpr EffectId kId = EffectId::kAccelDelay;
-  static constexpr const char* kName = "accel_delay";
   static constexpr int kTau = 0;  // tau_s, 1
-  static constexpr std::array<ParamSpec, 1> kParams{{{"tau_s", ParamShape::kScalar, "s"}}};
-  static constexpr Stage kStage = Stage::kTime;
-  static constexpr const char* kTerm = "accelerometer physics sampled at t_gyro - tau_s";
 
   // Physics time of the accelerometers for the gyros' physics time t_gyro.
   template <typename T>

@@ -13,18 +13,10 @@ namespace imubench::calib::model::effects {
 
 struct AngleHarmonic {
   static constexpr EffectId kId = EffectId::kAngleHarmonic;
-  static constexpr const char* kName = "angle_harmonic";
   static constexpr int kAxis = 0;   // axis, 1 (kTableAxisOuter / Middle / Inner)
   static constexpr int kOrder = 1;  // order, 1
   static constexpr int kCos = 2;    // cos_rad, 1
   static constexpr int kSin = 3;    // sin_rad, 1
-  static constexpr std::array<ParamSpec, 4> kParams{
-      {{"axis", ParamShape::kScalar, "", ParamKind::kTableAxis},
-       {"order", ParamShape::kScalar, "", ParamKind::kInteger},
-       {"cos_rad", ParamShape::kScalar, "rad"},
-       {"sin_rad", ParamShape::kScalar, "rad"}}};
-  static constexpr Stage kStage = Stage::kAngle;
-  static constexpr const char* kTerm = "angle = encoder + cos_rad cos(k a) + sin_rad sin(k a)";
 
   // The true joint state of the axis from its encoder angle, rate and acceleration (the
   // caller picks the axis by p[kAxis]).

@@ -9,13 +9,8 @@ namespace imubench::calib::model::effects {
 
 struct BaseTilt {
   static constexpr EffectId kId = EffectId::kBaseTilt;
-  static constexpr const char* kName = "base_tilt";
   static constexpr int kX = 0;  // x, 1
   static constexpr int kY = 1;  // y, 1
-  static constexpr std::array<ParamSpec, 2> kParams{
-      {{"x", ParamShape::kScalar, "rad"}, {"y", ParamShape::kScalar, "rad"}}};
-  static constexpr Stage kStage = Stage::kTable;
-  static constexpr const char* kTerm = "table base_tilt += (x, y)";
 
   // Adds the errors to the chain's axes and device blocks (kTableAxesSize, kTableDeviceSize).
   template <typename T>

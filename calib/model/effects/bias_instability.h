@@ -15,15 +15,9 @@ namespace imubench::calib::model::effects {
 
 struct BiasInstability {
   static constexpr EffectId kId = EffectId::kBiasInstability;
-  static constexpr const char* kName = "bias_instability";
   static constexpr int kAccel = 0;  // accel, 3
   static constexpr int kGyro = 3;   // gyro, 3
   static constexpr int kTau = 6;    // tau_s, 1
-  static constexpr std::array<ParamSpec, 3> kParams{{{"accel", ParamShape::kVec3, "m/s^2"},
-                                                     {"gyro", ParamShape::kVec3, "rad/s"},
-                                                     {"tau_s", ParamShape::kScalar, "s"}}};
-  static constexpr Stage kStage = Stage::kNoise;
-  static constexpr const char* kTerm = "Gauss-Markov bias drift, Allan maximum B at tau_s";
 
   // Maximum of sigma_A / sigma over x = tau / T_c and where it occurs (golden-section search
   // of the formula above to 1e-15).

@@ -9,15 +9,9 @@ namespace imubench::calib::model::effects {
 
 struct EncoderZero {
   static constexpr EffectId kId = EffectId::kEncoderZero;
-  static constexpr const char* kName = "encoder_zero";
   static constexpr int kOuter = 0;   // outer, 1
   static constexpr int kMiddle = 1;  // middle, 1
   static constexpr int kInner = 2;   // inner, 1
-  static constexpr std::array<ParamSpec, 3> kParams{{{"outer", ParamShape::kScalar, "rad"},
-                                                     {"middle", ParamShape::kScalar, "rad"},
-                                                     {"inner", ParamShape::kScalar, "rad"}}};
-  static constexpr Stage kStage = Stage::kTable;
-  static constexpr const char* kTerm = "table encoder_zero += (outer, middle, inner)";
 
   template <typename T>
   static void addTo(const T* p, T* /*axes*/, T* device) {

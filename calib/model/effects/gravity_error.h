@@ -8,11 +8,7 @@ namespace imubench::calib::model::effects {
 
 struct GravityError {
   static constexpr EffectId kId = EffectId::kGravityError;
-  static constexpr const char* kName = "gravity_error";
   static constexpr int kDG = 0;  // dg_mps2, 1
-  static constexpr std::array<ParamSpec, 1> kParams{{{"dg_mps2", ParamShape::kScalar, "m/s^2"}}};
-  static constexpr Stage kStage = Stage::kSite;
-  static constexpr const char* kTerm = "gravity = assumed + dg_mps2";
 
   template <typename T>
   static T gravity(const T* p, const T& assumed_mps2) {

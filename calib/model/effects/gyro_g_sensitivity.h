@@ -8,11 +8,7 @@ namespace imubench::calib::model::effects {
 
 struct GyroGSensitivity {
   static constexpr EffectId kId = EffectId::kGyroGSensitivity;
-  static constexpr const char* kName = "gyro_g_sensitivity";
   static constexpr int kG = 0;  // G, 9, row-major
-  static constexpr std::array<ParamSpec, 1> kParams{{{"G", ParamShape::kMat3, "rad/s/(m/s^2)"}}};
-  static constexpr Stage kStage = Stage::kBodyInput;
-  static constexpr const char* kTerm = "w += G f";
 
   template <typename T>
   static Vec3T<T> rateTerm(const T* p, const Vec3T<T>& f_B) {

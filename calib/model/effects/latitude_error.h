@@ -8,11 +8,7 @@ namespace imubench::calib::model::effects {
 
 struct LatitudeError {
   static constexpr EffectId kId = EffectId::kLatitudeError;
-  static constexpr const char* kName = "latitude_error";
   static constexpr int kDLat = 0;  // dlat_rad, 1
-  static constexpr std::array<ParamSpec, 1> kParams{{{"dlat_rad", ParamShape::kScalar, "rad"}}};
-  static constexpr Stage kStage = Stage::kSite;
-  static constexpr const char* kTerm = "latitude = assumed + dlat_rad";
 
   template <typename T>
   static T latitude(const T* p, const T& assumed_rad) {

@@ -11,11 +11,7 @@ namespace imubench::calib::model::effects {
 
 struct LeverArm {
   static constexpr EffectId kId = EffectId::kLeverArm;
-  static constexpr const char* kName = "lever_arm";
   static constexpr int kR = 0;  // r_m, 3
-  static constexpr std::array<ParamSpec, 1> kParams{{{"r_m", ParamShape::kVec3, "m"}}};
-  static constexpr Stage kStage = Stage::kBodyInput;
-  static constexpr const char* kTerm = "f += w' x r + w x (w x r), w = w_LB_B";
 
   template <typename T>
   static void apply(const T* p, ReadingState<T>* s) {

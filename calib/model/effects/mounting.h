@@ -9,13 +9,8 @@ namespace imubench::calib::model::effects {
 
 struct Mounting {
   static constexpr EffectId kId = EffectId::kMounting;
-  static constexpr const char* kName = "mounting";
   static constexpr int kX = 0;  // x, 1
   static constexpr int kY = 1;  // y, 1
-  static constexpr std::array<ParamSpec, 2> kParams{
-      {{"x", ParamShape::kScalar, "rad"}, {"y", ParamShape::kScalar, "rad"}}};
-  static constexpr Stage kStage = Stage::kTable;
-  static constexpr const char* kTerm = "table mounting += (x, y)";
 
   template <typename T>
   static void addTo(const T* p, T* /*axes*/, T* device) {

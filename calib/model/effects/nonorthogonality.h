@@ -10,15 +10,9 @@ namespace imubench::calib::model::effects {
 
 struct Nonorthogonality {
   static constexpr EffectId kId = EffectId::kNonorthogonality;
-  static constexpr const char* kName = "nonorthogonality";
   static constexpr int kInnerY = 0;   // inner_y, 1
   static constexpr int kMiddleX = 1;  // middle_x, 1
   static constexpr int kMiddleY = 2;  // middle_y, 1
-  static constexpr std::array<ParamSpec, 3> kParams{{{"inner_y", ParamShape::kScalar, "rad"},
-                                                     {"middle_x", ParamShape::kScalar, "rad"},
-                                                     {"middle_y", ParamShape::kScalar, "rad"}}};
-  static constexpr Stage kStage = Stage::kTable;
-  static constexpr const char* kTerm = "table nonorthogonality += (inner_y, middle_x, middle_y)";
 
   template <typename T>
   static void addTo(const T* p, T* axes, T* /*device*/) {

@@ -10,11 +10,7 @@ namespace imubench::calib::model::effects {
 
 struct ScaleAsymmetry {
   static constexpr EffectId kId = EffectId::kScaleAsymmetry;
-  static constexpr const char* kName = "scale_asymmetry";
   static constexpr int kGyro = 0;  // gyro, 3
-  static constexpr std::array<ParamSpec, 1> kParams{{{"gyro", ParamShape::kVec3, "1"}}};
-  static constexpr Stage kStage = Stage::kReading;
-  static constexpr const char* kTerm = "gyro_k += a_k |u_k|, u = M w - bias";
 
   template <typename T>
   static void apply(const T* p, ReadingState<T>* s) {

@@ -13,13 +13,8 @@ namespace imubench::calib::model::effects {
 
 struct SizeEffect {
   static constexpr EffectId kId = EffectId::kSizeEffect;
-  static constexpr const char* kName = "size_effect";
   static constexpr int kDY = 0;  // d_y_m, 3
   static constexpr int kDZ = 3;  // d_z_m, 3
-  static constexpr std::array<ParamSpec, 2> kParams{
-      {{"d_y_m", ParamShape::kVec3, "m"}, {"d_z_m", ParamShape::kVec3, "m"}}};
-  static constexpr Stage kStage = Stage::kAxisInput;
-  static constexpr const char* kTerm = "u_k += M_k . (w' x d_k + w x (w x d_k)), k = y, z";
 
   template <typename T>
   static void apply(const T* p, ReadingState<T>* s) {

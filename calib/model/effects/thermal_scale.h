@@ -8,15 +8,9 @@ namespace imubench::calib::model::effects {
 
 struct ThermalScale {
   static constexpr EffectId kId = EffectId::kThermalScale;
-  static constexpr const char* kName = "thermal_scale";
   static constexpr int kAccel = 0;  // k_accel, 3
   static constexpr int kGyro = 3;   // k_gyro, 3
   static constexpr int kTRef = 6;   // t_ref_c, 1
-  static constexpr std::array<ParamSpec, 3> kParams{{{"k_accel", ParamShape::kVec3, "1/degC"},
-                                                     {"k_gyro", ParamShape::kVec3, "1/degC"},
-                                                     {"t_ref_c", ParamShape::kScalar, "degC"}}};
-  static constexpr Stage kStage = Stage::kCoefficients;
-  static constexpr const char* kTerm = "scale(T) = scale (1 + k (T - t_ref_c))";
 
   template <typename T>
   static void apply(const T* p, ReadingState<T>* s) {

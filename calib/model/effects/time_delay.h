@@ -8,11 +8,7 @@ namespace imubench::calib::model::effects {
 
 struct TimeDelay {
   static constexpr EffectId kId = EffectId::kTimeDelay;
-  static constexpr const char* kName = "time_delay";
   static constexpr int kTau = 0;  // tau_s, 1
-  static constexpr std::array<ParamSpec, 1> kParams{{{"tau_s", ParamShape::kScalar, "s"}}};
-  static constexpr Stage kStage = Stage::kTime;
-  static constexpr const char* kTerm = "physics sampled at t - tau_s";
 
   // Physics time of a sample stamped t (table clock).
   template <typename T>
