@@ -20,7 +20,9 @@
 //      effects are reported with the motion that would separate them, never selected.
 //   5. Selection: forward and backward steps by nested likelihood-ratio tests and BIC, the
 //      noise floor as scale (inflated by the fullest model's chi^2 per degree of freedom when
-//      that exceeds 1, so unmodelled structure does not make every candidate look significant).
+//      that exceeds 1, so unmodelled structure does not make every candidate look significant,
+//      and by the residual's long-run variance factor when it is correlated from bin to bin:
+//      fewer independent bins than bins, ExplainOptions::correlation_window_s).
 //      An accepted effect whose parameters would have to change along the recording (a
 //      constancy test over consecutive parts) is withdrawn and the selection repeated: what it
 //      fitted is structure outside the library.
