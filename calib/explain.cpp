@@ -593,11 +593,11 @@ bool ExplainOptions::IsValid(std::string* why) const {
   if (!(baseline_collinear > 0.0 && baseline_collinear < 1.0 && unseparable_cos > 0.0 &&
         unseparable_cos < 1.0 && unexplained_sigma > 0.0 && fd_step > 0.0 &&
         refit_iterations >= 1 && passes >= 1 && consistency_parts >= 1 && consistency_p > 0.0 &&
-        consistency_p < 1.0)) {
+        consistency_p < 1.0 && correlation_window_s >= 0.0 && correlation_sigmas >= 0.0)) {
     *why =
         "baseline_collinear and unseparable_cos in (0, 1), unexplained_sigma, fd_step > 0, "
-        "refit_iterations >= 1, passes >= 1, consistency_parts >= 1, consistency_p in (0, 1) "
-        "required";
+        "refit_iterations >= 1, passes >= 1, consistency_parts >= 1, consistency_p in (0, 1), "
+        "correlation_window_s >= 0, correlation_sigmas >= 0 required";
     return false;
   }
   for (const std::string& c : candidates) {
@@ -662,6 +662,60 @@ double fitChi2(const Eigen::MatrixXd& A, const Eigen::VectorXd& r, int* rank) {
   cod.setThreshold(1e-9);
   *rank = static_cast<int>(cod.rank());
   return (r - An * cod.solve(r)).squaredNorm();
+}
+
+// Residual of the least-squares fit of r on the columns of A (as fitChi2).
+Eigen::VectorXd fitResidual(const Eigen::MatrixXd& A, const Eigen::VectorXd& r) {
+  if (A.cols() == 0) return r;
+  Eigen::VectorXd d(A.cols());
+  for (int j = 0; j < A.cols(); ++j) {
+    const double n = A.col(j).norm();
+    d(j) = n > 0.0 ? 1.0 / n : 0.0;
+  }
+  const Eigen::MatrixXd An = A * d.asDiagonal();
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(An);
+  cod.setThreshold(1e-9);
+  return r - An * cod.solve(r);
+}
+
+// Effective-n correction of the test scale. The likelihood-ratio statistics assume
+// independent bins; a residual the library does not model (a slow bias wander, a drift) is
+// correlated from bin to bin, and then the number of independent bins is smaller than the bin
+// count by the long-run variance factor 1 + 2 sum_k w_k rho_k (Bartlett weights w_k over lags
+// up to correlation_window_s; rho_k the residual's autocorrelation at lag k, pooled over the
+// channels by their variance). Every statistic's variance grows by that factor, so the scale
+// does too. Under white residual the estimate scatters about 1 with a standard error se; only
+// its excess over correlation_sigmas se is applied, so white residual keeps scale 1.
+double correlationFactor(const Eigen::VectorXd& e, const std::vector<ExplainBin>& bins,
+                         const ExplainOptions& o) {
+  const std::size_t n = bins.size();
+  if (n < 8 || o.correlation_window_s <= 0.0) return 1.0;
+  double var = 0.0, cov = 0.0, w2 = 0.0;
+  for (std::size_t b = 0; b < n; ++b) {
+    for (int c = 0; c < 6; ++c)
+      var += e(static_cast<int>(b * 6) + c) * e(static_cast<int>(b * 6) + c);
+  }
+  if (!(var > 0.0)) return 1.0;
+  const double bin_s = (bins.back().t1 - bins.front().t0) / static_cast<double>(n);
+  const int lags =
+      std::clamp(static_cast<int>(o.correlation_window_s / bin_s), 1, static_cast<int>(n / 4));
+  for (int k = 1; k <= lags; ++k) {
+    const double w = 1.0 - static_cast<double>(k) / (lags + 1);
+    w2 += w * w;
+    double g = 0.0;
+    for (std::size_t b = 0; b + static_cast<std::size_t>(k) < n; ++b) {
+      const std::size_t b2 = b + static_cast<std::size_t>(k);
+      if (bins[b2].t0 - bins[b].t1 > o.correlation_window_s) continue;
+      for (int c = 0; c < 6; ++c) {
+        g += e(static_cast<int>(b * 6) + c) * e(static_cast<int>(b2 * 6) + c);
+      }
+    }
+    cov += w * g;
+  }
+  const double f = 1.0 + 2.0 * cov / var;
+  // White residual: each lag's pooled autocorrelation has variance ~1/(6n).
+  const double se = 2.0 * std::sqrt(w2 / (6.0 * static_cast<double>(n)));
+  return std::max(1.0, f - o.correlation_sigmas * se);
 }
 
 // Constancy test of the accepted effects (a Chow test): a physical effect has the same
@@ -783,6 +837,7 @@ struct Pass {
   Linearised L;
   Selection sel;
   double scale = 1.0;
+  double correlation = 1.0;        // effective-n factor in scale (correlationFactor)
   std::vector<std::string> names;  // what the refit varied
   RefitResult fit;
   ExplainResult gate;  // the gate's and the constancy test's verdicts (unseparable, rejected)
@@ -802,6 +857,14 @@ Pass selectAndRefit(const ExplainProblem& p, const ExplainOptions& o, ExplainEva
     if (L.cands[g].status == GateStatus::kActive) all.push_back(g);
   }
   q.scale = std::max(1.0, selector.chi2(all) / std::max(1, L.dof_b - selector.params(all)));
+  {
+    std::vector<int> cols;
+    for (std::size_t g : all) {
+      for (int j : L.cands[g].active) cols.push_back(j);
+    }
+    q.correlation = correlationFactor(fitResidual(columnsOf(L.Cperp, cols), L.rperp), *p.bins, o);
+    q.scale *= q.correlation;
+  }
   q.sel = selectEffects(selector, L.cands, q.scale, log_n);
   for (std::size_t round = 0; test_constancy && round < L.cands.size(); ++round) {
     std::string why;
@@ -869,9 +932,18 @@ ExplainResult analyseProblem(const ExplainProblem& p, const ExplainOptions& o) {
   res.error = givenMismatch(p, o, q.fit.state.model);
   if (!res.error.empty()) return res;
   res.scale = q.scale;
+  res.correlation = q.correlation;
   res.unseparable = q.gate.unseparable;
   res.rejected = q.gate.rejected;
   res.notes = q.gate.notes;
+  if (q.correlation > 1.0) {
+    char buf[240];
+    std::snprintf(buf, sizeof(buf),
+                  "the residual is correlated from bin to bin (structure outside the model): "
+                  "the tests count %.3g times fewer independent bins",
+                  q.correlation);
+    res.notes.push_back(buf);
+  }
   const Selector selector(q.L.Cperp, q.L.rperp, &q.L.cands);
   reportSelection(q.L.cands, q.sel, selector, q.scale, log_n, q.names, q.fit, &res);
   finish(p, o, first, &eval, q.fit, q.names, &res);

@@ -20,7 +20,9 @@
 //      effects are reported with the motion that would separate them, never selected.
 //   5. Selection: forward and backward steps by nested likelihood-ratio tests and BIC, the
 //      noise floor as scale (inflated by the fullest model's chi^2 per degree of freedom when
-//      that exceeds 1, so unmodelled structure does not make every candidate look significant).
+//      that exceeds 1, so unmodelled structure does not make every candidate look significant,
+//      and by the residual's long-run variance factor when it is correlated from bin to bin:
+//      fewer independent bins than bins, ExplainOptions::correlation_window_s).
 //      An accepted effect whose parameters would have to change along the recording (a
 //      constancy test over consecutive parts) is withdrawn and the selection repeated: what it
 //      fitted is structure outside the library.
@@ -95,6 +97,13 @@ struct ExplainOptions {
   // one recording in a thousand even with a few accepted effects, while structure an effect
   // only mimics changes the fit by far more.
   double consistency_p = 1e-4;
+  // Effective-n correction of the tests (calib/explain.cpp correlationFactor): the residual's
+  // autocorrelation is summed over lags up to this time, s. 60 s covers the slow wander (bias
+  // drift, thermal lag) that makes neighbouring bins dependent; 0 switches it off.
+  double correlation_window_s = 60.0;
+  // Only the factor's excess over this many of its white-noise standard errors is applied:
+  // a white residual (every clean or fully explained recording) keeps its scale.
+  double correlation_sigmas = 3.0;
   // Longest window for locating residual structure, s (segments longer are cut).
   double window_s = 30.0;
   // Gauss-Newton iterations of the joint refit: the model is nearly linear in its
@@ -169,6 +178,9 @@ struct ExplainResult {
   // reading units; noise_rms is what the noise floor alone gives over the same bins.
   std::array<double, 6> rms_before{}, rms_after{}, noise_rms{};
   double scale = 1.0;  // chi^2 per dof of the fullest model, at least 1 (test scale)
+  // Of that scale, the effective-n factor: 1 for a white residual, > 1 when residual the
+  // model leaves is correlated from bin to bin (fewer independent bins than bins).
+  double correlation = 1.0;
   std::vector<ExplainAccepted> accepted;
   std::vector<ExplainRejected> rejected;
   std::vector<ExplainUnseparable> unseparable;

@@ -83,6 +83,7 @@ nlohmann::json toJson(const ExplainResult& r) {
   j["noise_rms"] = triads(r.noise_rms);
   j["normalised_rms_after"] = r.after_normalised_rms;
   j["test_scale"] = r.scale;
+  j["residual_correlation"] = r.correlation;  // effective-n factor within test_scale
   j["accepted"] = nlohmann::json::array();
   for (const ExplainAccepted& a : r.accepted) {
     nlohmann::json values, sigmas;
