@@ -102,7 +102,7 @@ struct Segment {
   double ramp_s = 0.0;               // kSoak: the program's predicted ramp time (no soak before)
   // Continuous-ramp thermal plans: the chamber is told to go to this setpoint (degC) when this
   // segment starts and nobody waits for it (the segment is the table's own step).
-  std::optional<double> chamber_command_c;
+  std::optional<double> chamber_command_c = std::nullopt;
 };
 
 // Temperature history of the IMU as (t, degC) knots, linear in between, held outside.
