@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cassert>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -90,6 +91,18 @@ struct Segment {
   double angle = 0.0;
   // For kSoak: the chamber setpoint (degC) the soak holds (the temperature history lags it).
   double setpoint_c = 0.0;
+  // kSoak ended by the IMU's temperature instead of a fixed time (plan soak = "auto"): the soak
+  // is over once |dT/dt| stayed below settle_rate_c_per_s for settle_hold_s, at most max_soak_s
+  // after the chamber command (then the plan goes on and the point is flagged). t1 - t0 is the
+  // model's predicted settling time (calib/model/thermal_lag.h settlingTime).
+  bool soak_auto = false;
+  double settle_rate_c_per_s = 0.0;  // degC/s
+  double settle_hold_s = 0.0;        // s
+  double max_soak_s = 0.0;           // s, from the chamber command
+  double ramp_s = 0.0;               // kSoak: the program's predicted ramp time (no soak before)
+  // Continuous-ramp thermal plans: the chamber is told to go to this setpoint (degC) when this
+  // segment starts and nobody waits for it (the segment is the table's own step).
+  std::optional<double> chamber_command_c = std::nullopt;
 };
 
 // Temperature history of the IMU as (t, degC) knots, linear in between, held outside.

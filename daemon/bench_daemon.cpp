@@ -152,6 +152,9 @@ json runnerEventFields(const RunnerEvent& e, std::int64_t run, RunExit exit) {
       return toJson(StepFinishedEvent{at});
     case RunnerEvent::Kind::kAlarm:
       return toJson(AlarmEvent{at, e.message});
+    case RunnerEvent::Kind::kSoakSettled:
+    case RunnerEvent::Kind::kSoakTimeout:
+      return toJson(SoakEvent{at, e.kind == RunnerEvent::Kind::kSoakSettled, e.message});
   }
   return toJson(at);
 }
@@ -395,6 +398,10 @@ void BenchDaemon::onImuReadable() {
   if (decoded_.empty()) return;
   imu_last_t_ = decoded_.back().sample.t;
   imu_last_wall_s_ = wallNow();
+  // The IMU's own temperature (auto soaks watch it): the newest frame's, none when it has none.
+  imu_last_temp_c_.reset();
+  if (std::isfinite(decoded_.back().sample.temp_c))
+    imu_last_temp_c_ = decoded_.back().sample.temp_c;
   if (!run_) return;
   samples_.clear();
   for (const auto& d : decoded_) samples_.push_back(d.sample);
@@ -463,6 +470,7 @@ void BenchDaemon::onPoll() {
   run_->poll_unix_s = unixNow();  // before the table is read: see closeStep
   BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
   obs.plan_time_s = imu_last_t_;
+  obs.imu_temp_c = imu_last_temp_c_;
   if (obs.table_ok) {
     ActiveRun::PendingTable p;
     p.at_unix_s = 0.5 * (run_->poll_unix_s + unixNow());
@@ -570,7 +578,9 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
     stored.run_id = run_->id;
     stored.wall_unix_s = unixNow();
     stored.severity =
-        e.kind == RunnerEvent::Kind::kAlarm ? EventSeverity::kWarning : EventSeverity::kInfo;
+        e.kind == RunnerEvent::Kind::kAlarm || e.kind == RunnerEvent::Kind::kSoakTimeout
+            ? EventSeverity::kWarning
+            : EventSeverity::kInfo;
     stored.kind = name;
     stored.json = fields.dump();
     if (e.kind == RunnerEvent::Kind::kStepFinished) {

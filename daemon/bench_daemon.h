@@ -154,9 +154,10 @@ class BenchDaemon {
   bool stopping_ = false;  // stop() has begun: no queued plan starts any more
   std::vector<drivers::DecodedImuSample> decoded_;  // per-wake buffers, reused (hot path)
   nav::ImuSamples samples_;
-  std::optional<double> imu_last_t_;     // newest IMU sample time (the recording's clock)
-  double imu_last_wall_s_ = 0.0;         // when it arrived (wall, monotonic)
-  std::uint64_t imu_lost_reported_ = 0;  // lost-sample count already logged
+  std::optional<double> imu_last_t_;       // newest IMU sample time (the recording's clock)
+  double imu_last_wall_s_ = 0.0;           // when it arrived (wall, monotonic)
+  std::optional<double> imu_last_temp_c_;  // its temperature, when the frames carry one
+  std::uint64_t imu_lost_reported_ = 0;    // lost-sample count already logged
   std::uint64_t imu_restarts_reported_ = 0;
   std::chrono::steady_clock::time_point t0_ = std::chrono::steady_clock::now();
 };

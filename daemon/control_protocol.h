@@ -413,6 +413,25 @@ struct AlarmEvent {
   }
 };
 
+// An auto soak ended (plans/plan.h soak = "auto"): "soak_settled" when the temperature rate
+// stayed below its threshold for the hold, "soak_timeout" at max_soak (the plan went on; the
+// temperature point is flagged). The message says how it was measured (IMU or chamber).
+struct SoakEvent {
+  static constexpr std::string_view kSettled = "soak_settled";
+  static constexpr std::string_view kTimeout = "soak_timeout";
+  static constexpr Topic kTopic = Topic::kRun;
+  StepRef at;
+  bool settled = false;
+  std::string message;
+  bool operator==(const SoakEvent&) const = default;
+  template <class V>
+  void fields(V& v) {
+    at.fields(v);
+    v("settled", settled);
+    v("message", message);
+  }
+};
+
 // The IMU restarted (its counter or time stamp jumped).
 struct ImuRestartEvent {
   static constexpr std::string_view kEvent = "imu_restart";

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <utility>
 
@@ -58,6 +59,10 @@ const char* runnerEventKindName(RunnerEvent::Kind k) {
       return "step_finished";
     case RunnerEvent::Kind::kAlarm:
       return "alarm";
+    case RunnerEvent::Kind::kSoakSettled:
+      return "soak_settled";
+    case RunnerEvent::Kind::kSoakTimeout:
+      return "soak_timeout";
   }
   return "?";
 }
@@ -111,6 +116,14 @@ std::vector<RunStep> runSteps(const calib::Motion& motion) {
     }
     s.setpoint_c =
         seg.kind == calib::SegmentKind::kSoak ? seg.setpoint_c : motion.temperatureAt(seg.t1);
+    if (seg.kind == calib::SegmentKind::kSoak) {
+      s.soak_auto = seg.soak_auto;
+      s.settle_rate_c_per_s = seg.settle_rate_c_per_s;
+      s.settle_hold_s = seg.settle_hold_s;
+      s.max_soak_s = seg.max_soak_s;
+      s.ramp_s = seg.ramp_s;
+    }
+    s.chamber_command_c = seg.chamber_command_c;
     s.recording = seg.recording;
     out.push_back(std::move(s));
   }
@@ -129,6 +142,36 @@ std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps)
   return out;
 }
 
+void SlopeWindow::add(double t_s, double temp_c) {
+  if (!t_.empty() && !(t_s - t_.back() >= window_s_ / kMaxSamples)) return;
+  t_.push_back(t_s);
+  y_.push_back(temp_c);
+  std::size_t drop = 0;
+  while (drop < t_.size() && t_s - t_[drop] > window_s_) ++drop;
+  t_.erase(t_.begin(), t_.begin() + static_cast<std::ptrdiff_t>(drop));
+  y_.erase(y_.begin(), y_.begin() + static_cast<std::ptrdiff_t>(drop));
+}
+
+std::optional<double> SlopeWindow::slope() const {
+  if (t_.size() < 3 || t_.back() - t_.front() < 0.9 * window_s_) return std::nullopt;
+  const double n = static_cast<double>(t_.size());
+  double mt = 0.0, my = 0.0;
+  for (std::size_t i = 0; i < t_.size(); ++i) mt += t_[i], my += y_[i];
+  mt /= n;
+  my /= n;
+  double sty = 0.0, stt = 0.0;
+  for (std::size_t i = 0; i < t_.size(); ++i) {
+    sty += (t_[i] - mt) * (y_[i] - my);
+    stt += (t_[i] - mt) * (t_[i] - mt);
+  }
+  if (!(stt > 0.0)) return std::nullopt;
+  return sty / stt;
+}
+
+double SlopeWindow::centerTime() const {
+  return t_.empty() ? 0.0 : 0.5 * (t_.front() + t_.back());
+}
+
 bool RunnerOptions::IsValid(std::string* why) const {
   auto fail = [why](const char* m) {
     if (why != nullptr) *why = m;
@@ -141,6 +184,9 @@ bool RunnerOptions::IsValid(std::string* why) const {
   }
   if (!(overdue_factor >= 1.0) || !(overdue_margin_s >= 0.0)) {
     return fail("overdue_factor must be >= 1 and overdue_margin_s >= 0");
+  }
+  if (!(soak_rate_window_fraction > 0.0 && soak_rate_window_fraction <= 1.0)) {
+    return fail("soak_rate_window_fraction must be in (0, 1]");
   }
   if (chamber_safe_setpoint_c && chamber_over_temperature_c &&
       !(*chamber_over_temperature_c > *chamber_safe_setpoint_c)) {
@@ -378,6 +424,11 @@ void PlanRunner::commandStep(const BenchObservation& obs) {
   step_interrupted_ = false;
   saw_moving_ = false;
   phase_t0_s_ = now_s;
+  // Continuous ramp: the chamber goes on to its next setpoint while the table works.
+  if (s.chamber_command_c &&
+      !issue(port_.chamberSetpoint(*s.chamber_command_c), now_s, "chamber setpoint")) {
+    return;
+  }
   switch (s.kind) {
     case calib::SegmentKind::kRotate:
       if (!issue(port_.rotateBy(s.axis, s.delta, stepLimits(s, s.axis)), now_s, "rotate")) return;
@@ -395,6 +446,8 @@ void PlanRunner::commandStep(const BenchObservation& obs) {
       return;
     case calib::SegmentKind::kSoak:
       if (!issue(port_.chamberSetpoint(s.setpoint_c), now_s, "chamber setpoint")) return;
+      soak_ = SoakWatch{
+          SlopeWindow(options_.soak_rate_window_fraction * s.settle_hold_s), {}, {}, false};
       phase_ = Phase::kWaiting;
       return;
     case calib::SegmentKind::kStatic:
@@ -445,10 +498,67 @@ void PlanRunner::advance(const BenchObservation& obs) {
     case Phase::kWaiting: {
       const double waited = obs.plan_time_s.value_or(obs.now_s) - phase_plan_t0_s_;
       step_elapsed_s_ = std::clamp(waited, 0.0, s.planned_s);
-      if (waited >= s.planned_s) finishStep(obs.now_s);
+      const bool over = s.kind == calib::SegmentKind::kSoak && s.soak_auto
+                            ? autoSoakOver(obs, waited)
+                            : waited >= s.planned_s;
+      if (over) finishStep(obs.now_s);
       return;
     }
   }
+}
+
+namespace {
+std::string fmt(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+}  // namespace
+
+// The IMU's temperature rate (else the chamber's, said so in the event) below settle_rate for
+// settle_hold, measured from the end of the program's ramp; at max_soak the step ends flagged.
+bool PlanRunner::autoSoakOver(const BenchObservation& obs, double waited_s) {
+  const RunStep& s = steps_[step_];
+  const double t = obs.plan_time_s.value_or(obs.now_s);
+  const bool chamber = !obs.imu_temp_c && obs.chamber_temp_c;
+  const std::optional<double> temp = chamber ? obs.chamber_temp_c : obs.imu_temp_c;
+  if (temp && waited_s >= s.ramp_s) {
+    if (soak_.from_chamber != chamber) {  // another source: start the window afresh
+      soak_.window.clear();
+      soak_.below_since_s.reset();
+      soak_.from_chamber = chamber;
+    }
+    soak_.used_chamber = soak_.used_chamber || chamber;
+    soak_.window.add(t, *temp);
+    if (const auto slope = soak_.window.slope()) {
+      if (std::abs(*slope) >= s.settle_rate_c_per_s) {
+        soak_.below_since_s.reset();
+      } else if (!soak_.below_since_s) {
+        soak_.below_since_s = soak_.window.centerTime();
+      }
+    }
+  }
+  const std::string source =
+      !soak_.from_chamber  ? "no temperature (neither the IMU's frames nor the chamber give one)"
+      : soak_.used_chamber ? "the chamber temperature (no IMU temperature in its frames)"
+                           : "the IMU temperature";
+  const std::string criterion = " (rate below " + fmt(s.settle_rate_c_per_s * 60.0) +
+                                " degC/min for " + fmt(s.settle_hold_s) + " s, measured on " +
+                                source + "; predicted " + fmt(s.planned_s) + " s)";
+  if (soak_.below_since_s && t - *soak_.below_since_s >= s.settle_hold_s) {
+    emit(
+        RunnerEvent::Kind::kSoakSettled, obs.now_s,
+        "soak settled at " + fmt(s.setpoint_c) + " degC after " + fmt(waited_s) + " s" + criterion);
+    return true;
+  }
+  if (waited_s >= s.max_soak_s) {
+    emit(RunnerEvent::Kind::kSoakTimeout, obs.now_s,
+         "soak_timeout: step '" + s.label + "' not settled at " + fmt(s.setpoint_c) +
+             " degC after max_soak " + fmt(s.max_soak_s) + " s" + criterion +
+             ": the plan goes on, this temperature point is flagged");
+    return true;
+  }
+  return false;
 }
 
 double PlanRunner::plannedTotalS() const {

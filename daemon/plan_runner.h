@@ -50,6 +50,17 @@ struct RunStep {
   int axis = -1;                     // kRotate: the turning axis
   double delta = 0.0;                // kRotate: signed turn (direction explicit), rad
   double setpoint_c = 0.0;           // kSoak: chamber setpoint at the end
+  // kSoak with soak = "auto" (calib::Segment): over when the measured temperature rate stayed
+  // below settle_rate_c_per_s for settle_hold_s, counted from ramp_s (the program's ramp); at
+  // max_soak_s the step ends flagged (a soak_timeout event). planned_s is the model's prediction.
+  bool soak_auto = false;
+  double settle_rate_c_per_s = 0.0;
+  double settle_hold_s = 0.0;
+  double max_soak_s = 0.0;
+  double ramp_s = 0.0;
+  // Continuous-ramp thermal plans: the chamber setpoint commanded (without waiting) as this
+  // step starts.
+  std::optional<double> chamber_command_c = std::nullopt;
   bool recording = true;
   // Per axis: the largest |rate| and |accel| the expansion planned inside this step (zero
   // where the axis rests). Sent with the step's motion commands, so the table follows the
@@ -96,6 +107,28 @@ struct BenchObservation {
   bool interlock_closed = true;
   double imu_last_frame_s = 0.0;         // when the last IMU frame arrived
   std::optional<double> chamber_temp_c;  // measured, when there is a chamber
+  // The IMU's own temperature (its newest frame's, plan_time_s); unset when its frames carry
+  // none. Auto soaks watch it, else the chamber's.
+  std::optional<double> imu_temp_c;
+};
+
+// Least-squares slope of a temperature over a sliding time window: robust against a quantised
+// reading (a two-point difference of a 0.01 degC reading is mostly quantisation). Samples closer
+// than window/kMaxSamples to the previous kept one are skipped, so memory and work are bounded
+// whatever the frame rate.
+class SlopeWindow {
+ public:
+  static constexpr int kMaxSamples = 200;
+  explicit SlopeWindow(double window_s = 60.0) : window_s_(window_s) {}
+  void clear() { t_.clear(), y_.clear(); }
+  void add(double t_s, double temp_c);
+  // degC/s over the window, once the samples span at least 90 % of it (nullopt before).
+  std::optional<double> slope() const;
+  double centerTime() const;  // the time the slope belongs to: the window's middle
+
+ private:
+  double window_s_;
+  std::vector<double> t_, y_;
 };
 
 struct RunnerOptions {
@@ -110,11 +143,17 @@ struct RunnerOptions {
   double overdue_margin_s = 10.0;
   std::optional<double> chamber_safe_setpoint_c;  // where abort and alarms leave the chamber
   std::optional<double> chamber_over_temperature_c;
+  // An auto soak's temperature rate is the least-squares slope over this fraction of its
+  // settle_hold, attributed to the window's middle: long enough to average out a quantised
+  // reading, short enough that its lag (half the window) stays small against the hold.
+  double soak_rate_window_fraction = 0.5;
   bool IsValid(std::string* why) const;
 };
 
 struct RunnerEvent {
-  enum class Kind { kState, kStepStarted, kStepFinished, kAlarm };
+  // kSoakSettled / kSoakTimeout: an auto soak's end (message: how it was measured); a timeout
+  // flags the temperature point (the plan goes on).
+  enum class Kind { kState, kStepStarted, kStepFinished, kAlarm, kSoakSettled, kSoakTimeout };
   Kind kind = Kind::kState;
   double time_s = 0.0;
   int step = -1;
@@ -170,6 +209,8 @@ class PlanRunner {
   // planned profile, else the fastest of the plan's, so no return outruns the plan.
   drivers::MotionLimits returnLimits(int axis) const;
   void emit(RunnerEvent::Kind kind, double now_s, std::string message);
+  // An auto soak's detection on this observation; true when the step is over.
+  bool autoSoakOver(const BenchObservation& obs, double waited_s);
 
   std::vector<RunStep> steps_;
   std::vector<drivers::MotionLimits> plan_limits_;  // planLimits(steps_)
@@ -186,6 +227,15 @@ class PlanRunner {
   // The table was seen moving since the step's command: a full turn ends where it started,
   // so "in position" alone cannot tell done from not yet begun.
   bool saw_moving_ = false;
+  // The auto soak in progress: its rate window, since when the rate is below the threshold
+  // (plan clock), and which temperature it watches.
+  struct SoakWatch {
+    SlopeWindow window;
+    std::optional<double> below_since_s;
+    std::optional<bool> from_chamber;  // unset until a temperature came
+    bool used_chamber = false;
+  };
+  SoakWatch soak_;
   std::optional<BenchObservation> last_;
   std::vector<RunnerEvent> events_;
 };

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <utility>
 
 #include "calib/model/motion_profile.h"
 #include "calib/model/thermal_lag.h"
@@ -241,6 +243,106 @@ class Expander {
     return true;
   }
 
+  // The chamber's ramp rate for a chamber or thermal step (its own, else [chamber] max_ramp).
+  bool rampOf(const Step& s, double* ramp, std::string* error) const {
+    if (!plan_.chamber) {
+      *error = where(s) + ": chamber step without a [chamber] section";
+      return false;
+    }
+    *ramp = s.ramp ? s.ramp->value : plan_.chamber->max_ramp.value;
+    if (!(*ramp > 0.0)) {
+      *error = where(s) + ": ramp must be positive";
+      return false;
+    }
+    return true;
+  }
+
+  // A kSoak segment: the chamber ramps to goal_c, then soaks for the step's fixed time or, with
+  // soak = "auto", for the model's predicted settling time (calib/model/thermal_lag.h).
+  bool chamberSoak(const Step& s, double goal_c, const std::string& label, std::string* error) {
+    double ramp = 0.0;
+    if (!rampOf(s, &ramp, error)) return false;
+    if (s.soak.value < 0.0 || (s.soak_auto && (!s.max_soak || !(s.settle_rate.value > 0.0) ||
+                                               !(s.settle_hold.value > 0.0)))) {
+      *error = where(s) +
+               ": soak must be non-negative, an auto soak needs a positive settle_rate, "
+               "settle_hold and max_soak";
+      return false;
+    }
+    const double t_ramp = calib::model::rampTime(therm_, goal_c, ramp);
+    double duration = t_ramp + s.soak.value;
+    if (s.soak_auto) {
+      const calib::model::SettleCriterion c{s.settle_rate.value, s.settle_hold.value};
+      duration = calib::model::settlingTime(therm_, goal_c, ramp, lag_, c, s.max_soak->value).t_s;
+    }
+    addKnot();
+    goal_ = goal_c;
+    ramp_ = ramp;
+    if (calib::Segment* seg = addSegment(t_, t_ + duration, calib::SegmentKind::kSoak, label)) {
+      seg->setpoint_c = goal_;
+      seg->ramp_s = t_ramp;
+      if (s.soak_auto) {
+        seg->soak_auto = true;
+        seg->settle_rate_c_per_s = s.settle_rate.value;
+        seg->settle_hold_s = s.settle_hold.value;
+        seg->max_soak_s = s.max_soak->value;
+      }
+    }
+    advanceTime(t_ + duration);
+    return true;
+  }
+
+  // "T-40C", "T22.5C": a setpoint as a label prefix.
+  static std::string tempLabel(double c) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "T%gC", std::round(c * 100.0) / 100.0 + 0.0);
+    return buf;
+  }
+
+  // thermal: per setpoint (leg order) a soak then the body ("T-40C/..."), or in ramp mode the
+  // chamber told to go there and the body repeated while the model's ramp lasts
+  // ("ramp1/rep03/...").
+  bool thermal(const Step& s, const std::string& prefix, std::string* error) {
+    double ramp = 0.0;
+    if (!rampOf(s, &ramp, error)) return false;
+    const std::string base = prefix + (s.label.empty() ? "" : s.label + "/");
+    const std::vector<double> points = thermalSetpoints(s.setpoints, s.legs);
+    std::vector<std::pair<double, int>> visits;  // setpoint, times seen
+    for (std::size_t leg = 0; leg < points.size(); ++leg) {
+      const double sp = points[leg];
+      if (s.mode == ThermalMode::kSoak) {
+        int seen = 1;
+        for (auto& v : visits) {
+          if (v.first == sp) seen = ++v.second;
+        }
+        if (seen == 1) visits.push_back({sp, 1});
+        const std::string p =
+            base + tempLabel(sp) + (seen > 1 ? "#" + std::to_string(seen) : "") + "/";
+        if (!chamberSoak(s, sp, p + "soak", error) || !steps(s.steps, p, error)) return false;
+        continue;
+      }
+      const double t_leg = t_;
+      const double t_ramp = calib::model::rampTime(therm_, sp, ramp);
+      addKnot();
+      goal_ = sp;
+      ramp_ = ramp;
+      const std::size_t first_seg = m_.segments.size();
+      for (int rep = 1;; ++rep) {
+        char buf[48];
+        std::snprintf(buf, sizeof buf, "ramp%zu/rep%02d/", leg + 1, rep);
+        const double t_rep = t_;
+        if (!steps(s.steps, base + buf, error)) return false;
+        if (!(t_ > t_rep)) {
+          *error = where(s) + ": the body of a ramp takes no time";
+          return false;
+        }
+        if (t_ - t_leg >= t_ramp) break;
+      }
+      if (first_seg < m_.segments.size()) m_.segments[first_seg].chamber_command_c = sp;
+    }
+    return true;
+  }
+
   bool steps(const std::vector<Step>& list, const std::string& prefix, std::string* error) {
     for (const Step& s : list) {
       if (!step(s, prefix, error)) return false;
@@ -273,27 +375,10 @@ class Expander {
       case StepType::kRotate:
       case StepType::kRate:
         return turn(s, label, error);
-      case StepType::kChamber: {
-        if (!plan_.chamber) {
-          *error = where(s) + ": chamber step without a [chamber] section";
-          return false;
-        }
-        const double ramp = s.ramp ? s.ramp->value : plan_.chamber->max_ramp.value;
-        if (!(ramp > 0.0) || s.soak.value < 0.0) {
-          *error = where(s) + ": ramp must be positive and soak non-negative";
-          return false;
-        }
-        const double t_ramp = calib::model::rampTime(therm_, s.setpoint.value, ramp);
-        addKnot();
-        goal_ = s.setpoint.value;
-        ramp_ = ramp;
-        if (calib::Segment* seg =
-                addSegment(t_, t_ + t_ramp + s.soak.value, calib::SegmentKind::kSoak, label)) {
-          seg->setpoint_c = goal_;
-        }
-        advanceTime(t_ + t_ramp + s.soak.value);
-        return true;
-      }
+      case StepType::kChamber:
+        return chamberSoak(s, s.setpoint.value, label, error);
+      case StepType::kThermal:
+        return thermal(s, prefix, error);
       case StepType::kRecord:
         recording_ = s.record_on;
         return true;

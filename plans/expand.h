@@ -16,6 +16,12 @@
 //   move    -> kMove (axis/angle set when exactly one axis moves, else axis = -1)
 //   rate    -> kRotate, axis + total signed angle turned including the ramps
 //   chamber -> kSoak (ramp at the ramp rate, then the soak; table static throughout)
+//   chamber with soak = "auto" -> kSoak with soak_auto and its criterion; its length is the
+//             model's predicted settling time (calib/model/thermal_lag.h settlingTime)
+//   thermal -> soak mode: per setpoint (leg order, plans/plan.h thermalSetpoints) a kSoak
+//             "T-40C/soak" and the body prefixed "T-40C/" (a revisited setpoint "T-40C#2/");
+//             ramp mode: the body repeated ("ramp<leg>/rep<NN>/") until the model's ramp to the
+//             leg's setpoint is over, the leg's first segment carrying chamber_command_c
 //   record  -> no segment; sets Segment::recording for what follows.
 // Zero-length segments (a move to where the table already is) are left out.
 // Labels: the step's label (default: its type); inside repeats the repeat's label and the

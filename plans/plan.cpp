@@ -62,6 +62,30 @@
 //   soak = "60 min"                        # time held after reaching the setpoint (>= 0)
 //
 //   [[step]]
+//   type = "chamber"                       # soak detection instead of a fixed time:
+//   setpoint = "-40 degC"
+//   soak = "auto"                          # over when the IMU's |dT/dt| stays below...
+//   settle_rate = "0.05 degC/min"          # ...this (optional, default 0.05 degC/min)...
+//   settle_hold = "10 min"                 # ...for this long (optional, default 10 min)
+//   max_soak = "4 h"                       # required: then the plan goes on, the point flagged
+//
+//   [[step]]
+//   type = "thermal"                       # the body at each chamber setpoint
+//   setpoints = ["-40 degC", "20 degC", "60 degC"]
+//   legs = "heat-cool"                     # optional: "heat" (rising), "cool" (falling),
+//                                          # "heat-cool" (up, then back down); default as written
+//   mode = "soak"                          # "soak" (default): chamber soak, then the body;
+//                                          # "ramp": the chamber ramps to each setpoint and the
+//                                          # body repeats while it ramps (no waiting)
+//   ramp = "1 degC/min"                    # optional (default: [chamber] max_ramp)
+//   soak = "auto"                          # soak mode only: as a chamber step (with
+//   max_soak = "4 h"                       # settle_rate, settle_hold), or a fixed time
+//   label = "cal"                          # optional prefix: "cal/T-40C/..."
+//     [[step.steps]]                       # the body; labels prefixed "T-40C/" (soak; a
+//     type = "hold"                        # revisited setpoint "T20C#2/") or
+//     duration = "2 min"                   # "ramp1/rep03/" (ramp)
+//
+//   [[step]]
 //   type = "record"                        # recording on/off for what follows
 //   state = "off"                          # "on" | "off"
 //
@@ -112,6 +136,8 @@ const char* stepTypeName(StepType t) {
       return "record";
     case StepType::kRepeat:
       return "repeat";
+    case StepType::kThermal:
+      return "thermal";
   }
   return "hold";
 }
@@ -147,6 +173,20 @@ const char* calibrationMethodName(CalibrationMethod m) {
   return "none";
 }
 
+std::vector<double> thermalSetpoints(const std::vector<Quantity>& written, ThermalLegs legs) {
+  std::vector<double> v;
+  for (const Quantity& q : written) v.push_back(q.value);
+  if (legs == ThermalLegs::kAsWritten) return v;
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  if (legs == ThermalLegs::kCool) std::reverse(v.begin(), v.end());
+  if (legs == ThermalLegs::kHeatCool) {
+    // Up through every setpoint, then back down through them (the top visited once).
+    for (std::size_t i = v.size(); i-- > 1;) v.push_back(v[i - 1]);
+  }
+  return v;
+}
+
 EffectiveLimits limitsFor(const TableSpec& table, int axis) {
   EffectiveLimits lim;
   if (table.max_rate) lim.max_rate = table.max_rate->value;
@@ -168,8 +208,8 @@ EffectiveLimits limitsFor(const TableSpec& table, int axis) {
 
 namespace {
 
-constexpr std::string_view kTypes[] = {"move",    "rotate", "rate",  "hold",
-                                       "chamber", "record", "repeat"};
+constexpr std::string_view kTypes[] = {"move",    "rotate", "rate",   "hold",
+                                       "chamber", "record", "repeat", "thermal"};
 
 constexpr std::string_view kKinds[] = {"two-axis", "three-axis"};
 
@@ -503,10 +543,20 @@ class Parser {
       if (auto d = quantity(t, "duration", io::Dimension::kTime, true)) s.duration = *d;
     } else if (*type == "chamber") {
       s.type = StepType::kChamber;
-      checkKeys(t, {"type", "label", "setpoint", "ramp", "soak"}, "a chamber step");
+      checkKeys(
+          t,
+          {"type", "label", "setpoint", "ramp", "soak", "settle_rate", "settle_hold", "max_soak"},
+          "a chamber step");
       if (auto q = quantity(t, "setpoint", io::Dimension::kTemperature, true)) s.setpoint = *q;
       s.ramp = quantity(t, "ramp", io::Dimension::kTemperatureRate, false);
-      if (auto q = quantity(t, "soak", io::Dimension::kTime, true)) s.soak = *q;
+      parseSoak(t, s);
+    } else if (*type == "thermal") {
+      s.type = StepType::kThermal;
+      checkKeys(t,
+                {"type", "label", "setpoints", "legs", "mode", "ramp", "soak", "settle_rate",
+                 "settle_hold", "max_soak", "steps"},
+                "a thermal step");
+      parseThermal(t, s, depth);
     } else if (*type == "record") {
       s.type = StepType::kRecord;
       checkKeys(t, {"type", "label", "state"}, "a record step");
@@ -524,7 +574,7 @@ class Parser {
     }
     // Errors inside nested steps are their own; count only this step's fields.
     size_t nested_errors = 0;
-    if (s.type == StepType::kRepeat) nested_errors = nested_errors_;
+    if (s.type == StepType::kRepeat || s.type == StepType::kThermal) nested_errors = nested_errors_;
     s.complete = diag_.items().size() - nested_errors == errors_before;
     return s;
   }
@@ -534,6 +584,121 @@ class Parser {
       s.axis = *a;
       s.axis_where = posOf(t.get("axis")->source());
     }
+  }
+
+  // soak = "<time>" | "auto", and with "auto" settle_rate, settle_hold, max_soak (required).
+  void parseSoak(const toml::table& t, Step& s) {
+    const toml::node* n = t.get("soak");
+    const auto* str = n ? n->as_string() : nullptr;
+    s.soak_auto = str && str->get() == "auto";
+    if (!s.soak_auto) {
+      if (auto q = quantity(t, "soak", io::Dimension::kTime, true)) s.soak = *q;
+      for (std::string_view key : {"settle_rate", "settle_hold", "max_soak"}) {
+        if (const toml::node* k = t.get(key)) {
+          diag_.error(k->source(), "\"" + std::string(key) +
+                                       "\" applies to soak = \"auto\" only (a fixed soak ends "
+                                       "after its time)");
+        }
+      }
+      return;
+    }
+    s.soak = {0.0, posOf(n->source())};
+    if (auto q = quantity(t, "settle_rate", io::Dimension::kTemperatureRate, false)) {
+      s.settle_rate = *q;
+    }
+    if (auto q = quantity(t, "settle_hold", io::Dimension::kTime, false)) s.settle_hold = *q;
+    s.max_soak = quantity(t, "max_soak", io::Dimension::kTime, false);
+    if (!t.get("max_soak")) {
+      diag_.error(t.source(),
+                  "soak = \"auto\" needs max_soak (after it the plan goes on and the point is "
+                  "flagged: a soak must never wait forever)");
+    }
+  }
+
+  // The nested steps of a repeat or thermal step into s.steps; nested errors counted apart.
+  void parseBody(const toml::table& t, Step& s, int depth, std::string_view what) {
+    const toml::node* sn = t.get("steps");
+    if (!sn) {
+      diag_.error(t.source(),
+                  "a " + std::string(what) + " step needs nested steps: add [[step.steps]] tables");
+      return;
+    }
+    const auto* arr = sn->as_array();
+    if (!arr) {
+      diag_.error(sn->source(), "\"steps\" must be an array of tables ([[step.steps]])");
+      return;
+    }
+    if (depth + 1 > kMaxNesting) {
+      diag_.error(sn->source(), "steps nested more than " + std::to_string(kMaxNesting) + " deep");
+      return;
+    }
+    if (arr->empty()) {
+      diag_.error(sn->source(), "a " + std::string(what) + " step needs at least one nested step");
+    }
+    const size_t before = diag_.items().size();
+    parseSteps(*arr, s.steps, depth + 1);
+    nested_errors_ = diag_.items().size() - before;
+  }
+
+  void parseThermal(const toml::table& t, Step& s, int depth) {
+    nested_errors_ = 0;
+    if (const toml::node* n = t.get("setpoints"); !n) {
+      diag_.error(t.source(),
+                  "a thermal step needs setpoints, e.g. setpoints = [\"-40 degC\", "
+                  "\"20 degC\", \"60 degC\"]");
+    } else if (const auto* arr = n->as_array()) {
+      s.setpoints_where = posOf(n->source());
+      if (arr->empty()) diag_.error(n->source(), "setpoints is empty: give at least one");
+      for (const toml::node& e : *arr) {
+        const auto* str = e.as_string();
+        std::string why;
+        const auto v =
+            str ? io::parseQuantity(str->get(), io::Dimension::kTemperature, &why) : std::nullopt;
+        if (!str) why = "each setpoint must be a string with its unit, e.g. \"-40 degC\"";
+        if (v) {
+          s.setpoints.push_back({*v, posOf(e.source())});
+        } else {
+          diag_.error(e.source(), "setpoint: " + why);
+        }
+      }
+    } else {
+      diag_.error(n->source(), "setpoints must be an array, e.g. [\"-40 degC\", \"60 degC\"]");
+    }
+    if (auto l = text(t, "legs", false)) {
+      if (*l == "heat") {
+        s.legs = ThermalLegs::kHeat;
+      } else if (*l == "cool") {
+        s.legs = ThermalLegs::kCool;
+      } else if (*l == "heat-cool") {
+        s.legs = ThermalLegs::kHeatCool;
+      } else {
+        diag_.error(t.get("legs")->source(),
+                    "legs must be \"heat\", \"cool\" or "
+                    "\"heat-cool\", got \"" +
+                        *l + "\"");
+      }
+    }
+    if (auto m = text(t, "mode", false)) {
+      if (*m == "ramp") {
+        s.mode = ThermalMode::kRamp;
+      } else if (*m != "soak") {
+        diag_.error(t.get("mode")->source(),
+                    "mode must be \"soak\" or \"ramp\", got \"" + *m + "\"");
+      }
+    }
+    s.ramp = quantity(t, "ramp", io::Dimension::kTemperatureRate, false);
+    if (s.mode == ThermalMode::kSoak) {
+      parseSoak(t, s);
+    } else {
+      for (std::string_view key : {"soak", "settle_rate", "settle_hold", "max_soak"}) {
+        if (const toml::node* k = t.get(key)) {
+          diag_.error(k->source(), "\"" + std::string(key) +
+                                       "\" applies to mode = \"soak\" only (a ramp does not "
+                                       "wait for the chamber)");
+        }
+      }
+    }
+    parseBody(t, s, depth, "thermal");
   }
 
   void parseRepeat(const toml::table& t, Step& s, int depth) {
@@ -548,25 +713,7 @@ class Parser {
     } else {
       diag_.error(cn->source(), "\"count\" must be an integer, e.g. count = 3");
     }
-    const toml::node* sn = t.get("steps");
-    if (!sn) {
-      diag_.error(t.source(), "a repeat step needs nested steps: add [[step.steps]] tables");
-      return;
-    }
-    const auto* arr = sn->as_array();
-    if (!arr) {
-      diag_.error(sn->source(), "\"steps\" must be an array of tables ([[step.steps]])");
-      return;
-    }
-    if (depth + 1 > kMaxNesting) {
-      diag_.error(sn->source(),
-                  "repeats nested more than " + std::to_string(kMaxNesting) + " deep");
-      return;
-    }
-    if (arr->empty()) diag_.error(sn->source(), "a repeat step needs at least one nested step");
-    const size_t before = diag_.items().size();
-    parseSteps(*arr, s.steps, depth + 1);
-    nested_errors_ = diag_.items().size() - before;
+    parseBody(t, s, depth, "repeat");
   }
 
   size_t nested_errors_ = 0;

@@ -72,8 +72,19 @@ struct ChamberSpec {
   Quantity initial;   // degC at t = 0 (default 20 degC: lab ambient)
 };
 
-enum class StepType { kMove, kRotate, kRate, kHold, kChamber, kRecord, kRepeat };
+enum class StepType { kMove, kRotate, kRate, kHold, kChamber, kRecord, kRepeat, kThermal };
 const char* stepTypeName(StepType t);  // "move", "rotate", ...
+
+// The order of a thermal step's setpoints: as written, or sorted into a heating leg (rising),
+// a cooling leg (falling), or heating then cooling back (both hysteresis branches).
+enum class ThermalLegs { kAsWritten, kHeat, kCool, kHeatCool };
+// soak: the chamber soaks at each setpoint, then the body runs; ramp: the chamber is told to
+// go to each setpoint at the ramp rate and the body repeats while it ramps (Niu et al., Sensors
+// 13(9):12192).
+enum class ThermalMode { kSoak, kRamp };
+
+// The setpoints of a thermal step in the order its legs visit them (degC). Pure.
+std::vector<double> thermalSetpoints(const std::vector<Quantity>& written, ThermalLegs legs);
 
 struct AxisTarget {
   std::string axis;  // as written
@@ -102,12 +113,25 @@ struct Step {
   Quantity setpoint;             // chamber, degC
   std::optional<Quantity> ramp;  // chamber ramp rate, degC/s (default: [chamber] max_ramp)
   Quantity soak;                 // chamber: time held at setpoint after the ramp, s (>= 0)
+  // chamber / thermal soak = "auto": the soak ends when the IMU's temperature rate stayed below
+  // settle_rate for settle_hold (defaults below when not written), at most max_soak (required)
+  // after the chamber command.
+  bool soak_auto = false;
+  Quantity settle_rate{0.05 / 60.0, {}};  // degC/s (default 0.05 degC/min)
+  Quantity settle_hold{600.0, {}};        // s (default 10 min)
+  std::optional<Quantity> max_soak;       // s
+
+  // thermal: the body (`steps`) once per setpoint, in leg order.
+  std::vector<Quantity> setpoints;  // degC, as written
+  SourcePos setpoints_where;
+  ThermalLegs legs = ThermalLegs::kAsWritten;
+  ThermalMode mode = ThermalMode::kSoak;
 
   bool record_on = true;  // record
 
   int count = 1;  // repeat
   SourcePos count_where;
-  std::vector<Step> steps;  // repeat body
+  std::vector<Step> steps;  // repeat and thermal body
 };
 
 // The calibration a plan's recording feeds ([plan] calibration): what the daemon computes

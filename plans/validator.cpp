@@ -188,10 +188,12 @@ class Validator {
   }
 
   // Checks that do not depend on where the table is: once per written step.
-  void checkSteps(const std::vector<Step>& steps) {
+  void checkSteps(const std::vector<Step>& steps, bool in_thermal = false) {
     for (const Step& s : steps) {
       if (!s.complete) {
-        if (s.type == StepType::kRepeat) checkSteps(s.steps);
+        if (s.type == StepType::kRepeat || s.type == StepType::kThermal) {
+          checkSteps(s.steps, in_thermal || s.type == StepType::kThermal);
+        }
         continue;
       }
       switch (s.type) {
@@ -233,39 +235,70 @@ class Validator {
                   "duration must be positive, got " + num(s.duration.value) + " s");
           }
           break;
-        case StepType::kChamber: {
-          if (!plan_.chamber) {
-            error(s.where, "chamber step but the plan has no [chamber] section with its limits");
-            break;
+        case StepType::kChamber:
+          if (in_thermal) {
+            error(s.where,
+                  "a chamber step inside a thermal step's body would fight its setpoints: "
+                  "move it out");
           }
-          const ChamberSpec& c = plan_.chamber.value();
-          if (s.setpoint.value < c.min_temp.value || s.setpoint.value > c.max_temp.value) {
-            error(s.setpoint.where, "chamber setpoint " + num(s.setpoint.value) +
-                                        " degC outside the chamber range [" +
-                                        num(c.min_temp.value) + ", " + num(c.max_temp.value) +
-                                        "] degC");
-          }
-          if (s.ramp) {
-            if (!(s.ramp->value > 0.0)) {
-              error(s.ramp->where, "ramp must be positive");
-            } else if (above(s.ramp->value, c.max_ramp.value)) {
-              error(s.ramp->where, "ramp " + num(s.ramp->value * 60.0) +
-                                       " degC/min above the chamber limit " +
-                                       num(c.max_ramp.value * 60.0) + " degC/min");
-            }
-          }
-          if (s.soak.value < 0.0) error(s.soak.where, "soak must not be negative");
+          checkChamberStep(s, {Quantity{s.setpoint}});
           break;
-        }
+        case StepType::kThermal:
+          if (in_thermal) error(s.where, "a thermal step inside a thermal step's body");
+          checkChamberStep(s, s.setpoints);
+          checkSteps(s.steps, true);
+          break;
         case StepType::kRecord:
           break;
         case StepType::kRepeat:
           if (s.count < 1) {
             error(s.count_where, "repeat count must be at least 1, got " + std::to_string(s.count));
           }
-          checkSteps(s.steps);
+          checkSteps(s.steps, in_thermal);
           break;
       }
+    }
+  }
+
+  // A chamber or thermal step: its setpoints, ramp and soak against the [chamber] limits.
+  void checkChamberStep(const Step& s, const std::vector<Quantity>& setpoints) {
+    if (!plan_.chamber) {
+      error(s.where, std::string(stepTypeName(s.type)) +
+                         " step but the plan has no [chamber] section with its limits");
+      return;
+    }
+    const ChamberSpec& c = plan_.chamber.value();
+    for (const Quantity& sp : setpoints) {
+      if (sp.value < c.min_temp.value || sp.value > c.max_temp.value) {
+        error(sp.where, "chamber setpoint " + num(sp.value) + " degC outside the chamber range [" +
+                            num(c.min_temp.value) + ", " + num(c.max_temp.value) + "] degC");
+      }
+    }
+    if (s.ramp) {
+      if (!(s.ramp->value > 0.0)) {
+        error(s.ramp->where, "ramp must be positive");
+      } else if (above(s.ramp->value, c.max_ramp.value)) {
+        error(s.ramp->where, "ramp " + num(s.ramp->value * 60.0) +
+                                 " degC/min above the chamber limit " +
+                                 num(c.max_ramp.value * 60.0) + " degC/min");
+      }
+    }
+    if (s.type == StepType::kThermal && s.mode == ThermalMode::kRamp) return;
+    if (s.soak.value < 0.0) error(s.soak.where, "soak must not be negative");
+    if (!s.soak_auto) return;
+    const SourcePos at = s.where;
+    if (!(s.settle_rate.value > 0.0)) {
+      error(s.settle_rate.where.line ? s.settle_rate.where : at, "settle_rate must be positive");
+    }
+    if (!(s.settle_hold.value > 0.0)) {
+      error(s.settle_hold.where.line ? s.settle_hold.where : at, "settle_hold must be positive");
+    }
+    if (s.max_soak && !(s.max_soak->value > s.settle_hold.value)) {
+      error(s.max_soak->where, "max_soak " + num(s.max_soak->value) +
+                                   " s must be longer than settle_hold " +
+                                   num(s.settle_hold.value) +
+                                   " s (the soak could never end "
+                                   "settled)");
     }
   }
 
@@ -276,9 +309,11 @@ class Validator {
     long n = 0;
     for (const Step& s : steps) {
       long k = 1;
-      if (s.type == StepType::kRepeat) {
+      if (s.type == StepType::kRepeat || s.type == StepType::kThermal) {
         const long body = unrolledCount(s.steps, report);
-        const long count = std::max(s.count, 0);
+        // A thermal step runs its body once per setpoint (a ramp leg at least once).
+        const long count = s.type == StepType::kRepeat ? std::max(s.count, 0)
+                                                       : static_cast<long>(s.setpoints.size());
         k = (body > 0 && count > cap / body) ? cap : body * count;
         if (report && k >= cap && body < cap && !reported_unroll_) {
           error(s.count_where, "repeat count " + std::to_string(s.count) +
@@ -342,6 +377,12 @@ class Validator {
           // A count < 1 is already an error; run the body once to spare follow-on noise.
           for (int k = 0; k < std::max(s.count, 1); ++k) simulate(s.steps);
           break;
+        case StepType::kThermal:
+          if (recording_ && s.mode == ThermalMode::kSoak) records_ = true;
+          for (std::size_t k = 0; k < std::max<std::size_t>(s.setpoints.size(), 1); ++k) {
+            simulate(s.steps);
+          }
+          break;
       }
     }
   }
@@ -370,6 +411,12 @@ void countSteps(const std::vector<Step>& steps, long mult, PlanSummary& s) {
       case StepType::kRepeat:
         countSteps(st.steps, mult * std::max(st.count, 0), s);
         break;
+      case StepType::kThermal: {
+        const auto n = static_cast<long>(thermalSetpoints(st.setpoints, st.legs).size());
+        if (st.mode == ThermalMode::kSoak) s.chamber_steps += static_cast<int>(mult * n);
+        countSteps(st.steps, mult * n, s);  // ramp legs: the body at least once each
+        break;
+      }
     }
   }
 }

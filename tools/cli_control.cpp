@@ -174,6 +174,10 @@ void applyEvent(WatchState& s, const json& event, std::vector<std::string>* note
     std::string why;
     const auto e = daemon::parseEvent<daemon::AlarmEvent>(event, &why);
     notes->push_back("ALARM: " + (e ? e->message : "(unreadable: " + why + ")"));
+  } else if (name == daemon::SoakEvent::kTimeout || name == daemon::SoakEvent::kSettled) {
+    // An auto soak's end (daemon/plan_runner.h); a timeout flags the temperature point.
+    const std::string text = textField(event, "message").value_or(name);
+    notes->push_back(name == daemon::SoakEvent::kTimeout ? "FLAG: " + text : text);
   } else if (name == "estimate" && event.contains("summary")) {
     // The daemon's online engine: what the steps so far determine (daemon/online_engine.h).
     notes->push_back("estimate after " + textField(event, "summary").value_or("?"));

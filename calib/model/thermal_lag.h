@@ -107,4 +107,54 @@ inline bool thermalSettled(const ThermalState& s, double goal_c, double tol_c = 
          std::abs(s.sensor_c - goal_c) <= tol_c;
 }
 
+// The IMU temperature's rate of change (degC/s) in state s while the program holds still (after
+// its ramp): the sensor follows the air, the air the program.
+inline double sensorRateAtRest(const ThermalState& s, const ThermalLag& lag) {
+  if (lag.sensor_tau_s > 0.0) return (s.air_c - s.sensor_c) / lag.sensor_tau_s;
+  if (lag.chamber_tau_s > 0.0) return (s.program_c - s.air_c) / lag.chamber_tau_s;
+  return 0.0;
+}
+
+// When a soak is over: the IMU's |dT/dt| has stayed below rate_c_per_s for hold_s.
+struct SettleCriterion {
+  double rate_c_per_s = 0.05 / 60.0;  // degC/s
+  double hold_s = 600.0;              // s
+};
+
+struct SettleTime {
+  double t_s = 0.0;      // from the chamber command: the end of the hold, or max_s
+  bool settled = false;  // false: the criterion was not met within max_s
+};
+
+// The model's settling time of a soak commanded now (goal_c at ramp_c_per_s from state s): the
+// first time at which the IMU's predicted |dT/dt| has stayed below the criterion's rate for its
+// hold, counted from the end of the program's ramp (a chamber cannot be soaked while its program
+// still moves). Both the plan expander (a soak's planned duration) and the tests use it; the plan
+// runner measures the same criterion on the bench. At most max_s (then settled = false).
+inline SettleTime settlingTime(const ThermalState& s, double goal_c, double ramp_c_per_s,
+                               const ThermalLag& lag, const SettleCriterion& c, double max_s) {
+  const double t_ramp = rampTime(s, goal_c, ramp_c_per_s);
+  if (!(t_ramp + c.hold_s <= max_s)) return {max_s, false};
+  ThermalState cur = advanceThermal(s, goal_c, ramp_c_per_s, lag, t_ramp);
+  cur.program_c = goal_c;
+  // Step: fine against the hold and the time constants (the rate is smooth on their scale).
+  double dt = std::max(c.hold_s / 200.0, 1e-3);
+  for (double tau : {lag.chamber_tau_s, lag.sensor_tau_s}) {
+    if (tau > 0.0) dt = std::min(dt, tau / 50.0);
+  }
+  double below_since = -1.0;
+  for (long k = 0;; ++k) {
+    const double t = t_ramp + static_cast<double>(k) * dt;
+    if (t > max_s) break;
+    if (std::abs(sensorRateAtRest(cur, lag)) < c.rate_c_per_s) {
+      if (below_since < 0.0) below_since = t;
+      if (t - below_since >= c.hold_s) return {t, true};
+    } else {
+      below_since = -1.0;
+    }
+    cur = detail::lagLinear(cur, goal_c, 0.0, lag, dt);
+  }
+  return {max_s, false};
+}
+
 }  // namespace imubench::calib::model

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/model/thermal_lag.h"
 #include "nav/rotation.h"
 #include "tests/daemon/library_plan_steps.h"
 
@@ -453,6 +454,205 @@ TEST(PlanRunner, MotionCommandsCarryTheStepsProfile) {
   EXPECT_GT(moves, 0u);
 }
 
+// ---- auto soak (soak = "auto"): ends on the measured temperature rate, never waits forever ----
+
+// A chamber plan with one auto soak and a hold, expanded with the chamber's and the IMU's lags.
+std::vector<RunStep> autoSoakSteps(const calib::model::ThermalLag& lag,
+                                   const std::string& max_soak) {
+  const std::string text = R"([plan]
+name = "soak"
+[table]
+kind = "two-axis"
+max_rate = "20 deg/s"
+max_accel = "10 deg/s^2"
+[chamber]
+min_temp = "-40 degC"
+max_temp = "70 degC"
+max_ramp = "1 degC/min"
+[[step]]
+type = "chamber"
+setpoint = "-20 degC"
+soak = "auto"
+settle_rate = "0.05 degC/min"
+settle_hold = "10 min"
+max_soak = ")" + max_soak + R"("
+[[step]]
+type = "hold"
+duration = "1 min"
+)";
+  io::Diagnostics diag("soak.toml");
+  auto plan = plans::parsePlan(text, "soak.toml", diag);
+  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
+  if (!plan) return {};
+  plans::ExpandOptions o;
+  o.thermal = lag;
+  const auto ex = plans::expand(*plan, o);
+  EXPECT_TRUE(ex.ok) << ex.error;
+  return runSteps(ex.motion);
+}
+
+// The IMU temperature source of a scripted soak run.
+enum class TempScript { kModel, kModelChamberOnly, kSinusoid, kNone };
+
+struct SoakRun {
+  double started = -1.0, finished = -1.0;  // plan clock of the soak's step_started / finished
+  std::vector<RunnerEvent> events;
+  RunExit exit = RunExit::kNone;
+  const RunnerEvent* find(RunnerEvent::Kind k) const {
+    for (const auto& e : events) {
+      if (e.kind == k) return &e;
+    }
+    return nullptr;
+  }
+};
+
+// Runs the soak plan on a FakeBench whose chamber follows calib/model/thermal_lag.h from the
+// moment the setpoint is commanded; observations every second of plan time (the IMU clock runs
+// 20x the wall clock), the IMU temperature quantised to 0.01 degC as a real sensor reports it.
+SoakRun runSoak(const std::vector<RunStep>& steps, const calib::model::ThermalLag& lag,
+                TempScript script) {
+  FakeBench bench(2);
+  PlanRunner runner(steps, options(), bench);
+  SoakRun out;
+  EXPECT_TRUE(runner.start(0.0).ok);
+  const double ramp = 1.0 / 60.0;
+  calib::model::ThermalState cmd_state = calib::model::thermalAtRest(20.0);
+  double t_cmd = 0.0, goal = 20.0;
+  std::size_t seen_setpoints = 0;
+  double t = 0.0;
+  while (runner.state() == RunnerState::kRunning && t < 10 * 3600.0) {
+    t += 1.0;
+    const double wall = t / 20.0;
+    if (bench.setpoints.size() != seen_setpoints) {
+      cmd_state = calib::model::advanceThermal(cmd_state, goal, ramp, lag, t - t_cmd);
+      t_cmd = t;
+      goal = bench.setpoints.back();
+      seen_setpoints = bench.setpoints.size();
+    }
+    const auto th = calib::model::advanceThermal(cmd_state, goal, ramp, lag, t - t_cmd);
+    BenchObservation o = bench.step(wall, 0.05);
+    o.plan_time_s = t;
+    o.chamber_temp_c = th.air_c;
+    switch (script) {
+      case TempScript::kModel:
+        o.imu_temp_c = std::round(th.sensor_c * 100.0) / 100.0;
+        break;
+      case TempScript::kModelChamberOnly:
+        break;
+      case TempScript::kSinusoid:  // never settles: 0.3 degC/min peak rate
+        o.imu_temp_c = -20.0 + 1.5 * std::sin(2 * kPi * t / 1800.0);
+        break;
+      case TempScript::kNone:
+        o.chamber_temp_c.reset();
+        break;
+    }
+    runner.tick(o);
+    for (auto& e : runner.takeEvents()) {
+      if (e.step == 0 && e.kind == RunnerEvent::Kind::kStepStarted) out.started = t;
+      if (e.step == 0 && e.kind == RunnerEvent::Kind::kStepFinished) out.finished = t;
+      out.events.push_back(std::move(e));
+    }
+  }
+  out.exit = runner.exit();
+  return out;
+}
+
+TEST(PlanRunnerSoak, AutoSoakEndsWithinTenPercentOfTheModelsSettlingTime) {
+  const calib::model::ThermalLag lag{600.0, 300.0};
+  const auto steps = autoSoakSteps(lag, "5 h");
+  ASSERT_EQ(steps.size(), 2u);
+  ASSERT_TRUE(steps[0].soak_auto);
+  const auto predicted = calib::model::settlingTime(
+      calib::model::thermalAtRest(20.0), -20.0, 1.0 / 60.0, lag, {0.05 / 60.0, 600.0}, 5 * 3600.0);
+  ASSERT_TRUE(predicted.settled);
+  EXPECT_EQ(steps[0].planned_s, predicted.t_s);
+  const SoakRun run = runSoak(steps, lag, TempScript::kModel);
+  EXPECT_EQ(run.exit, RunExit::kCompleted);
+  const double soaked = run.finished - run.started;
+  std::cout << "auto soak: " << soaked << " s, model " << predicted.t_s << " s\n";
+  EXPECT_NEAR(soaked, predicted.t_s, 0.1 * predicted.t_s);
+  const RunnerEvent* settled = run.find(RunnerEvent::Kind::kSoakSettled);
+  ASSERT_NE(settled, nullptr);
+  EXPECT_NE(settled->message.find("the IMU temperature"), std::string::npos) << settled->message;
+  EXPECT_EQ(run.find(RunnerEvent::Kind::kSoakTimeout), nullptr);
+}
+
+TEST(PlanRunnerSoak, NeverSettlingTemperatureEndsAtMaxSoakFlagged) {
+  const calib::model::ThermalLag lag{600.0, 300.0};
+  const auto steps = autoSoakSteps(lag, "3 h");
+  const SoakRun run = runSoak(steps, lag, TempScript::kSinusoid);
+  EXPECT_EQ(run.exit, RunExit::kCompleted) << "the plan goes on after the timeout";
+  EXPECT_NEAR(run.finished - run.started, 3 * 3600.0, 1.5);
+  const RunnerEvent* timeout = run.find(RunnerEvent::Kind::kSoakTimeout);
+  ASSERT_NE(timeout, nullptr);
+  EXPECT_EQ(timeout->label, steps[0].label);
+  EXPECT_NE(timeout->message.find("soak_timeout"), std::string::npos);
+  EXPECT_NE(timeout->message.find("flagged"), std::string::npos);
+  EXPECT_EQ(run.find(RunnerEvent::Kind::kSoakSettled), nullptr);
+  EXPECT_STREQ(runnerEventKindName(timeout->kind), "soak_timeout");
+}
+
+TEST(PlanRunnerSoak, WithoutImuTemperatureTheChamberIsWatchedAndTheEventSaysSo) {
+  const calib::model::ThermalLag lag{600.0, 300.0};
+  const auto steps = autoSoakSteps(lag, "5 h");
+  const SoakRun run = runSoak(steps, lag, TempScript::kModelChamberOnly);
+  EXPECT_EQ(run.exit, RunExit::kCompleted);
+  const RunnerEvent* settled = run.find(RunnerEvent::Kind::kSoakSettled);
+  ASSERT_NE(settled, nullptr);
+  EXPECT_NE(settled->message.find("the chamber temperature (no IMU temperature"), std::string::npos)
+      << settled->message;
+  // The air settles before the IMU: the end lies between the ramp's end + hold and the IMU's
+  // settling time.
+  const double soaked = run.finished - run.started;
+  EXPECT_GT(soaked, steps[0].ramp_s + 600.0);
+  EXPECT_LT(soaked, steps[0].planned_s * 1.05);
+}
+
+TEST(PlanRunnerSoak, NoTemperatureAtAllEndsAtMaxSoakAndSaysWhy) {
+  const calib::model::ThermalLag lag{600.0, 300.0};
+  const auto steps = autoSoakSteps(lag, "2 h");
+  const SoakRun run = runSoak(steps, lag, TempScript::kNone);
+  EXPECT_EQ(run.exit, RunExit::kCompleted);
+  EXPECT_NEAR(run.finished - run.started, 2 * 3600.0, 1.5);
+  const RunnerEvent* timeout = run.find(RunnerEvent::Kind::kSoakTimeout);
+  ASSERT_NE(timeout, nullptr);
+  EXPECT_NE(timeout->message.find("no temperature"), std::string::npos) << timeout->message;
+}
+
+TEST(PlanRunnerSoak, SlopeWindowIsRobustToQuantisation) {
+  SlopeWindow w(300.0);
+  EXPECT_FALSE(w.slope());
+  // 0.02 degC/min under a 0.01 degC quantiser, 10 Hz: a two-point difference is 0 or 6 degC/min.
+  for (int i = 0; i <= 3000; ++i) {
+    const double t = 0.1 * i;
+    w.add(t, std::round((5.0 + 0.02 / 60.0 * t) * 100.0) / 100.0);
+  }
+  ASSERT_TRUE(w.slope());
+  EXPECT_NEAR(*w.slope() * 60.0, 0.02, 0.004);
+  EXPECT_NEAR(w.centerTime(), 150.0, 2.0);
+}
+
+// Continuous ramp: the chamber is commanded as the leg's first step starts, nobody waits.
+TEST(PlanRunnerSoak, RampCommandGoesOutWithTheStepWithoutWaiting) {
+  RunStep hold;
+  hold.kind = calib::SegmentKind::kStatic;
+  hold.label = "ramp1/rep01/rest";
+  hold.planned_s = 2.0;
+  hold.start_angles = hold.end_angles = {0.0, 0.0};
+  hold.chamber_command_c = -40.0;
+  FakeBench bench(2);
+  PlanRunner runner({hold}, options(), bench);
+  ASSERT_TRUE(runner.start(0.0).ok);
+  double now = 0.0;
+  while (runner.state() == RunnerState::kRunning && now < 10.0) {
+    now += 0.05;
+    runner.tick(bench.step(now, 0.05));
+  }
+  EXPECT_EQ(runner.exit(), RunExit::kCompleted);
+  EXPECT_EQ(bench.setpoints, (std::vector<double>{-40.0}));
+  EXPECT_NEAR(now, 2.0, 0.11);
+}
+
 TEST(PlanRunner, OptionsAreChecked) {
   RunnerOptions o;
   std::string why;
@@ -464,6 +664,10 @@ TEST(PlanRunner, OptionsAreChecked) {
   o.chamber_safe_setpoint_c = 50.0;
   o.chamber_over_temperature_c = 40.0;
   EXPECT_FALSE(o.IsValid(&why));
+  o = RunnerOptions{};
+  o.soak_rate_window_fraction = 0.0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("soak_rate_window_fraction"), std::string::npos);
 }
 
 }  // namespace

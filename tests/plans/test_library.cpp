@@ -100,7 +100,7 @@ TEST(Library, EveryBundledPlanChecksAndExpandsSanely) {
       }
     }
   }
-  EXPECT_EQ(n, 6);
+  EXPECT_EQ(n, 8);
 }
 
 // The 12-run checks shared by the two-axis plan and its thermal repetition.
