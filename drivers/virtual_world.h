@@ -32,9 +32,10 @@ class VirtualClock {
 
 class VirtualWorld {
  public:
+  // imu_tau_s: the IMU's thermal lag behind the chamber air (VirtualChamber).
   VirtualWorld(const TableDeviceSpec& table, const ChamberDeviceSpec& chamber, double time_scale,
-               double ambient_c = 20.0)
-      : clock_(time_scale), table_(table, 0.0), chamber_(chamber, ambient_c, 0.0) {}
+               double ambient_c = 20.0, double imu_tau_s = 0.0)
+      : clock_(time_scale), table_(table, 0.0), chamber_(chamber, ambient_c, 0.0, imu_tau_s) {}
 
   double now() const { return clock_.now(); }
   const VirtualClock& clock() const { return clock_; }
