@@ -59,7 +59,7 @@ class VirtualWorld {
   auto withMotion(F&& f) {
     std::lock_guard lock(mu_);
     const double t = clock_.now();
-    table_.setTemperatureHistory(chamber_.history(t));
+    table_.syncTemperature(chamber_.history(t), {t, chamber_.imuTemperature(t)});
     return f(table_.motion(t), t);
   }
   // Everything executed so far as one Motion (copy).
@@ -68,6 +68,9 @@ class VirtualWorld {
     const double t = clock_.now();
     calib::Motion m = table_.motion(t);
     m.temperature = chamber_.history(t);
+    if (m.temperature.empty() || t > m.temperature.back().t) {
+      m.temperature.push_back({t, chamber_.imuTemperature(t)});
+    }
     m.duration = t;
     return m;
   }

@@ -94,16 +94,9 @@ void announce(const std::string& line) {
 // per tick (the sample counter defines the timing: t_k = k / rate).
 class ImuStreamer {
  public:
-  // holdback_s: samples are made this long after their stamp (simulated time), so that the
-  // temperature history they read (knots every kThermalKnotSpacing, rate over +-0.5 s) already
-  // exists; 0 without a thermal truth.
   ImuStreamer(VirtualWorld& world, std::unique_ptr<calib::ImuSimulator> sim,
-              std::unique_ptr<VirtualImuCan> can, const daemon::Logger& log, double holdback_s)
-      : world_(world),
-        sim_(std::move(sim)),
-        can_(std::move(can)),
-        log_(log),
-        holdback_s_(holdback_s) {}
+              std::unique_ptr<VirtualImuCan> can, const daemon::Logger& log)
+      : world_(world), sim_(std::move(sim)), can_(std::move(can)), log_(log) {}
   ~ImuStreamer() { stop(); }
   void start() {
     thread_ = std::thread([this] { run(); });
@@ -134,7 +127,7 @@ class ImuStreamer {
     bool reported = false;
     for (;;) {
       world_.withMotion([&](const calib::Motion&, double now) {
-        while (sim_->nextTime() <= now - holdback_s_) batch.push_back(sim_->next());
+        while (sim_->nextTime() <= now) batch.push_back(sim_->next());
         return 0;
       });
       if (silent_) batch.clear();
@@ -153,7 +146,6 @@ class ImuStreamer {
   std::unique_ptr<calib::ImuSimulator> sim_;
   std::unique_ptr<VirtualImuCan> can_;
   const daemon::Logger& log_;
-  double holdback_s_;
   std::thread thread_;
   std::mutex mu_;
   std::condition_variable cv_;
@@ -272,8 +264,7 @@ std::unique_ptr<ImuStreamer> startImu(const Args& a, VirtualWorld& world, const 
     *why = "IMU on " + a.can_interface + ": " + s.message;
     return nullptr;
   }
-  const double holdback = bench.thermal ? calib::model::kThermalKnotSpacing + 0.5 : 0.0;
-  auto imu = std::make_unique<ImuStreamer>(world, std::move(sim), std::move(can), log, holdback);
+  auto imu = std::make_unique<ImuStreamer>(world, std::move(sim), std::move(can), log);
   imu->start();
   announce("imu can " + a.can_interface + " layout " + a.imu_layout_file + " rate " +
            std::to_string(opts.imu_rate_hz) + " Hz");
