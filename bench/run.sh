@@ -28,4 +28,6 @@ run "SQLite store: appending a 2 kHz IMU + 100 Hz table run (target >= 10x real 
   "$build/bench/daemon/imubench_store_bench"
 run "online engine on the loop per IMU sample at 2 kHz (target < 5 % of one core, counter x_target)" \
   "$build/bench/daemon/imubench_online_engine_bench"
+run "thermal calibration over -40..+60 degC: continuous-ramp vs soak-point plan (target: ramp chamber time <= 0.5 x soak, both within 2x noise floor and 5 % bias tempco; exit 1 when not)" \
+  "$build/bench/calibration/imubench_bench_thermal" || true
 "$here/bench/can_bench.sh" "$build"

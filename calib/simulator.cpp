@@ -172,7 +172,10 @@ struct ImuSimulator::Impl {
   void updateThermal(double t) {
     if (!thermal) return;
     const double T = motion->temperatureAt(t);
-    const double rate = motion->temperatureAt(t + 0.5) - motion->temperatureAt(t - 0.5);
+    // Backward over 1 s: a sample is made from the history up to its own time (the virtual
+    // bench makes each one as it is due); the thermal lags (minutes) make the half-second
+    // delay of this rate negligible.
+    const double rate = motion->temperatureAt(t) - motion->temperatureAt(t - 1.0);
     if (T == thermal_temp && rate == thermal_rate) return;
     thermal_temp = T;
     thermal_rate = rate;

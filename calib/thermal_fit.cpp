@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <utility>
 
 #include "calib/thermal_model.h"
 
@@ -279,7 +281,103 @@ bool temperatureOf(const DirectCalibrationInput& run, const std::vector<Segment>
   return true;
 }
 
+// The repetition a label names: its part before the last '/' ("" without one).
+std::string repetitionOf(const std::string& label) {
+  const std::size_t slash = label.rfind('/');
+  return slash == std::string::npos ? std::string() : label.substr(0, slash);
+}
+
+// IMU temperature range (lo, hi) of the samples inside each segment (NaN, NaN: none).
+std::vector<std::pair<double, double>> segmentTemperatures(const DirectCalibrationInput& run) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::pair<double, double>> out;
+  for (const Segment& s : run.segments) {
+    auto it = std::lower_bound(run.imu.begin(), run.imu.end(), s.t0,
+                               [](const nav::ImuSample& a, double t) { return a.t < t; });
+    double lo = nan, hi = nan;
+    for (; it != run.imu.end() && it->t <= s.t1; ++it) {
+      if (!std::isfinite(it->temp_c)) continue;
+      lo = std::isfinite(lo) ? std::min(lo, it->temp_c) : it->temp_c;
+      hi = std::isfinite(hi) ? std::max(hi, it->temp_c) : it->temp_c;
+    }
+    out.emplace_back(lo, hi);
+  }
+  return out;
+}
+
+// The segments of each temperature point (rules 1-3 of thermal_fit.h), in time order.
+std::vector<std::vector<Segment>> pointGroups(const DirectCalibrationInput& run,
+                                              double max_span_c) {
+  const auto temps = segmentTemperatures(run);
+  std::vector<std::vector<Segment>> groups(1);
+  std::string rep;
+  double lo = 0.0, hi = 0.0;
+  auto open = [&] {
+    if (!groups.back().empty()) groups.emplace_back();
+  };
+  for (std::size_t i = 0; i < run.segments.size(); ++i) {
+    const Segment& s = run.segments[i];
+    if (s.kind == SegmentKind::kSoak) {  // rule 1
+      open();
+      continue;
+    }
+    const std::string r = repetitionOf(s.label);
+    const auto [slo, shi] = temps[i];
+    const bool has_t = std::isfinite(slo);
+    if (!groups.back().empty()) {
+      const bool new_rep = !r.empty() && r != rep;                      // rule 2
+      const bool too_wide = r.empty() && has_t && std::isfinite(lo) &&  // rule 3
+                            std::max(hi, shi) - std::min(lo, slo) > max_span_c;
+      if (new_rep || too_wide) open();
+    }
+    if (groups.back().empty() || !std::isfinite(lo)) {
+      lo = slo;
+      hi = shi;
+    } else if (has_t) {
+      lo = std::min(lo, slo);
+      hi = std::max(hi, shi);
+    }
+    rep = r;
+    groups.back().push_back(s);
+  }
+  if (groups.back().empty()) groups.pop_back();
+  return groups;
+}
+
+// The samples of [t0, t1] moved through `ref` from their own (T, Tdot) to (T_p, Tdot_p):
+// the true increments at the sample's coefficients, read again with the point's.
+void referToPoint(const model::ThermalCoefficients& ref, const std::vector<double>& rates,
+                  double t0, double t1, const ThermalFitPoint& p, nav::ImuSamples* imu) {
+  std::array<double, model::kTriadSize> a_p{}, g_p{}, a{}, g{};
+  model::thermalTriadBlock(ref, ref.accel, p.temp_c, p.temp_rate, a_p.data());
+  model::thermalTriadBlock(ref, ref.gyro, p.temp_c, p.temp_rate, g_p.data());
+  for (std::size_t k = 1; k < imu->size(); ++k) {
+    nav::ImuSample& s = (*imu)[k];
+    if (s.t < t0 || s.t > t1 + 1.0 || !std::isfinite(s.temp_c)) continue;
+    const double dt = s.t - (*imu)[k - 1].t;
+    model::thermalTriadBlock(ref, ref.accel, s.temp_c, rates[k], a.data());
+    model::thermalTriadBlock(ref, ref.gyro, s.temp_c, rates[k], g.data());
+    Mat3 G;
+    Vec3 h;
+    model::compensationAffine(a.data(), &G, &h);
+    const Vec3 dv = G * s.dvel + h * dt;  // true increment
+    model::compensationAffine(g.data(), &G, &h);
+    const Vec3 dth = G * s.dtheta + h * dt;
+    // reading() is affine in the input: S (M u - b); for increments S (M du - b dt).
+    s.dvel = model::reading(a_p.data(), Vec3(dv / dt)) * dt;
+    s.dtheta = model::reading(g_p.data(), Vec3(dth / dt)) * dt;
+  }
+}
+
 }  // namespace
+
+bool ThermalPointOptions::IsValid(std::string* why) const {
+  if (!(max_point_span_c > 0.0)) {
+    if (why) *why = "max_point_span_c must be > 0";
+    return false;
+  }
+  return true;
+}
 
 ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
                                          const std::string& source,
@@ -292,17 +390,9 @@ ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
     r.error = source + ": the recording has no IMU temperatures (imu.csv temp column empty)";
     return r;
   }
+  if (!options.IsValid(&r.error)) return r;
   const std::vector<double> rates = temperatureRates(run.imu);
-  // Groups of segments between soaks.
-  std::vector<std::vector<Segment>> groups(1);
-  for (const Segment& s : run.segments) {
-    if (s.kind == SegmentKind::kSoak) {
-      if (!groups.back().empty()) groups.emplace_back();
-      continue;
-    }
-    groups.back().push_back(s);
-  }
-  if (groups.back().empty()) groups.pop_back();
+  const std::vector<std::vector<Segment>> groups = pointGroups(run, options.max_point_span_c);
   for (std::size_t g = 0; g < groups.size(); ++g) {
     ThermalFitPoint p;
     p.source = source + " point " + std::to_string(g + 1) + " (segments from '" +
@@ -313,6 +403,10 @@ ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
     }
     DirectCalibrationInput in = run;
     in.segments = groups[g];
+    if (options.reference) {
+      referToPoint(*options.reference, rates, groups[g].front().t0, groups[g].back().t1, p,
+                   &in.imu);
+    }
     const DirectCalibrationResult cal = calibrateDirect(in, options.direct);
     if (!cal.ok || !cal.status.IsSolutionUsable()) {
       r.error = p.source + ": direct calibration " +
@@ -321,6 +415,57 @@ ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
     }
     fillPoint(cal.report, &p);
     r.points.push_back(p);
+  }
+  r.ok = true;
+  return r;
+}
+
+}  // namespace imubench::calib
+
+namespace imubench::calib {
+
+bool ThermalRunsFitOptions::IsValid(std::string* why) const {
+  auto bad = [&](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!fit.IsValid(why) || !points.IsValid(why)) return false;
+  if (refinements < 0 || refinements > 10) return bad("refinements must be 0..10");
+  if (!(max_normalised_rms_before_last > 0.0)) return bad("max_normalised_rms_before_last > 0");
+  return true;
+}
+
+ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
+                                    const ThermalRunsFitOptions& options) {
+  ThermalRunsFitResult r;
+  if (!options.IsValid(&r.error)) return r;
+  model::ThermalCoefficients previous;
+  for (int pass = 0; pass <= options.refinements; ++pass) {
+    ThermalPointOptions po = options.points;
+    if (pass < options.refinements) {
+      po.direct.quality.max_normalised_rms = options.max_normalised_rms_before_last;
+    }
+    if (pass > 0) po.reference = &previous;
+    r.points.clear();
+    for (const ThermalRun& run : runs) {
+      const ThermalPointsResult p = thermalPointsFromRun(run.input, run.source, po);
+      if (!p.ok) {
+        r.error = p.error + (pass > 0 ? " (refinement pass " + std::to_string(pass) + ")" : "");
+        return r;
+      }
+      r.points.insert(r.points.end(), p.points.begin(), p.points.end());
+    }
+    r.fit = fitThermal(r.points, options.fit);
+    r.passes = pass + 1;
+    if (!r.fit.ok) {
+      r.error = r.fit.error;
+      return r;
+    }
+    previous = r.fit.coefficients;
+    // The end points' samples lie up to half a point's span outside the points' mean
+    // temperatures: the correction extrapolates the polynomial that far instead of clamping.
+    previous.t_min_c -= options.points.max_point_span_c;
+    previous.t_max_c += options.points.max_point_span_c;
   }
   r.ok = true;
   return r;

@@ -96,11 +96,29 @@ std::string thermalCoefficientName(const std::string& triad, int index);
 
 // ---- Points from one run ----------------------------------------------------------------
 
-// A run is split into temperature points at its soak segments (the chamber moving to the
-// next setpoint): the static and rotation segments between two soaks are one point, calibrated
-// directly. A run without soak segments is one point.
+// A run is split into temperature points, each calibrated directly:
+//   1. at its soak segments (the chamber moving to the next setpoint): soak-point plans;
+//   2. between soaks, at a change of the repetition a segment label names: the label's part
+//      before its last '/' ("ramp1/rep03/pos01_z_up" -> "ramp1/rep03"), so each repetition
+//      of the calibration body in a continuous-ramp plan is one point;
+//   3. a stretch without soaks or repetition labels whose IMU temperature spans more than
+//      max_point_span_c (a continuous ramp recorded elsewhere, e.g. any imubench-csv/1 with a
+//      temp column) into windows of consecutive segments spanning at most that.
+// Each point carries its mean temperature and rate, so the dT/dt term is fitted from the
+// heating and cooling legs. A run at one temperature without soaks is one point.
 struct ThermalPointOptions {
   DirectCalibrationOptions direct;  // how each point is calibrated
+  // Widest IMU temperature range (degC) of one window of rule 3: the coefficients' curvature
+  // over a few degC stays far below the noise of one point, and narrower windows hold too
+  // few static positions for a direct calibration.
+  double max_point_span_c = 5.0;
+  // A thermal model (the previous pass of fitThermalRuns) through which every sample of a
+  // point is moved to the point's mean temperature and rate before its direct calibration
+  // (true input at the sample's own (T, Tdot), reading again at the point's): a point that
+  // spans degrees then calibrates as if soaked. Null: the samples as recorded.
+  const model::ThermalCoefficients* reference = nullptr;
+
+  bool IsValid(std::string* why) const;
 };
 
 struct ThermalPointsResult {
@@ -113,5 +131,43 @@ struct ThermalPointsResult {
 ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
                                          const std::string& source,
                                          const ThermalPointOptions& options = {});
+
+// ---- The joint fit of whole runs ----------------------------------------------------------
+
+// One recording and its name for messages.
+struct ThermalRun {
+  DirectCalibrationInput input;
+  std::string source;
+};
+
+struct ThermalRunsFitOptions {
+  ThermalFitOptions fit;
+  ThermalPointOptions points;  // its reference is set by the passes
+  // Passes after the first that re-make the points through the previous fit (reference):
+  // the within-point drift of a continuous ramp (degrees over a repetition) biases a plain
+  // direct calibration by far more than its noise; two passes take the bias below it (the
+  // correction is linear in the model's error).
+  int refinements = 2;
+  // Normalised residual RMS accepted in every pass but the last: a point's drift shows as
+  // model misfit until it is moved to one temperature; the last pass applies points.direct's
+  // gate.
+  double max_normalised_rms_before_last = 1e6;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct ThermalRunsFitResult {
+  bool ok = false;
+  std::string error;  // naming the run or point at fault
+  ThermalFitResult fit;
+  std::vector<ThermalFitPoint> points;  // of the last pass
+  int passes = 0;
+};
+
+// Points of every run, fitted jointly; then `refinements` passes re-making the points
+// through the previous fit. Soak points (spans of tenths of a degree) change by far less
+// than their sigmas in the later passes; ramp repetitions are corrected for their drift.
+ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
+                                    const ThermalRunsFitOptions& options = {});
 
 }  // namespace imubench::calib

@@ -4,11 +4,12 @@
 
 namespace imubench::drivers {
 
-VirtualChamber::VirtualChamber(const ChamberDeviceSpec& spec, double ambient_c, double t0)
+VirtualChamber::VirtualChamber(const ChamberDeviceSpec& spec, double ambient_c, double t0,
+                               double imu_tau_s)
     : spec_(spec),
       ambient_c_(ambient_c),
       t_(t0),
-      lag_{spec.time_constant_s, 0.0},
+      lag_{spec.time_constant_s, imu_tau_s},
       state_(calib::model::thermalAtRest(ambient_c)),
       setpoint_(ambient_c) {
   history_.push_back({t0, ambient_c});
@@ -51,6 +52,11 @@ void VirtualChamber::setSensorBreak(double t, bool broken) {
 double VirtualChamber::temperature(double t) {
   advance(t);
   return sensor_break_ ? spec_.temp_max_c + 50.0 : state_.air_c;  // open thermocouple reads high
+}
+
+double VirtualChamber::imuTemperature(double t) {
+  advance(t);
+  return state_.sensor_c;
 }
 
 uint32_t VirtualChamber::alarmWord(double t) {

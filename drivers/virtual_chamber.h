@@ -1,8 +1,9 @@
 // The virtual thermal chamber: the bench's thermal model (calib/model/thermal_lag.h, the one
 // the plan expander predicts with): the setpoint is approached along the commanded ramp and the
-// chamber air follows with a first-order lag (time constant from the device file). Pure model
-// driven by explicit times; its history (the IMU's temperature: the air's, as no file states
-// the IMU's own lag yet) becomes calib::TemperatureKnot entries.
+// chamber air follows with a first-order lag (time constant from the device file), and the IMU
+// follows the air with its own first-order lag (imu_tau_s: the IMU's mount, not the chamber's,
+// so given by whoever runs the bench; 0: the IMU is at the air temperature). Pure model driven
+// by explicit times; its history (the IMU's temperature) becomes calib::TemperatureKnot entries.
 #pragma once
 
 #include <cstdint>
@@ -16,7 +17,8 @@ namespace imubench::drivers {
 
 class VirtualChamber {
  public:
-  VirtualChamber(const ChamberDeviceSpec& spec, double ambient_c = 20.0, double t0 = 0.0);
+  VirtualChamber(const ChamberDeviceSpec& spec, double ambient_c = 20.0, double t0 = 0.0,
+                 double imu_tau_s = 0.0);
 
   void setSetpoint(double t, double temp_c);
   void setRampRate(double t, double degc_per_s);  // 0: step
@@ -24,7 +26,8 @@ class VirtualChamber {
   // Fault injection: sensor break (alarm bit, temperature reads the sensor's rail).
   void setSensorBreak(double t, bool broken);
 
-  double temperature(double t);  // the chamber air (what its sensor reads)
+  double temperature(double t);     // the chamber air (what its sensor reads)
+  double imuTemperature(double t);  // the IMU's own temperature (lagging the air)
   double setpoint() const { return setpoint_; }
   double rampRate() const { return ramp_; }
   bool running() const { return running_; }

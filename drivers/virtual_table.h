@@ -62,12 +62,22 @@ class VirtualTable {
   // The motion executed up to time t (phases that started after t are not in it yet).
   const calib::Motion& motion(double t);
   // The chamber's temperature history, so the Motion the simulator reads carries it too.
-  void setTemperatureHistory(const std::vector<calib::TemperatureKnot>& knots) {
-    motion_.temperature = knots;
+  // The executed Motion's temperature: the chamber's knots (a history that only grows: the new
+  // ones are appended) and, after them, the IMU's temperature `now`, so that a sample made at
+  // any time up to now reads a temperature (and a rate) that exists. The previous call's `now`
+  // knot is replaced.
+  void syncTemperature(const std::vector<calib::TemperatureKnot>& knots,
+                       calib::TemperatureKnot now) {
+    std::vector<calib::TemperatureKnot>& m = motion_.temperature;
+    if (has_now_knot_) m.pop_back();
+    for (std::size_t i = m.size(); i < knots.size(); ++i) m.push_back(knots[i]);
+    has_now_knot_ = m.empty() || now.t > m.back().t;
+    if (has_now_knot_) m.push_back(now);
   }
   const TableDeviceSpec& spec() const { return spec_; }
 
  private:
+  bool has_now_knot_ = false;  // motion_.temperature ends with syncTemperature's `now`
   struct Axis {
     AxisMode mode = AxisMode::kOff;
     std::vector<calib::AxisPhase> pending;  // planned, t0 > committed time

@@ -32,9 +32,10 @@ class VirtualClock {
 
 class VirtualWorld {
  public:
+  // imu_tau_s: the IMU's thermal lag behind the chamber air (VirtualChamber).
   VirtualWorld(const TableDeviceSpec& table, const ChamberDeviceSpec& chamber, double time_scale,
-               double ambient_c = 20.0)
-      : clock_(time_scale), table_(table, 0.0), chamber_(chamber, ambient_c, 0.0) {}
+               double ambient_c = 20.0, double imu_tau_s = 0.0)
+      : clock_(time_scale), table_(table, 0.0), chamber_(chamber, ambient_c, 0.0, imu_tau_s) {}
 
   double now() const { return clock_.now(); }
   const VirtualClock& clock() const { return clock_; }
@@ -58,7 +59,7 @@ class VirtualWorld {
   auto withMotion(F&& f) {
     std::lock_guard lock(mu_);
     const double t = clock_.now();
-    table_.setTemperatureHistory(chamber_.history(t));
+    table_.syncTemperature(chamber_.history(t), {t, chamber_.imuTemperature(t)});
     return f(table_.motion(t), t);
   }
   // Everything executed so far as one Motion (copy).
@@ -67,6 +68,9 @@ class VirtualWorld {
     const double t = clock_.now();
     calib::Motion m = table_.motion(t);
     m.temperature = chamber_.history(t);
+    if (m.temperature.empty() || t > m.temperature.back().t) {
+      m.temperature.push_back({t, chamber_.imuTemperature(t)});
+    }
     m.duration = t;
     return m;
   }

@@ -1,8 +1,11 @@
 // imubench thermal fit RUN_OR_DIR... [--order auto|N] [--t-ref DEGC] --out comp.json
-//                                    [--csv comp.csv]
+//                                    [--csv comp.csv] [--max-span DEGC] [--refinements N]
 // Each recording (imubench-csv/1 directory with IMU temperatures) is split into temperature
-// points at its soak segments, each point calibrated directly; the points of all recordings
-// are fitted jointly (calib/thermal_fit.h) into an imubench-thermal/1 file.
+// points at its soak segments, at each repetition of a continuous-ramp plan ("up/rep03/..."
+// labels), or into windows spanning at most --max-span degC (calib/thermal_fit.h), each point
+// calibrated directly; the points of all recordings are fitted jointly, then re-made through
+// that fit --refinements times (calib::fitThermalRuns: a ramp's repetitions moved to their
+// mean temperature) into an imubench-thermal/1 file.
 // Refusals (exit 1, naming the file): a recording without temperatures, a single temperature
 // point, recordings of different IMU serials.
 #include <filesystem>
@@ -29,6 +32,8 @@ struct ThermalFitCliOptions {
   std::string out;
   std::string csv;
   std::string db;  // run store for run ids
+  double max_span_c = calib::ThermalPointOptions{}.max_point_span_c;
+  int refinements = calib::ThermalRunsFitOptions{}.refinements;
 };
 
 // A recording directory or a run of the store (tools/cli_store.h RUN_OR_DIR).
@@ -59,11 +64,13 @@ void printFit(const calib::ThermalFitResult& r) {
 }
 
 void runThermalFit(const ThermalFitCliOptions& o) {
-  calib::ThermalFitOptions fo;
-  fo.order = parseOrder(o.order);
-  fo.t_ref_c = o.t_ref_c;
+  calib::ThermalRunsFitOptions fo;
+  fo.fit.order = parseOrder(o.order);
+  fo.fit.t_ref_c = o.t_ref_c;
+  fo.points.max_point_span_c = o.max_span_c;
+  fo.refinements = o.refinements;
   std::string serial, serial_dir;
-  std::vector<calib::ThermalFitPoint> points;
+  std::vector<calib::ThermalRun> runs;
   for (const std::string& dir : o.runs) {
     const io::Recording rec = readRunOrFail(dir, o.db);
     if (!serial_dir.empty() && rec.imu_serial != serial) {
@@ -78,20 +85,20 @@ void runThermalFit(const ThermalFitCliOptions& o) {
     in.imu = rec.imu;
     in.table = io::tableSamples(rec);
     in.segments = rec.segments;
-    const calib::ThermalPointsResult p = calib::thermalPointsFromRun(in, dir);
-    if (!p.ok) throw CommandFailed(p.error);
-    for (const auto& pt : p.points) {
-      std::cout << pt.source << ": " << std::setprecision(4) << pt.temp_c << " degC, "
-                << pt.temp_rate * 60.0 << " degC/min\n";
-    }
-    points.insert(points.end(), p.points.begin(), p.points.end());
+    runs.push_back({std::move(in), dir});
   }
-  const calib::ThermalFitResult r = calib::fitThermal(points, fo);
-  if (!r.ok) {
+  const calib::ThermalRunsFitResult fit = calib::fitThermalRuns(runs, fo);
+  if (!fit.ok) {
     std::string files;
     for (const auto& d : o.runs) files += (files.empty() ? "" : ", ") + d;
-    throw CommandFailed(files + ": " + r.error);
+    // A point's error names its recording; a fit's (e.g. a single temperature) names all.
+    throw CommandFailed(fit.fit.error.empty() ? fit.error : files + ": " + fit.error);
   }
+  for (const auto& pt : fit.points) {
+    std::cout << pt.source << ": " << std::setprecision(4) << pt.temp_c << " degC, "
+              << pt.temp_rate * 60.0 << " degC/min, span " << pt.temp_span_c << " degC\n";
+  }
+  const calib::ThermalFitResult& r = fit.fit;
   printFit(r);
   const io::ThermalFile file{serial, r.coefficients};
   if (auto st = io::writeThermalFile(o.out, file); !st.ok) throw CommandFailed(st.message);
@@ -118,6 +125,15 @@ void addThermalCommand(CLI::App& app) {
   fit->add_option("--t-ref", opt->t_ref_c, "polynomial origin, degC")->capture_default_str();
   fit->add_option("--out", opt->out, "imubench-thermal/1 JSON file to write")->required();
   fit->add_option("--csv", opt->csv, "also write the CSV form");
+  fit->add_option("--max-span", opt->max_span_c,
+                  "widest temperature range of one point of a ramp without soaks or repetition "
+                  "labels, degC")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  fit->add_option("--refinements", opt->refinements,
+                  "passes re-making the points through the previous fit (continuous ramps)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 10));
   addStoreOption(*fit, &opt->db);
   fit->callback([opt] { runThermalFit(*opt); });
 }

@@ -4,7 +4,11 @@
 //   table   - Modbus TCP (several clients), optionally Modbus RTU and the serial command set on
 //             pseudo-terminals (their slave paths are announced on stdout);
 //   chamber - Modbus TCP;
-//   IMU     - CAN frames on a SocketCAN interface (vcan) in the device file's layout.
+//   IMU     - CAN frames on a SocketCAN interface (vcan) in the device file's layout, its
+//             temperature lagging the chamber air by --imu-thermal-tau (the one lag model,
+//             calib/model/thermal_lag.h) and, with --thermal-truth (imubench-thermal/1, the file
+//             `imubench simulate --thermal-truth` reads), every coefficient following that
+//             temperature and its rate through the simulator's own evaluation.
 // Time runs --time-scale times faster than the wall clock. Faults can be injected from the
 // command line, or while running by signal: SIGUSR1 drops every Modbus TCP connection,
 // SIGUSR2 trips the table interlock, SIGRTMIN restarts the table controller (connections
@@ -38,6 +42,7 @@
 #include "drivers/virtual_imu_can.h"
 #include "drivers/virtual_table_scpi.h"
 #include "drivers/virtual_world.h"
+#include "io/thermal_file.h"
 #include "io/truth_file.h"
 #include "nav/rotation.h"
 
@@ -56,6 +61,10 @@ struct Args {
   double time_scale = 1.0;
   double ambient_c = 20.0;
   std::string imu_layout_file, can_interface = "vcan0", truth_file;
+  std::string thermal_truth_file;  // imubench-thermal/1; empty: coefficients constant
+  // The IMU's thermal time constant behind the chamber air, s: its mount's, which no device
+  // file states (0: the IMU is at the air temperature).
+  double imu_thermal_tau_s = 0.0;
   double imu_rate_hz = 0.0;  // 0: the layout's sample period
   std::uint64_t seed = 1;
   // The site the IMU senses (gravity, Earth rate): the shipped bench file's
@@ -217,6 +226,14 @@ std::unique_ptr<ImuStreamer> startImu(const Args& a, VirtualWorld& world, const 
     }
     bench.truth = t.value;
   }
+  if (!a.thermal_truth_file.empty()) {
+    const io::ThermalFileResult t = io::readThermalFile(a.thermal_truth_file);
+    if (!t.status.ok) {
+      *why = "--thermal-truth " + t.status.message;
+      return nullptr;
+    }
+    bench.thermal = t.file.coefficients;
+  }
   bench.noise = *calib::NoiseModel::byName(a.noise);  // checked by CLI11
   bench.site.latitude_rad = a.latitude_deg * kDegToRad;
   bench.site.height_m = a.height_m;
@@ -344,7 +361,7 @@ int run(const Args& a) {
   std::string why;
   const std::optional<Devices> dev = loadDevices(a, &why);
   if (!dev) return fail(why);
-  VirtualWorld world(dev->table, dev->chamber, a.time_scale, a.ambient_c);
+  VirtualWorld world(dev->table, dev->chamber, a.time_scale, a.ambient_c, a.imu_thermal_tau_s);
   LinkFaults faults;
   faults.reply_delay_s = a.reply_delay_ms / 1000.0;
   faults.drop_replies = a.drop_replies;
@@ -418,6 +435,12 @@ int main(int argc, char** argv) {
   app.add_option("--can", a.can_interface, "SocketCAN interface for the IMU");
   app.add_option("--truth", a.truth_file, "truth JSON (sensor/table errors, extra physics)")
       ->check(CLI::ExistingFile);
+  app.add_option("--thermal-truth", a.thermal_truth_file,
+                 "imubench-thermal/1 file: the IMU's coefficients over temperature and its rate")
+      ->check(CLI::ExistingFile);
+  app.add_option("--imu-thermal-tau", a.imu_thermal_tau_s,
+                 "the IMU's thermal time constant behind the chamber air, s (default 0)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--imu-rate", a.imu_rate_hz, "IMU rate, Hz (default: the layout's)");
   app.add_option("--seed", a.seed, "IMU noise seed");
   app.add_option("--latitude", a.latitude_deg,

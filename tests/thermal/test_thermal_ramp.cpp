@@ -1,0 +1,118 @@
+// Issue 16 item 3 "and from the continuous ramp": the chamber ramps -40 -> +60 -> -40 degC
+// while the direct plan repeats (tests/thermal/thermal_scenario.h rampSchedule, the one lag
+// model); calib::thermalPointsFromRun makes one point of each repetition ("up/rep03/..."
+// labels) with its leg's rate, and calib::fitThermalRuns' refinement passes (each repetition
+// moved to its mean temperature through the previous fit) remove most of the bias the
+// within-repetition drift puts into a plain direct calibration. Must-show 2's numbers (both
+// plans' chamber times and accuracies) are printed by bench/calibration/bench_thermal.cpp.
+#include <gtest/gtest.h>
+
+#include <iostream>
+
+#include "calib/thermal_fit.h"
+#include "tests/calibration/test_indirect_plan_loader.h"
+#include "tests/thermal/thermal_sim.h"
+
+namespace imubench::calib {
+namespace {
+
+constexpr double kImuRateHz = 10.0;  // the accuracy is judged against the noise floor
+
+const Motion& body() {
+  static const Motion m = testing::libraryMotion("direct_two_axis");
+  return m;
+}
+
+struct RampFit {
+  testing::RampSchedule schedule;
+  ThermalRunsFitResult plain, refined;  // 0 and 2 refinement passes
+  testing::ThermalAccuracy plain_acc, refined_acc;
+};
+
+const RampFit& rampFit() {
+  static const RampFit f = [] {
+    RampFit r;
+    const testing::ThermalScheduleOptions o;
+    r.schedule = testing::rampSchedule(body(), o);
+    const model::ThermalCoefficients truth = testing::cubicThermalTruth();
+    const NoiseModel noise = NoiseModel::navigationGrade();
+    const DirectCalibrationInput run =
+        testing::simulateThermal(r.schedule.motion, &truth, noise, kImuRateHz, 300);
+    ThermalRunsFitOptions fo;
+    fo.points.direct.quality.max_normalised_rms = fo.max_normalised_rms_before_last;
+    fo.refinements = 0;
+    r.plain = fitThermalRuns({{run, "ramp"}}, fo);
+    fo.refinements = 2;
+    r.refined = fitThermalRuns({{run, "ramp"}}, fo);
+    if (r.plain.ok) {
+      r.plain_acc =
+          testing::thermalAccuracy(r.plain.fit.coefficients, truth, body(), noise, kImuRateHz);
+    }
+    if (r.refined.ok) {
+      r.refined_acc =
+          testing::thermalAccuracy(r.refined.fit.coefficients, truth, body(), noise, kImuRateHz);
+    }
+    return r;
+  }();
+  return f;
+}
+
+TEST(ThermalRamp, EachRepetitionIsAPointWithItsLegsRate) {
+  const RampFit& f = rampFit();
+  ASSERT_TRUE(f.refined.ok) << f.refined.error;
+  EXPECT_EQ(f.refined.passes, 3);
+  const int reps = f.schedule.reps_up + f.schedule.reps_down;
+  ASSERT_EQ(static_cast<int>(f.refined.points.size()), reps);
+  const testing::ThermalScheduleOptions o;
+  for (int i = 0; i < reps; ++i) {
+    const ThermalFitPoint& p = f.refined.points[static_cast<std::size_t>(i)];
+    const bool up = i < f.schedule.reps_up;
+    EXPECT_NE(p.source.find(up ? "'up/rep" : "'down/rep"), std::string::npos) << p.source;
+    // Away from the turns the IMU moves at the chamber's rate, in the leg's direction.
+    const bool steady = i > 1 && i + 2 < reps && std::abs(i - f.schedule.reps_up) > 1;
+    if (steady) {
+      EXPECT_NEAR(p.temp_rate, (up ? 1 : -1) * o.ramp_rate, 0.05 * o.ramp_rate) << p.source;
+    }
+    // A repetition spans its duration's worth of ramp, a few degC.
+    EXPECT_LT(p.temp_span_c, 1.1 * o.ramp_rate * body().duration + 0.1) << p.source;
+  }
+  ASSERT_TRUE(f.refined.fit.ok) << f.refined.fit.error;
+  EXPECT_TRUE(f.refined.fit.hysteresis_candidate);
+  EXPECT_LT(f.refined.fit.coefficients.t_min_c, -37.0);
+  EXPECT_GT(f.refined.fit.coefficients.t_max_c, 57.0);
+}
+
+TEST(ThermalRamp, RefinementRemovesMostOfTheWithinRepetitionDriftBias) {
+  const RampFit& f = rampFit();
+  ASSERT_TRUE(f.plain.ok) << f.plain.error;
+  ASSERT_TRUE(f.refined.ok) << f.refined.error;
+  ASSERT_TRUE(f.plain_acc.error.empty() && f.refined_acc.error.empty());
+  const testing::ThermalScheduleOptions o;
+  const testing::SoakSchedule soak = testing::soakSchedule(body().duration, o);
+  std::cout << "chamber time: ramp " << f.schedule.chamber_time_s / 3600.0 << " h, soak points "
+            << soak.chamber_time_s / 3600.0 << " h\n";
+  for (const auto* a : {&f.plain_acc, &f.refined_acc}) {
+    std::cout << (a == &f.plain_acc ? "plain" : "refined") << " ramp fit: worst residual / noise "
+              << "floor accel " << a->worst_accel << ", gyro " << a->worst_gyro
+              << "; worst bias tempco error " << 100.0 * a->worst_bias_tempco << " %\n";
+  }
+  EXPECT_FALSE(f.refined_acc.extrapolated);
+  EXPECT_LT(f.refined_acc.worst_accel, 0.25 * f.plain_acc.worst_accel);
+  EXPECT_LT(f.refined_acc.worst_bias_tempco, 0.25 * f.plain_acc.worst_bias_tempco);
+  EXPECT_LT(f.refined_acc.worst_gyro, f.plain_acc.worst_gyro);
+  EXPECT_LT(f.schedule.chamber_time_s, soak.chamber_time_s);
+}
+
+TEST(ThermalRamp, RefusesAZeroWindowSpan) {
+  ThermalPointOptions o;
+  o.max_point_span_c = 0.0;
+  DirectCalibrationInput run;
+  run.imu.push_back(nav::ImuSample{});
+  run.imu.back().temp_c = 20.0;
+  const ThermalPointsResult r = thermalPointsFromRun(run, "x", o);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("max_point_span_c"), std::string::npos) << r.error;
+}
+
+}  // namespace
+}  // namespace imubench::calib
