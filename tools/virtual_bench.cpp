@@ -232,7 +232,7 @@ std::unique_ptr<ImuStreamer> startImu(const Args& a, VirtualWorld& world, const 
       *why = "--thermal-truth " + t.status.message;
       return nullptr;
     }
-    bench.thermal = t.file.coefficients;
+    bench.thermal = t.value.coefficients;
   }
   bench.noise = *calib::NoiseModel::byName(a.noise);  // checked by CLI11
   bench.site.latitude_rad = a.latitude_deg * kDegToRad;
