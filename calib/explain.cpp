@@ -645,27 +645,10 @@ Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval, const Expl
   return L;
 }
 
-// Chi^2 of the least-squares fit of r on the columns of A (normalised columns, rank-revealing
-// solve: columns the others already span add nothing).
-double fitChi2(const Eigen::MatrixXd& A, const Eigen::VectorXd& r, int* rank) {
-  if (A.cols() == 0) {
-    *rank = 0;
-    return r.squaredNorm();
-  }
-  Eigen::VectorXd d(A.cols());
-  for (int j = 0; j < A.cols(); ++j) {
-    const double n = A.col(j).norm();
-    d(j) = n > 0.0 ? 1.0 / n : 0.0;
-  }
-  const Eigen::MatrixXd An = A * d.asDiagonal();
-  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(An);
-  cod.setThreshold(1e-9);
-  *rank = static_cast<int>(cod.rank());
-  return (r - An * cod.solve(r)).squaredNorm();
-}
-
-// Residual of the least-squares fit of r on the columns of A (as fitChi2).
-Eigen::VectorXd fitResidual(const Eigen::MatrixXd& A, const Eigen::VectorXd& r) {
+// Residual of the least-squares fit of r on the columns of A (normalised columns, rank-revealing
+// solve: columns the others already span add nothing), and the rank it found.
+Eigen::VectorXd fitResidual(const Eigen::MatrixXd& A, const Eigen::VectorXd& r, int* rank) {
+  *rank = 0;
   if (A.cols() == 0) return r;
   Eigen::VectorXd d(A.cols());
   for (int j = 0; j < A.cols(); ++j) {
@@ -675,7 +658,18 @@ Eigen::VectorXd fitResidual(const Eigen::MatrixXd& A, const Eigen::VectorXd& r) 
   const Eigen::MatrixXd An = A * d.asDiagonal();
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(An);
   cod.setThreshold(1e-9);
+  *rank = static_cast<int>(cod.rank());
   return r - An * cod.solve(r);
+}
+
+Eigen::VectorXd fitResidual(const Eigen::MatrixXd& A, const Eigen::VectorXd& r) {
+  int rank = 0;
+  return fitResidual(A, r, &rank);
+}
+
+// Chi^2 of that fit.
+double fitChi2(const Eigen::MatrixXd& A, const Eigen::VectorXd& r, int* rank) {
+  return fitResidual(A, r, rank).squaredNorm();
 }
 
 // Effective-n correction of the test scale. The likelihood-ratio statistics assume
