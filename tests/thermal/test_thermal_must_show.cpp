@@ -21,6 +21,8 @@ using testing::cubicThermalTruth;
 using testing::libraryMotion;
 using testing::rampKnots;
 using testing::simulateThermal;
+using testing::StaticResidual;
+using testing::staticResidual;
 
 constexpr double kImuRateHz = 20.0;          // low rate: the whole suite runs in well under 2 min
 constexpr double kRampRate = 1e-4;           // degC/s during a point (0.36 degC/h)
@@ -130,37 +132,6 @@ TEST(ThermalMustShow, SelectedOrdersEqualTheTruthsWhereTheCubicExceedsThreeSigma
   EXPECT_GE(checked, 12);  // the truth is sized so that most cubic terms are visible
 }
 
-// Mean residual of the compensated data against the ideal sensor's, per static segment and
-// axis, in units of the white-noise floor of that segment's mean; RMS over segments and axes.
-struct StaticResidual {
-  double accel = 0.0, gyro = 0.0;  // RMS of residual / floor
-};
-
-StaticResidual staticResidual(const nav::ImuSamples& comp, const DirectCalibrationInput& ideal,
-                              const NoiseModel& noise) {
-  double sa = 0.0, sg = 0.0;
-  int n = 0;
-  for (const Segment& s : ideal.segments) {
-    if (s.kind != SegmentKind::kStatic) continue;
-    Vec3 da = Vec3::Zero(), dg = Vec3::Zero();
-    double len = 0.0;
-    for (std::size_t k = 0; k < comp.size(); ++k) {
-      const double dt = 1.0 / kImuRateHz;
-      if (comp[k].t - dt < s.t0 + 1.0 || comp[k].t > s.t1 - 1.0) continue;
-      da += comp[k].dvel - ideal.imu[k].dvel;
-      dg += comp[k].dtheta - ideal.imu[k].dtheta;
-      len += dt;
-    }
-    if (len <= 0.0) continue;
-    da /= len * noise.accel.white / std::sqrt(len);
-    dg /= len * noise.gyro.white / std::sqrt(len);
-    sa += da.squaredNorm();
-    sg += dg.squaredNorm();
-    n += 3;
-  }
-  return {std::sqrt(sa / n), std::sqrt(sg / n)};
-}
-
 TEST(ThermalMustShow, CompensatedStaticResidualsWithinTwiceTheNoiseFloorBetweenPoints) {
   const SoakFit& f = soakFit();
   ASSERT_TRUE(f.auto_fit.ok) << f.auto_fit.error;
@@ -185,9 +156,9 @@ TEST(ThermalMustShow, CompensatedStaticResidualsWithinTwiceTheNoiseFloorBetweenP
     const ThermalApplyResult comp = applyThermal(f.auto_fit.coefficients, run.imu);
     ASSERT_TRUE(comp.ok) << comp.error;
     EXPECT_EQ(comp.extrapolated_count, 0u);
-    const StaticResidual r = staticResidual(comp.compensated, ideal, noise);
+    const StaticResidual r = staticResidual(comp.compensated, ideal, noise, kImuRateHz);
     const StaticResidual r_room =
-        staticResidual(applyThermal(room, run.imu).compensated, ideal, noise);
+        staticResidual(applyThermal(room, run.imu).compensated, ideal, noise, kImuRateHz);
     std::cout << "T " << T << " degC: compensated residual / noise floor: accel " << r.accel
               << ", gyro " << r.gyro << " (room-temperature coefficients: accel " << r_room.accel
               << ", gyro " << r_room.gyro << ")\n";
