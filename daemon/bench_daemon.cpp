@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "daemon/imu_clock.h"
 #include "daemon/plan_check.h"
 #include "nav/rotation.h"
 #include "plans/expand.h"
@@ -41,9 +42,7 @@ constexpr std::size_t kMaxPendingExports = 2;
 constexpr std::size_t kMaxPendingCalibrations = 3;
 
 double unixNow() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+  return drivers::unixTimeS();
 }
 
 std::chrono::nanoseconds seconds(double s) {
@@ -199,24 +198,28 @@ struct BenchDaemon::ActiveRun {
   bool imuStill() const { return rate_filtered.norm() < kStillRateRadps; }
   double poll_unix_s = 0.0;  // when the newest table reading was requested
   std::optional<double> last_table_t;
-  // A table reading waits for its IMU time: the controller sampled its encoders somewhere
-  // between request and reply, so the reading stands at their midpoint (CLOCK_REALTIME, like
-  // the frames' kernel receive times), and the IMU samples received on either side of that
-  // instant give its time on the recording's clock by interpolation. (Stamping it with the
-  // newest sample before the request lags the table by the reply's round trip and the frames
-  // queued meanwhile: the analysis then finds a time delay that is the daemon's own.) The
-  // anchors are the last samples of the bursts the IMU sends (frames received within
-  // kBurstGapS of each other): a sender that batches its samples sends a burst when its newest
-  // sample is due, so that sample, not the burst's first, stands at the receive time; an IMU
-  // that sends each sample alone makes every sample an anchor. Frames without a receive time:
-  // the first sample after the reading.
+  // A table reading waits for its IMU time. The controller sampled each axis' encoder
+  // between the request and the reply that read it (drivers::TableAxisReading::read_unix_s,
+  // CLOCK_REALTIME like the frames' kernel receive times); `clock` maps those instants onto
+  // the recording's clock (the IMU's sample times), and the axes are brought to their mean
+  // instant with their rates. (Stamping the reading with the newest sample before the request
+  // lags the table by the round trips and the frames queued meanwhile: the analysis then finds
+  // a time delay that is the daemon's own.) The anchors are the last samples of the bursts the
+  // IMU sends (frames received within kBurstGapS of each other): a sender that batches its
+  // samples sends a burst when its newest sample is due, so that sample, not the burst's
+  // first, stands at the receive time; an IMU that sends each sample alone makes every sample
+  // an anchor. Until the clock map answers: interpolation between the anchors around the
+  // reading's instant; frames without a receive time: the first sample after the reading.
   static constexpr double kBurstGapS = 1e-4;
   struct PendingTable {
-    double at_unix_s = 0.0;
-    io::TableSample sample;  // angles set, t to be found
+    double at_unix_s = 0.0;               // the reading's instant: the axes' mean read time
+    std::array<double, 3> read_unix_s{};  // per axis; 0 when the driver gives none
+    std::array<double, 3> rate{};         // rad/s, per axis
+    io::TableSample sample;               // angles set, t to be found
   };
   std::optional<PendingTable> pending_table;
   std::optional<double> last_rx_unix_s, last_rx_t;  // newest sample with a receive time
+  ImuClockMap clock;
   // The encoder angles as stored: continuous across the controller's +-180 deg wrap (the
   // recording's convention, as the plan writes them), so a three-turn rate run reads 1080 deg.
   // Unwrapped from the previous reading: the table turns far less than half a turn between
@@ -227,7 +230,25 @@ struct BenchDaemon::ActiveRun {
     const double a = last ? *last + std::remainder(read_rad - *last, 2.0 * kPi) : read_rad;
     last = a;
     return a;
+  }  // The table reading of obs waiting for its IMU time; polled: the instant of the whole read,
+  // for axes the driver gives no read time.
+  PendingTable reading(const BenchObservation& obs, double polled) {
+    PendingTable p;
+    double sum = 0.0;
+    std::size_t stamped = 0;
+    for (std::size_t a = 0; a < obs.angles.size() && a < 3; ++a) {
+      p.sample.angles_deg[a] = unwrapped(a, obs.angles[a]) * kRadToDeg;
+      p.rate[a] = a < obs.rates.size() ? obs.rates[a] : 0.0;
+      p.read_unix_s[a] = a < obs.angles_unix_s.size() ? obs.angles_unix_s[a] : 0.0;
+      if (p.read_unix_s[a] > 0.0) sum += p.read_unix_s[a], ++stamped;
+    }
+    p.at_unix_s = stamped ? sum / static_cast<double>(stamped) : polled;
+    for (double& r : p.read_unix_s) {
+      if (!(r > 0.0)) r = p.at_unix_s;
+    }
+    return p;
   }
+
   std::optional<double> last_chamber_t;
 };
 
@@ -472,12 +493,8 @@ void BenchDaemon::onPoll() {
   obs.plan_time_s = imu_last_t_;
   obs.imu_temp_c = imu_last_temp_c_;
   if (obs.table_ok) {
-    ActiveRun::PendingTable p;
-    p.at_unix_s = 0.5 * (run_->poll_unix_s + unixNow());
-    for (std::size_t a = 0; a < obs.angles.size() && a < 3; ++a) {
-      p.sample.angles_deg[a] = run_->unwrapped(a, obs.angles[a]) * kRadToDeg;
-    }
-    run_->pending_table = p;  // a reading no sample has stamped yet is superseded
+    // a reading no sample has stamped yet is superseded
+    run_->pending_table = run_->reading(obs, 0.5 * (run_->poll_unix_s + unixNow()));
   }
   run_->runner->tick(obs);
   publish(run_->runner->takeEvents());
@@ -488,35 +505,47 @@ void BenchDaemon::onPoll() {
   }
 }
 
-// The pending table reading gets its IMU time from the sample d (see ActiveRun::PendingTable)
-// once d, the last of its burst, was received after the reading, and is stored.
+// The pending table reading gets its IMU time (see ActiveRun::PendingTable) once d, the last of
+// its burst, was received after the reading, and is stored.
 void BenchDaemon::stampPendingTable(const drivers::DecodedImuSample& d, bool burst_end) {
   ActiveRun& run = *run_;
   const double rx = d.rx_time_s;
   const double t = d.sample.t;
   if (rx > 0.0 && !burst_end) return;
+  if (rx > 0.0) run.clock.addAnchor(rx, t);
   if (run.pending_table && (rx <= 0.0 || rx >= run.pending_table->at_unix_s)) {
     io::TableSample ts = run.pending_table->sample;
     ts.t = t;
-    if (rx > 0.0 && run.last_rx_unix_s && rx > *run.last_rx_unix_s) {
+    if (rx > 0.0 && run.clock.imuTime(run.pending_table->at_unix_s)) {
+      ts.t = *run.clock.imuTime(run.pending_table->at_unix_s);
+      for (std::size_t a = 0; a < 3; ++a) {  // each axis to the reading's instant
+        const double t_axis = *run.clock.imuTime(run.pending_table->read_unix_s[a]);
+        ts.angles_deg[a] += run.pending_table->rate[a] * (ts.t - t_axis) * kRadToDeg;
+      }
+    } else if (rx > 0.0 && run.last_rx_unix_s && rx > *run.last_rx_unix_s) {
       const double f =
           (run.pending_table->at_unix_s - *run.last_rx_unix_s) / (rx - *run.last_rx_unix_s);
       ts.t = *run.last_rx_t + std::clamp(f, 0.0, 1.0) * (t - *run.last_rx_t);
     }
     run.pending_table.reset();
-    if (!run.last_table_t || ts.t > *run.last_table_t) {
-      if (auto st = run.writer->appendTable(std::span(&ts, 1)); !st.ok) {
-        log_.error("store: " + st.message);
-      } else if (run.engine) {
-        run.engine->addTable(ts);
-      }
-      run.last_table_t = ts.t;
-    }
+    storeTableSample(ts);
   }
   if (rx > 0.0) {
     run.last_rx_unix_s = rx;
     run.last_rx_t = t;
   }
+}
+
+// A stamped table reading goes to the store and the online engine, in time order.
+void BenchDaemon::storeTableSample(const io::TableSample& ts) {
+  ActiveRun& run = *run_;
+  if (run.last_table_t && ts.t <= *run.last_table_t) return;
+  if (auto st = run.writer->appendTable(std::span(&ts, 1)); !st.ok) {
+    log_.error("store: " + st.message);
+  } else if (run.engine) {
+    run.engine->addTable(ts);
+  }
+  run.last_table_t = ts.t;
 }
 
 // A step's segment and the online engine's view of it begin at IMU time t0.

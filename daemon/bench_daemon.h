@@ -124,6 +124,7 @@ class BenchDaemon {
   void onImuReadable();
   void onPoll();
   void stampPendingTable(const drivers::DecodedImuSample& d, bool burst_end);
+  void storeTableSample(const io::TableSample& ts);
   void onChamberPoll();
   void reportImuProblems();
   void onStatusTimer();

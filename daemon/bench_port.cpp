@@ -118,6 +118,8 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
   o.table_last_ok_s = table_last_ok_s_;
   for (const auto& a : reading_.axes) {
     o.angles.push_back(a.angle);
+    o.rates.push_back(a.rate);
+    o.angles_unix_s.push_back(a.read_unix_s);
     o.moving = o.moving || a.moving;
   }
   return o;

@@ -95,7 +95,11 @@ struct BenchObservation {
   bool table_ok = false;         // the last table read succeeded (the values below are fresh)
   double table_last_ok_s = 0.0;  // when a table read last succeeded
   std::vector<double> angles;    // rad, as read (wrapped or not)
-  bool moving = false;           // any axis moving
+  std::vector<double> rates;     // rad/s, per axis as `angles` (empty when not read)
+  // When each angle was sampled (CLOCK_REALTIME s, drivers::unixTimeS; 0: unknown). Each axis
+  // is read by its own request, so they differ by a round trip or more.
+  std::vector<double> angles_unix_s;
+  bool moving = false;  // any axis moving
   // The clock of the plan's holds and soaks: the IMU's own sample time when the daemon has
   // it (a virtual bench may run faster than the wall clock; the IMU's samples are what a
   // hold is for). Unset: now_s.

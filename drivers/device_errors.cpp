@@ -1,5 +1,7 @@
 #include "drivers/device_errors.h"
 
+#include <ctime>
+
 namespace imubench::drivers {
 
 const char* deviceStateName(DeviceState s) {
@@ -14,6 +16,12 @@ const char* deviceStateName(DeviceState s) {
       return "fault";
   }
   return "unknown";
+}
+
+double unixTimeS() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 }  // namespace imubench::drivers

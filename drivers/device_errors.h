@@ -1,6 +1,6 @@
 // Device state shared by every device family. A driver call returns imubench::Status
 // (calib/status.h) naming the device, the request and why, so callers check it instead of
-// catching exceptions. External input never crashes.
+// catching exceptions. External input never crashes. unixTimeS stamps readings.
 #pragma once
 
 #include "calib/status.h"
@@ -15,5 +15,9 @@ enum class DeviceState {
 };
 
 const char* deviceStateName(DeviceState s);
+
+// CLOCK_REALTIME in seconds: the clock of the kernel's frame receive times (can_frame.h), so a
+// reading stamped with it can be placed among the IMU's samples.
+double unixTimeS();
 
 }  // namespace imubench::drivers

@@ -23,6 +23,10 @@ const char* axisModeName(AxisMode m);
 struct TableAxisReading {
   double angle = 0.0;  // rad, as the controller reports it (wrapped to (-pi, pi] by most)
   double rate = 0.0;   // rad/s
+  // When the controller sampled `angle`: the midpoint of the request and reply that read it
+  // (unixTimeS); 0 when unknown. Each axis is read by its own request, so the axes' instants
+  // differ by a round trip or more.
+  double read_unix_s = 0.0;
   bool moving = false;
   bool in_position = false;
 };

@@ -119,7 +119,9 @@ Status ModbusTable::read(TableReading* out) {
   for (int i = 0; i < spec_.axisCount(); ++i) {
     const auto& ax = spec_.registers.axes[i];
     auto& a = r.axes[i];
+    const double asked = unixTimeS();
     if (Status s = link_.read(ax.position, what("read position", i), &a.angle); !s.ok) return s;
+    a.read_unix_s = 0.5 * (asked + unixTimeS());
     if (Status s = link_.read(ax.rate, what("read rate", i), &a.rate); !s.ok) return s;
     uint32_t st = 0;
     if (Status s = link_.readBits(ax.status, what("read axis status", i), &st); !s.ok) return s;

@@ -208,7 +208,9 @@ Status SerialTable::read(TableReading* out) {
   for (int i = 0; i < spec_.axisCount(); ++i) {
     auto& a = r.axes[i];
     double v = 0;
+    const double asked = unixTimeS();
     if (Status s = query(spec_.commands.read_position, i, "read position", &v); !s.ok) return s;
+    a.read_unix_s = 0.5 * (asked + unixTimeS());
     a.angle = v * spec_.commands.angle_unit;
     if (Status s = query(spec_.commands.read_rate, i, "read rate", &v); !s.ok) return s;
     a.rate = v * spec_.commands.rate_unit;

@@ -80,6 +80,19 @@ class TableOverProtocols : public ::testing::Test {
     expectTurnedOneWay(m, last, -1.0);  // shortest way: -90, not +270
     EXPECT_EQ(drv.state(), DeviceState::kReady);
   }
+  // Each axis' angle carries the instant it was read: inside the read, in the order read.
+  static void expectReadInstants(TableDriver& drv) {
+    TableReading r;
+    const double before = unixTimeS();
+    ASSERT_TRUE(drv.read(&r).ok);
+    const double after = unixTimeS();
+    double previous = before;
+    for (const auto& a : r.axes) {
+      EXPECT_GT(a.read_unix_s, previous);
+      EXPECT_LT(a.read_unix_s, after);
+      previous = a.read_unix_s;
+    }
+  }
   testing::EventLog log_;
   LinkFaults faults_;
 };
@@ -101,6 +114,7 @@ TEST_F(TableOverProtocols, ModbusTcpSeveralClients) {
   ASSERT_TRUE(watcher->read(&r).ok);
   EXPECT_NEAR(r.axes[1].angle, -90 * kDegToRad, 1e-5);
   EXPECT_TRUE(waitUntil([&] { return server.clientCount() == 2; }));
+  expectReadInstants(*drv);
 }
 
 TEST_F(TableOverProtocols, ModbusRtuOnPseudoTerminal) {
@@ -124,6 +138,7 @@ TEST_F(TableOverProtocols, SerialCommandSetOnPseudoTerminal) {
   spec.transport.device = server.ptyPath();
   auto drv = makeTableDriver(spec, log_.sink());
   exercise(world, *drv, 2e-6 * kDegToRad);  // 6 decimals of a degree
+  expectReadInstants(*drv);
   // Rate mode over the serial line.
   ASSERT_TRUE(drv->setRate(1, 20 * kDegToRad).ok);
   TableReading r;
