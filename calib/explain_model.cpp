@@ -118,7 +118,46 @@ std::vector<AxisSpline> axisSplines(TableKind kind, std::span<const TableSample>
   return out;
 }
 
+// Lagrange weights of the cubic through (x[j], .) at 0, j = 0..3 (the x distinct).
+std::array<double, 4> cubicWeightsAtZero(const std::array<double, 4>& x) {
+  std::array<double, 4> w{};
+  for (std::size_t j = 0; j < 4; ++j) {
+    w[j] = 1.0;
+    for (std::size_t k = 0; k < 4; ++k) {
+      if (k != j) w[j] *= (0.0 - x[k]) / (x[j] - x[k]);
+    }
+  }
+  return w;
+}
+
 }  // namespace
+
+double encoderTimeSigma(const std::vector<AxisSpline>& axes) {
+  // Below this rate a sample's time error is not measurable against the encoder's resolution.
+  constexpr double kMinRate = 1e-3;  // rad/s
+  std::vector<double> scaled;        // |time error| / its standard deviation's factor
+  for (const AxisSpline& a : axes) {
+    const std::vector<double>& t = a.knots();
+    const std::vector<double>& y = a.values();
+    for (std::size_t i = 2; i + 2 < t.size(); ++i) {
+      const std::array<double, 4> x{t[i - 2] - t[i], t[i - 1] - t[i], t[i + 1] - t[i],
+                                    t[i + 2] - t[i]};
+      if (!(x[0] < x[1] && x[1] < 0.0 && 0.0 < x[2] && x[2] < x[3])) continue;
+      const double rate = (y[i + 1] - y[i - 1]) / (x[2] - x[1]);
+      if (std::abs(rate) < kMinRate || y[i - 2] == y[i - 1] || y[i + 1] == y[i + 2]) continue;
+      const std::array<double, 4> w = cubicWeightsAtZero(x);
+      const double predicted =
+          w[0] * y[i - 2] + w[1] * y[i - 1] + w[2] * y[i + 1] + w[3] * y[i + 2];
+      double gain = 1.0;  // the sample's own error and its neighbours' through the weights
+      for (double v : w) gain += v * v;
+      scaled.push_back(std::abs(y[i] - predicted) / std::abs(rate) / std::sqrt(gain));
+    }
+  }
+  if (scaled.size() < 20) return 0.0;
+  auto mid = scaled.begin() + static_cast<std::ptrdiff_t>(scaled.size() / 2);
+  std::nth_element(scaled.begin(), mid, scaled.end());
+  return 1.4826 * *mid;  // median absolute deviation of a normal scatter
+}
 
 bool ExplainModelOptions::IsValid(std::string* why) const {
   if (!(bin_s > 0.0 && bin_s <= 60.0)) {
@@ -179,12 +218,15 @@ ExplainData prepareExplainData(const TableGeometry& geometry, const nav::Site& s
   // evaluated there when a timing effect shifts it).
   const double half_step =
       0.5 * (table.back().t - table.front().t) / static_cast<double>(table.size() - 1);
+  d.stamp_sigma_s = encoderTimeSigma(d.axes);
   auto angleErr = [&](double t) {
     double e2 = 0.0;
     for (std::size_t a = 0; a < d.axes.size(); ++a) {
       double e = 0.0;
       for (double s : {t - half_step, t, t + half_step}) {
-        e = std::max(e, std::abs(d.axes[a].at(s).angle - coarse[a].at(s).angle) / 3.0);
+        const AxisState fine = d.axes[a].at(s);
+        e = std::max(e, std::abs(fine.angle - coarse[a].at(s).angle) / 3.0);
+        e = std::max(e, std::abs(fine.rate) * d.stamp_sigma_s);
       }
       e2 += e * e;
     }

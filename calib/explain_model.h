@@ -69,6 +69,7 @@ class AxisSpline {
   // Angle, rate and acceleration at t (held at the ends outside the samples).
   AxisState at(double t) const;
   const std::vector<double>& knots() const { return t_; }
+  const std::vector<double>& values() const { return y_; }
 
  private:
   std::vector<double> t_, y_, m_;  // knots, values, second derivatives
@@ -81,14 +82,25 @@ struct ExplainData {
   std::vector<ExplainBin> bins;
   std::vector<QuadratureNode> nodes;
   std::vector<AxisSpline> axes;  // axisCount(kind) splines
+  // Scatter of the encoder samples' time stamps, s (encoderTimeSigma): a reading stamped by a
+  // host that polls the controller stands anywhere within the poll's round trip.
+  double stamp_sigma_s = 0.0;
 };
+
+// The scatter of the encoder samples' time stamps, estimated from the samples themselves:
+// while an axis turns, each sample is compared with the cubic through its two neighbours on
+// either side (smooth motion: far below the scatter), and the difference divided by the rate
+// is a time error; a robust (median) deviation over all moving samples, scaled for the
+// neighbours' own errors. 0 without enough moving samples (fewer than 20).
+double encoderTimeSigma(const std::vector<AxisSpline>& axes);
 
 // Builds bins and nodes. Samples must be checked (finite, increasing) by the caller. Samples
 // outside the span of the encoder samples are left out (no kinematics there).
 // Interpolation uncertainty: the spline through every encoder sample is compared with the
 // spline through every second one; near an acceleration step the error grows with the knot
 // spacing squared, so a third of their difference estimates the finer spline's error (and
-// over-estimates it where the motion is smooth, where both are tiny).
+// over-estimates it where the motion is smooth, where both are tiny); a moving axis adds its
+// rate times the time stamps' scatter (encoderTimeSigma).
 ExplainData prepareExplainData(const TableGeometry& geometry, const nav::Site& site,
                                std::span<const nav::ImuSample> imu,
                                std::span<const TableSample> table,
