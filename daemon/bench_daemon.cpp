@@ -819,9 +819,10 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   return okReply(id, toJson(StartReply{run_->id, summary, std::nullopt}));
 }
 
-// Crash resume: run `run_id` (interrupted by a crash, a power loss or a stop) goes on from
-// the step after its last finished one, on the same bench and IMU and one time axis; the rows
-// already stored stay, the new ones append to the same run.
+// Crash resume: run `run_id` (interrupted by a crash, a power loss or a stop, or aborted or
+// faulted) goes on from the step after its last finished one (the start of its temperature
+// point in a thermal plan: plan_runner.h resumeStep), on the same bench and IMU and one time axis;
+// the rows already stored stay, the new ones append to the same run.
 Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id) {
   const json& id = request.id;
   const std::string which = "run " + std::to_string(run_id);
@@ -829,10 +830,11 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   const RunInfoResult info = store_->runInfo(run_id);
   if (!info.status.ok) return errorReply(id, ErrorCode::kNotFound, info.status.message);
   const RunInfo& run = info.value;
-  if (run.state != RunState::kInterrupted) {
+  if (!runResumable(run.state)) {
     return errorReply(id, ErrorCode::kBadState,
                       which + " is " + runStateName(run.state) +
-                          "; only an interrupted run can be resumed (a paused one: resume)");
+                          "; only an interrupted, aborted or faulted run can be resumed (a "
+                          "paused one: resume)");
   }
   if (run.start.bench_name != bench_.name || run.start.imu_serial != bench_.imu.serial) {
     return errorReply(id, ErrorCode::kBadState,
@@ -843,7 +845,7 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   std::string why;
   const auto loaded = loadPlan(run.start.plan_name, run.start.plan_toml, bench_, &why);
   if (!loaded) return errorReply(id, ErrorCode::kBadPlan, which + ": " + why);
-  const ResumePoint point = store_->resumePoint(run_id);
+  ResumePoint point = store_->resumePoint(run_id);
   if (!point.status.ok) return errorReply(id, ErrorCode::kInternal, point.status.message);
   // One time axis: the IMU must still count on from where the run's samples end.
   if (!imu_last_t_ || (point.last_imu_t && !(*imu_last_t_ > *point.last_imu_t))) {
@@ -859,8 +861,16 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   std::optional<OnlineSetup> calibration = calibrationSetup(*loaded, &why);
   if (!why.empty()) return errorReply(id, ErrorCode::kBadState, which + ": " + why);
   auto runner = makeRunner(*loaded);
-  const int next = point.last_finished_step + 1;
+  // An interrupted temperature point restarts at its chamber step (plan_runner.h resumeStep);
+  // its steps that had finished are forgotten, so the calibration sees each step once.
+  const int next = resumeStep(runner->steps(), point.last_finished_step);
   const bool done = next >= static_cast<int>(runner->steps().size());
+  if (!done && next <= point.last_finished_step) {
+    const CountResult dropped = store_->discardSegmentsFrom(run_id, runner->steps()[next].label);
+    if (!dropped.status.ok) return errorReply(id, ErrorCode::kInternal, dropped.status.message);
+    point = store_->resumePoint(run_id);
+    if (!point.status.ok) return errorReply(id, ErrorCode::kInternal, point.status.message);
+  }
   if (!done) {
     if (const Status started = runner->startAt(wallNow(), next); !started.ok) {
       return errorReply(id, ErrorCode::kBadState, which + ": " + started.message);

@@ -130,6 +130,21 @@ std::vector<RunStep> runSteps(const calib::Motion& motion) {
   return out;
 }
 
+int temperaturePointStart(const std::vector<RunStep>& steps, int step) {
+  const int last = static_cast<int>(steps.size()) - 1;
+  for (int k = std::min(step, last); k >= 0; --k) {
+    const RunStep& s = steps[static_cast<std::size_t>(k)];
+    if (s.kind == calib::SegmentKind::kSoak || s.chamber_command_c) return k;
+  }
+  return step;
+}
+
+int resumeStep(const std::vector<RunStep>& steps, int last_finished) {
+  const int next = std::max(last_finished + 1, 0);
+  if (next >= static_cast<int>(steps.size())) return static_cast<int>(steps.size());
+  return temperaturePointStart(steps, next);
+}
+
 std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps) {
   std::vector<drivers::MotionLimits> out;
   for (const RunStep& s : steps) {

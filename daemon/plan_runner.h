@@ -71,6 +71,23 @@ struct RunStep {
 // The plan's steps from its expansion. Pure.
 std::vector<RunStep> runSteps(const calib::Motion& motion);
 
+// Temperature points. A step that sets the chamber (a kSoak step: a chamber step, or the
+// "T-40C/soak" that opens each setpoint of a thermal plan in soak mode; or a step carrying
+// chamber_command_c: the first step of a continuous-ramp leg, plans/expand.h) starts a
+// temperature point; the steps after it, up to the next such step, belong to that point and
+// assume the chamber where that step took it. The first step of the point `step` belongs to;
+// `step` itself before any chamber step. Pure.
+int temperaturePointStart(const std::vector<RunStep>& steps, int step);
+
+// Where a run resumes after an interruption (a daemon crash or stop, an abort, a fault) whose
+// last finished step is `last_finished` (-1: none): the step after it, unless that step is
+// inside a temperature point whose chamber step had finished, then that chamber step. After an
+// abort or a fault the chamber went to its safe setpoint, after a crash it drifted: the point's
+// motions may only run again after its soak. The points finished before stay done. Returns
+// steps.size() when every step had finished. The one rule for this; the daemon
+// (resumeInterrupted) discards the re-run steps' stored segments (Store::discardSegmentsFrom).
+int resumeStep(const std::vector<RunStep>& steps, int last_finished);
+
 // Per axis, the largest rate and acceleration of any step (zero for an axis that never moves).
 std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps);
 
