@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "daemon/plan_check.h"
+#include "daemon/thermal_points.h"
 #include "nav/rotation.h"
 #include "plans/expand.h"
 #include "plans/plan.h"
@@ -645,6 +646,9 @@ void BenchDaemon::closeRun() {
   }
   server_->broadcast(RunFinishedEvent{run_->id, runStateName(state), reason});
   if (state == RunState::kFinished && run_->calibration) startFinalCalibration(*run_->calibration);
+  if (state == RunState::kFinished && hasTemperaturePoints(r.steps())) {
+    startPointCalibrations(run_->id);
+  }
   log_.info("run " + std::to_string(run_->id) + " closed: " + runStateName(state));
   run_.reset();
   notifier_.status("idle");
@@ -886,6 +890,7 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
       calibration->run_id = run_id;
       startFinalCalibration(*calibration);
     }
+    if (hasTemperaturePoints(runner->steps())) startPointCalibrations(run_id);
     return okReply(id, {{"run", run_id}, {"state", "finished"}, {"from_step", next}});
   }
   auto active = std::make_unique<ActiveRun>();
@@ -982,6 +987,49 @@ void BenchDaemon::startFinalCalibration(const OnlineSetup& setup) {
   auto failed = [this, run = setup.run_id](const std::string& what) {
     log_.error("run " + std::to_string(run) + ": calibration failed: " + what);
     server_->broadcast(Topic::kRun, "results", {{"run", run}, {"ok", false}, {"error", what}});
+  };
+  std::string why;
+  if (!calibrations_->run(job, failed, &why)) failed(why);
+}
+
+void BenchDaemon::startPointCalibrations(std::int64_t run_id) {
+  auto job = [this, run_id, db = db_path_]() -> std::function<void()> {
+    std::string error, serial;
+    std::vector<PointCalibration> points;
+    auto opened = Store::open(db, StoreOptions{});
+    if (opened.status.ok) {
+      const auto rec = opened.value->loadRecording(run_id);
+      if (rec.status.ok) {
+        serial = rec.value.imu_serial;
+        points = calibrateTemperaturePoints(rec.value);
+      } else {
+        error = rec.status.message;
+      }
+    } else {
+      error = opened.status.message;
+    }
+    return [this, run_id, error, serial, points = std::move(points)] {
+      const std::string who = "run " + std::to_string(run_id);
+      if (!error.empty()) {
+        log_.error(who + ": no temperature point results: " + error);
+        return;
+      }
+      int ok = 0;
+      for (const PointCalibration& p : points) {
+        const auto r = store_->storeResult(run_id, serial, p.temperature_c, "point_coefficients",
+                                           pointJson(p).dump());
+        if (!r.status.ok) log_.error("store: " + r.status.message);
+        ok += p.ok ? 1 : 0;
+      }
+      log_.info(who + ": " + std::to_string(ok) + " of " + std::to_string(points.size()) +
+                " temperature points calibrated (IMU " + serial + ")");
+      server_->broadcast(
+          Topic::kRun, "point_results",
+          {{"run", run_id}, {"points", static_cast<int>(points.size())}, {"calibrated", ok}});
+    };
+  };
+  auto failed = [this, run_id](const std::string& what) {
+    log_.error("run " + std::to_string(run_id) + ": temperature point calibration failed: " + what);
   };
   std::string why;
   if (!calibrations_->run(job, failed, &why)) failed(why);

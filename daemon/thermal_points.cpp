@@ -62,6 +62,13 @@ void calibratePoint(const io::Recording& rec, const std::vector<calib::Segment>&
 
 }  // namespace
 
+bool hasTemperaturePoints(const std::vector<RunStep>& steps) {
+  for (const RunStep& s : steps) {
+    if (s.kind == calib::SegmentKind::kSoak) return true;
+  }
+  return false;
+}
+
 std::vector<PointCalibration> calibrateTemperaturePoints(const io::Recording& rec) {
   std::vector<PointCalibration> out;
   std::optional<PointCalibration> open;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/plan_runner.h"
 #include "io/recording.h"
 
 namespace imubench::daemon {
@@ -28,6 +29,9 @@ struct PointCalibration {
   std::string error;            // why not, when !ok
   nlohmann::json coefficients;  // calib::toJson of the direct calibration, when ok
 };
+
+// The plan has a temperature point (a kSoak step): its completed run gets point results.
+bool hasTemperaturePoints(const std::vector<RunStep>& steps);
 
 // The temperature points of a recording in time order (a body without segments is left out);
 // empty when the recording has no kSoak segment (not a thermal run).
