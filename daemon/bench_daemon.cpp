@@ -156,6 +156,8 @@ json runnerEventFields(const RunnerEvent& e, std::int64_t run, RunExit exit) {
     case RunnerEvent::Kind::kSoakSettled:
     case RunnerEvent::Kind::kSoakTimeout:
       return toJson(SoakEvent{at, e.kind == RunnerEvent::Kind::kSoakSettled, e.message});
+    case RunnerEvent::Kind::kPointRestarted:
+      return toJson(AlarmEvent{at, e.message});
   }
   return toJson(at);
 }
@@ -568,6 +570,7 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
   for (const RunnerEvent& e : events) {
     const json fields = runnerEventFields(e, run_->id, run_->runner->exit());
     const char* name = runnerEventKindName(e.kind);
+    if (e.kind == RunnerEvent::Kind::kPointRestarted) discardPoint(e);
     if (e.kind == RunnerEvent::Kind::kStepStarted) {
       if (run_->closing) {
         run_->closing->next_step = e.step;  // begins where the closing step's segment ends
@@ -602,6 +605,18 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
       log_.info("run " + std::to_string(run_->id) + ": " + e.message);
     }
   }
+}
+
+// The runner restarts a temperature point (plan_runner.h kPointRestarted): the segments its
+// steps stored are void (they run again); the pending step is closed first, the rows flushed.
+void BenchDaemon::discardPoint(const RunnerEvent& e) {
+  if (run_->closing) closeStep(imu_last_t_);
+  if (auto st = run_->writer->flush(); !st.ok) log_.error("store: " + st.message);
+  const auto& steps = run_->runner->steps();
+  if (e.step < 0 || e.step >= static_cast<int>(steps.size())) return;
+  const CountResult r =
+      store_->discardSegmentsFrom(run_->id, steps[static_cast<std::size_t>(e.step)].label);
+  if (!r.status.ok) log_.error("store: " + r.status.message);
 }
 
 // The chamber on its own timer: its reading for the runner's next ticks, and a chamber

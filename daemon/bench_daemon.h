@@ -108,6 +108,8 @@ class BenchDaemon {
   // A completed thermal run: one direct calibration per temperature point
   // (daemon/thermal_points.h), off the loop, stored as "point_coefficients" results.
   void startPointCalibrations(std::int64_t run_id);
+  // A temperature point restarted by the runner: its stored segments are discarded.
+  void discardPoint(const RunnerEvent& e);
   void storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f);
   Reply enqueue(const Request& request, const std::string& name, const LoadedPlan& loaded);
   Reply startQueued(const nlohmann::json& id);

@@ -170,7 +170,18 @@ struct RunnerOptions {
 struct RunnerEvent {
   // kSoakSettled / kSoakTimeout: an auto soak's end (message: how it was measured); a timeout
   // flags the temperature point (the plan goes on).
-  enum class Kind { kState, kStepStarted, kStepFinished, kAlarm, kSoakSettled, kSoakTimeout };
+  // kPointRestarted: resume after an alarm that sent the chamber to its safe setpoint goes
+  // back to the chamber step of the interrupted temperature point (step: that step); the
+  // point's steps finished before are run again (their stored segments are void).
+  enum class Kind {
+    kState,
+    kStepStarted,
+    kStepFinished,
+    kAlarm,
+    kSoakSettled,
+    kSoakTimeout,
+    kPointRestarted
+  };
   Kind kind = Kind::kState;
   double time_s = 0.0;
   int step = -1;
@@ -190,6 +201,8 @@ class PlanRunner {
   // before it count as done. first_step == 0 is start().
   Status startAt(double now_s, int first_step);
   Status pause(double now_s);
+  // After an alarm that sent the chamber to its safe setpoint (over temperature), resume
+  // restarts the interrupted temperature point at its chamber step (resumeStep's rule).
   Status resume(double now_s);
   Status abort(double now_s);
   void emergencyStop(double now_s, const std::string& who);  // works in every state
@@ -241,6 +254,8 @@ class PlanRunner {
   double phase_plan_t0_s_ = 0.0;  // plan clock when the phase began
   double step_elapsed_s_ = 0.0;   // planned-time progress inside the current step
   bool step_interrupted_ = false;
+  // An alarm sent the chamber to its safe setpoint: resume restarts the temperature point.
+  bool chamber_left_point_ = false;
   // The table was seen moving since the step's command: a full turn ends where it started,
   // so "in position" alone cannot tell done from not yet begun.
   bool saw_moving_ = false;

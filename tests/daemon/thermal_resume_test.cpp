@@ -116,10 +116,11 @@ class SimBench : public BenchPort {
     o.now_s = o.table_last_ok_s = o.imu_last_frame_s = t;
     o.plan_time_s = t;
     o.table_ok = true;
-    o.chamber_temp_c = setpoints.empty() ? 20.0 : setpoints.back();
+    o.chamber_temp_c = overheated ? 60.0 : setpoints.empty() ? 20.0 : setpoints.back();
     return o;
   }
   std::vector<double> setpoints;
+  bool overheated = false;  // the chamber reads above the runner's over_temperature
 
  private:
   static constexpr double kRate = 60.0 * kDegToRad;
@@ -129,6 +130,7 @@ class SimBench : public BenchPort {
 RunnerOptions runnerOptions() {
   RunnerOptions o;
   o.chamber_safe_setpoint_c = 23.0;
+  o.chamber_over_temperature_c = 45.0;
   return o;
 }
 
@@ -214,6 +216,12 @@ class ThermalDaemon {
 
  private:
   void onEvent(const RunnerEvent& e) {
+    if (e.kind == RunnerEvent::Kind::kPointRestarted) {  // BenchDaemon::discardPoint
+      EXPECT_TRUE(writer_->flush().ok);
+      const CountResult r =
+          store_->discardSegmentsFrom(run_, steps_[static_cast<std::size_t>(e.step)].label);
+      EXPECT_TRUE(r.status.ok) << r.status.message;
+    }
     if (e.kind == RunnerEvent::Kind::kStepStarted) {
       started.push_back(e.label);
       step_t0_ = t_;
@@ -355,6 +363,37 @@ TEST(ThermalResume, AbortMidPointResumesAtThePointsChamberStep) {
 
 TEST(ThermalResume, CrashMidPointResumesAtThePointsChamberStep) {
   interruptAndResume(Interruption::kCrash);
+}
+
+// A fault inside a point that parks the chamber at its safe setpoint (over temperature): the
+// run pauses; resume (in the same daemon) restarts the point at its chamber step.
+TEST(ThermalResume, OverTemperatureMidPointRestartsThePointOnResume) {
+  const std::vector<RunStep> steps = planSteps(kThermalPlan);
+  const int point2 = indexOf(steps, "T30C/soak");
+  const int cut = indexOf(steps, "T30C/y_up");
+  ScratchDir dir("thermal-resume");
+  SimBench bench;
+  double t = 0.0;
+  ThermalDaemon d(dir.file("bench.db"), steps, bench, t);
+  const std::int64_t run = d.start();
+  ASSERT_TRUE(d.until([&] { return !d.started.empty() && d.started.back() == steps[cut].label; }));
+  bench.overheated = true;
+  ASSERT_TRUE(d.until([&] { return d.runner().state() == RunnerState::kPaused; }));
+  EXPECT_EQ(bench.setpoints.back(), 23.0);
+  bench.overheated = false;
+  d.tick();
+  ASSERT_TRUE(d.runner().resume(t).ok);
+  EXPECT_EQ(d.runner().currentStep(), point2);
+  ASSERT_TRUE(d.until([&] { return d.stopped(); }));
+  ASSERT_EQ(d.runner().exit(), RunExit::kCompleted);
+  d.close(RunState::kFinished, "completed");
+  std::vector<std::string> expected = labels(steps, 0, cut + 1);
+  for (const std::string& l : labels(steps, point2, static_cast<int>(steps.size())))
+    expected.push_back(l);
+  EXPECT_EQ(d.started, expected);
+  std::vector<std::string> seg_labels;
+  for (const calib::Segment& s : storedSegments(d.store(), run)) seg_labels.push_back(s.label);
+  EXPECT_EQ(seg_labels, labels(steps, 0, static_cast<int>(steps.size())));
 }
 
 // The rule on its own: the step after the last finished one, moved back to the chamber step of
