@@ -16,6 +16,7 @@
 
 #include "daemon/imu_clock.h"
 #include "daemon/plan_check.h"
+#include "daemon/thermal_points.h"
 #include "nav/rotation.h"
 #include "plans/expand.h"
 #include "plans/plan.h"
@@ -154,6 +155,8 @@ json runnerEventFields(const RunnerEvent& e, std::int64_t run, RunExit exit) {
     case RunnerEvent::Kind::kSoakSettled:
     case RunnerEvent::Kind::kSoakTimeout:
       return toJson(SoakEvent{at, e.kind == RunnerEvent::Kind::kSoakSettled, e.message});
+    case RunnerEvent::Kind::kPointRestarted:
+      return toJson(AlarmEvent{at, e.message});
   }
   return toJson(at);
 }
@@ -596,6 +599,7 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
   for (const RunnerEvent& e : events) {
     const json fields = runnerEventFields(e, run_->id, run_->runner->exit());
     const char* name = runnerEventKindName(e.kind);
+    if (e.kind == RunnerEvent::Kind::kPointRestarted) discardPoint(e);
     if (e.kind == RunnerEvent::Kind::kStepStarted) {
       if (run_->closing) {
         run_->closing->next_step = e.step;  // begins where the closing step's segment ends
@@ -630,6 +634,18 @@ void BenchDaemon::publish(const std::vector<RunnerEvent>& events) {
       log_.info("run " + std::to_string(run_->id) + ": " + e.message);
     }
   }
+}
+
+// The runner restarts a temperature point (plan_runner.h kPointRestarted): the segments its
+// steps stored are void (they run again); the pending step is closed first, the rows flushed.
+void BenchDaemon::discardPoint(const RunnerEvent& e) {
+  if (run_->closing) closeStep(imu_last_t_);
+  if (auto st = run_->writer->flush(); !st.ok) log_.error("store: " + st.message);
+  const auto& steps = run_->runner->steps();
+  if (e.step < 0 || e.step >= static_cast<int>(steps.size())) return;
+  const CountResult r =
+      store_->discardSegmentsFrom(run_->id, steps[static_cast<std::size_t>(e.step)].label);
+  if (!r.status.ok) log_.error("store: " + r.status.message);
 }
 
 // The chamber on its own timer: its reading for the runner's next ticks, and a chamber
@@ -674,6 +690,9 @@ void BenchDaemon::closeRun() {
   }
   server_->broadcast(RunFinishedEvent{run_->id, runStateName(state), reason});
   if (state == RunState::kFinished && run_->calibration) startFinalCalibration(*run_->calibration);
+  if (state == RunState::kFinished && hasTemperaturePoints(r.steps())) {
+    startPointCalibrations(run_->id);
+  }
   log_.info("run " + std::to_string(run_->id) + " closed: " + runStateName(state));
   run_.reset();
   notifier_.status("idle");
@@ -848,9 +867,10 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   return okReply(id, toJson(StartReply{run_->id, summary, std::nullopt}));
 }
 
-// Crash resume: run `run_id` (interrupted by a crash, a power loss or a stop) goes on from
-// the step after its last finished one, on the same bench and IMU and one time axis; the rows
-// already stored stay, the new ones append to the same run.
+// Crash resume: run `run_id` (interrupted by a crash, a power loss or a stop, or aborted or
+// faulted) goes on from the step after its last finished one (the start of its temperature
+// point in a thermal plan: plan_runner.h resumeStep), on the same bench and IMU and one time axis;
+// the rows already stored stay, the new ones append to the same run.
 Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id) {
   const json& id = request.id;
   const std::string which = "run " + std::to_string(run_id);
@@ -858,10 +878,11 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   const RunInfoResult info = store_->runInfo(run_id);
   if (!info.status.ok) return errorReply(id, ErrorCode::kNotFound, info.status.message);
   const RunInfo& run = info.value;
-  if (run.state != RunState::kInterrupted) {
+  if (!runResumable(run.state)) {
     return errorReply(id, ErrorCode::kBadState,
                       which + " is " + runStateName(run.state) +
-                          "; only an interrupted run can be resumed (a paused one: resume)");
+                          "; only an interrupted, aborted or faulted run can be resumed (a "
+                          "paused one: resume)");
   }
   if (run.start.bench_name != bench_.name || run.start.imu_serial != bench_.imu.serial) {
     return errorReply(id, ErrorCode::kBadState,
@@ -872,7 +893,7 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   std::string why;
   const auto loaded = loadPlan(run.start.plan_name, run.start.plan_toml, bench_, &why);
   if (!loaded) return errorReply(id, ErrorCode::kBadPlan, which + ": " + why);
-  const ResumePoint point = store_->resumePoint(run_id);
+  ResumePoint point = store_->resumePoint(run_id);
   if (!point.status.ok) return errorReply(id, ErrorCode::kInternal, point.status.message);
   // One time axis: the IMU must still count on from where the run's samples end.
   if (!imu_last_t_ || (point.last_imu_t && !(*imu_last_t_ > *point.last_imu_t))) {
@@ -888,8 +909,16 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   std::optional<OnlineSetup> calibration = calibrationSetup(*loaded, &why);
   if (!why.empty()) return errorReply(id, ErrorCode::kBadState, which + ": " + why);
   auto runner = makeRunner(*loaded);
-  const int next = point.last_finished_step + 1;
+  // An interrupted temperature point restarts at its chamber step (plan_runner.h resumeStep);
+  // its steps that had finished are forgotten, so the calibration sees each step once.
+  const int next = resumeStep(runner->steps(), point.last_finished_step);
   const bool done = next >= static_cast<int>(runner->steps().size());
+  if (!done && next <= point.last_finished_step) {
+    const CountResult dropped = store_->discardSegmentsFrom(run_id, runner->steps()[next].label);
+    if (!dropped.status.ok) return errorReply(id, ErrorCode::kInternal, dropped.status.message);
+    point = store_->resumePoint(run_id);
+    if (!point.status.ok) return errorReply(id, ErrorCode::kInternal, point.status.message);
+  }
   if (!done) {
     if (const Status started = runner->startAt(wallNow(), next); !started.ok) {
       return errorReply(id, ErrorCode::kBadState, which + ": " + started.message);
@@ -905,6 +934,7 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
       calibration->run_id = run_id;
       startFinalCalibration(*calibration);
     }
+    if (hasTemperaturePoints(runner->steps())) startPointCalibrations(run_id);
     return okReply(id, {{"run", run_id}, {"state", "finished"}, {"from_step", next}});
   }
   auto active = std::make_unique<ActiveRun>();
@@ -1001,6 +1031,49 @@ void BenchDaemon::startFinalCalibration(const OnlineSetup& setup) {
   auto failed = [this, run = setup.run_id](const std::string& what) {
     log_.error("run " + std::to_string(run) + ": calibration failed: " + what);
     server_->broadcast(Topic::kRun, "results", {{"run", run}, {"ok", false}, {"error", what}});
+  };
+  std::string why;
+  if (!calibrations_->run(job, failed, &why)) failed(why);
+}
+
+void BenchDaemon::startPointCalibrations(std::int64_t run_id) {
+  auto job = [this, run_id, db = db_path_]() -> std::function<void()> {
+    std::string error, serial;
+    std::vector<PointCalibration> points;
+    auto opened = Store::open(db, StoreOptions{});
+    if (opened.status.ok) {
+      const auto rec = opened.value->loadRecording(run_id);
+      if (rec.status.ok) {
+        serial = rec.value.imu_serial;
+        points = calibrateTemperaturePoints(rec.value);
+      } else {
+        error = rec.status.message;
+      }
+    } else {
+      error = opened.status.message;
+    }
+    return [this, run_id, error, serial, points = std::move(points)] {
+      const std::string who = "run " + std::to_string(run_id);
+      if (!error.empty()) {
+        log_.error(who + ": no temperature point results: " + error);
+        return;
+      }
+      int ok = 0;
+      for (const PointCalibration& p : points) {
+        const auto r = store_->storeResult(run_id, serial, p.temperature_c, "point_coefficients",
+                                           pointJson(p).dump());
+        if (!r.status.ok) log_.error("store: " + r.status.message);
+        ok += p.ok ? 1 : 0;
+      }
+      log_.info(who + ": " + std::to_string(ok) + " of " + std::to_string(points.size()) +
+                " temperature points calibrated (IMU " + serial + ")");
+      server_->broadcast(
+          Topic::kRun, "point_results",
+          {{"run", run_id}, {"points", static_cast<int>(points.size())}, {"calibrated", ok}});
+    };
+  };
+  auto failed = [this, run_id](const std::string& what) {
+    log_.error("run " + std::to_string(run_id) + ": temperature point calibration failed: " + what);
   };
   std::string why;
   if (!calibrations_->run(job, failed, &why)) failed(why);

@@ -105,6 +105,11 @@ class BenchDaemon {
   void attachCalibration(ActiveRun& run, OnlineSetup setup);
   void publishEstimate(std::int64_t run, const nlohmann::json& fields);
   void startFinalCalibration(const OnlineSetup& setup);
+  // A completed thermal run: one direct calibration per temperature point
+  // (daemon/thermal_points.h), off the loop, stored as "point_coefficients" results.
+  void startPointCalibrations(std::int64_t run_id);
+  // A temperature point restarted by the runner: its stored segments are discarded.
+  void discardPoint(const RunnerEvent& e);
   void storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f);
   Reply enqueue(const Request& request, const std::string& name, const LoadedPlan& loaded);
   Reply startQueued(const nlohmann::json& id);

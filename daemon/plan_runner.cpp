@@ -63,6 +63,8 @@ const char* runnerEventKindName(RunnerEvent::Kind k) {
       return "soak_settled";
     case RunnerEvent::Kind::kSoakTimeout:
       return "soak_timeout";
+    case RunnerEvent::Kind::kPointRestarted:
+      return "point_restarted";
   }
   return "?";
 }
@@ -128,6 +130,21 @@ std::vector<RunStep> runSteps(const calib::Motion& motion) {
     out.push_back(std::move(s));
   }
   return out;
+}
+
+int temperaturePointStart(const std::vector<RunStep>& steps, int step) {
+  const int last = static_cast<int>(steps.size()) - 1;
+  for (int k = std::min(step, last); k >= 0; --k) {
+    const RunStep& s = steps[static_cast<std::size_t>(k)];
+    if (s.kind == calib::SegmentKind::kSoak || s.chamber_command_c) return k;
+  }
+  return step;
+}
+
+int resumeStep(const std::vector<RunStep>& steps, int last_finished) {
+  const int next = std::max(last_finished + 1, 0);
+  if (next >= static_cast<int>(steps.size())) return static_cast<int>(steps.size());
+  return temperaturePointStart(steps, next);
 }
 
 std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps) {
@@ -299,6 +316,16 @@ Status PlanRunner::resume(double now_s) {
     return {false, "the chamber is still over temperature: resume when it is back below " +
                        std::to_string(*options_.chamber_over_temperature_c) + " degC"};
   }
+  if (chamber_left_point_) {
+    chamber_left_point_ = false;
+    const int first = temperaturePointStart(steps_, step_);
+    if (first < step_) {
+      step_ = first;
+      step_interrupted_ = true;
+      emit(RunnerEvent::Kind::kPointRestarted, now_s,
+           "the chamber left the point's setpoint: the point restarts at its chamber step");
+    }
+  }
   setState(RunnerState::kRunning, now_s);
   return {};
 }
@@ -360,7 +387,10 @@ bool PlanRunner::safetyChecks(const BenchObservation& obs) {
     why << "chamber over temperature: " << *obs.chamber_temp_c << " degC > "
         << *options_.chamber_over_temperature_c << " degC: chamber to its safe setpoint, plan "
         << "paused";
-    if (options_.chamber_safe_setpoint_c) port_.chamberSetpoint(*options_.chamber_safe_setpoint_c);
+    if (options_.chamber_safe_setpoint_c) {
+      port_.chamberSetpoint(*options_.chamber_safe_setpoint_c);
+      chamber_left_point_ = true;
+    }
   } else {
     return true;
   }

@@ -71,6 +71,23 @@ struct RunStep {
 // The plan's steps from its expansion. Pure.
 std::vector<RunStep> runSteps(const calib::Motion& motion);
 
+// Temperature points. A step that sets the chamber (a kSoak step: a chamber step, or the
+// "T-40C/soak" that opens each setpoint of a thermal plan in soak mode; or a step carrying
+// chamber_command_c: the first step of a continuous-ramp leg, plans/expand.h) starts a
+// temperature point; the steps after it, up to the next such step, belong to that point and
+// assume the chamber where that step took it. The first step of the point `step` belongs to;
+// `step` itself before any chamber step. Pure.
+int temperaturePointStart(const std::vector<RunStep>& steps, int step);
+
+// Where a run resumes after an interruption (a daemon crash or stop, an abort, a fault) whose
+// last finished step is `last_finished` (-1: none): the step after it, unless that step is
+// inside a temperature point whose chamber step had finished, then that chamber step. After an
+// abort or a fault the chamber went to its safe setpoint, after a crash it drifted: the point's
+// motions may only run again after its soak. The points finished before stay done. Returns
+// steps.size() when every step had finished. The one rule for this; the daemon
+// (resumeInterrupted) discards the re-run steps' stored segments (Store::discardSegmentsFrom).
+int resumeStep(const std::vector<RunStep>& steps, int last_finished);
+
 // Per axis, the largest rate and acceleration of any step (zero for an axis that never moves).
 std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps);
 
@@ -157,7 +174,18 @@ struct RunnerOptions {
 struct RunnerEvent {
   // kSoakSettled / kSoakTimeout: an auto soak's end (message: how it was measured); a timeout
   // flags the temperature point (the plan goes on).
-  enum class Kind { kState, kStepStarted, kStepFinished, kAlarm, kSoakSettled, kSoakTimeout };
+  // kPointRestarted: resume after an alarm that sent the chamber to its safe setpoint goes
+  // back to the chamber step of the interrupted temperature point (step: that step); the
+  // point's steps finished before are run again (their stored segments are void).
+  enum class Kind {
+    kState,
+    kStepStarted,
+    kStepFinished,
+    kAlarm,
+    kSoakSettled,
+    kSoakTimeout,
+    kPointRestarted
+  };
   Kind kind = Kind::kState;
   double time_s = 0.0;
   int step = -1;
@@ -177,6 +205,8 @@ class PlanRunner {
   // before it count as done. first_step == 0 is start().
   Status startAt(double now_s, int first_step);
   Status pause(double now_s);
+  // After an alarm that sent the chamber to its safe setpoint (over temperature), resume
+  // restarts the interrupted temperature point at its chamber step (resumeStep's rule).
   Status resume(double now_s);
   Status abort(double now_s);
   void emergencyStop(double now_s, const std::string& who);  // works in every state
@@ -228,6 +258,8 @@ class PlanRunner {
   double phase_plan_t0_s_ = 0.0;  // plan clock when the phase began
   double step_elapsed_s_ = 0.0;   // planned-time progress inside the current step
   bool step_interrupted_ = false;
+  // An alarm sent the chamber to its safe setpoint: resume restarts the temperature point.
+  bool chamber_left_point_ = false;
   // The table was seen moving since the step's command: a full turn ends where it started,
   // so "in position" alone cannot tell done from not yet begun.
   bool saw_moving_ = false;

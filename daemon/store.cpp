@@ -710,6 +710,11 @@ bool StoreOptions::IsValid(std::string* why) const {
   return true;
 }
 
+bool runResumable(RunState state) {
+  return state == RunState::kInterrupted || state == RunState::kAborted ||
+         state == RunState::kFaulted;
+}
+
 const char* runStateName(RunState state) {
   switch (state) {
     case RunState::kRunning:
@@ -891,9 +896,9 @@ Status Store::resumeRun(std::int64_t run_id) {
   return impl_->transaction("cannot resume " + runLabel(run_id), [&]() {
     RunState state{};
     if (auto st = impl_->runState(run_id, &state); !st.ok) return st;
-    if (state != RunState::kInterrupted) {
+    if (!runResumable(state)) {
       return impl_->error(runLabel(run_id) + " is " + runStateName(state) +
-                          "; only an interrupted run can be resumed");
+                          "; only an interrupted, aborted or faulted run can be resumed");
     }
     Status st;
     Bound q = impl_->use(
@@ -917,13 +922,43 @@ ResumePoint Store::resumePoint(std::int64_t run_id) {
         std::pair{"SELECT max(t) FROM table_samples WHERE run_id = ?1", &p.last_table_t},
         std::pair{"SELECT max(t) FROM chamber_samples WHERE run_id = ?1", &p.last_chamber_t},
         std::pair{"SELECT max(t1) FROM segments WHERE run_id = ?1", &p.last_segment_t1},
-        std::pair{"SELECT max(json_extract(json, '$.step')) FROM events "
-                  "WHERE run_id = ?1 AND kind = 'step_finished'",
+        // The newest checkpoint, not the largest step: a resumed temperature point re-runs
+        // steps that had finished before (Store::discardSegmentsFrom).
+        std::pair{"SELECT json_extract(json, '$.step') FROM events "
+                  "WHERE run_id = ?1 AND kind = 'step_finished' ORDER BY id DESC LIMIT 1",
                   &step}}) {
     if (p.status = impl_->lastTime(sql, run_id, out); !p.status.ok) return p;
   }
   if (step) p.last_finished_step = static_cast<int>(*step);
   return p;
+}
+
+CountResult Store::discardSegmentsFrom(std::int64_t run_id, const std::string& label) {
+  CountResult r;
+  r.status = impl_->transaction("cannot discard segments of " + runLabel(run_id), [&]() {
+    Status st;
+    std::optional<double> from;
+    {
+      Bound q = impl_->use("SELECT max(idx) FROM segments WHERE run_id = ?1 AND label = ?2", &st);
+      if (!q) return st;
+      q.bind(1, run_id);
+      q.bind(2, std::string_view(label));
+      if (q.step() != SQLITE_ROW) return impl_->sqlError("cannot read " + runLabel(run_id));
+      from = q.optReal(0);
+    }
+    if (!from) return Status::Ok();  // the step never finished: nothing of it is stored
+    Bound del = impl_->use("DELETE FROM segments WHERE run_id = ?1 AND idx >= ?2", &st);
+    if (!del) return st;
+    del.bind(1, run_id);
+    del.bind(2, static_cast<std::int64_t>(*from));
+    if (del.step() != SQLITE_DONE) return impl_->sqlError("cannot discard segments");
+    r.value = sqlite3_changes(impl_->db.get());
+    const nlohmann::json details = {{"from_label", label}, {"segments", r.value}};
+    return impl_->insertEvent(
+        {run_id, nowUnixS(), EventSeverity::kInfo, "segments_discarded", details.dump()});
+  });
+  if (!r.status.ok) r.value = 0;
+  return r;
 }
 
 RunListResult Store::listRuns() {

@@ -50,6 +50,11 @@ enum class RunState { kRunning, kFinished, kAborted, kFaulted, kInterrupted };
 // "running", "finished", "aborted", "faulted", "interrupted" (the database's text form).
 const char* runStateName(RunState state);
 std::optional<RunState> runStateFromName(std::string_view name);
+// `imubench resume RUN` applies: a run cut off by a crash or stop (interrupted), by the
+// operator's abort or by a fault. A thermal run is hours of chamber time; an abort or a fault
+// in one point must not throw away the points already done (issue 16). Running and finished
+// runs are not resumable.
+bool runResumable(RunState state);
 
 // What is known when a run starts: the plan, the bench and the recording's meta data
 // (io::Recording fields of the same name).
@@ -148,8 +153,8 @@ struct QueuePlace {
 using QueueAddResult = Result<QueuePlace>;
 using QueueListResult = Result<std::vector<QueueEntry>>;  // in queue order, the next first
 using CountResult = Result<int>;
-// Where an interrupted run stands (Store::resumePoint): the last step whose step_finished
-// event was stored (its segment is committed before the event), and the newest stored row of
+// Where an interrupted run stands (Store::resumePoint): the step of the newest stored
+// step_finished event (its segment is committed before the event), and the newest stored row of
 // each stream, so the resumed run's rows continue after them.
 struct ResumePoint {
   Status status;
@@ -180,11 +185,18 @@ class Store {
   // Daemon start-up: every run still `running` was cut off by a crash or kill; it becomes
   // `interrupted` with an event naming the time of its last stored IMU sample. Returns how many.
   CountResult markInterruptedRuns();
-  // An interrupted run goes on (imubench resume RUN): back to `running`, with a "resumed"
-  // event. Refuses any other state.
+  // An interrupted, aborted or faulted run goes on (imubench resume RUN): back to `running`,
+  // with a "resumed" event. Refuses any other state (runResumable).
   Status resumeRun(std::int64_t run_id);
   // The checkpoint an interrupted run resumes from.
   ResumePoint resumePoint(std::int64_t run_id);
+  // A resumed run restarts an interrupted temperature point at its chamber step
+  // (daemon/plan_runner.h resumeStep): the segments of that point's steps that had finished
+  // are forgotten (they re-run at the setpoint; otherwise the calibration would see them twice),
+  // from the newest segment labelled `label` (the point's first step) on, with a
+  // "segments_discarded" event. Every sample row stays. Returns how many segments went; 0
+  // when none is labelled `label` (the step never finished). Call before resumePoint.
+  CountResult discardSegmentsFrom(std::int64_t run_id, const std::string& label);
   RunListResult listRuns();
   RunInfoResult runInfo(std::int64_t run_id);
 

@@ -9,7 +9,9 @@
 // truth put into the frame the method refers to (gyro-referenced for indirect and pipeline); exit 1
 // when a judged parameter is outside. --coefficients writes the stored coefficient file
 // (interchange.md). --serial lists an IMU's history: every calibrated run with its temperature and
-// verdict. The store is read through imubench-store (tools/cli_store.h).
+// verdict, and every temperature point of its thermal runs (one direct calibration per point,
+// at the point's mean IMU temperature). The store is read through imubench-store
+// (tools/cli_store.h).
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -40,6 +42,9 @@ struct ResultsOptions {
 };
 
 // One run's results by kind (the newest of each kind).
+// Per temperature point of a thermal run (daemon/thermal_points.h pointJson).
+constexpr const char* kPointKind = "point_coefficients";
+
 std::map<std::string, json> byKind(const std::vector<StoredResultRow>& rows) {
   std::map<std::string, json> out;
   for (const StoredResultRow& r : rows) out[r.kind] = json::parse(r.json, nullptr, false);
@@ -183,9 +188,39 @@ bool compareTruth(const ResultsOptions& o, const json& coefficients, const json&
   return c.outside == 0;
 }
 
+// A thermal run's per-point results (kind "point_coefficients", daemon/thermal_points.h),
+// one line each: its temperature, the point and whether it calibrated.
+void printPoint(long long run, const StoredResultRow& r) {
+  const json p = json::parse(r.json, nullptr, false);
+  const std::string what = p.is_object() ? p.value("point", std::string("?")) : std::string("?");
+  const bool ok = p.is_object() && p.value("ok", false);
+  std::printf("%6lld  %10.1f  %-9s  point %s: %s\n", run, r.temperature_c, "direct", what.c_str(),
+              ok ? "calibrated"
+                 : ("FAILED: " + (p.is_object() ? p.value("error", std::string()) : "")).c_str());
+}
+
 void runOne(const ResultsOptions& o, std::int64_t run) {
-  const std::vector<StoredResultRow> rows = loadStoredResults(o.db, run, std::nullopt);
+  std::vector<StoredResultRow> rows = loadStoredResults(o.db, run, std::nullopt);
   if (rows.empty()) throw CommandFailed("run " + std::to_string(run) + ": no results stored");
+  std::vector<StoredResultRow> point_rows;
+  std::erase_if(rows, [&](const StoredResultRow& r) {
+    if (r.kind != kPointKind) return false;
+    point_rows.push_back(r);
+    return true;
+  });
+  if (!point_rows.empty() && (rows.empty() || !o.json)) {
+    // A thermal run: its temperature points (and its whole-run results, if any, below).
+    if (o.json && rows.empty()) {
+      json list = json::array();
+      for (const StoredResultRow& r : point_rows)
+        list.push_back(json::parse(r.json, nullptr, false));
+      std::cout << json({{"run", run}, {"results", {{kPointKind, list}}}}).dump(2) << "\n";
+      return;
+    }
+    std::printf("%6s  %10s  %-9s  %s\n", "run", "temp degC", "method", "point");
+    for (const StoredResultRow& r : point_rows) printPoint(static_cast<long long>(run), r);
+    if (rows.empty()) return;
+  }
   std::map<std::string, json> k = byKind(rows);
   if (!o.coefficients.empty()) {
     if (!k.count("coefficients"))
@@ -219,8 +254,9 @@ void runOne(const ResultsOptions& o, std::int64_t run) {
 
 void runHistory(const ResultsOptions& o) {
   const std::vector<StoredResultRow> rows = loadStoredResults(o.db, std::nullopt, o.serial);
-  std::map<std::int64_t, std::vector<StoredResultRow>> runs;
-  for (const StoredResultRow& r : rows) runs[r.run_id].push_back(r);
+  std::map<std::int64_t, std::vector<StoredResultRow>> runs, points;
+  for (const StoredResultRow& r : rows)
+    (r.kind == kPointKind ? points : runs)[r.run_id].push_back(r);
   if (o.json) {
     json list = json::array();
     for (const auto& [run, rs] : runs) {
@@ -232,10 +268,19 @@ void runHistory(const ResultsOptions& o) {
                       {"created_unix_s", rs.back().created_unix_s},
                       {"results", kinds}});
     }
+    for (const auto& [run, rs] : points) {
+      for (const StoredResultRow& r : rs) {
+        list.push_back({{"run", run},
+                        {"imu_serial", r.imu_serial},
+                        {"temperature_c", r.temperature_c},
+                        {"created_unix_s", r.created_unix_s},
+                        {"results", {{kPointKind, json::parse(r.json, nullptr, false)}}}});
+      }
+    }
     std::cout << list.dump(2) << "\n";
     return;
   }
-  if (runs.empty()) {
+  if (runs.empty() && points.empty()) {
     std::cout << "IMU " << *o.serial << ": no results stored\n";
     return;
   }
@@ -247,6 +292,9 @@ void runHistory(const ResultsOptions& o) {
     std::printf("%6lld  %10.1f  %-9s  %s\n", static_cast<long long>(run), rs.back().temperature_c,
                 method.c_str(),
                 k.count("verdict") ? verdictText(k["verdict"]).c_str() : "(no verdict)");
+  }
+  for (const auto& [run, rs] : points) {
+    for (const StoredResultRow& r : rs) printPoint(static_cast<long long>(run), r);
   }
 }
 
