@@ -11,8 +11,10 @@
 //   imubench queue resume                   start the queue's head now (after an abort, a
 //                                           fault or a daemon restart the queue holds)
 //   imubench pause | resume | abort | stop          (stop = emergency stop)
-//   imubench resume RUN          run RUN, interrupted by a daemon crash, power loss or stop,
-//                                goes on from its last finished step (appending to the run)
+//   imubench resume RUN          run RUN, interrupted by a daemon crash, power loss, stop,
+//                                abort or fault, goes on from its last finished step
+//                                (appending to the run); inside a temperature point: from
+//                                the point's chamber step
 //   imubench status [--json]     imubench watch [--json]     (results: cli_results.cpp, the store)
 // Every command takes --socket PATH (default $IMUBENCH_SOCKET, else /run/imubench/control.sock).
 // Human output by default; --json prints the daemon's raw reply (watch: the raw event lines).
@@ -631,9 +633,11 @@ void addControlCommands(CLI::App& app) {
     CLI::App* sub = app.add_subcommand(
         "resume",
         "continue the paused run; with RUN: continue run RUN, interrupted by a daemon crash, "
-        "power loss or stop, from its last finished step");
+        "power loss, stop, abort or fault, from its last finished step (inside a temperature "
+        "point: from the point's chamber step)");
     sub->group(group);
-    sub->add_option("RUN", *run, "an interrupted run's id (imubench results lists them)")
+    sub->add_option("RUN", *run,
+                    "an interrupted, aborted or faulted run's id (imubench runs lists them)")
         ->check(CLI::PositiveNumber);
     addControlOptions(*sub, o.get());
     sub->callback([o, run] { runResume(*o, *run); });
