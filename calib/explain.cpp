@@ -8,6 +8,7 @@
 #include <set>
 
 #include "calib/explain_fit.h"
+#include "calib/indirect_calibration.h"
 
 namespace imubench::calib {
 namespace {
@@ -945,6 +946,71 @@ ExplainResult analyseProblem(const ExplainProblem& p, const ExplainOptions& o) {
   return res;
 }
 
+namespace {
+
+// The runs' navigation residuals at the coefficients m (sensors and table errors).
+Result<std::vector<RunAttitudeResidual>> runResidualsAt(const ExplainInput& in,
+                                                        const BenchTruth& m) {
+  IndirectInput ii;
+  ii.site = in.site;
+  ii.geometry = in.geometry;
+  ii.imu = in.imu;
+  ii.table = in.table;
+  ii.segments = in.segments;
+  ii.start = m.sensors;
+  ii.start_base_tilt = m.table.base_tilt;
+  ii.start_nonorthogonality = m.table.nonorthogonality;
+  return indirectRunResiduals(ii, IndirectOptions{});
+}
+
+// ExplainResult::runs: before at the baseline, after at the refit. Nothing when the recording
+// has no run between two holds (or the method's checks refuse it).
+std::vector<ExplainRunResidual> runResiduals(const ExplainInput& in, const BenchTruth& after) {
+  const auto b = runResidualsAt(in, in.baseline.values);
+  const auto a = runResidualsAt(in, after);
+  std::vector<ExplainRunResidual> out;
+  if (!b.ok() || !a.ok() || a.value.size() != b.value.size()) return out;
+  for (std::size_t k = 0; k < b.value.size(); ++k) {
+    const RunAttitudeResidual& rb = b.value[k];
+    out.push_back({rb.label,
+                   rb.t0,
+                   rb.t1,
+                   {rb.tilt_rad.x(), rb.tilt_rad.y()},
+                   {a.value[k].tilt_rad.x(), a.value[k].tilt_rad.y()},
+                   rb.sigma_rad});
+  }
+  return out;
+}
+
+// A note when the refitted coefficients navigate the runs clearly worse than the baseline's:
+// the bins then constrain what the runs measure (gyro scales and misalignments) weakly, e.g.
+// through the encoder samples' timing scatter, and the refit drifted along it.
+std::string navigationNote(const std::vector<ExplainRunResidual>& runs) {
+  double chi2_before = 0.0, chi2_after = 0.0, ss_before = 0.0, ss_after = 0.0;
+  for (const ExplainRunResidual& r : runs) {
+    for (int k = 0; k < 2; ++k) {
+      chi2_before += std::pow(r.before[static_cast<std::size_t>(k)] / r.sigma, 2);
+      chi2_after += std::pow(r.after[static_cast<std::size_t>(k)] / r.sigma, 2);
+      ss_before += std::pow(r.before[static_cast<std::size_t>(k)], 2);
+      ss_after += std::pow(r.after[static_cast<std::size_t>(k)], 2);
+    }
+  }
+  const double n = 2.0 * static_cast<double>(runs.size());
+  // Worse by more than the noise could make it: 2x and 9 per residual (3 sigma).
+  if (runs.empty() || chi2_after < 2.0 * chi2_before || chi2_after < 9.0 * n) return "";
+  constexpr double kArcsec = 180.0 / kPi * 3600.0;
+  char buf[400];
+  std::snprintf(buf, sizeof(buf),
+                "the refitted coefficients navigate the runs worse than the baseline's "
+                "(attitude RMS %.3g -> %.3g arcsec): the bins constrain the gyro scales and "
+                "misalignments weakly here (e.g. timing scatter of the encoder samples); keep "
+                "the baseline coefficients and take only the accepted effects' values",
+                std::sqrt(ss_before / n) * kArcsec, std::sqrt(ss_after / n) * kArcsec);
+  return buf;
+}
+
+}  // namespace
+
 ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
   ExplainResult res;
   const std::vector<HoldReadings> holds = staticHolds(in, o);
@@ -972,7 +1038,11 @@ ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) 
   p.candidates = candidateEffects(in, o);
   p.segments.assign(in.segments.begin(), in.segments.end());
   p.baseline_method = in.baseline_method;
-  return analyseProblem(p, o);
+  res = analyseProblem(p, o);
+  if (!res.ok) return res;
+  res.runs = runResiduals(in, res.coefficients.values);
+  if (const std::string n = navigationNote(res.runs); !n.empty()) res.notes.push_back(n);
+  return res;
 }
 
 }  // namespace imubench::calib

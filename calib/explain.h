@@ -167,6 +167,16 @@ struct ExplainBinResidual {
   std::array<double, 6> before{}, after{}, sigma{};  // reading units
 };
 
+// The navigation residual of one rotate run between two holds (the indirect method's run
+// residual, calib/indirect_calibration.h indirectRunResiduals): the attitude the navigation
+// reaches at the run's end against the table's, about the horizontal axes, rad.
+struct ExplainRunResidual {
+  std::string label;
+  double t0 = 0.0, t1 = 0.0;
+  std::array<double, 2> before{}, after{};
+  double sigma = 0.0;  // from the gyro noise over the run
+};
+
 struct ExplainResult {
   bool ok = false;
   std::string error;  // why not, when !ok
@@ -188,6 +198,9 @@ struct ExplainResult {
   std::vector<ExplainWindow> unexplained;  // after it
   CoefficientReport coefficients;          // after the joint refit; accepted effects in extra
   std::vector<ExplainBinResidual> bins;
+  // Every rotate run between two holds, at the baseline and at the refitted sensor and table
+  // coefficients (the extra effects are not in the navigation model); empty without such runs.
+  std::vector<ExplainRunResidual> runs;
   std::vector<Segment> segments;
   std::vector<std::string> notes;
 };

@@ -106,6 +106,15 @@ nlohmann::json toJson(const ExplainResult& r) {
   }
   j["unexplained"] = windowsJson(r.unexplained);
   j["located"] = windowsJson(r.located);
+  j["navigation_residuals"] = nlohmann::json::array();
+  for (const ExplainRunResidual& n : r.runs) {
+    j["navigation_residuals"].push_back({{"run", n.label},
+                                         {"t0", n.t0},
+                                         {"t1", n.t1},
+                                         {"before_rad", n.before},
+                                         {"after_rad", n.after},
+                                         {"sigma_rad", n.sigma}});
+  }
   j["coefficients"] = toJson(r.coefficients);
   j["notes"] = r.notes;
   return j;

@@ -463,6 +463,14 @@ std::string holdLabel(const Segment& s, const char* what) {
   return buf;
 }
 
+// A run's end-attitude sigma about a horizontal axis: the gyro's angle random walk over it.
+double runAngleSigma(const Observations& obs, const IndirectOptions& opt,
+                     const RunPreintegration& pre) {
+  return std::max(std::max(obs.gyro_noise, opt.min_gyro_noise) * pre.duration_s /
+                      std::sqrt(std::max(pre.samples, 1)),
+                  opt.min_run_angle_sigma);
+}
+
 void addResiduals(const IndirectInput& in, const IndirectOptions& opt, const Observations& obs,
                   Parameters* p, ceres::Problem* problem, std::vector<LabelledBlock>* blocks) {
   problem->AddParameterBlock(p->accel, kTriadSize);
@@ -485,9 +493,7 @@ void addResiduals(const IndirectInput& in, const IndirectOptions& opt, const Obs
     const Mat3 C_LP_start0 = platformAttitude(in.geometry, r.before->angles, p->table);
     const RunPreintegration pre = preintegrateRun(r.imu.subspan(r.first, r.last - r.first),
                                                   r.t_start, C_LP_start0, p->gyro, obs.w_ie_L);
-    const double sigma_angle = std::max(std::max(obs.gyro_noise, opt.min_gyro_noise) *
-                                            pre.duration_s / std::sqrt(std::max(pre.samples, 1)),
-                                        opt.min_run_angle_sigma);
+    const double sigma_angle = runAngleSigma(obs, opt, pre);
     char buf[200];
     std::snprintf(buf, sizeof(buf), "run '%s' (%.1f-%.1f s)", r.segment->label.c_str(),
                   r.segment->t0, r.segment->t1);
@@ -803,6 +809,34 @@ IndirectJacobian indirectJacobian(const IndirectInput& in, const IndirectOptions
     out.jacobian.col(out.jacobian.cols() - 1) = J.col(g);
   }
   out.ok = true;
+  return out;
+}
+
+Result<std::vector<RunAttitudeResidual>> indirectRunResiduals(const IndirectInput& in,
+                                                              const IndirectOptions& opt) {
+  CalibrationResult result;
+  Observations obs;
+  if (!opt.IsValid(&result.error) || !observe(in, opt, &obs, &result)) {
+    return Result<std::vector<RunAttitudeResidual>>::Error(result.error);
+  }
+  Parameters p = initialParameters(in, opt, &result.warnings);
+  Result<std::vector<RunAttitudeResidual>> out;
+  for (const Run& r : obs.runs) {
+    const Mat3 C_LP_start0 = platformAttitude(in.geometry, r.before->angles, p.table);
+    const RunPreintegration pre = preintegrateRun(r.imu.subspan(r.first, r.last - r.first),
+                                                  r.t_start, C_LP_start0, p.gyro, obs.w_ie_L);
+    const double sigma = runAngleSigma(obs, opt, pre);
+    const RunCost cost(pre, in.geometry, r.before->angles, r.after->angles, C_LP_start0, sigma);
+    double residual[2] = {};
+    cost(p.gyro, p.table, residual);
+    RunAttitudeResidual a;
+    a.label = r.segment->label;
+    a.t0 = r.segment->t0;
+    a.t1 = r.segment->t1;
+    a.tilt_rad = Vec2(residual[0], residual[1]) * sigma;
+    a.sigma_rad = sigma;
+    out.value.push_back(a);
+  }
   return out;
 }
 

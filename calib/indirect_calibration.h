@@ -164,6 +164,23 @@ struct IndirectJacobian {
 };
 IndirectJacobian indirectJacobian(const IndirectInput& input, const IndirectOptions& options);
 
+// The navigation residual of one rotate run between two holds (the method's run residual,
+// calib/indirect_run_cost.h): the attitude the navigation reaches at the end of the run against
+// the table's end setting, about the two horizontal axes of L (rad), and its sigma from the
+// gyro noise over the run.
+struct RunAttitudeResidual {
+  std::string label;
+  double t0 = 0.0, t1 = 0.0;  // the run segment
+  Vec2 tilt_rad = Vec2::Zero();
+  double sigma_rad = 0.0;
+};
+// Every run's residual at the coefficients in.start (sensors), in.start_base_tilt and
+// in.start_nonorthogonality: what the method's runs say of a coefficient set it did not
+// estimate (explain's navigation residuals before and after its refit). An error when the
+// recording has no usable hold; no runs: an empty list.
+Result<std::vector<RunAttitudeResidual>> indirectRunResiduals(const IndirectInput& input,
+                                                              const IndirectOptions& options);
+
 // The truth of a simulated bench mapped into the gyro-referenced frame P of this method (what
 // calibrateIndirect estimates): M_P = M_B * E^T with E = Rz(i0) exp([mu x]) (exact
 // rotations), diagonal renormalised into the scale; base tilt += outer encoder zero about

@@ -243,6 +243,21 @@ void printEffects(const calib::ExplainResult& r) {
   }
 }
 
+// The indirect method's navigation residual of each run: the end attitude about the two
+// horizontal axes, arcsec, at the baseline and after the refit.
+void printRunResiduals(const calib::ExplainResult& r) {
+  if (r.runs.empty()) return;
+  constexpr double kArcsec = 180.0 / 3.14159265358979323846 * 3600.0;
+  std::printf(
+      "navigation residual per run (end attitude about the horizontal axes, arcsec; "
+      "baseline -> refit; sigma from the gyro noise):\n");
+  for (const calib::ExplainRunResidual& n : r.runs) {
+    std::printf("  %-24s %8.1f-%8.1f s  x %+8.2f -> %+8.2f  y %+8.2f -> %+8.2f  sigma %.2f\n",
+                n.label.c_str(), n.t0, n.t1, n.before[0] * kArcsec, n.after[0] * kArcsec,
+                n.before[1] * kArcsec, n.after[1] * kArcsec, n.sigma * kArcsec);
+  }
+}
+
 void printSummary(const Prepared& p, const calib::ExplainResult& r) {
   for (const std::string& s : p.said) std::printf("%s\n", s.c_str());
   std::printf("noise floor (white, per sqrt(Hz)):");
@@ -254,6 +269,7 @@ void printSummary(const Prepared& p, const calib::ExplainResult& r) {
   std::printf("\n");
   printRms(p.units, r);
   printWindows(p.units, "located (baseline residual beyond the noise floor)", r.located);
+  printRunResiduals(r);
   printEffects(r);
   if (r.unexplained.empty()) {
     std::printf("unexplained: none: after the refit the residual is within the noise floor\n");
