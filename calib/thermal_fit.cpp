@@ -636,9 +636,10 @@ ThermalRunsFitResult fitThermalJoint(const std::vector<ThermalRun>& runs,
   ThermalFitResult& fit = r.fit;
   fit.distinct_temperatures = distinctTemperatures(d.temps, options.fit.same_temperature_c);
   if (fit.distinct_temperatures < 2) {
-    r.error = "a single temperature point (all rows within " +
-              std::to_string(options.fit.same_temperature_c) +
-              " degC): a thermal model needs at least two temperatures";
+    fit.error = "a single temperature point (all rows within " +
+                std::to_string(options.fit.same_temperature_c) +
+                " degC): a thermal model needs at least two temperatures";
+    r.error = fit.error;
     return r;
   }
   FitContext ctx{&options.fit};
@@ -660,6 +661,7 @@ ThermalRunsFitResult fitThermalJoint(const std::vector<ThermalRun>& runs,
   int sweeps_a = 0, sweeps_g = 0;
   if (!fitTriadJoint(d.accel, ctx, options, "accel", &c.accel, &fit.fits, &sweeps_a, &r.error) ||
       !fitTriadJoint(d.gyro, ctx, options, "gyro", &c.gyro, &fit.fits, &sweeps_g, &r.error)) {
+    fit.error = r.error;  // a coefficient the rows do not determine: the fit's, not a run's
     return r;
   }
   r.passes = std::max(sweeps_a, sweeps_g);
