@@ -18,6 +18,9 @@
 // reduced chi^2 when it exceeds 1 (the points scatter more than their own sigmas say).
 // Point covariances between coefficients are not used (the direct calibration's are
 // per-coefficient sigmas).
+// fitThermalJoint (below) fits the same model from the direct calibration's raw rows instead of
+// per-point calibrations, each row at its own temperature: what continuous ramps need and what
+// `imubench thermal fit` uses by default.
 #pragma once
 
 #include <array>
