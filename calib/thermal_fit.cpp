@@ -593,8 +593,10 @@ bool fitTriadJoint(const std::vector<JointRow>& rows, const FitContext& ctx,
     (*t)[static_cast<std::size_t>(j)].poly[0] = j < model::kBias ? 1.0 : 0.0;
   }
   std::vector<ThermalCoefficientFit> f(model::kTriadSize);
+  // Smallest sigma of a row's mean: the direct calibration's (below it a residual is
+  // round-off; noise-free recordings would otherwise get infinite weights).
   const double floor =
-      name == "accel" ? o.direct.accel_residual_floor * 1e-3 : o.direct.gyro_residual_floor * 1e-3;
+      name == "accel" ? o.direct.accel_residual_floor : o.direct.gyro_residual_floor;
   for (*sweeps = 1; *sweeps <= o.max_sweeps; ++*sweeps) {
     double moved = 0.0;
     for (int j = 0; j < model::kTriadSize; ++j) {
