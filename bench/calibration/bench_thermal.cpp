@@ -6,7 +6,7 @@
 //   soak points: 11 setpoints every 10 degC heating then cooling, the chamber ramping at
 //                1 degC/min between them and the IMU settling to 0.05 degC before the body;
 //   continuous ramp: the chamber ramps -40 -> +60 -> -40 degC at RATE (degC/s, argument 1;
-//                default 0.3 degC/min, the bundled thermal_ramp.toml's) while the body
+//                default 0.4 degC/min, the bundled thermal_ramp.toml's) while the body
 //                repeats.
 // The soak plan is fitted both ways: a direct calibration per soak point with polynomials
 // through the points (calib::fitThermal), and jointly from the raw rows (calib::
@@ -149,7 +149,7 @@ void print(const char* name, const PlanOutcome& p, bool sweeps) {
 
 int main(int argc, char** argv) {
   testing::ThermalScheduleOptions o;
-  o.ramp_rate = 0.3 / 60.0;  // the bundled plans/library/thermal_ramp.toml's rate, degC/s
+  o.ramp_rate = 0.4 / 60.0;  // the bundled plans/library/thermal_ramp.toml's rate, degC/s
   if (argc > 1) o.ramp_rate = std::atof(argv[1]);  // degC/s
   // Another noise realisation of every run (the default is the README's).
   const std::uint64_t seed = argc > 2 ? std::strtoull(argv[2], nullptr, 10) : 0;
