@@ -570,6 +570,33 @@ std::string checkInput(const DirectCalibrationInput& in, const DirectCalibration
   return check.ok() ? "" : check.reason;
 }
 
+// Every usable static and rate run of the recording as rows (spans: each gyro row's segment
+// span, in row order); counts and notes into res.
+void collectRows(const DirectCalibrationInput& in, const DirectCalibrationOptions& o,
+                 DirectRows* rows, std::vector<std::pair<double, double>>* spans,
+                 DirectCalibrationResult* res) {
+  const RowContext c{in,
+                     o,
+                     TableModel(in.geometry, o.known_table_errors),
+                     Vec3(0.0, 0.0, nav::siteGravity(in.site)),
+                     o.use_earth_rate ? nav::earthRateL(in.site.latitude_rad) : Vec3::Zero(),
+                     in.imu[1].t - in.imu[0].t};
+  // Holds split into settle + hold are one hold; segments contradicting the encoders named.
+  const SegmentCheckResult segs =
+      checkSegments(in.geometry.kind, in.table, in.segments, o.segment_check);
+  res->notes = segs.notes;
+  for (const Segment& seg : segs.segments) {
+    if (!seg.recording) continue;
+    if (seg.kind == SegmentKind::kStatic && addStaticRow(c, seg, rows, &res->notes)) {
+      ++res->statics_used;
+      spans->emplace_back(seg.t0, seg.t1);
+    } else if (seg.kind == SegmentKind::kRotate && addRotationRow(c, seg, rows, &res->notes)) {
+      ++res->rotations_used;
+      spans->emplace_back(seg.t0, seg.t1);
+    }
+  }
+}
+
 }  // namespace
 
 DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
@@ -580,25 +607,9 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
     res.status = FitStatus::Failed(res.reason);
     return res;
   }
-  const RowContext c{in,
-                     o,
-                     TableModel(in.geometry, o.known_table_errors),
-                     Vec3(0.0, 0.0, nav::siteGravity(in.site)),
-                     o.use_earth_rate ? nav::earthRateL(in.site.latitude_rad) : Vec3::Zero(),
-                     in.imu[1].t - in.imu[0].t};
-  // Holds split into settle + hold are one hold; segments contradicting the encoders named.
-  const SegmentCheckResult segs =
-      checkSegments(in.geometry.kind, in.table, in.segments, o.segment_check);
-  res.notes = segs.notes;
   DirectRows rows;
-  for (const Segment& seg : segs.segments) {
-    if (!seg.recording) continue;
-    if (seg.kind == SegmentKind::kStatic && addStaticRow(c, seg, &rows, &res.notes)) {
-      ++res.statics_used;
-    } else if (seg.kind == SegmentKind::kRotate && addRotationRow(c, seg, &rows, &res.notes)) {
-      ++res.rotations_used;
-    }
-  }
+  std::vector<std::pair<double, double>> spans;
+  collectRows(in, o, &rows, &spans, &res);
   if (res.statics_used < 4) {
     res.reason = "only " + std::to_string(res.statics_used) +
                  " usable static positions: need >= 4 (12 accelerometer unknowns, 4 per axis)";
@@ -622,6 +633,37 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
   res.ok = true;
   judgeDirect(rows, acc_ss, gyr_ss, o, &res);
   return res;
+}
+
+DirectObservations directObservations(const DirectCalibrationInput& in,
+                                      const DirectCalibrationOptions& o) {
+  DirectObservations out;
+  out.reason = checkInput(in, o);
+  if (!out.reason.empty()) return out;
+  DirectCalibrationResult counts;
+  DirectRows rows;
+  std::vector<std::pair<double, double>> spans;
+  collectRows(in, o, &rows, &spans, &counts);
+  out.notes = counts.notes;
+  if (counts.statics_used < 4) {
+    out.reason = "only " + std::to_string(counts.statics_used) + " usable static positions";
+    return out;
+  }
+  setRowNoise(&rows);
+  std::size_t s = 0;  // static rows: the same index in both triads' rows
+  for (std::size_t j = 0; j < rows.gyr.reading.size(); ++j) {
+    const bool is_static = rows.gyr.is_static[j];
+    for (const bool accel : {true, false}) {
+      if (accel && !is_static) continue;
+      const Rows& r = accel ? rows.acc : rows.gyr;
+      const std::size_t k = accel ? s : j;
+      out.rows.push_back({accel, !is_static, r.input[k], r.reading[k], r.reading_se[k],
+                          spans[j].first, spans[j].second, r.what[k]});
+    }
+    if (is_static) ++s;
+  }
+  out.ok = true;
+  return out;
 }
 
 }  // namespace imubench::calib

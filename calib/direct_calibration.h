@@ -106,4 +106,26 @@ struct DirectCalibrationResult {
 DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& input,
                                         const DirectCalibrationOptions& options = {});
 
+// One row of the linear model above as calibrateDirect builds it: the mean reading of a static
+// position (an accelerometer and a gyro row) or of a rate run (a gyro row), the input it was
+// taken at and the standard error of the mean. For estimators that fit the rows otherwise
+// (the joint thermal fit, calib/thermal_fit.h: each row at its own temperature).
+struct DirectObservation {
+  bool accel = false;     // accelerometer row (static); else gyro (static or rate run)
+  bool rotation = false;  // rate run
+  Vec3 input = Vec3::Zero(), reading = Vec3::Zero(), reading_se = Vec3::Zero();
+  double t0 = 0.0, t1 = 0.0;  // the segment's span, s
+  std::string label;
+};
+
+struct DirectObservations {
+  bool ok = false;
+  std::string reason;  // why not (bad input, fewer than 4 usable statics)
+  std::vector<DirectObservation> rows;
+  std::vector<std::string> notes;  // skipped segments
+};
+
+DirectObservations directObservations(const DirectCalibrationInput& input,
+                                      const DirectCalibrationOptions& options = {});
+
 }  // namespace imubench::calib

@@ -18,6 +18,9 @@
 // reduced chi^2 when it exceeds 1 (the points scatter more than their own sigmas say).
 // Point covariances between coefficients are not used (the direct calibration's are
 // per-coefficient sigmas).
+// fitThermalJoint (below) fits the same model from the direct calibration's raw rows instead of
+// per-point calibrations, each row at its own temperature: what continuous ramps need and what
+// `imubench thermal fit` uses by default.
 #pragma once
 
 #include <array>
@@ -26,6 +29,7 @@
 
 #include "calib/direct_calibration.h"
 #include "calib/model/thermal_coefficients.h"
+#include "calib/thermal_model.h"
 
 namespace imubench::calib {
 
@@ -169,5 +173,43 @@ struct ThermalRunsFitResult {
 // than their sigmas in the later passes; ramp repetitions are corrected for their drift.
 ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
                                     const ThermalRunsFitOptions& options = {});
+
+// ---- The joint fit from the raw rows -----------------------------------------------------
+
+// Every static position and rate run of every run is its own observation at its own mean IMU
+// temperature and rate (the direct calibration's rows, calib/direct_calibration.h
+// directObservations: mean reading, input, standard error of the mean), every coefficient
+// c(T, Tdot) of calib/model/thermal_coefficients.h entering the sensor equation
+// (calib/model/sensor_equation.h reading()):
+//     mean reading_j = reading(block(T_j, Tdot_j), input_j) + e_j.
+// Nothing is averaged over a temperature span, so a continuous ramp's rows are as sharp as a
+// soak point's and no per-point calibration smears its coefficients over the degrees a
+// repetition spans. Solved per triad by block Gauss-Seidel: each coefficient's polynomial and
+// dT/dt term is fitted with the others held, linearised through the sensor equation's
+// derivative (exact: eq. 1 is linear in each entry alone), choosing its order by BIC exactly as
+// fitThermal does; sweeps repeat until no coefficient moves by more than `tolerance` of its
+// sigma. Each entry enters one axis' reading, and a calibration plan's statics and rate runs
+// nearly decouple the entries of one axis, so a few sweeps converge. Sigmas are each
+// coefficient's with the others held. The table is taken as nominal (the joint least squares
+// of the direct calibration: table errors leak into the coefficients).
+struct ThermalJointFitOptions {
+  ThermalFitOptions fit;
+  DirectCalibrationOptions direct;  // how the rows are built (trims, shortest rotation)
+  TemperatureRateOptions rate;      // how Tdot is estimated from the recorded temperatures
+  // Sweeps at most: the coupling between the entries of one axis is weak (a sweep takes the
+  // error down by an order of magnitude), so more than this means the orders keep switching
+  // and the last sweep's model is returned.
+  int max_sweeps = 60;
+  // Converged when no polynomial or dT/dt term moved by more than this many of its sigmas in
+  // a sweep: far below the noise.
+  double tolerance = 1e-3;
+
+  bool IsValid(std::string* why) const;
+};
+
+// The joint fit of the rows of every run. result.points stays empty (there are no per-point
+// calibrations); result.passes is the number of sweeps.
+ThermalRunsFitResult fitThermalJoint(const std::vector<ThermalRun>& runs,
+                                     const ThermalJointFitOptions& options = {});
 
 }  // namespace imubench::calib

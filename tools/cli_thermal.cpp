@@ -1,11 +1,17 @@
 // imubench thermal fit RUN_OR_DIR... [--order auto|N] [--t-ref DEGC] --out comp.json
-//                                    [--csv comp.csv] [--max-span DEGC] [--refinements N]
-// Each recording (imubench-csv/1 directory with IMU temperatures) is split into temperature
-// points at its soak segments, at each repetition of a continuous-ramp plan ("up/rep03/..."
-// labels), or into windows spanning at most --max-span degC (calib/thermal_fit.h), each point
-// calibrated directly; the points of all recordings are fitted jointly, then re-made through
-// that fit --refinements times (calib::fitThermalRuns: a ramp's repetitions moved to their
-// mean temperature) into an imubench-thermal/1 file.
+//                                    [--csv comp.csv] [--method joint|points]
+//                                    [--max-span DEGC] [--refinements N]
+// Each recording (imubench-csv/1 directory with IMU temperatures, from the daemon or written
+// elsewhere) gives the direct calibration's rows: every static position and rate run.
+//   joint (default): every row at its own IMU temperature and rate, all coefficients' polynomials
+//     fitted through the sensor equation at once (calib::fitThermalJoint): a continuous ramp's
+//     rows are as sharp as a soak point's, and on soak plans it is at least as accurate as the
+//     per-point fit (bench/calibration/bench_thermal.cpp);
+//   points: the recording split into temperature points at its soak segments, at each
+//     repetition of a continuous-ramp plan ("up/rep03/..." labels) or into windows spanning at
+//     most --max-span degC (calib/thermal_fit.h), each calibrated directly, the points fitted,
+//     then re-made through that fit --refinements times (calib::fitThermalRuns).
+// Both write an imubench-thermal/1 file.
 // Refusals (exit 1, naming the file): a recording without temperatures, a single temperature
 // point, recordings of different IMU serials.
 #include <filesystem>
@@ -34,6 +40,7 @@ struct ThermalFitCliOptions {
   std::string db;  // run store for run ids
   double max_span_c = calib::ThermalPointOptions{}.max_point_span_c;
   int refinements = calib::ThermalRunsFitOptions{}.refinements;
+  std::string method = "joint";
 };
 
 // A recording directory or a run of the store (tools/cli_store.h RUN_OR_DIR).
@@ -87,13 +94,18 @@ void runThermalFit(const ThermalFitCliOptions& o) {
     in.segments = rec.segments;
     runs.push_back({std::move(in), dir});
   }
-  const calib::ThermalRunsFitResult fit = calib::fitThermalRuns(runs, fo);
+  calib::ThermalJointFitOptions jo;
+  jo.fit = fo.fit;
+  const bool joint = o.method == "joint";
+  const calib::ThermalRunsFitResult fit =
+      joint ? calib::fitThermalJoint(runs, jo) : calib::fitThermalRuns(runs, fo);
   if (!fit.ok) {
     std::string files;
     for (const auto& d : o.runs) files += (files.empty() ? "" : ", ") + d;
-    // A point's error names its recording; a fit's (e.g. a single temperature) names all.
+    // A run's error names its recording; a fit's (e.g. a single temperature) names all.
     throw CommandFailed(fit.fit.error.empty() ? fit.error : files + ": " + fit.error);
   }
+  if (joint) std::cout << "joint fit of every static and rate run: " << fit.passes << " sweeps\n";
   for (const auto& pt : fit.points) {
     std::cout << pt.source << ": " << std::setprecision(4) << pt.temp_c << " degC, "
               << pt.temp_rate * 60.0 << " degC/min, span " << pt.temp_span_c << " degC\n";
@@ -125,13 +137,19 @@ void addThermalCommand(CLI::App& app) {
   fit->add_option("--t-ref", opt->t_ref_c, "polynomial origin, degC")->capture_default_str();
   fit->add_option("--out", opt->out, "imubench-thermal/1 JSON file to write")->required();
   fit->add_option("--csv", opt->csv, "also write the CSV form");
+  fit->add_option("--method", opt->method,
+                  "joint: every static and rate run at its own temperature (default); points: "
+                  "a direct calibration per temperature point, polynomials through the points")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"joint", "points"}));
   fit->add_option("--max-span", opt->max_span_c,
-                  "widest temperature range of one point of a ramp without soaks or repetition "
-                  "labels, degC")
+                  "--method points: widest temperature range of one point of a ramp without "
+                  "soaks or repetition labels, degC")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   fit->add_option("--refinements", opt->refinements,
-                  "passes re-making the points through the previous fit (continuous ramps)")
+                  "--method points: passes re-making the points through the previous fit "
+                  "(continuous ramps)")
       ->capture_default_str()
       ->check(CLI::Range(0, 10));
   addStoreOption(*fit, &opt->db);

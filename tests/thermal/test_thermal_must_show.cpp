@@ -31,6 +31,8 @@ const model::ThermalLag kLag{300.0, 600.0};  // chamber air 5 min, IMU 10 min
 struct SoakFit {
   std::vector<ThermalFitPoint> points;
   ThermalFitResult auto_fit, cubic_fit;
+  std::vector<ThermalRun> runs;
+  ThermalRunsFitResult joint;  // the same runs, fitted jointly from their raw rows
 };
 
 const SoakFit& soakFit() {
@@ -44,6 +46,7 @@ const SoakFit& soakFit() {
         motion.temperature = rampKnots(T, rate, motion.duration, kLag);
         const DirectCalibrationInput run =
             simulateThermal(motion, &truth, NoiseModel::navigationGrade(), kImuRateHz, ++seed);
+        f.runs.push_back({run, "T" + std::to_string(T)});
         const ThermalPointsResult p = thermalPointsFromRun(run, "T" + std::to_string(T));
         EXPECT_TRUE(p.ok) << p.error;
         if (p.ok) f.points.insert(f.points.end(), p.points.begin(), p.points.end());
@@ -53,6 +56,7 @@ const SoakFit& soakFit() {
     ThermalFitOptions cubic;
     cubic.order = 3;
     f.cubic_fit = fitThermal(f.points, cubic);
+    f.joint = fitThermalJoint(f.runs);
     return f;
   }();
   return fit;
@@ -167,6 +171,34 @@ TEST(ThermalMustShow, CompensatedStaticResidualsWithinTwiceTheNoiseFloorBetweenP
     // The check can fail: without the thermal model the same residuals are far above it.
     EXPECT_GT(std::max(r_room.accel, r_room.gyro), 2.0) << T;
   }
+}
+
+// The joint fit (calib::fitThermalJoint, what `imubench thermal fit` uses by default) on the
+// soak points meets the same tolerances, judged by the same metric at the same held-out
+// temperatures (testing::thermalAccuracy), and is at least as accurate as the per-point fit.
+TEST(ThermalMustShow, JointFitOfTheSoakRunsMeetsTheSameTolerances) {
+  const SoakFit& f = soakFit();
+  ASSERT_TRUE(f.joint.ok) << f.joint.error;
+  ASSERT_TRUE(f.auto_fit.ok) << f.auto_fit.error;
+  const model::ThermalCoefficients truth = cubicThermalTruth();
+  const Motion body = libraryMotion("direct_two_axis");
+  const NoiseModel noise = NoiseModel::navigationGrade();
+  const testing::ThermalAccuracy j =
+      testing::thermalAccuracy(f.joint.fit.coefficients, truth, body, noise, kImuRateHz);
+  const testing::ThermalAccuracy p =
+      testing::thermalAccuracy(f.auto_fit.coefficients, truth, body, noise, kImuRateHz);
+  ASSERT_TRUE(j.error.empty() && p.error.empty()) << j.error << p.error;
+  std::cout << "soak, joint fit: residual / floor accel " << j.worst_accel << ", gyro "
+            << j.worst_gyro << ", bias tempco " << 100.0 * j.worst_bias_tempco
+            << " %; per-point fit: " << p.worst_accel << ", " << p.worst_gyro << ", "
+            << 100.0 * p.worst_bias_tempco << " %\n";
+  EXPECT_FALSE(j.extrapolated);
+  EXPECT_LT(j.worst_accel, 2.0);
+  EXPECT_LT(j.worst_gyro, 2.0);
+  EXPECT_LT(j.worst_bias_tempco, 0.05);
+  EXPECT_LE(j.worst_accel, 1.05 * p.worst_accel);
+  EXPECT_LE(j.worst_gyro, 1.05 * p.worst_gyro);
+  EXPECT_LE(j.worst_bias_tempco, p.worst_bias_tempco);
 }
 
 }  // namespace

@@ -61,6 +61,11 @@ sim "$work/hot.toml" "$work/other" 4
 "$bin" thermal fit "$work/two" --out "$work/comp.json" --csv "$work/comp.csv" > "$work/fit.txt" ||
   fail "thermal fit failed: $(cat "$work/fit.txt")"
 grep -q '"imubench-thermal/1"' "$work/comp.json" || fail "comp.json has no format"
+grep -q "joint fit of every static and rate run" "$work/fit.txt" || fail "default is not the joint fit"
+# The per-point fit stays available.
+"$bin" thermal fit "$work/two" --method points --out "$work/comp_points.json" > "$work/fitp.txt" ||
+  fail "thermal fit --method points failed: $(cat "$work/fitp.txt")"
+grep -q "point 1" "$work/fitp.txt" || fail "--method points printed no points"
 grep -q '"SIM-3"' "$work/comp.json" || fail "comp.json has no IMU serial"
 [ "$(wc -l < "$work/comp.csv")" -eq 25 ] || fail "comp.csv: expected header + 24 rows"
 # Two temperatures: a straight line per coefficient, the truth's slope (bias 1e-4 m/s^2/degC,
