@@ -100,6 +100,8 @@ struct Segment {
   double settle_hold_s = 0.0;        // s
   double max_soak_s = 0.0;           // s, from the chamber command
   double ramp_s = 0.0;               // kSoak: the program's predicted ramp time (no soak before)
+  // kSoak and chamber_command_c: the ramp rate the plan commands the chamber at, degC/s.
+  double ramp_c_per_s = 0.0;
   // Continuous-ramp thermal plans: the chamber is told to go to this setpoint (degC) when this
   // segment starts and nobody waits for it (the segment is the table's own step).
   std::optional<double> chamber_command_c = std::nullopt;

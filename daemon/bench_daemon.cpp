@@ -63,7 +63,12 @@ std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& t
     *why = diag.str();
     return std::nullopt;
   }
-  auto ex = plans::expand(*plan);
+  // Soak and ramp times from the one thermal model with this bench's lags.
+  plans::ExpandOptions options;
+  if (bench.chamber) {
+    options.thermal = {bench.chamber->device.time_constant_s, bench.chamber->imu_time_constant_s};
+  }
+  auto ex = plans::expand(*plan, options);
   if (!ex.ok) {
     *why = name + ": " + ex.error;
     return std::nullopt;

@@ -127,7 +127,8 @@ void parseChamber(const toml::table& root, const std::string& base_dir, BenchCon
   const toml::table* t = subTable(root, "chamber", diag, false);
   if (t == nullptr) return;
   checkKeys(*t,
-            {"device", "host", "port", "path", "safe_setpoint", "over_temperature", "poll_period"},
+            {"device", "host", "port", "path", "safe_setpoint", "over_temperature", "poll_period",
+             "imu_time_constant"},
             "[chamber]", diag);
   const auto device = strField(*t, "device", diag, true);
   if (!device) return;
@@ -148,6 +149,13 @@ void parseChamber(const toml::table& root, const std::string& base_dir, BenchCon
       c.poll_period_s = *v;
     } else {
       diag.error(t->get("poll_period")->source(), "poll_period must be in [0.01, 60] s");
+    }
+  }
+  if (auto v = quantityField(*t, "imu_time_constant", Dimension::kTime, diag, false)) {
+    if (*v >= 0.0 && *v <= 86400.0) {
+      c.imu_time_constant_s = *v;
+    } else {
+      diag.error(t->get("imu_time_constant")->source(), "imu_time_constant must be in [0, 1 d]");
     }
   }
   if (c.safe_setpoint_c < c.device.temp_min_c || c.safe_setpoint_c > c.device.temp_max_c) {

@@ -97,6 +97,10 @@ struct BenchChamber {
   // (time constants of minutes, ramps of a few degC/min), so 1 s resolves it and keeps the
   // controller's Modbus traffic far below the table's 50 reads a second.
   double poll_period_s = 1.0;
+  // [chamber] imu_time_constant: how far the IMU's own temperature lags the chamber air (its
+  // housing and mounting), s; with the chamber device file's time_constant it is the lag the
+  // plan's soak and ramp times are expanded with (calib/model/thermal_lag.h). 0: no lag known.
+  double imu_time_constant_s = 0.0;
 };
 
 // Ten days: any longer is "never", which "0 s" says.

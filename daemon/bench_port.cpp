@@ -89,8 +89,11 @@ Status DriverBenchPort::emergencyStop() {
   return table_.emergencyStop();
 }
 
-Status DriverBenchPort::chamberSetpoint(double setpoint_c) {
+Status DriverBenchPort::chamberSetpoint(double setpoint_c, double ramp_c_per_s) {
   if (chamber_ == nullptr) return {};
+  if (ramp_c_per_s > 0.0) {
+    if (auto st = chamber_->setRampRate(ramp_c_per_s); !st.ok) return st;
+  }
   if (auto st = chamber_->setSetpoint(setpoint_c); !st.ok) return st;
   return chamber_->run(true);
 }

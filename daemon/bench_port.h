@@ -27,7 +27,7 @@ class DriverBenchPort : public BenchPort {
   Status rotateBy(int axis, double delta_rad, const drivers::MotionLimits& limits) override;
   Status stopAll() override;
   Status emergencyStop() override;
-  Status chamberSetpoint(double setpoint_c) override;
+  Status chamberSetpoint(double setpoint_c, double ramp_c_per_s) override;
 
   // A device that does not answer would block its caller for the device file's whole retry
   // chain (timeout x attempts) on every call. The polling reads make one attempt each (the

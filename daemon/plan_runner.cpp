@@ -126,6 +126,9 @@ std::vector<RunStep> runSteps(const calib::Motion& motion) {
       s.ramp_s = seg.ramp_s;
     }
     s.chamber_command_c = seg.chamber_command_c;
+    if (seg.kind == calib::SegmentKind::kSoak || seg.chamber_command_c) {
+      s.chamber_ramp_c_per_s = seg.ramp_c_per_s;
+    }
     s.recording = seg.recording;
     out.push_back(std::move(s));
   }
@@ -336,7 +339,8 @@ Status PlanRunner::abort(double now_s) {
   }
   issue(port_.stopAll(), now_s, "stop");
   if (options_.chamber_safe_setpoint_c) {
-    issue(port_.chamberSetpoint(*options_.chamber_safe_setpoint_c), now_s, "chamber safe setpoint");
+    issue(port_.chamberSetpoint(*options_.chamber_safe_setpoint_c, 0.0), now_s,
+          "chamber safe setpoint");
   }
   setState(RunnerState::kAborting, now_s);
   return {};
@@ -388,7 +392,7 @@ bool PlanRunner::safetyChecks(const BenchObservation& obs) {
         << *options_.chamber_over_temperature_c << " degC: chamber to its safe setpoint, plan "
         << "paused";
     if (options_.chamber_safe_setpoint_c) {
-      port_.chamberSetpoint(*options_.chamber_safe_setpoint_c);
+      port_.chamberSetpoint(*options_.chamber_safe_setpoint_c, 0.0);
       chamber_left_point_ = true;
     }
   } else {
@@ -456,7 +460,8 @@ void PlanRunner::commandStep(const BenchObservation& obs) {
   phase_t0_s_ = now_s;
   // Continuous ramp: the chamber goes on to its next setpoint while the table works.
   if (s.chamber_command_c &&
-      !issue(port_.chamberSetpoint(*s.chamber_command_c), now_s, "chamber setpoint")) {
+      !issue(port_.chamberSetpoint(*s.chamber_command_c, s.chamber_ramp_c_per_s), now_s,
+             "chamber setpoint")) {
     return;
   }
   switch (s.kind) {
@@ -475,7 +480,10 @@ void PlanRunner::commandStep(const BenchObservation& obs) {
       phase_ = Phase::kMoving;
       return;
     case calib::SegmentKind::kSoak:
-      if (!issue(port_.chamberSetpoint(s.setpoint_c), now_s, "chamber setpoint")) return;
+      if (!issue(port_.chamberSetpoint(s.setpoint_c, s.chamber_ramp_c_per_s), now_s,
+                 "chamber setpoint")) {
+        return;
+      }
       soak_ = SoakWatch{
           SlopeWindow(options_.soak_rate_window_fraction * s.settle_hold_s), {}, {}, false};
       phase_ = Phase::kWaiting;

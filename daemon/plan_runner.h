@@ -58,6 +58,9 @@ struct RunStep {
   double settle_hold_s = 0.0;
   double max_soak_s = 0.0;
   double ramp_s = 0.0;
+  // kSoak and chamber_command_c: the plan's ramp rate (degC/s), sent with the setpoint so the
+  // chamber ramps as the plan's times assume instead of at whatever rate it last had.
+  double chamber_ramp_c_per_s = 0.0;
   // Continuous-ramp thermal plans: the chamber setpoint commanded (without waiting) as this
   // step starts.
   std::optional<double> chamber_command_c = std::nullopt;
@@ -102,9 +105,11 @@ class BenchPort {
   // shortest way, rotateBy's sign is the direction.
   virtual Status moveTo(int axis, double angle_rad, const drivers::MotionLimits& limits) = 0;
   virtual Status rotateBy(int axis, double delta_rad, const drivers::MotionLimits& limits) = 0;
-  virtual Status stopAll() = 0;                           // controlled stop
-  virtual Status emergencyStop() = 0;                     // table and chamber
-  virtual Status chamberSetpoint(double setpoint_c) = 0;  // no chamber: Ok
+  virtual Status stopAll() = 0;        // controlled stop
+  virtual Status emergencyStop() = 0;  // table and chamber
+  // The chamber to setpoint_c at ramp_c_per_s (degC/s; 0: at the ramp the controller has, e.g.
+  // the safe setpoint after an alarm). No chamber: Ok.
+  virtual Status chamberSetpoint(double setpoint_c, double ramp_c_per_s) = 0;
 };
 
 struct BenchObservation {

@@ -281,6 +281,7 @@ class Expander {
     if (calib::Segment* seg = addSegment(t_, t_ + duration, calib::SegmentKind::kSoak, label)) {
       seg->setpoint_c = goal_;
       seg->ramp_s = t_ramp;
+      seg->ramp_c_per_s = ramp;
       if (s.soak_auto) {
         seg->soak_auto = true;
         seg->settle_rate_c_per_s = s.settle_rate.value;
@@ -338,7 +339,10 @@ class Expander {
         }
         if (t_ - t_leg >= t_ramp) break;
       }
-      if (first_seg < m_.segments.size()) m_.segments[first_seg].chamber_command_c = sp;
+      if (first_seg < m_.segments.size()) {
+        m_.segments[first_seg].chamber_command_c = sp;
+        m_.segments[first_seg].ramp_c_per_s = ramp;
+      }
     }
     return true;
   }

@@ -49,7 +49,8 @@ class FakeBench : public BenchPort {
     target_ = angle_;
     return {};
   }
-  Status chamberSetpoint(double c) override {
+  Status chamberSetpoint(double c, double ramp_c_per_s) override {
+    ramps.push_back(ramp_c_per_s);
     setpoints.push_back(c);
     return {};
   }
@@ -85,7 +86,7 @@ class FakeBench : public BenchPort {
   double chamber_temp = 22.0;
   int stops = 0, estops = 0, prepares = 0;
   std::vector<std::string> log;
-  std::vector<double> rotated, setpoints;
+  std::vector<double> rotated, setpoints, ramps;
   std::vector<drivers::MotionLimits> profiles;  // with every moveTo/rotateBy, in order
 
  private:
@@ -497,6 +498,7 @@ enum class TempScript { kModel, kModelChamberOnly, kSinusoid, kNone };
 struct SoakRun {
   double started = -1.0, finished = -1.0;  // plan clock of the soak's step_started / finished
   std::vector<RunnerEvent> events;
+  std::vector<double> ramps;  // the ramp rates the runner commanded with its setpoints
   RunExit exit = RunExit::kNone;
   const RunnerEvent* find(RunnerEvent::Kind k) const {
     for (const auto& e : events) {
@@ -507,15 +509,16 @@ struct SoakRun {
 };
 
 // Runs the soak plan on a FakeBench whose chamber follows calib/model/thermal_lag.h from the
-// moment the setpoint is commanded; observations every second of plan time (the IMU clock runs
-// 20x the wall clock), the IMU temperature quantised to 0.01 degC as a real sensor reports it.
+// moment the setpoint is commanded, at the ramp rate commanded with it (0: the chamber steps);
+// observations every second of plan time (the IMU clock runs 20x the wall clock), the IMU
+// temperature quantised to 0.01 degC as a real sensor reports it.
 SoakRun runSoak(const std::vector<RunStep>& steps, const calib::model::ThermalLag& lag,
                 TempScript script) {
   FakeBench bench(2);
   PlanRunner runner(steps, options(), bench);
   SoakRun out;
   EXPECT_TRUE(runner.start(0.0).ok);
-  const double ramp = 1.0 / 60.0;
+  double ramp = 0.0;
   calib::model::ThermalState cmd_state = calib::model::thermalAtRest(20.0);
   double t_cmd = 0.0, goal = 20.0;
   std::size_t seen_setpoints = 0;
@@ -527,6 +530,7 @@ SoakRun runSoak(const std::vector<RunStep>& steps, const calib::model::ThermalLa
       cmd_state = calib::model::advanceThermal(cmd_state, goal, ramp, lag, t - t_cmd);
       t_cmd = t;
       goal = bench.setpoints.back();
+      ramp = bench.ramps.back() > 0.0 ? bench.ramps.back() : 1e6;  // 0: a step
       seen_setpoints = bench.setpoints.size();
     }
     const auto th = calib::model::advanceThermal(cmd_state, goal, ramp, lag, t - t_cmd);
@@ -554,6 +558,7 @@ SoakRun runSoak(const std::vector<RunStep>& steps, const calib::model::ThermalLa
     }
   }
   out.exit = runner.exit();
+  out.ramps = bench.ramps;
   return out;
 }
 
@@ -567,6 +572,8 @@ TEST(PlanRunnerSoak, AutoSoakEndsWithinTenPercentOfTheModelsSettlingTime) {
   ASSERT_TRUE(predicted.settled);
   EXPECT_EQ(steps[0].planned_s, predicted.t_s);
   const SoakRun run = runSoak(steps, lag, TempScript::kModel);
+  ASSERT_FALSE(run.ramps.empty());
+  EXPECT_DOUBLE_EQ(run.ramps.front(), 1.0 / 60.0) << "the plan's ramp goes to the chamber";
   EXPECT_EQ(run.exit, RunExit::kCompleted);
   const double soaked = run.finished - run.started;
   std::cout << "auto soak: " << soaked << " s, model " << predicted.t_s << " s\n";

@@ -101,7 +101,8 @@ class SimBench : public BenchPort {
     return {};
   }
   Status emergencyStop() override { return stopAll(); }
-  Status chamberSetpoint(double c) override {
+  Status chamberSetpoint(double c, double ramp_c_per_s) override {
+    ramps.push_back(ramp_c_per_s);
     setpoints.push_back(c);
     return {};
   }
@@ -119,7 +120,7 @@ class SimBench : public BenchPort {
     o.chamber_temp_c = overheated ? 60.0 : setpoints.empty() ? 20.0 : setpoints.back();
     return o;
   }
-  std::vector<double> setpoints;
+  std::vector<double> setpoints, ramps;
   bool overheated = false;  // the chamber reads above the runner's over_temperature
 
  private:

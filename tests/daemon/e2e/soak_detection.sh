@@ -9,10 +9,9 @@
 #      --fault-chamber-runaway) and never settles: the soak ends at max_soak with a
 #      soak_timeout event stored as a warning, `imubench start --watch` prints it as a FLAG,
 #      and the plan goes on to complete.
-# imubenchd does not write the chamber's ramp rate (only setpoint and run), so before the daemon
-# starts the test sets the virtual chamber's ramp register to the plan's ramp, as an operator
-# would at the controller: without that the virtual chamber steps and the plan's ramp is not
-# what the bench runs.
+# The plan's ramp reaches the chamber with each setpoint (imubenchd writes the ramp register):
+# after case 1 the virtual chamber's ramp register reads the plan's 2 degC/min (without it the
+# virtual chamber steps and the soak ends early).
 # Accelerated time (--time-scale) with the 100 Hz SBG layout (the CAN load of the 1 kHz one at
 # a fifth of the scale). Waits on events and the store, never on fixed sleeps.
 # Usage: soak_detection.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
@@ -96,27 +95,6 @@ done
 e2e_start_vb --time-scale $SCALE --ambient 20 --imu-thermal-tau $IMU_TAU \
   --fault-chamber-runaway $RUNAWAY_C
 
-# The plan's ramp on the chamber controller (register from the device file: 0.01 degC/min).
-e2e_py "$E2E_CHAMBER_DEVICE" 200 <<'PY' || fail "chamber ramp register"
-import re, socket, struct, sys
-from e2e_client import check
-device, value = sys.argv[2], int(sys.argv[3])
-text = open(device).read()
-m = re.search(r'^ramp_rate = \{ address = (\d+), type = "u16", lsb = "0.01 degC/min" \}', text,
-              re.M)
-check(m is not None, "%s: ramp_rate register, u16 in 0.01 degC/min" % device)
-port = int(re.search(r"^port = (\d+)", text, re.M).group(1))
-unit = int(re.search(r"^unit_id = (\d+)", text, re.M).group(1))
-def request(pdu):
-    with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
-        s.sendall(struct.pack(">HHHB", 1, 0, len(pdu) + 1, unit) + pdu)
-        return s.recv(256)[7:]
-addr = int(m.group(1))
-check(request(struct.pack(">BHH", 6, addr, value)) == struct.pack(">BHH", 6, addr, value),
-      "ramp register %d written" % addr)
-check(request(struct.pack(">BHH", 3, addr, 1)) == struct.pack(">BBH", 3, 2, value),
-      "ramp register reads back %d (2 degC/min)" % value)
-PY
 
 e2e_start_daemon
 
@@ -151,6 +129,26 @@ check(abs(measured - predicted) <= 0.1 * predicted,
 kinds = [k for (k,) in db.execute("SELECT kind FROM events WHERE run_id = ? AND kind LIKE 'soak%'",
                                    (run,))]
 check(kinds == ["soak_settled"], "one soak_settled event stored, no timeout: %s" % kinds)
+PY
+
+# The plan's ramp as imubenchd wrote it to the chamber controller (0.01 degC/min counts).
+e2e_py "$E2E_CHAMBER_DEVICE" 200 <<'PY' || fail "chamber ramp register"
+import re, socket, struct, sys
+from e2e_client import check
+device, value = sys.argv[2], int(sys.argv[3])
+text = open(device).read()
+m = re.search(r'^ramp_rate = \{ address = (\d+), type = "u16", lsb = "0.01 degC/min" \}', text,
+              re.M)
+check(m is not None, "%s: ramp_rate register, u16 in 0.01 degC/min" % device)
+port = int(re.search(r"^port = (\d+)", text, re.M).group(1))
+unit = int(re.search(r"^unit_id = (\d+)", text, re.M).group(1))
+def request(pdu):
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+        s.sendall(struct.pack(">HHHB", 1, 0, len(pdu) + 1, unit) + pdu)
+        return s.recv(256)[7:]
+addr = int(m.group(1))
+check(request(struct.pack(">BHH", 3, addr, 1)) == struct.pack(">BBH", 3, 2, value),
+      "ramp register reads %d (the plan's 2 degC/min)" % value)
 PY
 
 # Case 2: a runaway chamber never settles: max_soak, flagged, the plan goes on.
