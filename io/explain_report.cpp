@@ -1,53 +1,20 @@
 #include "io/explain_report.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
 #include <sstream>
+
+#include "io/html_report.h"
 
 namespace imubench::io {
 namespace {
 
 std::string esc(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '<':
-        o += "&lt;";
-        break;
-      case '>':
-        o += "&gt;";
-        break;
-      case '&':
-        o += "&amp;";
-        break;
-      case '"':
-        o += "&quot;";
-        break;
-      default:
-        o += c;
-    }
-  }
-  return o;
+  return htmlEscape(s);
 }
-
 std::string num(double v, const char* fmt = "%.4g") {
-  if (!std::isfinite(v)) return "&ndash;";
-  char b[64];
-  std::snprintf(b, sizeof(b), fmt, v);
-  return b;
+  return htmlNumber(v, fmt);
 }
-
-constexpr const char* kStyle =
-    "body{font-family:sans-serif;margin:2em;max-width:1100px;color:#222}"
-    "table{border-collapse:collapse;margin:0.5em 0 1.5em}"
-    "td,th{border:1px solid #ccc;padding:2px 8px;text-align:right;font-size:90%}"
-    "th{background:#eee}td.l,th.l{text-align:left}"
-    ".ok{color:#060}.bad{color:#a00}svg{background:#fafafa;border:1px solid #ddd}"
-    ".legend span{display:inline-block;margin-right:1.5em}";
 
 void verdict(const calib::ExplainResult& r, std::ostringstream& o) {
   o << "<h2>Verdict</h2><p>Baseline: <b>" << esc(r.baseline_method)
@@ -198,7 +165,7 @@ void windowTable(const char* title, const std::vector<calib::ExplainWindow>& ws,
 std::string explainReportHtml(const calib::ExplainResult& r, const std::string& title) {
   std::ostringstream o;
   o << "<!DOCTYPE html>\n<html><head><meta charset='utf-8'><title>imubench explain: " << esc(title)
-    << "</title><style>" << kStyle << "</style></head><body>\n"
+    << "</title><style>" << kHtmlReportStyle << "</style></head><body>\n"
     << "<h1>imubench explain: " << esc(title) << "</h1>\n";
   verdict(r, o);
   effects(r, o);
@@ -218,21 +185,7 @@ std::string explainReportHtml(const calib::ExplainResult& r, const std::string& 
 
 Status writeExplainReport(const std::string& dir, const calib::ExplainResult& r,
                           const std::string& title) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) return Status::Error(dir + ": cannot create: " + ec.message());
-  const std::string path = dir + "/report.html", tmp = path + ".tmp";
-  const std::string text = explainReportHtml(r, title);
-  std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) return Status::Error(tmp + ": cannot create: " + std::strerror(errno));
-  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-  if (std::fclose(f) != 0 || !ok) {
-    std::remove(tmp.c_str());
-    return Status::Error(tmp + ": write error");
-  }
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) return Status::Error(path + ": cannot replace: " + ec.message());
-  return Status::Ok();
+  return writeHtmlReport(dir, explainReportHtml(r, title));
 }
 
 }  // namespace imubench::io

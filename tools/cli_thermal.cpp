@@ -1,6 +1,6 @@
 // imubench thermal fit RUN_OR_DIR... [--order auto|N] [--t-ref DEGC] --out comp.json
 //                                    [--csv comp.csv] [--method joint|points]
-//                                    [--max-span DEGC] [--refinements N]
+//                                    [--max-span DEGC] [--refinements N] [--report DIR]
 // Each recording (imubench-csv/1 directory with IMU temperatures, from the daemon or written
 // elsewhere) gives the direct calibration's rows: every static position and rate run.
 //   joint (default): every row at its own IMU temperature and rate, all coefficients' polynomials
@@ -11,9 +11,12 @@
 //     repetition of a continuous-ramp plan ("up/rep03/..." labels) or into windows spanning at
 //     most --max-span degC (calib/thermal_fit.h), each calibrated directly, the points fitted,
 //     then re-made through that fit --refinements times (calib::fitThermalRuns).
-// Both write an imubench-thermal/1 file.
+// Both write an imubench-thermal/1 file; --report DIR also DIR/report.html (io/thermal_report.h):
+// a plot per coefficient against temperature and the calibrated range flagged.
 // Refusals (exit 1, naming the file): a recording without temperatures, a single temperature
 // point, recordings of different IMU serials.
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -25,6 +28,7 @@
 #include "io/recording.h"
 #include "io/sim_recording.h"
 #include "io/thermal_file.h"
+#include "io/thermal_report.h"
 #include "tools/cli_common.h"
 #include "tools/cli_store.h"
 
@@ -37,7 +41,8 @@ struct ThermalFitCliOptions {
   double t_ref_c = 20.0;
   std::string out;
   std::string csv;
-  std::string db;  // run store for run ids
+  std::string report;  // directory of report.html; empty: none
+  std::string db;      // run store for run ids
   double max_span_c = calib::ThermalPointOptions{}.max_point_span_c;
   int refinements = calib::ThermalRunsFitOptions{}.refinements;
   std::string method = "joint";
@@ -70,7 +75,38 @@ void printFit(const calib::ThermalFitResult& r) {
   }
 }
 
+// Median |dT/dt| (degC/s) of the samples heating or cooling faster than min_rate: where the
+// report draws the heating and cooling branches. 0 when every sample is soaked.
+double typicalTemperatureRate(const std::vector<calib::ThermalRun>& runs, double min_rate) {
+  std::vector<double> r;
+  for (const calib::ThermalRun& run : runs) {
+    for (const double v : calib::temperatureRates(run.input.imu)) {
+      if (std::abs(v) > min_rate) r.push_back(std::abs(v));
+    }
+  }
+  if (r.empty()) return 0.0;
+  std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+  return r[r.size() / 2];
+}
+
+void writeReport(const ThermalFitCliOptions& o, const std::vector<calib::ThermalRun>& runs,
+                 const calib::ThermalRunsFitResult& fit) {
+  io::ThermalReportOptions ro;
+  for (const auto& d : o.runs) ro.title += (ro.title.empty() ? "" : ", ") + d;
+  ro.method = o.method;
+  ro.min_rate = calib::ThermalFitOptions{}.min_hysteresis_rate;
+  ro.typical_rate = typicalTemperatureRate(runs, ro.min_rate);
+  if (auto st = io::writeThermalReport(o.report, fit, ro); !st.ok) {
+    throw CommandFailed("--report: " + st.message);
+  }
+}
+
 void runThermalFit(const ThermalFitCliOptions& o) {
+  std::error_code ec;
+  if (!o.report.empty() && std::filesystem::exists(o.report, ec) &&
+      !std::filesystem::is_directory(o.report, ec)) {
+    throw CommandFailed("--report " + o.report + ": exists and is not a directory");
+  }
   calib::ThermalRunsFitOptions fo;
   fo.fit.order = parseOrder(o.order);
   fo.fit.t_ref_c = o.t_ref_c;
@@ -117,7 +153,9 @@ void runThermalFit(const ThermalFitCliOptions& o) {
   if (!o.csv.empty()) {
     if (auto st = io::writeThermalCsv(o.csv, file); !st.ok) throw CommandFailed(st.message);
   }
-  std::cout << "wrote " << o.out << (o.csv.empty() ? "" : " and " + o.csv) << "\n";
+  if (!o.report.empty()) writeReport(o, runs, fit);
+  std::cout << "wrote " << o.out << (o.csv.empty() ? "" : " and " + o.csv)
+            << (o.report.empty() ? "" : " and " + o.report + "/report.html") << "\n";
 }
 
 }  // namespace
@@ -137,6 +175,9 @@ void addThermalCommand(CLI::App& app) {
   fit->add_option("--t-ref", opt->t_ref_c, "polynomial origin, degC")->capture_default_str();
   fit->add_option("--out", opt->out, "imubench-thermal/1 JSON file to write")->required();
   fit->add_option("--csv", opt->csv, "also write the CSV form");
+  fit->add_option("--report", opt->report,
+                  "also write DIR/report.html: each coefficient against temperature (points, "
+                  "fit, band, heating/cooling branches) and the calibrated range flagged");
   fit->add_option("--method", opt->method,
                   "joint: every static and rate run at its own temperature (default); points: "
                   "a direct calibration per temperature point, polynomials through the points")

@@ -1,6 +1,9 @@
 #!/bin/sh
 # `imubench simulate --thermal-truth`, `thermal fit` and `apply` through the binary:
 #   - a plan with the direct plan at 0 and 40 degC (soak between) -> fit -> comp.json/csv;
+#   - --report DIR (both methods): report.html self-contained (no http), one <svg> per
+#     coefficient (24), the calibrated range of comp.json and its extrapolation flag; the
+#     points method's plots carry the points;
 #   - apply at 50 degC: every sample flagged as extrapolated (exit 0, warning, spans file);
 #     apply at 0..40 degC: none flagged;
 #   - refusals (exit 1, message naming the file and why): a recording without temperatures,
@@ -67,6 +70,39 @@ grep -q "joint fit of every static and rate run" "$work/fit.txt" || fail "defaul
   fail "thermal fit --method points failed: $(cat "$work/fitp.txt")"
 grep -q "point 1" "$work/fitp.txt" || fail "--method points printed no points"
 grep -q '"SIM-3"' "$work/comp.json" || fail "comp.json has no IMU serial"
+
+# The report (issue 16 item 3): both methods.
+"$bin" thermal fit "$work/two" --out "$work/comp_r.json" --report "$work/rep_joint" \
+  > "$work/fitr.txt" || fail "thermal fit --report failed: $(cat "$work/fitr.txt")"
+"$bin" thermal fit "$work/two" --method points --out "$work/comp_rp.json" \
+  --report "$work/rep_points" > "$work/fitrp.txt" ||
+  fail "thermal fit --method points --report failed: $(cat "$work/fitrp.txt")"
+check_report() {  # comp.json report.html min-markers-per-plot
+  python3 - "$@" <<'PY2' || fail "report $2: see above"
+import json, re, sys
+comp, html, min_markers = json.load(open(sys.argv[1])), open(sys.argv[2]).read(), int(sys.argv[3])
+t0, t1 = comp["range_c"]
+errors = []
+if "http" in html.lower(): errors.append("refers to http: not self-contained")
+if "<script" in html.lower(): errors.append("has a script")
+plots = html.split("<svg")[1:]
+if len(plots) != 24: errors.append("%d <svg> plots, expected 24" % len(plots))
+if "Calibrated range: %.2f .. %.2f degC." % (t0, t1) not in html:
+    errors.append("no 'Calibrated range: %.2f .. %.2f degC.'" % (t0, t1))
+if "Outside it the model extrapolates" not in html: errors.append("no extrapolation flag")
+for name in ["accel.scale.x", "accel.bias.z", "gyro.bias.x", "gyro.misalignment.zy"]:
+    if "<h3>%s (order" % name not in html: errors.append("no plot titled " + name)
+for i, p in enumerate(plots):
+    p = p.split("</svg>")[0]
+    if p.count("extrapolated (held)") != 2: errors.append("plot %d: range edges not marked" % i)
+    markers = p.count("<circle") + p.count("<polygon fill='#c0392b'") + p.count("<polygon fill='#1f5fbf'")
+    if markers < min_markers: errors.append("plot %d: %d point markers, expected >= %d" % (i, markers, min_markers))
+if errors: sys.exit("\n".join(errors))
+PY2
+}
+check_report "$work/comp_r.json" "$work/rep_joint/report.html" 0
+check_report "$work/comp_rp.json" "$work/rep_points/report.html" 2
+grep -q "and $work/rep_joint/report.html" "$work/fitr.txt" || fail "fit did not say it wrote the report"
 [ "$(wc -l < "$work/comp.csv")" -eq 25 ] || fail "comp.csv: expected header + 24 rows"
 # Two temperatures: a straight line per coefficient, the truth's slope (bias 1e-4 m/s^2/degC,
 # scale 2e-6 /degC) within 5 %.
@@ -116,5 +152,7 @@ expect_refusal "$work/notemp: the recording has no IMU temperatures" \
   "$bin" thermal fit "$work/notemp" --out "$work/x.json"
 expect_refusal "$work/notemp/imu.csv: sample 1 .* has no temperature" \
   "$bin" apply "$work/comp.json" "$work/notemp" --out "$work/x"
+expect_refusal "--report $work/comp.csv: exists and is not a directory" \
+  "$bin" thermal fit "$work/two" --out "$work/x.json" --report "$work/comp.csv"
 [ -e "$work/x.json" ] && fail "a refused fit wrote its output"
 echo "thermal_cli.sh: ok"
