@@ -213,7 +213,8 @@ void axes(const Frame& f, const model::ThermalCoefficients& cs, const DisplayUni
   const double step = span > 100 ? 20 : span > 40 ? 10 : span > 15 ? 5 : 1;
   for (double t = std::ceil(f.x0 / step) * step; t <= f.x1; t += step) {
     o << "<text x=" << num(f.X(t), "%.1f") << " y=" << f.H - 16
-      << " font-size=10 text-anchor=middle>" << num(t, "%.0f") << "</text>";
+      << " font-size=10 text-anchor=middle>" << num(std::abs(t) < 1e-9 ? 0.0 : t, "%.0f")
+      << "</text>";
   }
   o << "<text x=" << num(f.W / 2, "%.0f") << " y=" << f.H - 3
     << " font-size=11 text-anchor=middle>IMU temperature, degC</text>\n"
