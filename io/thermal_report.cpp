@@ -78,9 +78,11 @@ void header(const calib::ThermalRunsFitResult& fit, const ThermalReportOptions& 
     << fit.fit.distinct_temperatures << " distinct temperatures"
     << (fit.fit.hysteresis_candidate ? ", taken heating and cooling" : "") << "; "
     << fit.points.size() << " per-point estimates"
-    << (fit.points.empty() ? " (the joint fit uses the raw rows: no points to plot)" : "")
-    << ". Heating/cooling branches drawn at &plusmn;" << num(rate * 60.0, "%.3g")
-    << " degC/min (the data's typical rate).</p>\n";
+    << (fit.points.empty() ? " (the joint fit uses the raw rows: no points to plot)" : "") << ". "
+    << (rate > 0 ? "Heating/cooling branches drawn at &plusmn;" + num(rate * 60.0, "%.3g") +
+                       " degC/min (the data's typical rate)."
+                 : std::string("No heating or cooling in the data: no branches drawn."))
+    << "</p>\n";
 }
 
 void coefficientTable(const calib::ThermalRunsFitResult& fit, std::ostringstream& o) {
