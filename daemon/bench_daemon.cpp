@@ -524,10 +524,12 @@ void BenchDaemon::stampPendingTable(const drivers::DecodedImuSample& d, bool bur
   if (run.pending_table && (rx <= 0.0 || rx >= run.pending_table->at_unix_s)) {
     io::TableSample ts = run.pending_table->sample;
     ts.t = t;
-    if (rx > 0.0 && run.clock.imuTime(run.pending_table->at_unix_s)) {
-      ts.t = *run.clock.imuTime(run.pending_table->at_unix_s);
+    const std::optional<ImuClockLine> line =
+        rx > 0.0 ? run.clock.line() : std::optional<ImuClockLine>();
+    if (line) {
+      ts.t = line->imuTime(run.pending_table->at_unix_s);
       for (std::size_t a = 0; a < 3; ++a) {  // each axis to the reading's instant
-        const double t_axis = *run.clock.imuTime(run.pending_table->read_unix_s[a]);
+        const double t_axis = line->imuTime(run.pending_table->read_unix_s[a]);
         ts.angles_deg[a] += run.pending_table->rate[a] * (ts.t - t_axis) * kRadToDeg;
       }
     } else if (rx > 0.0 && run.last_rx_unix_s && rx > *run.last_rx_unix_s) {

@@ -18,6 +18,12 @@ void ImuClockMap::addAnchor(double rx_unix_s, double t_imu_s) {
 }
 
 std::optional<double> ImuClockMap::imuTime(double unix_s) const {
+  const std::optional<ImuClockLine> l = line();
+  if (!l) return std::nullopt;
+  return l->imuTime(unix_s);
+}
+
+std::optional<ImuClockLine> ImuClockMap::line() const {
   if (anchors_.size() < 2 ||
       anchors_.back().rx - anchors_.front().rx < o_.min_span_fraction * o_.window_s) {
     return std::nullopt;
@@ -40,7 +46,7 @@ std::optional<double> ImuClockMap::imuTime(double unix_s) const {
   // time).
   double lift = -1e300;
   for (const Anchor& a : anchors_) lift = std::max(lift, a.t - (t0 + rate * (a.rx - rx0)));
-  return t0 + rate * (unix_s - rx0) + lift;
+  return ImuClockLine{rx0, t0 + lift, rate};
 }
 
 }  // namespace imubench::daemon

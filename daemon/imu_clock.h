@@ -13,6 +13,7 @@
 //   ImuClockMap clock;
 //   clock.addAnchor(rx_unix_s, t_imu);            // for every burst's last sample
 //   std::optional<double> t = clock.imuTime(w);   // a table reading sampled at wall time w
+//   auto line = clock.line();                      // one fit for several instants
 #pragma once
 
 #include <cstddef>
@@ -34,6 +35,12 @@ struct ImuClockMapOptions {
   double min_span_fraction = 0.25;
 };
 
+// The fitted map: IMU time = t0 + rate (unix_s - rx0).
+struct ImuClockLine {
+  double rx0 = 0.0, t0 = 0.0, rate = 1.0;
+  double imuTime(double unix_s) const { return t0 + rate * (unix_s - rx0); }
+};
+
 class ImuClockMap {
  public:
   explicit ImuClockMap(ImuClockMapOptions o = {}) : o_(o) {}
@@ -43,6 +50,8 @@ class ImuClockMap {
   void clear() { anchors_.clear(); }
   // The IMU time at wall instant unix_s; nullopt until the anchors span enough of the window.
   std::optional<double> imuTime(double unix_s) const;
+  // The line imuTime evaluates (fitted over every anchor: evaluate it for several instants).
+  std::optional<ImuClockLine> line() const;
 
  private:
   struct Anchor {
