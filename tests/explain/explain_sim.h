@@ -44,9 +44,8 @@ inline SimulatedRecording simulateWith(const Motion& motion, const EffectSet& ef
   return r;
 }
 
-// Baseline calibrated from the recording itself, then the analysis.
-inline ExplainResult explainSimulated(const SimulatedRecording& rec,
-                                      const ExplainOptions& options = {}) {
+// The analysis' input with the baseline calibrated from the recording itself (views into rec).
+inline ExplainInput simulatedExplainInput(const SimulatedRecording& rec) {
   BaselineInput bin{rec.geometry, rec.site, rec.sim.imu, rec.sim.table, rec.sim.segments};
   const BaselineCalibration base = calibrateBaseline(bin);
   EXPECT_TRUE(base.ok) << base.error;
@@ -59,7 +58,13 @@ inline ExplainResult explainSimulated(const SimulatedRecording& rec,
   in.baseline = base.coefficients;
   in.baseline_method = base.method;
   in.baseline_table_params = base.table_params;
-  return explainRecording(in, options);
+  return in;
+}
+
+// Baseline calibrated from the recording itself, then the analysis.
+inline ExplainResult explainSimulated(const SimulatedRecording& rec,
+                                      const ExplainOptions& options = {}) {
+  return explainRecording(simulatedExplainInput(rec), options);
 }
 
 inline std::string summary(const ExplainResult& r) {

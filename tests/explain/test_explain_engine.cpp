@@ -119,18 +119,8 @@ TEST(ExplainEngine, NavigationResidualPerRunBeforeAndAfter) {
   EXPECT_LT(worstRunSigmas(clean, true), 5.0);
   for (const std::string& n : clean.notes) EXPECT_EQ(n.find("navigate"), std::string::npos) << n;
 
-  BaselineInput bin{rec.geometry, rec.site, rec.sim.imu, rec.sim.table, rec.sim.segments};
-  const BaselineCalibration base = calibrateBaseline(bin);
-  ASSERT_TRUE(base.ok) << base.error;
-  ExplainInput in;
-  in.geometry = rec.geometry;
-  in.site = rec.site;
-  in.imu = rec.sim.imu;
-  in.table = rec.sim.table;
-  in.segments = rec.sim.segments;
-  in.baseline = base.coefficients;
+  ExplainInput in = simulatedExplainInput(rec);
   in.baseline.values.sensors.gyro.mis.yz += 1e-4;  // 20.6 arcsec
-  in.baseline_table_params = base.table_params;
   const ExplainResult off = explainRecording(in);
   ASSERT_TRUE(off.ok) << off.error;
   ASSERT_EQ(off.runs.size(), 12u);
