@@ -455,7 +455,11 @@ bool setFlatValue(BenchTruth* truth, const std::string& name, double value, std:
       const std::vector<std::string> names = flatParamNames(id);
       for (std::size_t k = 0; k < names.size(); ++k) {
         if ("extra." + names[k] != name) continue;
-        std::vector<double> v = truth->extra.flat(id);
+        // An absent effect starts from its defaults (EffectSet::enable), so that setting one
+        // parameter leaves the others valid (angle_harmonic's order >= 1, t_ref_c = 20).
+        EffectSet with = truth->extra;
+        with.enable(id);
+        std::vector<double> v = with.flat(id);
         v[k] = value;
         return truth->extra.setFlat(id, v, why);
       }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <set>
@@ -25,9 +26,8 @@ constexpr double kNotExcited = 1e-7;
 constexpr std::array<const char*, 4> kTableGroups = {"base_tilt", "nonorthogonality", "mounting",
                                                      "encoder_zero"};
 // Registry ids that are not deterministic terms with fittable flat parameters here:
-// bias_instability is a noise process (reported from the Allan curve), angle_harmonic needs
-// a discrete axis and order.
-constexpr std::array<const char*, 2> kNotRegressed = {"bias_instability", "angle_harmonic"};
+// bias_instability is a noise process (reported from the Allan curve).
+constexpr std::array<const char*, 1> kNotRegressed = {"bias_instability"};
 
 // What motion separates or excites an effect (report text only).
 std::string separatingMotion(const std::string& id) {
@@ -49,6 +49,7 @@ std::string separatingMotion(const std::string& id) {
       {"nonorthogonality", "runs about the inner axis with the outer axis at several angles"},
       {"mounting", "rotations about both table axes with the device turned on the platform"},
       {"encoder_zero", "holds at several angles of each axis, both directions"},
+      {"angle_harmonic", "holds at eight or more angles over a full turn of each axis"},
   };
   const auto it = hints.find(id);
   return it != hints.end() ? it->second
@@ -504,7 +505,8 @@ void reportGate(const std::vector<Candidate>& cands, ExplainResult* res) {
 }
 
 // The accepted effects' values and sigmas from the refit; the rejected ones with statistics.
-void reportSelection(const std::vector<Candidate>& cands, const Selection& sel,
+void reportSelection(const std::vector<ExplainCandidateSpec>& specs,
+                     const std::vector<Candidate>& cands, const Selection& sel,
                      const Selector& selector, double scale, double log_n,
                      const std::vector<std::string>& names, const RefitResult& fit,
                      ExplainResult* res) {
@@ -524,6 +526,12 @@ void reportSelection(const std::vector<Candidate>& cands, const Selection& sel,
     }
     ExplainAccepted a = it->second;
     a.effect = c.id;
+    // The held discrete parameters (no sigma), then the fitted ones: the registry's order.
+    for (const auto& [name, value] : specs[g].fixed) {
+      a.flat_names.push_back(name);
+      a.values.push_back(value);
+      a.sigmas.push_back(std::numeric_limits<double>::quiet_NaN());
+    }
     for (std::size_t k = 0; k < c.names.size(); ++k) {
       const auto pos = std::find(names.begin(), names.end(), c.names[k]);
       a.flat_names.push_back(c.names[k]);
@@ -601,6 +609,10 @@ bool ExplainOptions::IsValid(std::string* why) const {
         "correlation_window_s >= 0, correlation_sigmas >= 0 required";
     return false;
   }
+  if (!(harmonic_max_order >= 1 && harmonic_min_turn_rad > 0.0)) {
+    *why = "harmonic_max_order >= 1 and harmonic_min_turn_rad > 0 required";
+    return false;
+  }
   for (const std::string& c : candidates) {
     const bool table = std::find(kTableGroups.begin(), kTableGroups.end(), c) != kTableGroups.end();
     if (!table && !effectFromName(c)) {
@@ -612,6 +624,16 @@ bool ExplainOptions::IsValid(std::string* why) const {
 }
 
 namespace {
+
+// The state with a candidate's discrete parameters set (the effect enabled at them).
+ExplainState withFixed(const ExplainState& at, const ExplainCandidateSpec& spec) {
+  ExplainState s = at;
+  for (const auto& [name, value] : spec.fixed) {
+    std::string why;
+    setStateValue(&s, name, value, &why);
+  }
+  return s;
+}
 
 // The linearised problem at the baseline: whitened residual and columns, the baseline's
 // column space, candidates' columns projected off it.
@@ -629,6 +651,7 @@ Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval, const Expl
   L.r0 = eval->residual(at);
   L.Jb = eval->jacobian(at, p.baseline_names);
   L.Ub = columnBasis(L.Jb, 1e-7);
+  std::vector<std::string> plain;  // columns of the candidates without discrete parameters
   for (const ExplainCandidateSpec& spec : p.candidates) {
     Candidate c;
     c.id = spec.id;
@@ -636,10 +659,35 @@ Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval, const Expl
     for (const std::string& nm : c.names) {
       c.cols.push_back(static_cast<int>(L.cnames.size()));
       L.cnames.push_back(nm);
+      if (spec.fixed.empty()) plain.push_back(nm);
     }
     L.cands.push_back(std::move(c));
   }
-  L.C = eval->jacobian(at, L.cnames, &L.raw_max);
+  // The plain candidates' columns at `at`, each other candidate's at `at` with its discrete
+  // parameters set.
+  std::vector<double> raw_plain;
+  const Eigen::MatrixXd P = eval->jacobian(at, plain, &raw_plain);
+  L.C.resize(eval->rows(), static_cast<int>(L.cnames.size()));
+  L.raw_max.assign(L.cnames.size(), 0.0);
+  int next_plain = 0;
+  for (std::size_t g = 0; g < p.candidates.size(); ++g) {
+    const ExplainCandidateSpec& spec = p.candidates[g];
+    const std::vector<int>& cols = L.cands[g].cols;
+    if (spec.fixed.empty()) {
+      for (int j : cols) {
+        L.C.col(j) = P.col(next_plain);
+        L.raw_max[static_cast<std::size_t>(j)] = raw_plain[static_cast<std::size_t>(next_plain)];
+        ++next_plain;
+      }
+      continue;
+    }
+    std::vector<double> raw;
+    const Eigen::MatrixXd S = eval->jacobian(withFixed(at, spec), spec.names, &raw);
+    for (std::size_t k = 0; k < cols.size(); ++k) {
+      L.C.col(cols[k]) = S.col(static_cast<int>(k));
+      L.raw_max[static_cast<std::size_t>(cols[k])] = raw[k];
+    }
+  }
   L.Cperp = projectOff(L.Ub, L.C);
   L.rperp = projectOff(L.Ub, L.r0);
   L.dof_b = eval->rows() - static_cast<int>(L.Ub.cols());
@@ -818,7 +866,22 @@ std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& o) {
     if (!wanted(o, name)) continue;
     ExplainCandidateSpec c;
     c.id = name;
-    for (const std::string& q : flatParamNames(id)) c.names.push_back("extra." + q);
+    // Discrete parameters (a table axis, an order) are held at their defaults here;
+    // explainRecording lists angle_harmonic's variants (listHarmonicVariants).
+    EffectSet defaults;
+    defaults.enable(id);
+    const std::vector<double> value = defaults.flat(id);
+    const std::vector<std::string> flat = flatParamNames(id);
+    std::size_t k = 0;
+    for (const ParamSpec& spec : paramSpecs(id)) {
+      for (int i = 0; i < paramSize(spec.shape); ++i, ++k) {
+        if (spec.kind == ParamKind::kReal) {
+          c.names.push_back("extra." + flat[k]);
+        } else {
+          c.fixed.push_back({"extra." + flat[k], value[k]});
+        }
+      }
+    }
     out.push_back(std::move(c));
   }
   return out;
@@ -838,10 +901,58 @@ struct Pass {
   ExplainResult gate;  // the gate's and the constancy test's verdicts (unseparable, rejected)
 };
 
-Pass selectAndRefit(const ExplainProblem& p, const ExplainOptions& o, ExplainEvaluator* eval,
+// For every candidate with variants (ExplainCandidateSpec::variants): the variant whose
+// columns, off the baseline's and every other candidate's, fit most of the residual. Sets the
+// spec's fixed values and its columns in L. Trying a dozen 2-parameter variants this way is
+// far below the BIC's penalty in chance gain, and against the fullest model a variant is not
+// picked for residual another effect (a table error) explains.
+void chooseVariants(ExplainProblem* p, ExplainEvaluator* eval, const ExplainState& at,
+                    Linearised* L) {
+  for (std::size_t g = 0; g < p->candidates.size(); ++g) {
+    ExplainCandidateSpec& spec = p->candidates[g];
+    if (spec.variants.empty()) continue;
+    std::vector<int> others;
+    for (std::size_t h = 0; h < L->cands.size(); ++h) {
+      if (h == g) continue;
+      for (int j : L->cands[h].cols) others.push_back(j);
+    }
+    // The other candidates' column space (once), the residual off it.
+    const Eigen::MatrixXd B = columnBasis(columnsOf(L->Cperp, others), 1e-9);
+    const Eigen::VectorXd e = projectOff(B, L->rperp);
+    Eigen::MatrixXd best_cols;
+    std::vector<double> best_raw;
+    double best_gain = -1.0;
+    for (const ExplainCandidateSpec::Fixed& v : spec.variants) {
+      ExplainCandidateSpec trial = spec;
+      trial.fixed = v;
+      std::vector<double> raw;
+      const Eigen::MatrixXd S = eval->jacobian(withFixed(at, trial), spec.names, &raw);
+      const Eigen::MatrixXd Sp = projectOff(B, projectOff(L->Ub, S));
+      const double gain = e.squaredNorm() - fitResidual(Sp, e).squaredNorm();
+      if (gain > best_gain) {
+        best_gain = gain;
+        spec.fixed = v;
+        best_cols = S;
+        best_raw = raw;
+      }
+    }
+    const std::vector<int>& cols = L->cands[g].cols;
+    for (std::size_t k = 0; k < cols.size(); ++k) {
+      L->C.col(cols[k]) = best_cols.col(static_cast<int>(k));
+      L->raw_max[static_cast<std::size_t>(cols[k])] = best_raw[k];
+    }
+    const Eigen::MatrixXd P = projectOff(L->Ub, best_cols);
+    for (std::size_t k = 0; k < cols.size(); ++k)
+      L->Cperp.col(cols[k]) = P.col(static_cast<int>(k));
+  }
+}
+
+Pass selectAndRefit(ExplainProblem* problem, const ExplainOptions& o, ExplainEvaluator* eval,
                     const ExplainState& at, double log_n, bool test_constancy) {
   Pass q;
-  q.L = linearise(p, eval, at);
+  q.L = linearise(*problem, eval, at);
+  chooseVariants(problem, eval, at, &q.L);
+  const ExplainProblem& p = *problem;
   Linearised& L = q.L;
   const GateInput gate{&L.Jb, &p.baseline_names, &L.C, &L.Cperp, &L.raw_max};
   for (Candidate& c : L.cands) gateParameters(gate, o, &c);
@@ -873,6 +984,7 @@ Pass selectAndRefit(const ExplainProblem& p, const ExplainOptions& o, ExplainEva
   q.names = p.baseline_names;
   ExplainState start = at;
   for (std::size_t g : q.sel.accepted) {
+    start = withFixed(start, p.candidates[g]);
     for (int j : L.cands[g].active) {
       const std::string& n = L.cnames[static_cast<std::size_t>(j)];
       q.names.push_back(n);
@@ -907,18 +1019,19 @@ ExplainState withoutCandidates(const Pass& q, const ExplainState& start) {
 // the model is linear to far below the noise, and that pass is reported. The constancy test
 // (leastConstant) runs in that pass only: about a biased baseline the linearisation error
 // itself changes along the recording.
-ExplainResult analyseProblem(const ExplainProblem& p, const ExplainOptions& o) {
+ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions& o) {
+  ExplainProblem p = problem;  // its candidates' variants are chosen in each pass
   ExplainResult res;
   res.baseline_method = p.baseline_method;
   res.segments = p.segments;
   res.noise = p.noise;
   ExplainEvaluator eval(p.bins, p.forward, p.sigma, o.fd_step);
   const double log_n = std::log(static_cast<double>(eval.rows()));
-  Pass q = selectAndRefit(p, o, &eval, p.start, log_n, o.passes == 1);
+  Pass q = selectAndRefit(&p, o, &eval, p.start, log_n, o.passes == 1);
   const Linearised first = q.L;  // residuals before: about the given baseline
   res.baseline_normalised_rms = std::sqrt(first.rperp.squaredNorm() / std::max(1, first.dof_b));
   for (int pass = 1; pass < o.passes && q.fit.ok && !q.sel.accepted.empty(); ++pass) {
-    q = selectAndRefit(p, o, &eval, withoutCandidates(q, p.start), log_n, true);
+    q = selectAndRefit(&p, o, &eval, withoutCandidates(q, p.start), log_n, true);
   }
   if (!q.fit.ok) {
     res.error = q.fit.error;
@@ -940,8 +1053,17 @@ ExplainResult analyseProblem(const ExplainProblem& p, const ExplainOptions& o) {
     res.notes.push_back(buf);
   }
   const Selector selector(q.L.Cperp, q.L.rperp, &q.L.cands);
-  reportSelection(q.L.cands, q.sel, selector, q.scale, log_n, q.names, q.fit, &res);
+  reportSelection(p.candidates, q.L.cands, q.sel, selector, q.scale, log_n, q.names, q.fit, &res);
   finish(p, o, first, &eval, q.fit, q.names, &res);
+  // An effect enabled only to evaluate a candidate's discrete variant and not accepted is not
+  // part of the refitted coefficients.
+  for (std::size_t g = 0; g < p.candidates.size(); ++g) {
+    const std::optional<EffectId> id = effectFromName(p.candidates[g].id);
+    const bool accepted =
+        std::find(q.sel.accepted.begin(), q.sel.accepted.end(), g) != q.sel.accepted.end();
+    if (id && !accepted && !p.start.model.extra.has(*id))
+      res.coefficients.values.extra.disable(*id);
+  }
   res.ok = true;
   return res;
 }
@@ -1009,6 +1131,33 @@ std::string navigationNote(const std::vector<ExplainRunResidual>& runs) {
   return buf;
 }
 
+// The effect axis (kTableAxisOuter / Middle / Inner) of spline a of ExplainData::axes.
+int tableAxisOfSpline(TableKind kind, std::size_t a) {
+  if (a == 0) return kTableAxisOuter;
+  return kind == TableKind::kTwoAxis || a == 2 ? kTableAxisInner : kTableAxisMiddle;
+}
+
+// angle_harmonic's variants (ExplainOptions::harmonic_*): every order on every axis that
+// turns far enough. None when no axis does (the default variant is then not excited).
+void listHarmonicVariants(const ExplainData& data, const ExplainOptions& o, ExplainProblem* p) {
+  for (ExplainCandidateSpec& spec : p->candidates) {
+    if (spec.id != "angle_harmonic" || spec.fixed.size() != 2) continue;
+    for (std::size_t a = 0; a < data.axes.size(); ++a) {
+      const std::vector<double>& v = data.axes[a].values();
+      if (v.empty()) continue;
+      const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+      if (*hi - *lo < o.harmonic_min_turn_rad) continue;
+      for (int k = 1; k <= o.harmonic_max_order; ++k) {
+        ExplainCandidateSpec::Fixed f = spec.fixed;
+        for (auto& [name, value] : f) {
+          value = name.ends_with(".axis") ? tableAxisOfSpline(data.geometry.kind, a) : k;
+        }
+        spec.variants.push_back(std::move(f));
+      }
+    }
+  }
+}
+
 }  // namespace
 
 ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
@@ -1038,6 +1187,7 @@ ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) 
   p.candidates = candidateEffects(in, o);
   p.segments.assign(in.segments.begin(), in.segments.end());
   p.baseline_method = in.baseline_method;
+  listHarmonicVariants(data, o, &p);
   res = analyseProblem(p, o);
   if (!res.ok) return res;
   res.runs = runResiduals(in, res.coefficients.values);

@@ -40,6 +40,7 @@
 #include <nlohmann/json.hpp>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "calib/bench_truth.h"
@@ -104,6 +105,14 @@ struct ExplainOptions {
   // Only the factor's excess over this many of its white-noise standard errors is applied:
   // a white residual (every clean or fully explained recording) keeps its scale.
   double correlation_sigmas = 3.0;
+  // angle_harmonic (an encoder's periodic angle error) is tried on every table axis that turns
+  // at least harmonic_min_turn_rad, at orders 1..harmonic_max_order, and the candidate is the
+  // variant that fits most of the residual (the selection then tests it like any other).
+  // Order 1 is an eccentric encoder disc, 2 an elliptic one: the dominant terms. Each order
+  // more is one more flexible variant to pick from; with 4, a 0.15 arcsec order-4 harmonic was
+  // accepted on an independent recording with a 3 ms time delay (docs/explain.md).
+  int harmonic_max_order = 2;
+  double harmonic_min_turn_rad = 1.5;  // ~90 deg: a harmonic needs angles across the period
   // Longest window for locating residual structure, s (segments longer are cut).
   double window_s = 30.0;
   // Gauss-Newton iterations of the joint refit: the model is nearly linear in its
@@ -214,7 +223,14 @@ ExplainResult explainRecording(const ExplainInput& input, const ExplainOptions& 
 
 struct ExplainCandidateSpec {
   std::string id;                  // interchange effect id
-  std::vector<std::string> names;  // flat names of its parameters (ExplainState names)
+  std::vector<std::string> names;  // flat names of its fitted parameters (ExplainState names)
+  // Discrete parameters held at a value while the others are fitted (angle_harmonic's axis
+  // and order), flat name and value.
+  using Fixed = std::vector<std::pair<std::string, double>>;
+  Fixed fixed;
+  // Alternative values of `fixed` (angle_harmonic on each turning axis at each order): the
+  // first pass keeps the one that fits most of what the other candidates leave.
+  std::vector<Fixed> variants;
 };
 // Every registry effect with fittable parameters (options.candidates filters).
 std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& options);

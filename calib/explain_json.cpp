@@ -49,7 +49,13 @@ void parametersJson(const ExplainAccepted& a, nlohmann::json* values, nlohmann::
   }
   std::size_t k = 0;
   for (const ParamSpec& p : paramSpecs(*id)) {
-    (*values)[p.name] = shaped(p.shape, &a.values[k]);
+    if (p.kind == ParamKind::kTableAxis) {
+      (*values)[p.name] = tableAxisName(static_cast<int>(a.values[k]));
+    } else if (p.kind == ParamKind::kInteger) {
+      (*values)[p.name] = static_cast<int>(a.values[k]);
+    } else {
+      (*values)[p.name] = shaped(p.shape, &a.values[k]);
+    }
     (*sigmas)[p.name] = shaped(p.shape, &a.sigmas[k]);
     k += static_cast<std::size_t>(paramSize(p.shape));
   }

@@ -323,11 +323,15 @@ ExplainPredictor::PhysicsKey ExplainPredictor::keyOf(const BenchTruth& model) co
   k.gravity = nav::siteGravity(s);
   k.tau = timeDelayOf(model.extra);
   k.tau_accel = accelDelayOf(model.extra);
+  if (const auto& h = model.extra.angle_harmonic) {
+    k.harmonic = {static_cast<double>(h->axis), h->order, h->cos_rad, h->sin_rad};
+  }
   return k;
 }
 
-PhysicsPoint ExplainPredictor::physicsAt(const TableModel& table, double gravity,
-                                         const Vec3& w_ie_L, double t, double temp_c) const {
+PhysicsPoint ExplainPredictor::physicsAt(const TableModel& table, const EffectSet& extra,
+                                         double gravity, const Vec3& w_ie_L, double t,
+                                         double temp_c) const {
   TableState state;
   state.outer = data_->axes[0].at(t);
   if (data_->geometry.kind == TableKind::kTwoAxis) {
@@ -336,6 +340,7 @@ PhysicsPoint ExplainPredictor::physicsAt(const TableModel& table, double gravity
     state.middle = data_->axes[1].at(t);
     state.inner = data_->axes[2].at(t);
   }
+  if (extra.angle_harmonic) state = trueTableState(state, extra);  // encoder -> true angles
   const TableKinematics k = table.kinematics(state);
   const model::Physics<double> m = model::benchPhysics(k, gravity, w_ie_L);
   PhysicsPoint p;
@@ -355,10 +360,10 @@ void ExplainPredictor::computePhysics(const BenchTruth& model, const PhysicsKey&
   if (key.tau_accel != 0.0) accel_physics_.resize(data_->nodes.size());
   for (std::size_t i = 0; i < data_->nodes.size(); ++i) {
     const QuadratureNode& n = data_->nodes[i];
-    physics_[i] = physicsAt(table, key.gravity, w_ie_L, n.t - key.tau, n.temp_c);
+    physics_[i] = physicsAt(table, model.extra, key.gravity, w_ie_L, n.t - key.tau, n.temp_c);
     if (key.tau_accel != 0.0) {
-      accel_physics_[i] =
-          physicsAt(table, key.gravity, w_ie_L, n.t - key.tau - key.tau_accel, n.temp_c);
+      accel_physics_[i] = physicsAt(table, model.extra, key.gravity, w_ie_L,
+                                    n.t - key.tau - key.tau_accel, n.temp_c);
     }
   }
   key_ = key;

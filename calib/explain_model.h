@@ -136,12 +136,13 @@ class ExplainPredictor : public ExplainForward {
   struct PhysicsKey {
     std::array<double, 13> table{};
     double latitude = 0.0, gravity = 0.0, tau = 0.0, tau_accel = 0.0;
+    std::array<double, 4> harmonic{-1.0, 0.0, 0.0, 0.0};  // angle_harmonic: axis (-1 off) .. sin
     bool operator==(const PhysicsKey&) const = default;
   };
   PhysicsKey keyOf(const BenchTruth& model) const;
   void computePhysics(const BenchTruth& model, const PhysicsKey& key);
-  PhysicsPoint physicsAt(const TableModel& table, double gravity, const Vec3& w_ie_L, double t,
-                         double temp_c) const;
+  PhysicsPoint physicsAt(const TableModel& table, const EffectSet& extra, double gravity,
+                         const Vec3& w_ie_L, double t, double temp_c) const;
 
   const ExplainData* data_;
   bool have_physics_ = false;

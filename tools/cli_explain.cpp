@@ -231,8 +231,17 @@ void printEffects(const calib::ExplainResult& r) {
     std::printf("accepted %s: delta BIC %.1f, LR %.1f, p %.3g\n", a.effect.c_str(), a.delta_bic,
                 a.lr_stat, a.p_value);
     for (std::size_t k = 0; k < a.values.size(); ++k) {
-      std::printf("    %-36s %+.6g  sigma %.3g (SI)\n", a.flat_names[k].c_str(), a.values[k],
-                  a.sigmas[k]);
+      const std::string& n = a.flat_names[k];
+      if (std::isnan(a.sigmas[k]) && n.size() > 5 && n.compare(n.size() - 5, 5, ".axis") == 0) {
+        std::printf("    %-36s %s  (held: the axis that fits best)\n", n.c_str(),
+                    calib::tableAxisName(static_cast<int>(a.values[k])));
+      } else if (std::isnan(a.sigmas[k]) && n.size() > 6 &&
+                 n.compare(n.size() - 6, 6, ".order") == 0) {
+        std::printf("    %-36s %d  (held: the order that fits best)\n", n.c_str(),
+                    static_cast<int>(a.values[k]));
+      } else {
+        std::printf("    %-36s %+.6g  sigma %.3g (SI)\n", n.c_str(), a.values[k], a.sigmas[k]);
+      }
     }
   }
   for (const calib::ExplainRejected& x : r.rejected) {

@@ -116,7 +116,13 @@ inline CaseOutcome runCase(const ConcealedCase& c, const Motion& motion) {
     std::size_t off = 0;
     for (const ParamSpec& spec : paramSpecs(*id)) {
       const std::size_t n = static_cast<std::size_t>(paramSize(spec.shape));
-      if (std::string(spec.name) != "t_ref_c") comparePhysicalParam(a, t, off, n, &o);
+      if (spec.kind != ParamKind::kReal) {
+        // A discrete parameter (angle_harmonic's axis and order): the analysis' pick must be
+        // the concealed one.
+        if (off >= a.values.size() || a.values[off] != t[off]) o.params_ok = false;
+      } else if (std::string(spec.name) != "t_ref_c") {
+        comparePhysicalParam(a, t, off, n, &o);
+      }
       off += n;
     }
   }

@@ -38,6 +38,37 @@ TEST(ExplainEngine, DirectPlanClean) {
   EXPECT_TRUE(r.accepted.empty());
 }
 
+// An encoder harmonic has a discrete axis and order the analysis is not told: it must pick the
+// concealed ones (an elliptic inner encoder, order 2) and report them in the JSON's words.
+TEST(ExplainEngine, AngleHarmonicNamedOnItsAxisAndOrder) {
+  EffectSet e;
+  e.enable(EffectId::kAngleHarmonic);
+  const double amp = 20.0 * kArcsecToRad;
+  *e.angle_harmonic = {static_cast<double>(kTableAxisInner), 2.0, 0.8 * amp, -0.6 * amp};
+  const SimulatedRecording rec = simulateWith(libraryMotion("two_axis_12run"), e, 6);
+  const ExplainResult r = explainSimulated(rec);
+  ASSERT_TRUE(r.ok) << r.error;
+  std::cout << summary(r);
+  ASSERT_EQ(r.accepted.size(), 1u);
+  const nlohmann::json j = toJson(r)["accepted"][0];
+  EXPECT_EQ(j["effect"], "angle_harmonic");
+  EXPECT_EQ(j["parameters"]["axis"], "inner");
+  EXPECT_EQ(j["parameters"]["order"], 2);
+  for (const char* n : {"cos_rad", "sin_rad"}) {
+    const double truth = std::string(n) == "cos_rad" ? 0.8 * amp : -0.6 * amp;
+    const double est = j["parameters"][n], sigma = j["sigma"][n];
+    EXPECT_LT(std::abs(est - truth), std::max(0.1 * std::abs(truth), 2.0 * sigma)) << n;
+  }
+  EXPECT_LT(r.after_normalised_rms, 1.2);
+  // Not accepted, it is not left in the refitted coefficients (variants are enabled only to
+  // evaluate them).
+  const ExplainResult clean =
+      explainSimulated(simulateWith(libraryMotion("two_axis_12run"), {}, 7));
+  ASSERT_TRUE(clean.ok) << clean.error;
+  EXPECT_TRUE(clean.accepted.empty());
+  EXPECT_FALSE(clean.coefficients.values.extra.has(EffectId::kAngleHarmonic));
+}
+
 // The direct plan turns the table about one axis at a time from level holds: a base tilt about
 // the outer axis and the outer encoder zero change the readings the same way there. The
 // analysis must say so (with the motion that would separate them), keep the shared direction

@@ -91,6 +91,17 @@ EffectSet latitudeError(double deg) {
   return e;
 }
 
+// An encoder harmonic of arcsec amplitude on one axis: true angle = encoder + c cos(k a) +
+// s sin(k a), (c, s) at 0.8 and -0.6 of the amplitude.
+EffectSet angleHarmonic(int axis, int order, double arcsec) {
+  EffectSet e;
+  e.enable(EffectId::kAngleHarmonic);
+  const double amp = arcsec * kArcsecToRad;
+  *e.angle_harmonic = {static_cast<double>(axis), static_cast<double>(order), 0.8 * amp,
+                       -0.6 * amp};
+  return e;
+}
+
 std::vector<EffectFamily> families() {
   return {
       {"lever_arm",
@@ -107,6 +118,15 @@ std::vector<EffectFamily> families() {
       {"gravity_error", "mGal", {10, 50}, gravityError},
       {"thermal_scale", "ppm/degC", {2, 20}, thermalScale},
       {"latitude_error", "deg", {0.1, 1}, latitudeError},
+      // The analysis is not told the axis or the order: it picks the variant (chooseHarmonic).
+      {"angle_harmonic",
+       "arcsec inner k=2",
+       {10, 30},
+       [](double v) { return angleHarmonic(kTableAxisInner, 2, v); }},
+      {"angle_harmonic",
+       "arcsec outer k=1",
+       {10, 30},
+       [](double v) { return angleHarmonic(kTableAxisOuter, 1, v); }},
   };
 }
 

@@ -6,7 +6,8 @@ as well as your own".
 
 Each recording carries the table's geometric errors (base tilt, nonorthogonality, mounting,
 encoder zeros) the direct baseline does not estimate; two carry one concealed effect besides
-(lever arm, time delay). The analysis gets no hint. It must
+(lever arm, time delay, an elliptic inner encoder: angle_harmonic order 2, which the
+analysis must find on the right axis and order). The analysis gets no hint. It must
   - name the concealed effect with its parameters within 10 % or 2 sigma of the writer's truth;
   - name nothing else of the effect library (table error groups are real physics here; the
     base tilt it names is the writer's tilt plus the outer encoder zero, which act alike on
@@ -50,6 +51,13 @@ def check(case, rep, truth):
         if eff == "lever_arm":
             for k in range(3):
                 within(p["r_m"][k], s["r_m"][k], truth["extra"][eff]["r_m"][k], "lever_arm.r_m[%d]" % k, fails)
+        elif eff == "angle_harmonic":
+            t = truth["extra"][eff]
+            if (p["axis"], p["order"]) != (t["axis"], t["order"]):
+                fails.append("angle_harmonic on %s order %s, written on %s order %s" % (
+                    p["axis"], p["order"], t["axis"], t["order"]))
+            for n in ("cos_rad", "sin_rad"):
+                within(p[n], s[n], t[n], "angle_harmonic." + n, fails)
         else:
             within(p["tau_s"], s["tau_s"], truth["extra"][eff]["tau_s"], eff + ".tau_s", fails)
     t = truth["table"]

@@ -191,11 +191,26 @@ GL_X = np.array([-np.sqrt(3 / 5), 0.0, np.sqrt(3 / 5)])
 GL_W = np.array([5 / 9, 8 / 9, 5 / 9])
 
 
-def lever_arm_force(table, sched, tt, w_LB_B, r, h=1e-4):
+def joint_state(sched, tt, extra):
+    """True joint angles and rates at tt from the encoder's (Schedule.state). interchange.md
+    angle_harmonic (axis, order k, cos_rad, sin_rad): true = encoder + c cos(k a) + s sin(k a),
+    so the true rate is the encoder rate times 1 + k (s cos(k a) - c sin(k a))."""
+    q, qd = sched.state(tt)
+    if "angle_harmonic" in extra:
+        axis, k, c, s = extra["angle_harmonic"]
+        names = ["outer", "inner"] if sched.naxes == 2 else ["outer", "middle", "inner"]
+        j = names.index(axis)
+        a = q[:, j].copy()
+        q[:, j] = a + c * np.cos(k * a) + s * np.sin(k * a)
+        qd[:, j] = qd[:, j] * (1 + k * (s * np.cos(k * a) - c * np.sin(k * a)))
+    return q, qd
+
+
+def lever_arm_force(table, sched, tt, w_LB_B, r, extra, h=1e-4):
     """interchange.md lever_arm: w' x r + w x (w x r), w the table rate in B; w' by central
     differences of the table kinematics (h s)."""
-    _, wp = table.kinematics(*sched.state(tt + h))
-    _, wm = table.kinematics(*sched.state(tt - h))
+    _, wp = table.kinematics(*joint_state(sched, tt + h, extra))
+    _, wm = table.kinematics(*joint_state(sched, tt - h, extra))
     wdot = (wp - wm) / (2 * h)
     return np.cross(wdot, r) + np.cross(w_LB_B, np.cross(w_LB_B, r))
 
@@ -203,7 +218,7 @@ def lever_arm_force(table, sched, tt, w_LB_B, r, h=1e-4):
 def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2, extra=None):
     """Increments over (t_end - dt, t_end] by Gauss-Legendre (sub sub-intervals x 3 nodes).
     extra (interchange.md effect ids): "lever_arm" r_m (m, B); "time_delay" tau_s (a sample
-    stamped t was taken at t - tau_s)."""
+    stamped t was taken at t - tau_s); "angle_harmonic" (axis, k, cos_rad, sin_rad)."""
     extra = extra or {}
     tau = extra.get("time_delay", 0.0)
     n = len(t_end)
@@ -220,12 +235,13 @@ def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2,
     chunk = 20000
     for a in range(0, n, chunk):
         tt = (t_end[a:a + chunk, None] + offs[None, :]).ravel() - tau
-        q, qd = sched.state(tt)
+        q, qd = joint_state(sched, tt, extra)
         C_LB, w_LB_B = table.kinematics(q, qd)
         C_BL = np.transpose(C_LB, (0, 2, 1))
         f_B = C_BL @ np.array([0.0, 0.0, g])
         if "lever_arm" in extra:
-            f_B = f_B + lever_arm_force(table, sched, tt, w_LB_B, np.array(extra["lever_arm"]))
+            f_B = f_B + lever_arm_force(table, sched, tt, w_LB_B, np.array(extra["lever_arm"]),
+                                          extra)
         w_IB_B = C_BL @ w_ie_L + w_LB_B
         ra = accel.reading(f_B).reshape(-1, len(offs), 3)
         rg = gyro.reading(w_IB_B).reshape(-1, len(offs), 3)
@@ -289,11 +305,19 @@ def write_case(out, spec):
              "table": {"base_tilt": list(table.theta), "nonorthogonality": list(table.nu),
                        "mounting": list(table.mu), "encoder_zero": list(table.zero[: table.naxes])}}
     if spec.get("extra"):
-        truth["extra"] = {k: ({"r_m": list(v)} if k == "lever_arm" else {"tau_s": v})
-                          for k, v in spec["extra"].items()}
+        truth["extra"] = {k: extra_json(k, v) for k, v in spec["extra"].items()}
     with open(os.path.join(out, "truth.json"), "w") as f:
         json.dump(truth, f, indent=1)
     return truth
+
+
+def extra_json(effect, v):
+    """An effect of the spec in interchange.md's parameter names."""
+    if effect == "lever_arm":
+        return {"r_m": list(v)}
+    if effect == "angle_harmonic":
+        return {"axis": v[0], "order": v[1], "cos_rad": v[2], "sin_rad": v[3]}
+    return {"tau_s": v}
 
 
 def write_segments(out, sched, spec):
@@ -429,6 +453,9 @@ def make_explain_cases():
         "explain_clean": two(seed=11),
         "explain_lever_arm": two(seed=12, rate_hz=125.0, extra={"lever_arm": (0.05, -0.03, 0.04)}),
         "explain_time_delay": two(seed=13, rate_hz=200.0, extra={"time_delay": 0.003}),
+        # an elliptic inner encoder (order 2), 15 arcsec
+        "explain_angle_harmonic": two(seed=14, rate_hz=100.0, table_rate_hz=40.0,
+                                      extra={"angle_harmonic": ("inner", 2, 6.0e-5, -4.5e-5)}),
     }
     for name, spec in c.items():
         spec["name"] = name
