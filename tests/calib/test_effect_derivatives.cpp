@@ -174,10 +174,10 @@ void siteProbe(EffectId id) {
     const std::vector<T> block = blockFrom(id, p);
     std::vector<T> out;
     if (id == EffectId::kLatitudeError) {
-      const T lat = effects::LatitudeError::latitude(block.data(), p[1]);
+      const T lat = effects::LatitudeError::trueValue(block.data(), p[1]);
       out = {lat, cos(lat), sin(lat)};
     } else {
-      const T g = effects::GravityError::gravity(block.data(), p[1]);
+      const T g = effects::GravityError::trueValue(block.data(), p[1]);
       ChainKinematics<T> k;
       k.C_LB = smallRotation(Vec3T<T>(T(0.1), T(-0.2), T(0.3)));
       const Physics<T> ph = benchPhysics(k, g, Vec3T<T>::Zero().eval());
