@@ -7,21 +7,18 @@
 #include <sstream>
 
 #include "calib/observability.h"
+#include "calib/option_check.h"
 #include "calib/static_detection.h"
 
 namespace imubench::calib {
 
 bool DirectCalibrationOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (!(static_trim_s >= 0.0)) return fail("static_trim_s must be >= 0");
-  if (!(min_static_s > 0.0)) return fail("min_static_s must be > 0");
-  if (!(min_rotation_rad > 0.0)) return fail("min_rotation_rad must be > 0");
-  if (!(turn_tolerance_rad >= 0.0)) return fail("turn_tolerance_rad must be >= 0");
+  if (!(static_trim_s >= 0.0)) return invalidOption(why, "static_trim_s must be >= 0");
+  if (!(min_static_s > 0.0)) return invalidOption(why, "min_static_s must be > 0");
+  if (!(min_rotation_rad > 0.0)) return invalidOption(why, "min_rotation_rad must be > 0");
+  if (!(turn_tolerance_rad >= 0.0)) return invalidOption(why, "turn_tolerance_rad must be >= 0");
   if (!(accel_residual_floor > 0.0) || !(gyro_residual_floor > 0.0))
-    return fail("the residual floors must be > 0");
+    return invalidOption(why, "the residual floors must be > 0");
   if (!segment_check.IsValid(why) || !quality.IsValid(why)) return false;
   return checks.IsValid(why);
 }

@@ -1074,11 +1074,7 @@ namespace {
 Result<std::vector<RunAttitudeResidual>> runResidualsAt(const ExplainInput& in,
                                                         const BenchTruth& m) {
   IndirectInput ii;
-  ii.site = in.site;
-  ii.geometry = in.geometry;
-  ii.imu = in.imu;
-  ii.table = in.table;
-  ii.segments = in.segments;
+  ii.recording() = in.recording();
   ii.start = m.sensors;
   ii.start_base_tilt = m.table.base_tilt;
   ii.start_nonorthogonality = m.table.nonorthogonality;

@@ -46,6 +46,7 @@
 #include "calib/bench_truth.h"
 #include "calib/explain_model.h"
 #include "calib/explain_noise.h"
+#include "calib/recording_view.h"
 #include "calib/static_detection.h"
 
 namespace imubench::calib {
@@ -53,12 +54,8 @@ namespace imubench::calib {
 // Channel names of the interchange report: accel.x .. gyro.z.
 const char* explainChannelName(int channel);
 
-struct ExplainInput {
-  TableGeometry geometry;
-  nav::Site site;
-  std::span<const nav::ImuSample> imu;  // increments, t = END of each interval
-  std::span<const TableSample> table;   // encoder angles, rad, any rate
-  std::span<const Segment> segments;    // static holds are used for the noise floor
+// The recording (RecordingView; its static holds are used for the noise floor).
+struct ExplainInput : RecordingView {
   // The baseline: coefficients the analysis starts from (a calibration of this recording or a
   // given file), how they were obtained ("direct" | "indirect" | "scalar" | "given") and which
   // table error coefficients (flat names, e.g. "table.base_tilt.x") the baseline estimates;

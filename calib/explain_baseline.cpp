@@ -61,11 +61,7 @@ BaselineCalibration calibrateBaseline(const BaselineInput& in,
                            : "direct calibration not possible (" + d.reason +
                                  "): navigation-based calibration instead");
   IndirectInput iin;
-  iin.site = in.site;
-  iin.geometry = in.geometry;
-  iin.imu = in.imu;
-  iin.table = in.table;
-  iin.segments = in.segments;
+  iin.recording() = in;
   IndirectOptions iopt;
   iopt.checks = checks;
   if (direct_sane) {
@@ -87,6 +83,15 @@ BaselineCalibration calibrateBaseline(const BaselineInput& in,
     for (const std::string& n : tableNames(in.geometry.kind, g)) out.table_params.push_back(n);
   }
   return out;
+}
+
+ExplainInput explainInput(const RecordingView& recording, const BaselineCalibration& base) {
+  ExplainInput in;
+  in.recording() = recording;
+  in.baseline = base.coefficients;
+  in.baseline_method = base.method;
+  in.baseline_table_params = base.table_params;
+  return in;
 }
 
 }  // namespace imubench::calib

@@ -14,6 +14,8 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/explain.h"
+#include "calib/recording_view.h"
 #include "calib/simulator.h"
 #include "calib/static_detection.h"
 #include "calib/table_model.h"
@@ -22,13 +24,7 @@
 
 namespace imubench::calib {
 
-struct BaselineInput {
-  TableGeometry geometry;
-  nav::Site site;
-  std::span<const nav::ImuSample> imu;
-  std::span<const TableSample> table;
-  std::span<const Segment> segments;
-};
+using BaselineInput = RecordingView;
 
 struct BaselineCalibration {
   bool ok = false;
@@ -41,5 +37,8 @@ struct BaselineCalibration {
 
 BaselineCalibration calibrateBaseline(const BaselineInput& input,
                                       const IncrementCheckOptions& checks = {});
+
+// The analysis' input (calib/explain.h): the recording and the baseline calibrated from it.
+ExplainInput explainInput(const RecordingView& recording, const BaselineCalibration& base);
 
 }  // namespace imubench::calib

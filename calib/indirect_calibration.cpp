@@ -15,6 +15,7 @@
 #include "calib/indirect_run_cost.h"
 #include "calib/indirect_static_accel_cost.h"
 #include "calib/indirect_static_gyro_cost.h"
+#include "calib/option_check.h"
 #include "calib/static_detection.h"
 
 namespace imubench::calib {
@@ -212,24 +213,24 @@ Conditioning analyseInformation(const Eigen::MatrixXd& J, std::vector<bool>* fre
 }  // namespace
 
 bool IndirectOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (!(static_margin_s >= 0.0)) return fail("static_margin_s must be >= 0");
-  if (!(min_static_s > 0.0)) return fail("min_static_s must be > 0");
-  if (!(run_pad_s >= 0.0)) return fail("run_pad_s must be >= 0");
-  if (!(adjacency_tolerance_s >= 0.0)) return fail("adjacency_tolerance_s must be >= 0");
-  if (max_outer_iterations < 1) return fail("max_outer_iterations must be >= 1");
-  if (!(outer_tolerance_sigma > 0.0)) return fail("outer_tolerance_sigma must be > 0");
-  if (!(min_accel_noise > 0.0) || !(min_gyro_noise > 0.0)) return fail("noise floors must be > 0");
+  if (!(static_margin_s >= 0.0)) return invalidOption(why, "static_margin_s must be >= 0");
+  if (!(min_static_s > 0.0)) return invalidOption(why, "min_static_s must be > 0");
+  if (!(run_pad_s >= 0.0)) return invalidOption(why, "run_pad_s must be >= 0");
+  if (!(adjacency_tolerance_s >= 0.0))
+    return invalidOption(why, "adjacency_tolerance_s must be >= 0");
+  if (max_outer_iterations < 1) return invalidOption(why, "max_outer_iterations must be >= 1");
+  if (!(outer_tolerance_sigma > 0.0))
+    return invalidOption(why, "outer_tolerance_sigma must be > 0");
+  if (!(min_accel_noise > 0.0) || !(min_gyro_noise > 0.0))
+    return invalidOption(why, "noise floors must be > 0");
   if (!(typical_scale > 0.0) || !(typical_misalignment > 0.0) || !(typical_accel_bias > 0.0) ||
       !(typical_gyro_bias > 0.0) || !(typical_base_tilt > 0.0) ||
       !(typical_nonorthogonality > 0.0)) {
-    return fail("typical magnitudes must be > 0");
+    return invalidOption(why, "typical magnitudes must be > 0");
   }
-  if (!(unobservable_sigma_typical > 0.0)) return fail("unobservable_sigma_typical must be > 0");
-  if (!(bad_condition_number > 1.0)) return fail("bad_condition_number must be > 1");
+  if (!(unobservable_sigma_typical > 0.0))
+    return invalidOption(why, "unobservable_sigma_typical must be > 0");
+  if (!(bad_condition_number > 1.0)) return invalidOption(why, "bad_condition_number must be > 1");
   if (!(min_accel_mean_sigma > 0.0) || !(min_gyro_mean_sigma > 0.0) ||
       !(min_run_angle_sigma > 0.0)) {
     if (why) *why = "the sigma floors must be > 0";

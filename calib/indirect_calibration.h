@@ -34,6 +34,7 @@
 #include "calib/calibration_result.h"
 #include "calib/fit_quality.h"
 #include "calib/motion.h"
+#include "calib/recording_view.h"
 #include "calib/segment_check.h"
 #include "calib/sensor_model.h"
 #include "calib/simulator.h"
@@ -52,12 +53,8 @@ struct IndirectLeg {
   std::span<const Segment> segments;    // static holds and rotate runs
 };
 
-struct IndirectInput {
-  nav::Site site;
-  TableGeometry geometry;
-  std::span<const nav::ImuSample> imu;  // t strictly increasing
-  std::span<const TableSample> table;   // encoder angles (rad), t increasing
-  std::span<const Segment> segments;    // static holds and rotate runs
+// The recording (RecordingView: IMU t strictly increasing, static holds and rotate runs).
+struct IndirectInput : RecordingView {
   // More recordings of the same device on the same table and mounting (e.g. the direct-plan
   // recording, whose static positions show axes the 12-run plan never points up): their holds
   // and runs join the same least-squares problem (same coefficients, same base tilt).

@@ -8,22 +8,18 @@
 // fixes the scale factors.
 #pragma once
 
-#include <ceres/ceres.h>
-
-#include "calib/indirect_params.h"
+#include "calib/indirect_static_hold.h"
 
 namespace imubench::calib::indirect {
 
-class StaticAccelCost {
+class StaticAccelCost : public StaticHoldCost<StaticAccelCost> {
  public:
   // reading_mean: mean accelerometer reading over the hold (m/s^2); C_LP: nominal attitude;
   // gravity: site gravity (m/s^2); sigma: standard deviation of each mean component (m/s^2,
   // body axes).
   StaticAccelCost(const Vec3& reading_mean, const TableGeometry& geometry,
                   const TableAngles& angles, double gravity, const Vec3& sigma)
-      : reading_(reading_mean),
-        geometry_(geometry),
-        angles_(angles),
+      : StaticHoldCost(reading_mean, geometry, angles),
         gravity_(gravity),
         sigma_(sigmaInL(geometry, angles, sigma)) {}
 
@@ -40,24 +36,15 @@ class StaticAccelCost {
 
   template <typename T>
   bool operator()(const T* accel, const T* table, T* residual) const {
-    const Vec3T<T> f_P = compensate(accel, reading_);
-    const Vec3T<T> f_L = platformAttitude(geometry_, angles_, table) * f_P;
+    const Vec3T<T> f_P = compensated(accel);
+    const Vec3T<T> f_L = attitude(table) * f_P;
     residual[0] = f_L.x() / sigma_.x();
     residual[1] = f_L.y() / sigma_.y();
     residual[2] = (f_L.z() - gravity_) / sigma_.z();
     return true;
   }
 
-  static ceres::CostFunction* Create(const Vec3& reading_mean, const TableGeometry& geometry,
-                                     const TableAngles& angles, double gravity, const Vec3& sigma) {
-    return new ceres::AutoDiffCostFunction<StaticAccelCost, 3, kTriadSize, kTableSize>(
-        new StaticAccelCost(reading_mean, geometry, angles, gravity, sigma));
-  }
-
  private:
-  Vec3 reading_;
-  TableGeometry geometry_;
-  TableAngles angles_;
   double gravity_;
   Vec3 sigma_;
 };

@@ -4,44 +4,27 @@
 // This fixes the gyro biases (the rotations see them only weakly).
 #pragma once
 
-#include <ceres/ceres.h>
-
-#include "calib/indirect_params.h"
+#include "calib/indirect_static_hold.h"
 
 namespace imubench::calib::indirect {
 
-class StaticGyroCost {
+class StaticGyroCost : public StaticHoldCost<StaticGyroCost> {
  public:
   // reading_mean: mean gyro reading over the hold (rad/s); sigma: standard deviation of each
   // mean component (rad/s).
   StaticGyroCost(const Vec3& reading_mean, const TableGeometry& geometry, const TableAngles& angles,
                  const Vec3& w_ie_L, const Vec3& sigma)
-      : reading_(reading_mean),
-        geometry_(geometry),
-        angles_(angles),
-        w_ie_L_(w_ie_L),
-        sigma_(sigma) {}
+      : StaticHoldCost(reading_mean, geometry, angles), w_ie_L_(w_ie_L), sigma_(sigma) {}
 
   template <typename T>
   bool operator()(const T* gyro, const T* table, T* residual) const {
-    const Vec3T<T> w_P = compensate(gyro, reading_);
-    const Vec3T<T> expected =
-        platformAttitude(geometry_, angles_, table).transpose() * w_ie_L_.cast<T>();
+    const Vec3T<T> w_P = compensated(gyro);
+    const Vec3T<T> expected = attitude(table).transpose() * w_ie_L_.cast<T>();
     for (int i = 0; i < 3; ++i) residual[i] = (w_P[i] - expected[i]) / sigma_[i];
     return true;
   }
 
-  static ceres::CostFunction* Create(const Vec3& reading_mean, const TableGeometry& geometry,
-                                     const TableAngles& angles, const Vec3& w_ie_L,
-                                     const Vec3& sigma) {
-    return new ceres::AutoDiffCostFunction<StaticGyroCost, 3, kTriadSize, kTableSize>(
-        new StaticGyroCost(reading_mean, geometry, angles, w_ie_L, sigma));
-  }
-
  private:
-  Vec3 reading_;
-  TableGeometry geometry_;
-  TableAngles angles_;
   Vec3 w_ie_L_;
   Vec3 sigma_;
 };

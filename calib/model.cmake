@@ -14,23 +14,12 @@ target_sources(imubench_calib PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/model/thermal_coefficients.h
   ${CMAKE_CURRENT_LIST_DIR}/model/effect_unit.h
   ${CMAKE_CURRENT_LIST_DIR}/model/effects.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/lever_arm.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/time_delay.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/gyro_g_sensitivity.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/thermal_bias.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/thermal_scale.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/scale_asymmetry.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/accel_k2.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/latitude_error.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/gravity_error.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/size_effect.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/accel_delay.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/angle_harmonic.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/bias_instability.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/base_tilt.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/nonorthogonality.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/encoder_zero.h
-  ${CMAKE_CURRENT_LIST_DIR}/model/effects/mounting.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/site.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/table.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/time.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/reading.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/thermal.h
+  ${CMAKE_CURRENT_LIST_DIR}/model/effects/noise.h
   ${CMAKE_CURRENT_LIST_DIR}/sensor_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/table_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/effects.cpp

@@ -23,6 +23,21 @@ bool validTriad(const TriadNoise& n, const char* name, std::string* why) {
   return true;
 }
 
+// A grade's noise from its datasheet figures: gyro angle random walk (deg/sqrt(h)) and bias
+// sigma (deg/h), accelerometer white noise (ug/sqrt(Hz)) and bias sigma (ug), and the bias
+// correlation time of both triads (s).
+NoiseModel gradeFromDatasheet(double gyro_arw_deg_rt_h, double gyro_bias_deg_h,
+                              double accel_white_ug, double accel_bias_ug,
+                              double correlation_time_s) {
+  NoiseModel n;
+  n.gyro.white = gyro_arw_deg_rt_h * kDegToRad / 60.0;
+  n.gyro.bias_sigma = gyro_bias_deg_h * kDegPerHourToRadPerSec;
+  n.accel.white = accel_white_ug * kUg;
+  n.accel.bias_sigma = accel_bias_ug * kUg;
+  n.gyro.correlation_time_s = n.accel.correlation_time_s = correlation_time_s;
+  return n;
+}
+
 std::uint64_t splitmix64(std::uint64_t* x) {
   std::uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
@@ -51,23 +66,11 @@ NoiseModel NoiseModel::navigationGradeDrifting() {
 }
 
 NoiseModel NoiseModel::tactical() {
-  NoiseModel n;
-  n.gyro.white = 0.1 * kDegToRad / 60.0;
-  n.gyro.bias_sigma = 1.0 * kDegPerHourToRadPerSec;
-  n.accel.white = 100.0 * kUg;
-  n.accel.bias_sigma = 100.0 * kUg;
-  n.gyro.correlation_time_s = n.accel.correlation_time_s = 600.0;
-  return n;
+  return gradeFromDatasheet(0.1, 1.0, 100.0, 100.0, 600.0);
 }
 
 NoiseModel NoiseModel::consumer() {
-  NoiseModel n;
-  n.gyro.white = 0.5 * kDegToRad / 60.0;
-  n.gyro.bias_sigma = 10.0 * kDegPerHourToRadPerSec;
-  n.accel.white = 200.0 * kUg;
-  n.accel.bias_sigma = 1000.0 * kUg;
-  n.gyro.correlation_time_s = n.accel.correlation_time_s = 100.0;
-  return n;
+  return gradeFromDatasheet(0.5, 10.0, 200.0, 1000.0, 100.0);
 }
 
 bool NoiseModel::IsValid(std::string* why) const {

@@ -11,6 +11,7 @@
 #include "calib/bench_truth.h"
 #include "calib/model/bench_physics.h"
 #include "calib/model/sensor_equation.h"
+#include "calib/option_check.h"
 #include "calib/simulator.h"
 #include "calib/table_model.h"
 
@@ -111,11 +112,7 @@ InformationAnalysis analyseInformation(const Eigen::MatrixXd& J,
 namespace imubench::calib {
 
 bool PlanObservabilityOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (!(accel_sigma > 0.0) || !(angle_sigma > 0.0)) return fail("sigmas must be > 0");
+  if (!(accel_sigma > 0.0) || !(angle_sigma > 0.0)) return invalidOption(why, "sigmas must be > 0");
   return information.IsValid(why);
 }
 

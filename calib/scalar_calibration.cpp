@@ -10,36 +10,35 @@
 
 #include "calib/model/sensor_equation.h"
 #include "calib/observability.h"
+#include "calib/option_check.h"
 #include "nav/earth.h"
 
 namespace imubench::calib {
 
 bool ScalarCalibrationOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
   if (!(gravity_mps2 > 9.7 && gravity_mps2 < 9.9))
-    return fail("gravity_mps2 must be in (9.7, 9.9)");
-  if (gyro_scale_guess && !(*gyro_scale_guess > 0.0)) return fail("gyro_scale_guess must be > 0");
-  if (!(min_initial_static_s >= 0.0)) return fail("min_initial_static_s must be >= 0");
+    return invalidOption(why, "gravity_mps2 must be in (9.7, 9.9)");
+  if (gyro_scale_guess && !(*gyro_scale_guess > 0.0))
+    return invalidOption(why, "gyro_scale_guess must be > 0");
+  if (!(min_initial_static_s >= 0.0))
+    return invalidOption(why, "min_initial_static_s must be >= 0");
   if (!(same_pose_angle_deg > 0.0 && same_pose_angle_deg < 90.0)) {
     if (why) *why = "same_pose_angle_deg must be in (0, 90)";
     return false;
   }
   if (min_poses_diagonal_accel < 6 || min_poses_full_accel < 9)
-    return fail("pose minimums below the number of unknowns (6 diagonal, 9 full)");
-  if (!(span_trim_s >= 0.0)) return fail("span_trim_s must be >= 0");
+    return invalidOption(why, "pose minimums below the number of unknowns (6 diagonal, 9 full)");
+  if (!(span_trim_s >= 0.0)) return invalidOption(why, "span_trim_s must be >= 0");
   if (!(si_gravity_tolerance > 0.0 && si_gravity_tolerance < 1.0))
-    return fail("si_gravity_tolerance must be in (0, 1)");
-  if (!(max_static_scatter_g > 0.0)) return fail("max_static_scatter_g must be > 0");
+    return invalidOption(why, "si_gravity_tolerance must be in (0, 1)");
+  if (!(max_static_scatter_g > 0.0)) return invalidOption(why, "max_static_scatter_g must be > 0");
   if (!(min_axis_span >= 0.0 && min_axis_span <= 2.0))
-    return fail("min_axis_span must be in [0, 2]");
-  if (!(max_gyro_rms_rad > 0.0)) return fail("max_gyro_rms_rad must be > 0");
+    return invalidOption(why, "min_axis_span must be in [0, 2]");
+  if (!(max_gyro_rms_rad > 0.0)) return invalidOption(why, "max_gyro_rms_rad must be > 0");
   for (const Solver* so : {&accel_solver, &gyro_solver})
     if (so->max_iterations < 1 || !(so->function_tolerance > 0.0) ||
         !(so->parameter_tolerance > 0.0))
-      return fail("solver settings: iterations >= 1 and tolerances > 0");
+      return invalidOption(why, "solver settings: iterations >= 1 and tolerances > 0");
   return detection.IsValid(why) && checks.IsValid(why);
 }
 

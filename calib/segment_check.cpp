@@ -5,16 +5,14 @@
 #include <cmath>
 #include <cstdio>
 
+#include "calib/option_check.h"
+
 namespace imubench::calib {
 
 bool SegmentCheckOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (!(adjacency_s >= 0.0)) return fail("adjacency_s must be >= 0");
-  if (!(same_angle_rad > 0.0)) return fail("same_angle_rad must be > 0");
-  if (!(still_span_rad > 0.0)) return fail("still_span_rad must be > 0");
+  if (!(adjacency_s >= 0.0)) return invalidOption(why, "adjacency_s must be >= 0");
+  if (!(same_angle_rad > 0.0)) return invalidOption(why, "same_angle_rad must be > 0");
+  if (!(still_span_rad > 0.0)) return invalidOption(why, "still_span_rad must be > 0");
   return true;
 }
 

@@ -112,11 +112,11 @@ nav::Site trueSite(const nav::Site& assumed, const EffectSet& effects) {
   nav::Site s = assumed;
   if (effects.latitude_error) {
     s.latitude_rad =
-        model::effects::LatitudeError::latitude(&effects.latitude_error->dlat_rad, s.latitude_rad);
+        model::effects::LatitudeError::trueValue(&effects.latitude_error->dlat_rad, s.latitude_rad);
   }
   if (effects.gravity_error) {
-    s.gravity_mps2 =
-        model::effects::GravityError::gravity(&effects.gravity_error->dg_mps2, nav::siteGravity(s));
+    s.gravity_mps2 = model::effects::GravityError::trueValue(&effects.gravity_error->dg_mps2,
+                                                             nav::siteGravity(s));
   }
   return s;
 }

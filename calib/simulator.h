@@ -23,7 +23,7 @@
 // Noise: white noise N(0, white^2 dt) per increment and a Gauss-Markov bias (updated every
 // SimOptions::bias_update_interval_s, held in between) times dt, both scaled by the truth scale
 // factors; deterministic per seed. bias_instability adds a per-axis Gauss-Markov drift whose
-// Allan deviation peaks at the given minimum at tau_s (calib/model/effects/bias_instability.h),
+// Allan deviation peaks at the given minimum at tau_s (calib/model/effects/noise.h),
 // updated every sample from its own random stream (seed-derived), so switching it on changes
 // nothing else. Temperature: Motion::temperatureAt(t_k - tau - dt/2).
 // Thermal truth (BenchWorld::thermal): the sensor coefficients of each sample are those of

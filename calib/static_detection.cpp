@@ -5,6 +5,8 @@
 #include <sstream>
 #include <utility>
 
+#include "calib/option_check.h"
+
 namespace imubench::calib {
 
 const char* recordingStatusName(RecordingStatusCode code) {
@@ -34,15 +36,11 @@ const char* recordingStatusName(RecordingStatusCode code) {
 }
 
 bool StaticDetectionOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (!(window_s > 0.0)) return fail("window_s must be > 0");
+  if (!(window_s > 0.0)) return invalidOption(why, "window_s must be > 0");
   if (!(quiet_quantile > 0.0 && quiet_quantile < 1.0))
-    return fail("quiet_quantile must be in (0, 1)");
-  if (!(threshold_factor > 1.0)) return fail("threshold_factor must be > 1");
-  if (!(min_duration_s >= 0.0)) return fail("min_duration_s must be >= 0");
+    return invalidOption(why, "quiet_quantile must be in (0, 1)");
+  if (!(threshold_factor > 1.0)) return invalidOption(why, "threshold_factor must be > 1");
+  if (!(min_duration_s >= 0.0)) return invalidOption(why, "min_duration_s must be >= 0");
   return true;
 }
 
@@ -203,13 +201,11 @@ RecordingCheck checkRecording(const RawImuData& d, const RecordingCheckOptions& 
 }
 
 bool IncrementCheckOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (!(max_gap_factor > 1.0)) return fail("max_gap_factor must be > 1");
-  if (gyro_range_radps && !(*gyro_range_radps > 0.0)) return fail("gyro range must be > 0");
-  if (accel_range_mps2 && !(*accel_range_mps2 > 0.0)) return fail("accel range must be > 0");
+  if (!(max_gap_factor > 1.0)) return invalidOption(why, "max_gap_factor must be > 1");
+  if (gyro_range_radps && !(*gyro_range_radps > 0.0))
+    return invalidOption(why, "gyro range must be > 0");
+  if (accel_range_mps2 && !(*accel_range_mps2 > 0.0))
+    return invalidOption(why, "accel range must be > 0");
   return true;
 }
 

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "calib/bench_calibration.h"
+#include "calib/option_check.h"
 #include "calib/simulator.h"
 #include "nav/alignment.h"
 #include "nav/free_navigation.h"
@@ -161,16 +162,13 @@ const char* coefficientSetName(CoefficientSet s) {
 }
 
 bool ValidationOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (!(imu_rate_hz > 0.0) || !(table_rate_hz > 0.0)) return fail("rates must be > 0");
+  if (!(imu_rate_hz > 0.0) || !(table_rate_hz > 0.0))
+    return invalidOption(why, "rates must be > 0");
   if (!(table_error_min_arcsec >= 0.0) || !(table_error_max_arcsec >= table_error_min_arcsec)) {
-    return fail("need 0 <= table_error_min_arcsec <= table_error_max_arcsec");
+    return invalidOption(why, "need 0 <= table_error_min_arcsec <= table_error_max_arcsec");
   }
-  if (!(levelling_s > 0.0)) return fail("levelling_s must be > 0");
-  if (!(output_interval_s > 0.0)) return fail("output_interval_s must be > 0");
+  if (!(levelling_s > 0.0)) return invalidOption(why, "levelling_s must be > 0");
+  if (!(output_interval_s > 0.0)) return invalidOption(why, "output_interval_s must be > 0");
   if (!direct.IsValid(why) || !indirect.IsValid(why)) return false;
   return true;
 }

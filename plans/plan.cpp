@@ -111,8 +111,10 @@
 #include <cstring>
 #include <fstream>
 #include <initializer_list>
+#include <optional>
 #include <span>
 #include <sstream>
+#include <utility>
 
 #include "nav/rotation.h"
 
@@ -256,6 +258,16 @@ std::string didYouMean(std::string_view word, std::span<const std::string_view> 
   return best.empty() ? std::string() : " (did you mean \"" + std::string(best) + "\"?)";
 }
 
+// The value `word` names among `choices` (keyword, value), or nullopt when it names none.
+template <class E>
+std::optional<E> keywordValue(std::string_view word,
+                              std::initializer_list<std::pair<std::string_view, E>> choices) {
+  for (const auto& [keyword, value] : choices) {
+    if (keyword == word) return value;
+  }
+  return std::nullopt;
+}
+
 std::string joinQuoted(std::span<const std::string_view> options) {
   std::string s;
   for (auto o : options) s += (s.empty() ? "\"" : ", \"") + std::string(o) + "\"";
@@ -384,12 +396,11 @@ class Parser {
   // [plan] calibration and direct_plan (a pipeline names its direct plan; nothing else may).
   void parseCalibration(const toml::table& t, Plan& plan) {
     if (auto c = text(t, "calibration", false)) {
-      if (*c == "direct") {
-        plan.calibration = CalibrationMethod::kDirect;
-      } else if (*c == "indirect") {
-        plan.calibration = CalibrationMethod::kIndirect;
-      } else if (*c == "pipeline") {
-        plan.calibration = CalibrationMethod::kPipeline;
+      if (auto m =
+              keywordValue<CalibrationMethod>(*c, {{"direct", CalibrationMethod::kDirect},
+                                                   {"indirect", CalibrationMethod::kIndirect},
+                                                   {"pipeline", CalibrationMethod::kPipeline}})) {
+        plan.calibration = *m;
       } else {
         diag_.error(t.get("calibration")->source(),
                     "unknown calibration \"" + *c +
@@ -415,10 +426,9 @@ class Parser {
               {"kind", "outer_axis_heading", "max_rate", "max_accel", "outer", "middle", "inner"},
               "[table]");
     if (auto k = text(t, "kind", true)) {
-      if (*k == "two-axis") {
-        table.kind = TableKind::kTwoAxis;
-      } else if (*k == "three-axis") {
-        table.kind = TableKind::kThreeAxis;
+      if (auto kind = keywordValue<TableKind>(
+              *k, {{"two-axis", TableKind::kTwoAxis}, {"three-axis", TableKind::kThreeAxis}})) {
+        table.kind = *kind;
       } else {
         diag_.error(t.get("kind")->source(), "unknown table kind \"" + *k +
                                                  "\": expected \"two-axis\" or \"three-axis\"" +
@@ -665,12 +675,10 @@ class Parser {
       diag_.error(n->source(), "setpoints must be an array, e.g. [\"-40 degC\", \"60 degC\"]");
     }
     if (auto l = text(t, "legs", false)) {
-      if (*l == "heat") {
-        s.legs = ThermalLegs::kHeat;
-      } else if (*l == "cool") {
-        s.legs = ThermalLegs::kCool;
-      } else if (*l == "heat-cool") {
-        s.legs = ThermalLegs::kHeatCool;
+      if (auto legs = keywordValue<ThermalLegs>(*l, {{"heat", ThermalLegs::kHeat},
+                                                     {"cool", ThermalLegs::kCool},
+                                                     {"heat-cool", ThermalLegs::kHeatCool}})) {
+        s.legs = *legs;
       } else {
         diag_.error(t.get("legs")->source(),
                     "legs must be \"heat\", \"cool\" or "

@@ -73,15 +73,7 @@ void BM_Explain12Run2kHz(benchmark::State& state) {
         prepareExplainData(b.geometry, b.site, b.imu, b.table, b.segments, ExplainModelOptions{});
     bins_s += secondsSince(t0);
     benchmark::DoNotOptimize(data);
-    ExplainInput in;
-    in.geometry = b.geometry;
-    in.site = b.site;
-    in.imu = b.imu;
-    in.table = b.table;
-    in.segments = b.segments;
-    in.baseline = base.coefficients;
-    in.baseline_method = base.method;
-    in.baseline_table_params = base.table_params;
+    const ExplainInput in = explainInput(b, base);
     c0 = processCpuSeconds();
     t0 = Clock::now();
     const ExplainResult r = explainRecording(in);

@@ -1,6 +1,6 @@
-// What every effect unit of the forward model (calib/model/effects/*.h) is made of: its id,
-// its named parameters and where its term acts. The registry of units is calib/model/effects.h;
-// the double-precision front (EffectSet, JSON names) is calib/effects.h.
+// What every effect unit of the forward model (calib/model/effects/*.h, grouped by stage) is
+// made of: its id, its named parameters and where its term acts. The registry of units is
+// calib/model/effects.h; the double-precision front (EffectSet, JSON names) is calib/effects.h.
 //
 // A unit is a struct with
 //   kId      the EffectId that links it to its row of the registry's metadata table
@@ -9,7 +9,10 @@
 //            the flat-vector order of its row's parameters (name, shape, unit, kind),
 //   the term itself, templated on the scalar T (double or ceres::Jet) and reading the
 //   parameter block `const T* p`: `apply(p, ReadingState<T>*)` for the reading stages, a
-//   named function for the others (sampleTime, latitude, addTo, jointState, ...).
+//   named function for the others (sampleTime, trueValue, addTo, jointState, ...).
+// Units whose terms have the same form are one template with an alias per effect
+// (SiteOffsetUnit, TableErrorUnit, DelayUnit, ThermalUnit); a table-error unit names the
+// chain slot of each parameter (kSlots) instead of an offset per parameter.
 #pragma once
 
 #include <array>

@@ -1,6 +1,17 @@
-// The registry of the forward model's effect units (one header each in calib/model/effects/,
-// calib/model/effect_unit.h says what a unit is) and the templated forward pass that applies
-// them with the sensor equation at one instant.
+// The registry of the forward model's effect units (calib/model/effect_unit.h says what a unit
+// is) and the templated forward pass that applies them with the sensor equation at one
+// instant. The units are grouped by stage, one header per group in calib/model/effects/:
+//   site.h     kSite          latitude_error, gravity_error (SiteOffsetUnit: assumed + p[0])
+//   table.h    kTable         base_tilt, nonorthogonality, encoder_zero, mounting
+//                             (TableErrorUnit: each parameter added to one chain block slot)
+//              kAngle         angle_harmonic
+//   time.h     kTime          time_delay, accel_delay (DelayUnit: sample time t - p[0])
+//   reading.h  kBodyInput     lever_arm, gyro_g_sensitivity
+//              kAxisInput     size_effect
+//              kAxisNonlinear accel_k2
+//              kReading       scale_asymmetry
+//   thermal.h  kCoefficients  thermal_bias, thermal_scale (ThermalUnit: one parameter layout)
+//   noise.h    kNoise         bias_instability
 //
 // Order of application: by the units' Stage (effect_unit.h), and within a stage by their
 // order here. Reading stages at one instant (sensorReadings below):
@@ -23,23 +34,12 @@
 #include <type_traits>
 
 #include "calib/model/effect_unit.h"
-#include "calib/model/effects/accel_delay.h"
-#include "calib/model/effects/accel_k2.h"
-#include "calib/model/effects/angle_harmonic.h"
-#include "calib/model/effects/base_tilt.h"
-#include "calib/model/effects/bias_instability.h"
-#include "calib/model/effects/encoder_zero.h"
-#include "calib/model/effects/gravity_error.h"
-#include "calib/model/effects/gyro_g_sensitivity.h"
-#include "calib/model/effects/latitude_error.h"
-#include "calib/model/effects/lever_arm.h"
-#include "calib/model/effects/mounting.h"
-#include "calib/model/effects/nonorthogonality.h"
-#include "calib/model/effects/scale_asymmetry.h"
-#include "calib/model/effects/size_effect.h"
-#include "calib/model/effects/thermal_bias.h"
-#include "calib/model/effects/thermal_scale.h"
-#include "calib/model/effects/time_delay.h"
+#include "calib/model/effects/noise.h"
+#include "calib/model/effects/reading.h"
+#include "calib/model/effects/site.h"
+#include "calib/model/effects/table.h"
+#include "calib/model/effects/thermal.h"
+#include "calib/model/effects/time.h"
 #include "calib/model/sensor_equation.h"
 #include "calib/model/table_chain.h"
 
@@ -211,6 +211,21 @@ constexpr bool unitsInIdOrder(UnitList<U...>) {
 }
 static_assert(unitsInIdOrder(EffectUnits{}), "EffectUnits lists the units in EffectId order");
 
+// Every table-error unit adds each parameter of its row to one slot.
+template <class... U>
+constexpr bool tableSlotsMatchRows(UnitList<U...>) {
+  const auto one = [](auto unit) {
+    using Unit = decltype(unit);
+    if constexpr (kStageOf<Unit> == Stage::kTable) {
+      return Unit::kSlots.size() == kUnitInfos[static_cast<std::size_t>(Unit::kId)].params.size();
+    } else {
+      return true;
+    }
+  };
+  return (one(U{}) && ...);
+}
+static_assert(tableSlotsMatchRows(EffectUnits{}), "a table unit names one slot per parameter");
+
 // Largest flat parameter count of any unit (callers size fixed buffers with it).
 constexpr int maxUnitFlatSize() {
   int best = 0;
@@ -244,16 +259,24 @@ double valueOf(const T& x) {
   }
 }
 
-// Applies the reading-stage terms of stage S of every enabled unit, in registry order.
-template <Stage S, typename T, class... U>
-void applyStage(const EffectBlocks<T>& fx, ReadingState<T>* s, UnitList<U...>) {
+// Calls f(Unit{}, p) for every unit of stage S that is enabled (its block p not nullptr), in
+// registry order: the one loop of the passes below.
+template <Stage S, typename T, class F, class... U>
+void forEachEnabledUnit(const EffectBlocks<T>& fx, F&& f, UnitList<U...>) {
   const auto one = [&](auto unit) {
     using Unit = decltype(unit);
     if constexpr (kStageOf<Unit> == S) {
-      if (const T* p = blockOf(fx, Unit::kId)) Unit::apply(p, s);
+      if (const T* p = blockOf(fx, Unit::kId)) f(unit, p);
     }
   };
   (one(U{}), ...);
+}
+
+// Applies the reading-stage terms of stage S of every enabled unit, in registry order.
+template <Stage S, typename T>
+void applyStage(const EffectBlocks<T>& fx, ReadingState<T>* s) {
+  forEachEnabledUnit<S>(
+      fx, [s](auto unit, const T* p) { decltype(unit)::apply(p, s); }, EffectUnits{});
 }
 
 // The sensor-equation coefficients of one triad (from its kTriadSize block), prepared once.
@@ -280,17 +303,17 @@ void sensorReadings(const TriadCoefficients<T>& accel, const TriadCoefficients<T
   s->scale_g = gyro.scale;
   s->bias_g = gyro.bias;
   s->M_g = gyro.M;
-  applyStage<Stage::kBodyInput>(fx, s, EffectUnits{});
-  applyStage<Stage::kCoefficients>(fx, s, EffectUnits{});
+  applyStage<Stage::kBodyInput>(fx, s);
+  applyStage<Stage::kCoefficients>(fx, s);
   s->u_a = s->M_a * s->f_B;
   s->u_g = s->M_g * s->w_IB_B;
-  applyStage<Stage::kAxisInput>(fx, s, EffectUnits{});
-  applyStage<Stage::kAxisNonlinear>(fx, s, EffectUnits{});
+  applyStage<Stage::kAxisInput>(fx, s);
+  applyStage<Stage::kAxisNonlinear>(fx, s);
   s->u_a -= s->bias_a;
   s->u_g -= s->bias_g;
   s->accel = s->scale_a.cwiseProduct(s->u_a);
   s->gyro = s->scale_g.cwiseProduct(s->u_g);
-  applyStage<Stage::kReading>(fx, s, EffectUnits{});
+  applyStage<Stage::kReading>(fx, s);
 }
 
 // The same from the triads' parameter blocks (kTriadSize each, sensor_equation.h).
@@ -302,43 +325,26 @@ void sensorReadings(const T* accel_triad, const T* gyro_triad, const EffectBlock
 
 // Adds the kTable units' errors to the chain's axes block (kTableAxesSize) and device block
 // (kTableDeviceSize).
-template <typename T, class... U>
-void addTableEffects(const EffectBlocks<T>& fx, T* axes, T* device, UnitList<U...>) {
-  const auto one = [&](auto unit) {
-    using Unit = decltype(unit);
-    if constexpr (kStageOf<Unit> == Stage::kTable) {
-      if (const T* p = blockOf(fx, Unit::kId)) Unit::addTo(p, axes, device);
-    }
-  };
-  (one(U{}), ...);
-}
 template <typename T>
 void addTableEffects(const EffectBlocks<T>& fx, T* axes, T* device) {
-  addTableEffects(fx, axes, device, EffectUnits{});
+  forEachEnabledUnit<Stage::kTable>(
+      fx, [axes, device](auto unit, const T* p) { decltype(unit)::addTo(p, axes, device); },
+      EffectUnits{});
 }
 
 // The true joint states from the encoder states (index kTableAxisOuter / Middle / Inner) by
 // the kAngle units (each acts on the axis its p[Unit::kAxis] names).
-template <typename T, class... U>
-void trueJointStates(const EffectBlocks<T>& fx, std::array<JointState<T>, 3>* joints,
-                     UnitList<U...>) {
-  const auto one = [&](auto unit) {
-    using Unit = decltype(unit);
-    if constexpr (kStageOf<Unit> == Stage::kAngle) {
-      if (const T* p = blockOf(fx, Unit::kId)) {
-        const long axis = std::lround(valueOf(p[Unit::kAxis]));
-        if (axis >= kTableAxisOuter && axis <= kTableAxisInner) {
-          JointState<T>& j = (*joints)[static_cast<std::size_t>(axis)];
-          j = Unit::jointState(p, j);
-        }
-      }
-    }
-  };
-  (one(U{}), ...);
-}
 template <typename T>
 void trueJointStates(const EffectBlocks<T>& fx, std::array<JointState<T>, 3>* joints) {
-  trueJointStates(fx, joints, EffectUnits{});
+  const auto one = [joints](auto unit, const T* p) {
+    using Unit = decltype(unit);
+    const long axis = std::lround(valueOf(p[Unit::kAxis]));
+    if (axis >= kTableAxisOuter && axis <= kTableAxisInner) {
+      JointState<T>& j = (*joints)[static_cast<std::size_t>(axis)];
+      j = Unit::jointState(p, j);
+    }
+  };
+  forEachEnabledUnit<Stage::kAngle>(fx, one, EffectUnits{});
 }
 
 }  // namespace imubench::calib::model

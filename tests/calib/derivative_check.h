@@ -8,6 +8,8 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "calib/model/scalar.h"
+
 namespace imubench::calib::model {
 
 // Jacobian of f (a generic callable: const T* -> std::vector<T>) at x by Jets of size N.
@@ -55,6 +57,16 @@ void expectJetMatchesDifferences(const F& f, const std::vector<double>& x, doubl
     EXPECT_GT(Jj.col(k).norm(), 1e-9) << "parameter " << k << " has no effect";
   }
   EXPECT_LT((Jj - Jf).cwiseAbs().maxCoeff(), tol) << "jet:\n" << Jj << "\nfd:\n" << Jf;
+}
+
+// Appends a vector's entries, or a matrix's column-major, to a function's output.
+template <typename T>
+void append(std::vector<T>* out, const Vec3T<T>& v) {
+  for (int i = 0; i < 3; ++i) out->push_back(v[i]);
+}
+template <typename T>
+void append(std::vector<T>* out, const Mat3T<T>& m) {
+  for (int i = 0; i < 9; ++i) out->push_back(m(i % 3, i / 3));
 }
 
 }  // namespace imubench::calib::model

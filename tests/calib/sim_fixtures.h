@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 
 #include "calib/simulator.h"
@@ -48,6 +50,19 @@ inline Simulation simulateOk(const BenchWorld& w, const Motion& m, double rate,
   const Simulation s = simulate({w, m}, o);
   EXPECT_TRUE(s.ok) << s.error;
   return s;
+}
+
+// The largest difference of recording a from references over the samples: per sample
+// |dvel_a - dvel_v| + |dtheta_a - dtheta_w| (w nullptr: the velocity increments alone).
+inline double largestDifference(const Simulation& a, const Simulation& v,
+                                const Simulation* w = nullptr) {
+  double worst = 0.0;
+  for (std::size_t k = 0; k < a.imu.size(); ++k) {
+    double d = (a.imu[k].dvel - v.imu[k].dvel).norm();
+    if (w) d += (a.imu[k].dtheta - w->imu[k].dtheta).norm();
+    worst = std::max(worst, d);
+  }
+  return worst;
 }
 
 }  // namespace imubench::calib::testing

@@ -90,28 +90,39 @@ EffectBlocks<T> only(EffectId id, const std::vector<T>& block) {
   return fx;
 }
 
-template <typename T>
-void append(std::vector<T>* out, const Vec3T<T>& v) {
-  for (int i = 0; i < 3; ++i) out->push_back(v[i]);
+// A probe's point x = [the unit's real parameters | inputs] and the number n of parameters.
+struct ProbePoint {
+  std::vector<double> x;
+  int n = 0;
+};
+ProbePoint probePoint(EffectId id, const std::vector<double>& inputs) {
+  ProbePoint pt{realParams(id), 0};
+  pt.n = static_cast<int>(pt.x.size());
+  pt.x.insert(pt.x.end(), inputs.begin(), inputs.end());
+  return pt;
 }
-template <typename T>
-void append(std::vector<T>* out, const Mat3T<T>& m) {
-  for (int i = 0; i < 9; ++i) out->push_back(m(i % 3, i / 3));
+
+// The probe's function of x: body(block, in) with the unit's full parameter block and the
+// inputs (x after the n parameters), both in the scalar of x.
+template <class Body>
+auto probeFunction(EffectId id, int n, const Body& body) {
+  return [id, n, body](const auto* p) {
+    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
+    const std::vector<T> block = blockFrom(id, p);
+    return body(block, static_cast<const T*>(p + n));
+  };
 }
 
 // Reading stages: x = [params | f_B, w_IB_B, w_LB_B, wdot_LB_B, temp | accel, gyro triads].
 void readingProbe(EffectId id) {
-  std::vector<double> x = realParams(id);
-  const int n = static_cast<int>(x.size());
-  x.insert(x.end(), {0.5, -0.3, 9.79, 1e-3, 0.2, 0.5, 0.1, 0.2, 0.5, 0.1, 0.3, -0.2, 35.0});
+  std::vector<double> inputs = {0.5, -0.3, 9.79, 1e-3, 0.2,  0.5, 0.1,
+                                0.2, 0.5,  0.1,  0.3,  -0.2, 35.0};
   const std::vector<double> triad = {1.0002, 0.9997, 1.0001, 0.01,  -0.02, 0.015,
                                      1e-3,   -2e-3,  3e-3,   -1e-3, 2e-3,  -3e-3};
-  x.insert(x.end(), triad.begin(), triad.end());
-  x.insert(x.end(), triad.begin(), triad.end());
-  const auto f = [id, n](const auto* p) {
-    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
-    const std::vector<T> block = blockFrom(id, p);
-    const T* in = p + n;
+  inputs.insert(inputs.end(), triad.begin(), triad.end());
+  inputs.insert(inputs.end(), triad.begin(), triad.end());
+  const auto [x, n] = probePoint(id, inputs);
+  const auto f = probeFunction(id, n, [id]<typename T>(const std::vector<T>& block, const T* in) {
     ReadingState<T> s;
     s.f_B = vec3At(in);
     s.w_IB_B = vec3At(in + 3);
@@ -123,7 +134,7 @@ void readingProbe(EffectId id) {
     append(&out, s.accel);
     append(&out, s.gyro);
     return out;
-  };
+  });
   expectJetMatchesDifferences<kJetSize>(f, x, 1e-7, n);
   // The effect changes the readings (it is applied by the registry's forward pass).
   std::vector<double> off = x;
@@ -149,35 +160,29 @@ void physicsAtTime(const T& t, std::vector<T>* out) {
 
 // Time stages: x = [tau | stamp]; the physics at the unit's sample time.
 void timeProbe(EffectId id) {
-  std::vector<double> x = realParams(id);
-  x.push_back(1.3);
-  const auto f = [id](const auto* p) {
-    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
-    const std::vector<T> block = blockFrom(id, p);
-    const T t = id == EffectId::kTimeDelay ? effects::TimeDelay::sampleTime(block.data(), p[1])
-                                           : effects::AccelDelay::sampleTime(block.data(), p[1]);
+  const auto [x, n] = probePoint(id, {1.3});
+  const auto body = [id]<typename T>(const std::vector<T>& block, const T* in) {
+    const T t = id == EffectId::kTimeDelay ? effects::TimeDelay::sampleTime(block.data(), in[0])
+                                           : effects::AccelDelay::sampleTime(block.data(), in[0]);
     std::vector<T> out{t};
     physicsAtTime(t, &out);
     return out;
   };
-  expectJetMatchesDifferences<kJetSize>(f, x, 1e-7, 2);
+  expectJetMatchesDifferences<kJetSize>(probeFunction(id, n, body), x, 1e-7, n + 1);
 }
 
 // Site stages: x = [parameter | assumed value]; the true value and what it feeds.
 void siteProbe(EffectId id) {
-  std::vector<double> x = realParams(id);
-  x.push_back(id == EffectId::kLatitudeError ? 0.97 : 9.81);
-  const auto f = [id](const auto* p) {
-    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
+  const auto [x, n] = probePoint(id, {id == EffectId::kLatitudeError ? 0.97 : 9.81});
+  const auto body = [id]<typename T>(const std::vector<T>& block, const T* in) {
     using std::cos;
     using std::sin;
-    const std::vector<T> block = blockFrom(id, p);
     std::vector<T> out;
     if (id == EffectId::kLatitudeError) {
-      const T lat = effects::LatitudeError::latitude(block.data(), p[1]);
+      const T lat = effects::LatitudeError::trueValue(block.data(), in[0]);
       out = {lat, cos(lat), sin(lat)};
     } else {
-      const T g = effects::GravityError::gravity(block.data(), p[1]);
+      const T g = effects::GravityError::trueValue(block.data(), in[0]);
       ChainKinematics<T> k;
       k.C_LB = smallRotation(Vec3T<T>(T(0.1), T(-0.2), T(0.3)));
       const Physics<T> ph = benchPhysics(k, g, Vec3T<T>::Zero().eval());
@@ -186,18 +191,14 @@ void siteProbe(EffectId id) {
     }
     return out;
   };
-  expectJetMatchesDifferences<kJetSize>(f, x, 1e-7, 2);
+  expectJetMatchesDifferences<kJetSize>(probeFunction(id, n, body), x, 1e-7, n + 1);
 }
 
 // Table stages: x = [params | encoder angles, rates, accelerations of a three-axis table
 // (every table parameter acts there)]; C_LB, w_LB_B, wdot_LB_B of the chain with the errors.
 void tableProbe(EffectId id) {
-  std::vector<double> x = realParams(id);
-  const int n = static_cast<int>(x.size());
-  x.insert(x.end(), {0.7, -1.1, 2.3, 0.4, -0.3, 0.9, 0.2, 0.5, -0.6});
-  const auto f = [id, n](const auto* p) {
-    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
-    const std::vector<T> block = blockFrom(id, p);
+  const auto [x, n] = probePoint(id, {0.7, -1.1, 2.3, 0.4, -0.3, 0.9, 0.2, 0.5, -0.6});
+  const auto body = [id]<typename T>(const std::vector<T>& block, const T* a) {
     std::array<T, kTableAxesSize> axes;
     std::array<T, kTableDeviceSize> device;
     axes.fill(T(0.0));
@@ -205,7 +206,6 @@ void tableProbe(EffectId id) {
     addTableEffects(only(id, block), axes.data(), device.data());
     const TableKind kind = TableKind::kThreeAxis;
     const ChainErrors<T> e = chainErrors(kind, axes.data(), device.data());
-    const T* a = p + n;
     const ChainKinematics<T> k =
         chainKinematics(chainFactors(kind, 0.0, e), JointState<T>{a[0] + e.zero_outer, a[3], a[6]},
                         JointState<T>{a[1] + e.zero_middle, a[4], a[7]},
@@ -216,19 +216,14 @@ void tableProbe(EffectId id) {
     append(&out, k.wdot_LB_B);
     return out;
   };
-  expectJetMatchesDifferences<kJetSize>(f, x, 1e-7, n);
+  expectJetMatchesDifferences<kJetSize>(probeFunction(id, n, body), x, 1e-7, n);
 }
 
 // Angle stages: x = [real params | encoder angle, rate, acceleration of each axis]; the true
 // joint states and the three-axis chain's kinematics from them.
 void angleProbe(EffectId id) {
-  std::vector<double> x = realParams(id);
-  const int n = static_cast<int>(x.size());
-  x.insert(x.end(), {0.7, 0.4, 0.2, -1.1, -0.3, 0.5, 2.3, 0.9, -0.6});
-  const auto f = [id, n](const auto* p) {
-    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
-    const std::vector<T> block = blockFrom(id, p);
-    const T* a = p + n;
+  const auto [x, n] = probePoint(id, {0.7, 0.4, 0.2, -1.1, -0.3, 0.5, 2.3, 0.9, -0.6});
+  const auto body = [id]<typename T>(const std::vector<T>& block, const T* a) {
     std::array<JointState<T>, 3> joints = {JointState<T>{a[0], a[1], a[2]},
                                            JointState<T>{a[3], a[4], a[5]},
                                            JointState<T>{a[6], a[7], a[8]}};
@@ -242,29 +237,25 @@ void angleProbe(EffectId id) {
     append(&out, k.wdot_LB_B);
     return out;
   };
-  expectJetMatchesDifferences<kJetSize>(f, x, 1e-7, n);
+  expectJetMatchesDifferences<kJetSize>(probeFunction(id, n, body), x, 1e-7, n);
 }
 
 // Noise stage: x = [accel B, gyro B, tau_s | averaging time]; the Gauss-Markov parameters of
 // every axis and their Allan deviation at the averaging time.
 void noiseProbe(EffectId id) {
-  std::vector<double> x = realParams(id);
-  const int n = static_cast<int>(x.size());
-  x.push_back(30.0);
-  const auto f = [id, n](const auto* p) {
-    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
-    const std::vector<T> block = blockFrom(id, p);
+  const auto [x, n] = probePoint(id, {30.0});
+  const auto body = []<typename T>(const std::vector<T>& block, const T* tau) {
     std::vector<T> out;
     for (int k = 0; k < 6; ++k) {
       T sigma, t_c;
       effects::BiasInstability::gaussMarkov(block.data(), block[static_cast<std::size_t>(k)],
                                             &sigma, &t_c);
       out.insert(out.end(),
-                 {sigma, t_c, effects::BiasInstability::allanDeviation(sigma, t_c, p[n])});
+                 {sigma, t_c, effects::BiasInstability::allanDeviation(sigma, t_c, tau[0])});
     }
     return out;
   };
-  expectJetMatchesDifferences<kJetSize>(f, x, 1e-7, n);
+  expectJetMatchesDifferences<kJetSize>(probeFunction(id, n, body), x, 1e-7, n);
 }
 
 class EffectDerivatives : public ::testing::TestWithParam<EffectId> {};

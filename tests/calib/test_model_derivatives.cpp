@@ -23,15 +23,6 @@ void expectDerivativesAgree(const F& f, const std::vector<double>& x, double tol
   expectJetMatchesDifferences<kJetSize>(f, x, tol, static_cast<int>(x.size()));
 }
 
-template <typename T>
-void append(std::vector<T>* out, const Vec3T<T>& v) {
-  for (int i = 0; i < 3; ++i) out->push_back(v[i]);
-}
-template <typename T>
-void append(std::vector<T>* out, const Mat3T<T>& m) {
-  for (int i = 0; i < 9; ++i) out->push_back(m(i % 3, i / 3));
-}
-
 std::vector<double> triadParams() {
   return {1.0002, 0.9997, 1.0001,                       // scale
           0.01,   -0.02,  0.015,                        // bias

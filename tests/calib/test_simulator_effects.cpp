@@ -15,6 +15,7 @@ namespace {
 using testing::delayTestMotion;
 using testing::idealWorld;
 using testing::kLat;
+using testing::largestDifference;
 using testing::twoAxis;
 
 constexpr double kRate = 100.0;
@@ -55,24 +56,14 @@ TEST(SimulatorEffects, AccelDelayShiftsOnlyTheAccelerometers) {
   const Simulation a = run(delayed, delayTestMotion());
   const Simulation later = run(idealWorld(), delayTestMotion(tau));
   const Simulation now = run(idealWorld(), delayTestMotion());
-  double worst = 0.0, moved = 0.0;
-  for (std::size_t k = 0; k < a.imu.size(); ++k) {
-    worst = std::max(worst, (a.imu[k].dvel - later.imu[k].dvel).norm() +
-                                (a.imu[k].dtheta - now.imu[k].dtheta).norm());
-    moved = std::max(moved, (a.imu[k].dvel - now.imu[k].dvel).norm());
-  }
-  EXPECT_LT(worst, 1e-13);
-  EXPECT_GT(moved, 1e-5);
+  EXPECT_LT(largestDifference(a, later, &now), 1e-13);
+  EXPECT_GT(largestDifference(a, now), 1e-5);
   // With time_delay too, the accelerometers are tau_s + accel tau behind the table clock.
   BenchWorld both = delayed;
   both.truth.extra.time_delay = TimeDelay{0.002};
   const Simulation c = run(both, delayTestMotion());
   const Simulation c_ref = run(idealWorld(), delayTestMotion(tau + 0.002));
-  worst = 0.0;
-  for (std::size_t k = 0; k < c.imu.size(); ++k) {
-    worst = std::max(worst, (c.imu[k].dvel - c_ref.imu[k].dvel).norm());
-  }
-  EXPECT_LT(worst, 1e-13);
+  EXPECT_LT(largestDifference(c, c_ref), 1e-13);
 }
 
 TEST(SimulatorEffects, AngleHarmonicAddsItsAngleErrorToTheGyro) {
@@ -132,14 +123,8 @@ TEST(SimulatorEffects, TableEffectsAreTheTableErrors) {
     BenchWorld ref = base;
     ref.truth.table = c.errors;
     const Simulation a = run(on, m), b = run(ref, m);
-    double same = 0.0, moved = 0.0;
-    for (std::size_t k = 0; k < a.imu.size(); ++k) {
-      same = std::max(same, (a.imu[k].dvel - b.imu[k].dvel).norm() +
-                                (a.imu[k].dtheta - b.imu[k].dtheta).norm());
-      moved = std::max(moved, (a.imu[k].dvel - plain.imu[k].dvel).norm());
-    }
-    EXPECT_LT(same, 1e-15) << effectName(c.id);
-    EXPECT_GT(moved, 1e-7) << effectName(c.id);
+    EXPECT_LT(largestDifference(a, b, &b), 1e-15) << effectName(c.id);
+    EXPECT_GT(largestDifference(a, plain), 1e-7) << effectName(c.id);
   }
 }
 

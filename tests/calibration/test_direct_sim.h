@@ -7,6 +7,7 @@
 #include <string>
 
 #include "calib/direct_calibration.h"
+#include "calib/observability.h"
 #include "calib/simulator.h"
 #include "test_indirect_plan_loader.h"
 
@@ -29,6 +30,13 @@ inline nav::Site exampleSite() {
   s.latitude_rad = 58.0 * kDegToRad;  // Perm
   s.height_m = 170.0;
   return s;
+}
+
+// The plan analysis of a motion for the navigation-based calibration at exampleSite.
+inline PlanObservability indirectPlanAnalysis(const Motion& motion) {
+  PlanObservabilityOptions po;
+  po.site = exampleSite();
+  return analysePlanObservability(motion, CalibrationMethod::kIndirect, po);
 }
 
 inline DirectCalibrationInput simulateDirect(const Motion& motion, const SensorModel& sensors,

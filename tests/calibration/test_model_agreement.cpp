@@ -12,7 +12,6 @@
 namespace imubench::calib {
 namespace {
 
-using testing::exampleSite;
 using testing::libraryMotion;
 
 // Orthogonal projector onto the span of the first k eigenvectors of an analysis (ascending
@@ -35,9 +34,7 @@ class ModelAgreement : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ModelAgreement, PlanAnalysisAndCalibratorJacobianShareTheNullSpace) {
   const Motion motion = libraryMotion(GetParam());
-  PlanObservabilityOptions po;
-  po.site = exampleSite();
-  const PlanObservability plan = analysePlanObservability(motion, CalibrationMethod::kIndirect, po);
+  const PlanObservability plan = testing::indirectPlanAnalysis(motion);
   ASSERT_TRUE(plan.model_analysis.ok) << plan.model_analysis.reason;
 
   // A recording of the nominal bench (the plan analysis linearises there; the calibrator's
@@ -45,11 +42,7 @@ TEST_P(ModelAgreement, PlanAnalysisAndCalibratorJacobianShareTheNullSpace) {
   const DirectCalibrationInput rec =
       testing::simulateDirect(motion, SensorModel{}, TableErrors{}, NoiseModel{}, 100.0, 10.0);
   IndirectInput in;
-  in.site = rec.site;
-  in.geometry = rec.geometry;
-  in.imu = rec.imu;
-  in.table = rec.table;
-  in.segments = rec.segments;
+  in.recording() = viewOf(rec);
   const IndirectJacobian cal = indirectJacobian(in, IndirectOptions{});
   ASSERT_TRUE(cal.ok) << cal.error;
   const InformationAnalysis cal_info = analyseInformation(cal.jacobian, cal.names);

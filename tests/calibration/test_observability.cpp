@@ -116,9 +116,7 @@ class NavigationPlans : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(NavigationPlans, CalibratorFixesExactlyWhatThePlanAnalysisCannotSee) {
   const Motion motion = libraryMotion(GetParam());
-  PlanObservabilityOptions po;
-  po.site = exampleSite();
-  const PlanObservability plan = analysePlanObservability(motion, CalibrationMethod::kIndirect, po);
+  const PlanObservability plan = testing::indirectPlanAnalysis(motion);
   ASSERT_TRUE(plan.model_analysis.ok) << plan.model_analysis.reason;
   std::set<std::string> blind_by_plan;
   for (std::size_t k = 0; k < plan.model_analysis.names.size(); ++k) {
@@ -131,11 +129,7 @@ TEST_P(NavigationPlans, CalibratorFixesExactlyWhatThePlanAnalysisCannotSee) {
   const DirectCalibrationInput rec = testing::simulateDirect(
       motion, testing::exampleSensors(), table, NoiseModel::navigationGrade(), 100.0, 10.0);
   IndirectInput in;
-  in.site = rec.site;
-  in.geometry = rec.geometry;
-  in.imu = rec.imu;
-  in.table = rec.table;
-  in.segments = rec.segments;
+  in.recording() = viewOf(rec);
   const CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
   ASSERT_TRUE(r.ok) << r.error;
   const std::set<std::string> fixed(r.conditioning.fixed_unobservable.begin(),

@@ -49,16 +49,7 @@ inline ExplainInput simulatedExplainInput(const SimulatedRecording& rec) {
   BaselineInput bin{rec.geometry, rec.site, rec.sim.imu, rec.sim.table, rec.sim.segments};
   const BaselineCalibration base = calibrateBaseline(bin);
   EXPECT_TRUE(base.ok) << base.error;
-  ExplainInput in;
-  in.geometry = rec.geometry;
-  in.site = rec.site;
-  in.imu = rec.sim.imu;
-  in.table = rec.sim.table;
-  in.segments = rec.sim.segments;
-  in.baseline = base.coefficients;
-  in.baseline_method = base.method;
-  in.baseline_table_params = base.table_params;
-  return in;
+  return explainInput(bin, base);
 }
 
 // Baseline calibrated from the recording itself, then the analysis.

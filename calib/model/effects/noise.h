@@ -1,13 +1,15 @@
-// bias_instability: accel (m/s^2), gyro (rad/s) per axis: the Allan-deviation minimum (the
-// flat bottom of the curve) the slow random bias drift makes; tau_s (s): the averaging time
-// where it occurs. A noise process, not a deterministic term: the simulator adds to each axis'
-// reading a first-order Gauss-Markov bias b (E[b^2] = sigma^2, correlation time T_c) whose own
-// Allan deviation
-//   sigma_A(tau)^2 = sigma^2 (2x - 3 + 4 e^-x - e^-2x) / x^2,  x = tau / T_c,
-// has its maximum, kAllanPeakRatio sigma, at x = kAllanPeakX: T_c = tau_s / kAllanPeakX and
-// sigma = B / kAllanPeakRatio put that maximum B at tau_s. (The curve of white noise plus this
-// drift has its minimum near tau_s when the white noise's N / sqrt(tau_s) is below B.)
+// The noise unit (Stage::kNoise), a random process the simulator adds, not a deterministic term.
+//   bias_instability: accel (m/s^2), gyro (rad/s) per axis: the Allan-deviation minimum (the
+//   flat bottom of the curve) the slow random bias drift makes; tau_s (s): the averaging time
+//   where it occurs. The simulator adds to each axis' reading a first-order Gauss-Markov bias b
+//   (E[b^2] = sigma^2, correlation time T_c) whose own Allan deviation
+//     sigma_A(tau)^2 = sigma^2 (2x - 3 + 4 e^-x - e^-2x) / x^2,  x = tau / T_c,
+//   has its maximum, kAllanPeakRatio sigma, at x = kAllanPeakX: T_c = tau_s / kAllanPeakX and
+//   sigma = B / kAllanPeakRatio put that maximum B at tau_s. (The curve of white noise plus
+//   this drift has its minimum near tau_s when the white noise's N / sqrt(tau_s) is below B.)
 #pragma once
+
+#include <cmath>
 
 #include "calib/model/effect_unit.h"
 
