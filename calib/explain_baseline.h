@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/fit_quality.h"
 #include "calib/simulator.h"
 #include "calib/static_detection.h"
 #include "calib/table_model.h"
@@ -31,8 +32,8 @@ struct BaselineInput {
 };
 
 struct BaselineCalibration {
-  bool ok = false;
-  std::string error;   // why neither method could calibrate the recording
+  // The chosen method's status; kFailed with why neither method could calibrate the recording.
+  FitStatus status = FitStatus::Failed("not calibrated");
   std::string method;  // "direct" | "indirect"
   CoefficientReport coefficients;
   std::vector<std::string> table_params;  // table coefficients the method estimated (flat names)

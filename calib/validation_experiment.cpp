@@ -241,8 +241,8 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
     in.direct.segments = r.direct_sim->segments;
     in.navigation.push_back({sim.imu, sim.table, sim.segments});
     const BenchCalibrationResult res = calibrateBench(in, bo);
-    if (!res.ok) {
-      b.error = std::string(r.name) + ": " + res.error;
+    if (!res.status.HasResult()) {
+      b.error = std::string(r.name) + ": " + res.status.message;
       return b;
     }
     if (r.set == 1) b.coefficients[0] = res.direct.report.values.sensors;

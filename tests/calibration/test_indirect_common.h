@@ -116,7 +116,7 @@ inline constexpr double kBiasSigmaBound = 4.0;
 // (estimate - truth) / sigma of the six biases.
 inline std::vector<double> biasZScores(const Outcome& o) {
   std::vector<double> z;
-  if (!o.result.ok) return z;
+  if (!o.result.status.HasResult()) return z;
   BenchTruth truth;
   truth.sensors = o.expected.sensors;
   const CoefficientReport& r = o.result.coefficients;
@@ -134,7 +134,7 @@ inline std::vector<double> biasZScores(const Outcome& o) {
 // allow_fixed: parameters the plan cannot see may be held at the start values (then they must
 // still meet the targets: the start is the direct calibration).
 inline void expectAccurate(const Outcome& o, bool allow_fixed = false) {
-  ASSERT_TRUE(o.result.ok) << o.result.error;
+  ASSERT_TRUE(o.result.status.HasResult()) << o.result.status.message;
   const CoefficientReport& r = o.result.coefficients;
   BenchTruth truth;
   truth.sensors = o.expected.sensors;

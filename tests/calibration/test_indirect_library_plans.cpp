@@ -63,8 +63,8 @@ Outcome runLibrary(const char* plan, const char* direct_plan, TableKind kind, st
   in.direct.segments = direct_sim.segments;
   in.navigation.push_back({nav_sim.imu, nav_sim.table, nav_sim.segments});
   const BenchCalibrationResult r = calibrateBench(in);
-  if (!r.ok) {
-    ADD_FAILURE() << r.error;
+  if (!r.status.HasResult()) {
+    ADD_FAILURE() << r.status.message;
     return o;
   }
   if (nonorthogonal_table) {

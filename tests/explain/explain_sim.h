@@ -48,7 +48,7 @@ inline SimulatedRecording simulateWith(const Motion& motion, const EffectSet& ef
 inline ExplainInput simulatedExplainInput(const SimulatedRecording& rec) {
   BaselineInput bin{rec.geometry, rec.site, rec.sim.imu, rec.sim.table, rec.sim.segments};
   const BaselineCalibration base = calibrateBaseline(bin);
-  EXPECT_TRUE(base.ok) << base.error;
+  EXPECT_TRUE(base.status.HasResult()) << base.status.message;
   ExplainInput in;
   in.geometry = rec.geometry;
   in.site = rec.site;
@@ -68,7 +68,7 @@ inline ExplainResult explainSimulated(const SimulatedRecording& rec,
 }
 
 inline std::string summary(const ExplainResult& r) {
-  std::string s = "baseline " + r.baseline_method + ", error '" + r.error + "'\n";
+  std::string s = "baseline " + r.baseline_method + ", error '" + r.status.message + "'\n";
   for (const ExplainAccepted& a : r.accepted) {
     s += "  accepted " + a.effect + " dBIC " + std::to_string(a.delta_bic) + ":";
     for (std::size_t k = 0; k < a.values.size(); ++k) {

@@ -23,7 +23,7 @@ TEST(ExplainEngine, DirectPlanLeverArm) {
   e.lever_arm->r_m = Vec3(0.05, -0.03, 0.02);
   const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), e, 3);
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   const ExplainAccepted* a = findAccepted(r, "lever_arm");
   ASSERT_NE(a, nullptr);
@@ -33,7 +33,7 @@ TEST(ExplainEngine, DirectPlanLeverArm) {
 TEST(ExplainEngine, DirectPlanClean) {
   const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), EffectSet{}, 4);
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   EXPECT_TRUE(r.accepted.empty());
 }
@@ -49,7 +49,7 @@ TEST(ExplainEngine, DirectPlanCannotSeparateBaseTiltFromEncoderZero) {
   e.base_tilt->x = 20.0 / 206264.8;  // 20 arcsec
   const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), e, 8);
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   bool pair = false;
   for (const ExplainUnseparable& u : r.unseparable) {
@@ -80,7 +80,7 @@ TEST(ExplainEngine, BiasStepOutsideTheLibraryIsUnexplainedWhereItIs) {
     t_prev = s.t;
   }
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   EXPECT_TRUE(r.accepted.empty());
   ASSERT_FALSE(r.unexplained.empty());
@@ -113,7 +113,7 @@ double worstRunSigmas(const ExplainResult& r, bool after) {
 TEST(ExplainEngine, NavigationResidualPerRunBeforeAndAfter) {
   const SimulatedRecording rec = simulateWith(libraryMotion("two_axis_12run"), EffectSet{}, 5);
   const ExplainResult clean = explainSimulated(rec);
-  ASSERT_TRUE(clean.ok) << clean.error;
+  ASSERT_TRUE(clean.status.ok) << clean.status.message;
   ASSERT_EQ(clean.runs.size(), 12u);
   EXPECT_LT(worstRunSigmas(clean, false), 5.0);
   EXPECT_LT(worstRunSigmas(clean, true), 5.0);
@@ -122,7 +122,7 @@ TEST(ExplainEngine, NavigationResidualPerRunBeforeAndAfter) {
   ExplainInput in = simulatedExplainInput(rec);
   in.baseline.values.sensors.gyro.mis.yz += 1e-4;  // 20.6 arcsec
   const ExplainResult off = explainRecording(in);
-  ASSERT_TRUE(off.ok) << off.error;
+  ASSERT_TRUE(off.status.ok) << off.status.message;
   ASSERT_EQ(off.runs.size(), 12u);
   EXPECT_GT(worstRunSigmas(off, false), 10.0);
   EXPECT_LT(worstRunSigmas(off, true), 5.0);
