@@ -68,8 +68,8 @@ bool simulateRun(const BenchTruth& truth, const Motion& motion, const Validation
   so.table_rate_hz = o.table_rate_hz;
   so.seed = seed;
   *out = simulate(si, so);
-  if (!out->ok) *why = out->error;
-  return out->ok;
+  if (!out->status.ok) *why = out->status.message;
+  return out->status.ok;
 }
 
 // Compensated increments: dth_c = G_g dth + h_g dt (exact inverse of eq. 1), same for dv.

@@ -44,7 +44,7 @@ TEST(IndirectCalibration, IgnoringBaseTiltBiasesAccelMisalignment) {
   so.imu_rate_hz = 100.0;
   so.table_rate_hz = 10.0;
   const Simulation sim = simulate(si, so);
-  ASSERT_TRUE(sim.ok) << sim.error;
+  ASSERT_TRUE(sim.status.ok) << sim.status.message;
   IndirectInput in;
   in.site = si.world.site;
   in.imu = sim.imu;

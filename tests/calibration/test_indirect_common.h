@@ -86,7 +86,7 @@ inline Outcome runBench(const Motion& motion, const Bench& bench, std::uint64_t 
   so.table_rate_hz = 10.0;
   so.seed = seed;
   const Simulation sim = simulate(si, so);
-  EXPECT_TRUE(sim.ok) << sim.error;
+  EXPECT_TRUE(sim.status.ok) << sim.status.message;
 
   IndirectInput in;
   in.site = si.world.site;

@@ -38,7 +38,7 @@ inline SimulatedRecording simulateWith(const Motion& motion, const EffectSet& ef
   so.seed = seed;
   SimulatedRecording r;
   r.sim = simulate(si, so);
-  EXPECT_TRUE(r.sim.ok) << r.sim.error;
+  EXPECT_TRUE(r.sim.status.ok) << r.sim.status.message;
   r.site = si.world.site;
   r.geometry.kind = motion.kind;
   return r;
