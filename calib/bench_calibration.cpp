@@ -55,56 +55,47 @@ bool BenchCalibrationOptions::IsValid(std::string* why) const {
   return direct.IsValid(why) && indirect.IsValid(why);
 }
 
-namespace {
-
-// The pipeline; calibrateBench adds the status.
-BenchCalibrationResult runBench(const BenchCalibrationInput& in, const BenchCalibrationOptions& o) {
+BenchCalibrationResult calibrateBench(const BenchCalibrationInput& in,
+                                      const BenchCalibrationOptions& o) {
   BenchCalibrationResult r;
   std::string why;
   if (!o.IsValid(&why)) {
-    r.error = "invalid options: " + why;
+    r.status = FitStatus::Failed("invalid options: " + why);
     return r;
   }
   r.direct = calibrateDirect(in.direct, o.direct);
-  if (!r.direct.ok) {
-    r.error = "direct calibration: " + r.direct.reason;
+  if (!r.direct.status.HasResult()) {
+    r.status = FitStatus::Failed("direct calibration: " + r.direct.status.message);
     return r;
   }
   r.direct_final = r.direct;
   r.refined = refine(in, r.direct, o.direct.known_table_errors, o.indirect);
   r.passes = 1;
-  if (!r.refined.ok) {
-    r.error = "navigation-based refinement: " + r.refined.error;
+  if (!r.refined.status.HasResult()) {
+    r.status = FitStatus::Failed("navigation-based refinement: " + r.refined.status.message);
     return r;
   }
   if (!nonorthogonalitySignificant(r.refined, o.nonorthogonality_significance_sigma)) {
-    r.ok = true;
+    r.status = r.refined.status;
     return r;
   }
   // Second pass: the direct calibration against the table's real axes.
   DirectCalibrationOptions d2 = o.direct;
   d2.known_table_errors.nonorthogonality = r.refined.coefficients.values.table.nonorthogonality;
   r.direct_final = calibrateDirect(in.direct, d2);
-  if (!r.direct_final.ok) {
-    r.error = "direct calibration with the estimated nonorthogonality: " + r.direct_final.reason;
+  if (!r.direct_final.status.HasResult()) {
+    r.status = FitStatus::Failed("direct calibration with the estimated nonorthogonality: " +
+                                 r.direct_final.status.message);
     return r;
   }
   r.refined = refine(in, r.direct_final, d2.known_table_errors, o.indirect);
   r.passes = 2;
-  if (!r.refined.ok) {
-    r.error = "navigation-based refinement (second pass): " + r.refined.error;
+  if (!r.refined.status.HasResult()) {
+    r.status =
+        FitStatus::Failed("navigation-based refinement (second pass): " + r.refined.status.message);
     return r;
   }
-  r.ok = true;
-  return r;
-}
-
-}  // namespace
-
-BenchCalibrationResult calibrateBench(const BenchCalibrationInput& in,
-                                      const BenchCalibrationOptions& o) {
-  BenchCalibrationResult r = runBench(in, o);
-  r.status = r.ok ? r.refined.status : FitStatus::Failed(r.error);
+  r.status = r.refined.status;
   return r;
 }
 

@@ -43,14 +43,13 @@ struct BenchCalibrationOptions {
 };
 
 struct BenchCalibrationResult {
-  bool ok = false;
-  std::string error;                     // which stage failed and why
+  // Whether the final coefficients can be used: the refinement's status, or kFailed with a
+  // message naming which stage failed and why.
+  FitStatus status = FitStatus::Failed("not calibrated");
   DirectCalibrationResult direct;        // (0): the first, table-unaware direct calibration
   DirectCalibrationResult direct_final;  // the direct calibration the refinement started from
   CalibrationResult refined;             // the final refinement
   int passes = 0;                        // 1, or 2 when the nonorthogonality was fed back
-  // Whether the final coefficients can be used: the refinement's status (kFailed when !ok).
-  FitStatus status;
 };
 
 BenchCalibrationResult calibrateBench(const BenchCalibrationInput& input,

@@ -34,11 +34,11 @@ struct Conditioning {
 };
 
 struct CalibrationResult {
-  bool ok = false;
-  std::string error;  // why not, when !ok (bad input, solver failure): names the cause
-  // Whether the coefficients can be used (calib/fit_quality.h): residuals far above the noise
-  // or a coefficient the data do not determine make an unusable result even when ok.
-  FitStatus status;
+  // kFailed (message names the cause: bad input, solver failure) until the calibration ran
+  // (status.HasResult()). Whether the coefficients can be used (calib/fit_quality.h):
+  // residuals far above the noise or a coefficient the data do not determine make it
+  // kUnusable even then.
+  FitStatus status = FitStatus::Failed("not calibrated");
   CoefficientReport coefficients;
   Conditioning conditioning;
   std::string solver_report;  // Ceres BriefReport of the final solve

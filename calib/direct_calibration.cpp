@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <utility>
 
 #include "calib/observability.h"
 #include "calib/option_check.h"
@@ -564,7 +565,7 @@ std::string checkInput(const DirectCalibrationInput& in, const DirectCalibration
   if (in.imu.size() < 2) return "recording has fewer than 2 IMU samples";
   if (in.table.empty()) return "recording has no table samples";
   const RecordingCheck check = checkIncrements(in.imu, o.checks, "recording", in.segments);
-  return check.ok() ? "" : check.reason;
+  return check.ok ? "" : check.message;
 }
 
 // Every usable static and rate run of the recording as rows (spans: each gyro row's segment
@@ -599,18 +600,17 @@ void collectRows(const DirectCalibrationInput& in, const DirectCalibrationOption
 DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
                                         const DirectCalibrationOptions& o) {
   DirectCalibrationResult res;
-  res.reason = checkInput(in, o);
-  if (!res.reason.empty()) {
-    res.status = FitStatus::Failed(res.reason);
+  if (std::string why = checkInput(in, o); !why.empty()) {
+    res.status = FitStatus::Failed(std::move(why));
     return res;
   }
   DirectRows rows;
   std::vector<std::pair<double, double>> spans;
   collectRows(in, o, &rows, &spans, &res);
   if (res.statics_used < 4) {
-    res.reason = "only " + std::to_string(res.statics_used) +
-                 " usable static positions: need >= 4 (12 accelerometer unknowns, 4 per axis)";
-    res.status = FitStatus::Failed(res.reason);
+    res.status = FitStatus::Failed(
+        "only " + std::to_string(res.statics_used) +
+        " usable static positions: need >= 4 (12 accelerometer unknowns, 4 per axis)");
     return res;
   }
   setRowNoise(&rows);
@@ -627,7 +627,6 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
   res.notes.push_back(
       "table errors are not estimated by direct calibration: they leak into the coefficients "
       "(mounting into both triads' misalignments, base tilt into the accelerometers')");
-  res.ok = true;
   judgeDirect(rows, acc_ss, gyr_ss, o, &res);
   return res;
 }
@@ -635,15 +634,18 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
 DirectObservations directObservations(const DirectCalibrationInput& in,
                                       const DirectCalibrationOptions& o) {
   DirectObservations out;
-  out.reason = checkInput(in, o);
-  if (!out.reason.empty()) return out;
+  if (std::string why = checkInput(in, o); !why.empty()) {
+    out.status = Status::Error(std::move(why));
+    return out;
+  }
   DirectCalibrationResult counts;
   DirectRows rows;
   std::vector<std::pair<double, double>> spans;
   collectRows(in, o, &rows, &spans, &counts);
   out.notes = counts.notes;
   if (counts.statics_used < 4) {
-    out.reason = "only " + std::to_string(counts.statics_used) + " usable static positions";
+    out.status =
+        Status::Error("only " + std::to_string(counts.statics_used) + " usable static positions");
     return out;
   }
   setRowNoise(&rows);
@@ -659,7 +661,7 @@ DirectObservations directObservations(const DirectCalibrationInput& in,
     }
     if (is_static) ++s;
   }
-  out.ok = true;
+  out.status = Status::Ok();
   return out;
 }
 

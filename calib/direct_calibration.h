@@ -86,12 +86,11 @@ struct DirectCalibrationOptions {
 };
 
 struct DirectCalibrationResult {
-  bool ok = false;     // the fit ran (payload filled); check status before using it
-  std::string reason;  // why not, when !ok (bad input, nothing to fit)
-  // Whether the coefficients can be used (ok and status.IsSolutionUsable()): the table taken
-  // as nominal while it has errors, swapped columns or a plan that leaves a coefficient
-  // undetermined give status kUnusable with the reasons and the largest residuals.
-  FitStatus status;
+  // kFailed (message: why; bad input, nothing to fit) until the fit ran and filled the payload
+  // (status.HasResult()). Whether the coefficients can be used (status.IsSolutionUsable()):
+  // the table taken as nominal while it has errors, swapped columns or a plan that leaves a
+  // coefficient undetermined give status kUnusable with the reasons and the largest residuals.
+  FitStatus status = FitStatus::Failed("not calibrated");
   double normalised_residual_rms = 0.0;  // static and rotation rows, residual / noise sigma
   // Accel and gyro coefficients (report.values.sensors), sigmas and unobservable flags by
   // flat name; report.values.table stays zero (direct calibration does not estimate it).
@@ -119,8 +118,7 @@ struct DirectObservation {
 };
 
 struct DirectObservations {
-  bool ok = false;
-  std::string reason;  // why not (bad input, fewer than 4 usable statics)
+  Status status = Status::Error("no observations collected");  // why not: bad input, < 4 statics
   std::vector<DirectObservation> rows;
   std::vector<std::string> notes;  // skipped segments
 };

@@ -461,7 +461,7 @@ std::string checkInput(const ExplainInput& in, const ExplainOptions& o,
   if (!o.IsValid(&why)) return "options: " + why;
   // Gaps between segments (a daemon restart during a run) are allowed, as for calibration.
   const RecordingCheck c = checkIncrements(in.imu, o.checks, "recording", in.segments);
-  if (!c.ok()) return c.reason;
+  if (!c.ok) return c.message;
   if (in.table.size() < 2) return "the recording has no table angles (imu.csv needs table.csv)";
   if (holds.empty()) {
     return "the recording has no static hold of at least " +
@@ -1034,11 +1034,13 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
     q = selectAndRefit(&p, o, &eval, withoutCandidates(q, p.start), log_n, true);
   }
   if (!q.fit.ok) {
-    res.error = q.fit.error;
+    res.status = Status::Error(q.fit.error);
     return res;
   }
-  res.error = givenMismatch(p, o, q.fit.state.model);
-  if (!res.error.empty()) return res;
+  if (std::string why = givenMismatch(p, o, q.fit.state.model); !why.empty()) {
+    res.status = Status::Error(std::move(why));
+    return res;
+  }
   res.scale = q.scale;
   res.correlation = q.correlation;
   res.unseparable = q.gate.unseparable;
@@ -1064,7 +1066,7 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
     if (id && !accepted && !p.start.model.extra.has(*id))
       res.coefficients.values.extra.disable(*id);
   }
-  res.ok = true;
+  res.status = Status::Ok();
   return res;
 }
 
@@ -1159,18 +1161,20 @@ void listHarmonicVariants(const ExplainData& data, const ExplainOptions& o, Expl
 ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
   ExplainResult res;
   const std::vector<HoldReadings> holds = staticHolds(in, o);
-  res.error = checkInput(in, o, holds);
-  if (!res.error.empty()) return res;
+  if (std::string why = checkInput(in, o, holds); !why.empty()) {
+    res.status = Status::Error(std::move(why));
+    return res;
+  }
   ExplainProblem p;
   p.noise = noiseFloor(holds, o.noise);
   if (!p.noise.ok) {
-    res.error = "the static holds are too short for an Allan deviation";
+    res.status = Status::Error("the static holds are too short for an Allan deviation");
     return res;
   }
   const ExplainData data =
       prepareExplainData(in.geometry, in.site, in.imu, in.table, in.segments, o.model);
   if (data.bins.empty()) {
-    res.error = "no IMU sample lies within the span of the encoder samples";
+    res.status = Status::Error("no IMU sample lies within the span of the encoder samples");
     return res;
   }
   ExplainPredictor predictor(&data);
@@ -1185,7 +1189,7 @@ ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) 
   p.baseline_method = in.baseline_method;
   listHarmonicVariants(data, o, &p);
   res = analyseProblem(p, o);
-  if (!res.ok) return res;
+  if (!res.status.ok) return res;
   res.runs = runResiduals(in, res.coefficients.values);
   if (const std::string n = navigationNote(res.runs); !n.empty()) res.notes.push_back(n);
   return res;

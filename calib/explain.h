@@ -184,8 +184,7 @@ struct ExplainRunResidual {
 };
 
 struct ExplainResult {
-  bool ok = false;
-  std::string error;  // why not, when !ok
+  Status status = Status::Error("not analysed");  // why not (bad input, too little data)
   std::string baseline_method;
   double baseline_normalised_rms = 0.0;  // whitened residual RMS of the baseline fit
   double after_normalised_rms = 0.0;

@@ -45,10 +45,10 @@ BaselineCalibration calibrateBaseline(const BaselineInput& in,
   DirectCalibrationOptions dopt;
   dopt.checks = checks;
   const DirectCalibrationResult d = calibrateDirect(din, dopt);
-  const bool direct_sane =
-      d.ok && sane(d.report.values.sensors.accel) && sane(d.report.values.sensors.gyro);
+  const bool direct_sane = d.status.HasResult() && sane(d.report.values.sensors.accel) &&
+                           sane(d.report.values.sensors.gyro);
   if (direct_sane && fullyDetermined(d.report)) {
-    out.ok = true;
+    out.status = d.status;
     out.method = "direct";
     out.coefficients = d.report;
     out.notes.push_back("direct calibration: " + std::to_string(d.statics_used) + " statics, " +
@@ -56,10 +56,11 @@ BaselineCalibration calibrateBaseline(const BaselineInput& in,
                         " rotations determine every coefficient");
     return out;
   }
-  out.notes.push_back(d.ok ? "the direct calibration does not determine every coefficient on "
-                             "this motion: navigation-based calibration instead"
-                           : "direct calibration not possible (" + d.reason +
-                                 "): navigation-based calibration instead");
+  out.notes.push_back(d.status.HasResult()
+                          ? "the direct calibration does not determine every coefficient on "
+                            "this motion: navigation-based calibration instead"
+                          : "direct calibration not possible (" + d.status.message +
+                                "): navigation-based calibration instead");
   IndirectInput iin;
   iin.recording() = in;
   IndirectOptions iopt;
@@ -71,12 +72,14 @@ BaselineCalibration calibrateBaseline(const BaselineInput& in,
     iopt.gyro_reference = GyroReference::kEstimate;
   }
   const CalibrationResult r = calibrateIndirect(iin, iopt);
-  if (!r.ok) {
-    out.error = "neither calibration method fits this recording: direct: " +
-                (d.ok ? std::string("incomplete") : d.reason) + "; navigation-based: " + r.error;
+  if (!r.status.HasResult()) {
+    out.status =
+        FitStatus::Failed("neither calibration method fits this recording: direct: " +
+                          (d.status.HasResult() ? std::string("incomplete") : d.status.message) +
+                          "; navigation-based: " + r.status.message);
     return out;
   }
-  out.ok = true;
+  out.status = r.status;
   out.method = "indirect";
   out.coefficients = r.coefficients;
   for (const char* g : {"base_tilt", "nonorthogonality"}) {

@@ -15,6 +15,7 @@
 
 #include "calib/bench_truth.h"
 #include "calib/explain.h"
+#include "calib/fit_quality.h"
 #include "calib/recording_view.h"
 #include "calib/simulator.h"
 #include "calib/static_detection.h"
@@ -27,8 +28,8 @@ namespace imubench::calib {
 using BaselineInput = RecordingView;
 
 struct BaselineCalibration {
-  bool ok = false;
-  std::string error;   // why neither method could calibrate the recording
+  // The chosen method's status; kFailed with why neither method could calibrate the recording.
+  FitStatus status = FitStatus::Failed("not calibrated");
   std::string method;  // "direct" | "indirect"
   CoefficientReport coefficients;
   std::vector<std::string> table_params;  // table coefficients the method estimated (flat names)

@@ -162,12 +162,12 @@ ExplainResult explainScalar(const RawImuData& data, const ScalarCalibrationOptio
   ExplainResult res;
   std::string why;
   if (!options.IsValid(&why)) {
-    res.error = "options: " + why;
+    res.status = Status::Error("options: " + why);
     return res;
   }
   const ScalarCalibrationResult cal = scalarCalibrate(data, scalar, accel_unit_is_si);
-  if (!cal.status.ok()) {
-    res.error = "scalar calibration (the baseline): " + cal.status.reason;
+  if (!cal.status.ok) {
+    res.status = Status::Error("scalar calibration (the baseline): " + cal.status.message);
     return res;
   }
   PoseBins pb;
@@ -177,7 +177,7 @@ ExplainResult explainScalar(const RawImuData& data, const ScalarCalibrationOptio
   ExplainProblem p;
   p.noise = noiseFloor(pb.holds, options.noise);
   if (!p.noise.ok) {
-    res.error = "the static poses are too short for an Allan deviation";
+    res.status = Status::Error("the static poses are too short for an Allan deviation");
     return res;
   }
   std::vector<Vec3> u0;
@@ -203,7 +203,7 @@ ExplainResult explainScalar(const RawImuData& data, const ScalarCalibrationOptio
   p.segments = pb.segments;
   p.baseline_method = "scalar";
   res = analyseProblem(p, options);
-  if (res.ok) {
+  if (res.status.ok) {
     res.notes.insert(res.notes.begin(),
                      std::to_string(u0.size()) + " static poses of the scalar calibration; " +
                          "the Earth rate's vertical component (along gravity) is fitted, its "

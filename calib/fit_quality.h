@@ -28,6 +28,8 @@ struct FitStatus : Status {
   std::vector<std::string> reasons;            // every finding, plain language
   std::vector<std::string> largest_residuals;  // "hold 'h3' (12.0-40.0 s) accel: 35 sigma"
   bool IsSolutionUsable() const { return code == FitStatusCode::kUsable; }
+  // The calibrator ran and filled its payload (usable or not): every code but kFailed.
+  bool HasResult() const { return code != FitStatusCode::kFailed; }
   // No result (kFailed): bad input, nothing to fit, solver failure.
   static FitStatus Failed(std::string why);
 };

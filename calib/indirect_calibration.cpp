@@ -269,7 +269,7 @@ std::string checkLegs(const std::vector<IndirectLeg>& legs, const IndirectOption
     const RecordingCheck check = checkIncrements(
         legs[l].imu, opt.checks,
         legs.size() > 1 ? "recording " + std::to_string(l + 1) : "recording", legs[l].segments);
-    if (!check.ok()) return check.reason;
+    if (!check.ok) return check.message;
   }
   return "";
 }
@@ -534,7 +534,7 @@ bool solve(ceres::Problem* problem, CalibrationResult* result) {
   ceres::Solve(so, problem, &summary);
   result->solver_report = summary.BriefReport();
   if (!summary.IsSolutionUsable()) {
-    result->error = "Ceres solve failed: " + summary.message;
+    result->status = FitStatus::Failed("Ceres solve failed: " + summary.message);
     return false;
   }
   const int nres = problem->NumResiduals();
@@ -543,7 +543,7 @@ bool solve(ceres::Problem* problem, CalibrationResult* result) {
 }
 
 // Standard deviations of every parameter from the covariance of the solved problem; false
-// (result->error set) when the information matrix is rank-deficient.
+// (result->status failed) when the information matrix is rank-deficient.
 bool parameterSigmas(ceres::Problem* problem, Parameters* p, std::vector<double>* sigma,
                      CalibrationResult* result) {
   ceres::Covariance::Options co;
@@ -554,8 +554,9 @@ bool parameterSigmas(ceres::Problem* problem, Parameters* p, std::vector<double>
   std::vector<std::pair<const double*, const double*>> blocks = {
       {p->accel, p->accel}, {p->gyro, p->gyro}, {p->table, p->table}};
   if (!cov.Compute(blocks, problem)) {
-    result->error = "covariance could not be computed (rank-deficient information matrix: " +
-                    result->conditioning.describe() + ")";
+    result->status =
+        FitStatus::Failed("covariance could not be computed (rank-deficient information matrix: " +
+                          result->conditioning.describe() + ")");
     return false;
   }
   double ca[kTriadSize * kTriadSize], cg[kTriadSize * kTriadSize], ct[kTableSize * kTableSize];
@@ -624,12 +625,14 @@ void report(const IndirectInput& in, const Parameters& p, const std::vector<doub
   rep.setUnobservable("table.mounting.y");
 }
 
-// Holds, runs and site of the input; false (result->error set) when nothing is usable.
+// Holds, runs and site of the input; false (result->status failed) when nothing is usable.
 bool observe(const IndirectInput& in, const IndirectOptions& opt, Observations* obs,
              CalibrationResult* result) {
   std::vector<IndirectLeg> legs = legsOf(in);
-  result->error = checkLegs(legs, opt);
-  if (!result->error.empty()) return false;
+  if (std::string why = checkLegs(legs, opt); !why.empty()) {
+    result->status = FitStatus::Failed(std::move(why));
+    return false;
+  }
   // Holds split into settle + hold are one hold; segments contradicting the encoders named.
   obs->segments.reserve(legs.size());
   for (std::size_t l = 0; l < legs.size(); ++l) {
@@ -644,8 +647,9 @@ bool observe(const IndirectInput& in, const IndirectOptions& opt, Observations* 
   obs->w_ie_L = nav::earthRateL(in.site.latitude_rad);
   obs->holds = collectHolds(legs, opt, &result->warnings);
   if (obs->holds.empty()) {
-    result->error = "no usable static hold in the recording (need holds of at least " +
-                    std::to_string(opt.min_static_s + 2 * opt.static_margin_s) + " s)";
+    result->status =
+        FitStatus::Failed("no usable static hold in the recording (need holds of at least " +
+                          std::to_string(opt.min_static_s + 2 * opt.static_margin_s) + " s)");
     return false;
   }
   obs->gyro_noise = medianGyroNoise(obs->holds);
@@ -695,7 +699,7 @@ void judgeIndirect(const Observations& obs, const IndirectOptions& opt,
 }
 
 // Outer iterations: re-navigate the runs at the current parameters and re-solve until no
-// parameter moves by more than outer_tolerance_sigma; false (result->error) on failure.
+// parameter moves by more than outer_tolerance_sigma; false (result->status failed) on failure.
 bool solveOuter(const IndirectInput& in, const IndirectOptions& opt, const Observations& obs,
                 Parameters* p, std::vector<double>* sigma, CalibrationResult* result,
                 std::vector<std::string>* largest) {
@@ -752,12 +756,14 @@ bool holdBetterStartGyroScales(const IndirectInput& in, Parameters* p,
   return any;
 }
 
-// The calibration; calibrateIndirect adds the failed status.
-CalibrationResult runIndirect(const IndirectInput& in, const IndirectOptions& opt) {
+}  // namespace
+
+// The calibration.
+CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptions& opt) {
   CalibrationResult result;
   std::string why;
   if (!opt.IsValid(&why)) {
-    result.error = "invalid options: " + why;
+    result.status = FitStatus::Failed("invalid options: " + why);
     return result;
   }
   Observations obs;
@@ -777,25 +783,17 @@ CalibrationResult runIndirect(const IndirectInput& in, const IndirectOptions& op
         "zero turns about the same axis): the data cannot tell the two apart; base tilt and "
         "middle_y are estimated separately");
   }
-  result.ok = true;
   judgeIndirect(obs, opt, std::move(largest), &result);
   return result;
-}
-
-}  // namespace
-
-CalibrationResult calibrateIndirect(const IndirectInput& in, const IndirectOptions& opt) {
-  CalibrationResult r = runIndirect(in, opt);
-  if (!r.ok) r.status = FitStatus::Failed(r.error);
-  return r;
 }
 
 IndirectJacobian indirectJacobian(const IndirectInput& in, const IndirectOptions& opt) {
   IndirectJacobian out;
   CalibrationResult result;
   Observations obs;
-  if (!opt.IsValid(&result.error) || !observe(in, opt, &obs, &result)) {
-    out.error = result.error;
+  std::string why;
+  if (!opt.IsValid(&why) || !observe(in, opt, &obs, &result)) {
+    out.error = why.empty() ? result.status.message : why;
     return out;
   }
   Parameters p = initialParameters(in, opt, &result.warnings);
@@ -817,8 +815,10 @@ Result<std::vector<RunAttitudeResidual>> indirectRunResiduals(const IndirectInpu
                                                               const IndirectOptions& opt) {
   CalibrationResult result;
   Observations obs;
-  if (!opt.IsValid(&result.error) || !observe(in, opt, &obs, &result)) {
-    return Result<std::vector<RunAttitudeResidual>>::Error(result.error);
+  std::string why;
+  if (!opt.IsValid(&why) || !observe(in, opt, &obs, &result)) {
+    return Result<std::vector<RunAttitudeResidual>>::Error(why.empty() ? result.status.message
+                                                                       : why);
   }
   Parameters p = initialParameters(in, opt, &result.warnings);
   Result<std::vector<RunAttitudeResidual>> out;

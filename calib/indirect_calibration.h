@@ -145,7 +145,7 @@ struct IndirectOptions {
   bool IsValid(std::string* why) const;
 };
 
-// Runs the calibration. Result ok == false with a reason naming the cause when the input has
+// Runs the calibration. Result status kFailed with a message naming the cause when the input has
 // no usable holds or runs, the solver fails (Summary::IsSolutionUsable() false) or the
 // covariance cannot be computed.
 CalibrationResult calibrateIndirect(const IndirectInput& input, const IndirectOptions& options);

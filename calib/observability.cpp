@@ -55,14 +55,12 @@ InformationAnalysis analyseInformation(const Eigen::MatrixXd& J,
   a.names = names;
   std::string why;
   if (!options.IsValid(&why)) {
-    a.ok = false;
-    a.reason = why;
+    a.status = Status::Error(why);
     return a;
   }
   if (static_cast<std::size_t>(J.cols()) != names.size() || J.cols() == 0) {
-    a.ok = false;
-    a.reason = "Jacobian has " + std::to_string(J.cols()) + " columns for " +
-               std::to_string(names.size()) + " parameter names";
+    a.status = Status::Error("Jacobian has " + std::to_string(J.cols()) + " columns for " +
+                             std::to_string(names.size()) + " parameter names");
     return a;
   }
   const Eigen::Index p = J.cols();
@@ -338,27 +336,24 @@ PlanObservability analysePlanObservability(const Motion& motion, CalibrationMeth
   PlanObservability res;
   std::string why;
   if (!o.IsValid(&why)) {
-    res.analysis.ok = false;
-    res.analysis.reason = why;
+    res.analysis.status = Status::Error(why);
     return res;
   }
   const PlanSegments segs = planSegments(motion);
   if (segs.statics.empty() && segs.runs.empty()) {
-    res.analysis.ok = false;
-    res.analysis.reason = "the plan has no static or rotate segments";
+    res.analysis.status = Status::Error("the plan has no static or rotate segments");
     return res;
   }
   const BenchTruth base = nominalTruth(motion.kind);
   const std::vector<std::string> names = flatNames(base);
   if (names.size() > static_cast<std::size_t>(kMaxObservabilityParams)) {
-    res.analysis.ok = false;
-    res.analysis.reason = "more parameters than the automatic differentiation holds";
+    res.analysis.status = Status::Error("more parameters than the automatic differentiation holds");
     return res;
   }
   const Eigen::MatrixXd J =
       measurementJacobian(segs, motion.kind, names, flatValues(base), method, o);
   res.analysis = analyseInformation(J, names, o.information);
-  if (!res.analysis.ok) return res;
+  if (!res.analysis.status.ok) return res;
   // The method's own parameter set (see PlanObservability::model_analysis).
   {
     std::vector<std::string> model_names;

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "calib/motion.h"
+#include "calib/status.h"
 #include "nav/earth.h"
 
 namespace imubench::calib {
@@ -38,8 +39,7 @@ struct NullDirection {
 };
 
 struct InformationAnalysis {
-  bool ok = true;
-  std::string reason;
+  Status status;  // why not (bad options, a Jacobian that does not match the names)
   std::vector<std::string> names;
   Eigen::MatrixXd fisher;        // J^T J (columns scaled to unit norm, see column_scale)
   Eigen::VectorXd column_scale;  // norm of each Jacobian column (0: parameter never seen)

@@ -280,9 +280,9 @@ RecordingCheck refuse(const std::ostringstream& s) {
 RecordingCheck findPoses(const RawImuData& data, const ScalarCalibrationOptions& o, Poses* p) {
   std::string why;
   if (!o.IsValid(&why)) return RecordingCheck::Error(RecordingStatusCode::kBadOptions, why);
-  if (RecordingCheck c = checkRecording(data, o.checks); !c.ok()) return c;
+  if (RecordingCheck c = checkRecording(data, o.checks); !c.ok) return c;
   StaticDetectionResult det = detectStaticSpans(data, o.detection);
-  if (!det.status.ok()) return det.status;
+  if (!det.status.ok) return det.status;
   p->spans = det.spans;
   const StaticSpan& first = p->spans.front();
   std::ostringstream s;
@@ -378,7 +378,7 @@ RecordingCheck solveAccel(const std::vector<Vec3>& acc_means, const ScalarCalibr
                              nullptr, triad->data());
   problem.SetManifold(triad->data(), new ceres::SubsetManifold(kTriadSize, fixed));
   double final_cost = 0.0;
-  if (RecordingCheck c = solve(problem, o.accel_solver, "accelerometer", &final_cost); !c.ok())
+  if (RecordingCheck c = solve(problem, o.accel_solver, "accelerometer", &final_cost); !c.ok)
     return c;
   std::string unresolved;
   *sig =
@@ -398,11 +398,11 @@ RecordingCheck fitAccel(const RawImuData& data, const Poses& p, const ScalarCali
                         bool accel_unit_is_si, ScalarCalibrationResult* res) {
   const double g = o.gravity_mps2;
   if (accel_unit_is_si) {
-    if (RecordingCheck c = checkSiGravity(p.acc_means, p.spans, g, o.si_gravity_tolerance); !c.ok())
+    if (RecordingCheck c = checkSiGravity(p.acc_means, p.spans, g, o.si_gravity_tolerance); !c.ok)
       return c;
   }
   Triad acc;
-  if (RecordingCheck c = initialAccel(p.acc_means, g, &acc); !c.ok()) return c;
+  if (RecordingCheck c = initialAccel(p.acc_means, g, &acc); !c.ok) return c;
   if (accel_unit_is_si) {
     res->accel_rms_before = accelRms(p.acc_means, g, TriadModel{}.block());
   } else {
@@ -434,7 +434,7 @@ RecordingCheck fitAccel(const RawImuData& data, const Poses& p, const ScalarCali
     res->notes.push_back(s.str());
   }
   Eigen::VectorXd sig;
-  if (RecordingCheck c = solveAccel(p.acc_means, o, names, fixed, &acc, &sig); !c.ok()) return c;
+  if (RecordingCheck c = solveAccel(p.acc_means, o, names, fixed, &acc, &sig); !c.ok) return c;
   res->report.values.sensors.accel = TriadModel::fromBlock(acc.data());
   for (std::size_t k = 0; k < names.size(); ++k)
     res->report.setSigma(names[k], sig(static_cast<Eigen::Index>(k)));
@@ -513,7 +513,7 @@ RecordingCheck fitGyroGains(const std::vector<Rotation>& rots, const ScalarCalib
   problem.SetManifold(gyr.data(),
                       new ceres::SubsetManifold(kTriadSize, {kBias, kBias + 1, kBias + 2}));
   double final_cost = 0.0;
-  if (RecordingCheck c = solve(problem, o.gyro_solver, "gyro", &final_cost); !c.ok()) return c;
+  if (RecordingCheck c = solve(problem, o.gyro_solver, "gyro", &final_cost); !c.ok) return c;
   std::vector<std::string> names = {"gyro.scale.x", "gyro.scale.y", "gyro.scale.z"};
   for (const char* m : {"xy", "xz", "yx", "yz", "zx", "zy"})
     names.push_back(std::string("gyro.misalignment.") + m);
@@ -594,10 +594,10 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   ScalarCalibrationResult res;
   Poses p;
   res.status = findPoses(data, o, &p);
-  if (!res.status.ok()) return res;
+  if (!res.status.ok) return res;
   res.spans = p.spans;
   res.status = fitAccel(data, p, o, accel_unit_is_si, &res);
-  if (!res.status.ok()) return res;
+  if (!res.status.ok) return res;
   const std::vector<Rotation> rots = rotationsBetweenPoses(data, p, res.accel(), o);
   res.rotations_used = static_cast<int>(rots.size());
   if (rots.size() < 3) {
@@ -612,7 +612,7 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
     return res;
   }
   res.status = fitGyroGains(rots, o, &res);
-  if (!res.status.ok()) return res;
+  if (!res.status.ok) return res;
   gyroBias(data, p, o, &res);
   earthRateNote(p, o, &res);
   return res;

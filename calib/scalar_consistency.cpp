@@ -112,9 +112,9 @@ ScalarConsistency scalarConsistency(const RawImuData& data, const ScalarCalibrat
       scalarCalibrate(slice(data, 0, at), options, accel_unit_is_si);
   const ScalarCalibrationResult second =
       scalarCalibrate(slice(data, at, data.size()), second_options, accel_unit_is_si);
-  if (!first.status.ok() || !second.status.ok()) {
-    out.halves_why = !first.status.ok() ? "first half: " + first.status.reason
-                                        : "second half: " + second.status.reason;
+  if (!first.status.ok || !second.status.ok) {
+    out.halves_why = !first.status.ok ? "first half: " + first.status.message
+                                      : "second half: " + second.status.message;
     return out;
   }
   out.first_poses = first.spans.size();

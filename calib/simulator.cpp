@@ -397,12 +397,12 @@ Simulation simulate(const SimulatorInput& input, const SimOptions& options) {
   std::string why;
   auto sim = ImuSimulator::Create(input.world, &input.motion, options, &why);
   if (!sim) {
-    out.error = why;
+    out.status = Status::Error(why);
     return out;
   }
   const double end = options.end_time_s > 0.0 ? options.end_time_s : input.motion.duration;
   if (!(std::isfinite(end) && end >= 0.0)) {
-    out.error = "motion duration must be finite and >= 0";
+    out.status = Status::Error("motion duration must be finite and >= 0");
     return out;
   }
   // Stamps k / rate <= end (with a relative tolerance so an exact end is included).
@@ -415,7 +415,7 @@ Simulation simulate(const SimulatorInput& input, const SimOptions& options) {
     out.table.push_back(sim->tableAt(static_cast<double>(j) / options.table_rate_hz));
   }
   out.segments = input.motion.segments;
-  out.ok = true;
+  out.status = Status::Ok();
   return out;
 }
 

@@ -42,6 +42,7 @@
 #include "calib/model/thermal_coefficients.h"
 #include "calib/motion.h"
 #include "calib/noise.h"
+#include "calib/status.h"
 #include "calib/table_model.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"
@@ -86,8 +87,7 @@ struct TableSample {
 };
 
 struct Simulation {
-  bool ok = false;
-  std::string error;  // why not, when !ok
+  Status status = Status::Error("not simulated");  // why not (bad world, motion or options)
   TableKind kind = TableKind::kTwoAxis;
   nav::ImuSamples imu;
   std::vector<TableSample> table;

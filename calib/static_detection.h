@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "calib/motion.h"
+#include "calib/status.h"
 #include "nav/imu_sample.h"
 #include "nav/rotation.h"
 
@@ -53,14 +54,17 @@ enum class RecordingStatusCode {
 
 const char* recordingStatusName(RecordingStatusCode code);
 
-// Result status the caller checks: ok() or a reason naming where (sample index / time) and why.
-struct RecordingCheck {
+// The one Status (calib/status.h) with the recording checks' code: ok exactly when the code is
+// kOk; otherwise message names where (sample index / time) and why.
+struct RecordingCheck : Status {
   RecordingStatusCode code = RecordingStatusCode::kOk;
-  std::string reason;
-  bool ok() const { return code == RecordingStatusCode::kOk; }
   static RecordingCheck Ok() { return {}; }
   static RecordingCheck Error(RecordingStatusCode c, std::string why) {
-    return {c, std::move(why)};
+    RecordingCheck r;
+    r.ok = false;
+    r.message = std::move(why);
+    r.code = c;
+    return r;
   }
 };
 

@@ -179,12 +179,15 @@ bool ThermalFitOptions::IsValid(std::string* why) const {
 ThermalFitResult fitThermal(const std::vector<ThermalFitPoint>& points,
                             const ThermalFitOptions& options) {
   ThermalFitResult r;
-  if (!options.IsValid(&r.error)) return r;
+  if (std::string why; !options.IsValid(&why)) {
+    r.status = FitStatus::Failed(std::move(why));
+    return r;
+  }
   std::vector<double> temps;
   bool heating = false, cooling = false;
   for (const ThermalFitPoint& p : points) {
     if (!std::isfinite(p.temp_c) || !std::isfinite(p.temp_rate)) {
-      r.error = p.source + ": temperature or its rate is not finite";
+      r.status = FitStatus::Failed(p.source + ": temperature or its rate is not finite");
       return r;
     }
     temps.push_back(p.temp_c);
@@ -193,9 +196,10 @@ ThermalFitResult fitThermal(const std::vector<ThermalFitPoint>& points,
   }
   r.distinct_temperatures = distinctTemperatures(temps, options.same_temperature_c);
   if (r.distinct_temperatures < 2) {
-    r.error = "a single temperature point (" + std::to_string(points.size()) +
-              " calibration(s) within " + std::to_string(options.same_temperature_c) +
-              " degC): a thermal model needs at least two temperatures";
+    r.status =
+        FitStatus::Failed("a single temperature point (" + std::to_string(points.size()) +
+                          " calibration(s) within " + std::to_string(options.same_temperature_c) +
+                          " degC): a thermal model needs at least two temperatures");
     return r;
   }
   r.hysteresis_candidate = heating && cooling;
@@ -227,11 +231,14 @@ ThermalFitResult fitThermal(const std::vector<ThermalFitPoint>& points,
       ThermalCoefficientFit fit;
       fit.name = thermalCoefficientName(accel ? "accel" : "gyro", i);
       model::ThermalCoefficient& out = (accel ? c.accel : c.gyro)[u];
-      if (!fitCoefficient(d, ctx, &out, &fit, &r.error)) return r;
+      if (std::string why; !fitCoefficient(d, ctx, &out, &fit, &why)) {
+        r.status = FitStatus::Failed(std::move(why));
+        return r;
+      }
       r.fits.push_back(fit);
     }
   }
-  r.ok = true;
+  r.status = FitStatus();
   return r;
 }
 
@@ -388,10 +395,14 @@ ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
     return std::isfinite(s.temp_c);
   });
   if (!any_temp) {
-    r.error = source + ": the recording has no IMU temperatures (imu.csv temp column empty)";
+    r.status = Status::Error(source +
+                             ": the recording has no IMU temperatures (imu.csv temp column empty)");
     return r;
   }
-  if (!options.IsValid(&r.error)) return r;
+  if (std::string why; !options.IsValid(&why)) {
+    r.status = Status::Error(std::move(why));
+    return r;
+  }
   const std::vector<double> rates = temperatureRates(run.imu);
   const std::vector<std::vector<Segment>> groups = pointGroups(run, options.max_point_span_c);
   for (std::size_t g = 0; g < groups.size(); ++g) {
@@ -399,7 +410,8 @@ ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
     p.source = source + " point " + std::to_string(g + 1) + " (segments from '" +
                groups[g].front().label + "')";
     if (!temperatureOf(run, groups[g], rates, &p)) {
-      r.error = p.source + ": samples without temperature (imu.csv temp empty) in its segments";
+      r.status = Status::Error(
+          p.source + ": samples without temperature (imu.csv temp empty) in its segments");
       return r;
     }
     DirectCalibrationInput in = run;
@@ -409,15 +421,16 @@ ThermalPointsResult thermalPointsFromRun(const DirectCalibrationInput& run,
                    &in.imu);
     }
     const DirectCalibrationResult cal = calibrateDirect(in, options.direct);
-    if (!cal.ok || !cal.status.IsSolutionUsable()) {
-      r.error = p.source + ": direct calibration " +
-                (cal.ok ? "unusable: " + cal.status.message : "failed: " + cal.reason);
+    if (!cal.status.IsSolutionUsable()) {
+      r.status =
+          Status::Error(p.source + ": direct calibration " +
+                        (cal.status.HasResult() ? "unusable: " : "failed: ") + cal.status.message);
       return r;
     }
     fillPoint(cal.report, &p);
     r.points.push_back(p);
   }
-  r.ok = true;
+  r.status = Status::Ok();
   return r;
 }
 
@@ -439,7 +452,10 @@ bool ThermalRunsFitOptions::IsValid(std::string* why) const {
 ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
                                     const ThermalRunsFitOptions& options) {
   ThermalRunsFitResult r;
-  if (!options.IsValid(&r.error)) return r;
+  if (std::string why; !options.IsValid(&why)) {
+    r.status = FitStatus::Failed(std::move(why));
+    return r;
+  }
   model::ThermalCoefficients previous;
   for (int pass = 0; pass <= options.refinements; ++pass) {
     ThermalPointOptions po = options.points;
@@ -450,16 +466,17 @@ ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
     r.points.clear();
     for (const ThermalRun& run : runs) {
       const ThermalPointsResult p = thermalPointsFromRun(run.input, run.source, po);
-      if (!p.ok) {
-        r.error = p.error + (pass > 0 ? " (refinement pass " + std::to_string(pass) + ")" : "");
+      if (!p.status.ok) {
+        r.status = FitStatus::Failed(
+            p.status.message + (pass > 0 ? " (refinement pass " + std::to_string(pass) + ")" : ""));
         return r;
       }
       r.points.insert(r.points.end(), p.points.begin(), p.points.end());
     }
     r.fit = fitThermal(r.points, options.fit);
     r.passes = pass + 1;
-    if (!r.fit.ok) {
-      r.error = r.fit.error;
+    if (!r.fit.status.HasResult()) {
+      r.status = r.fit.status;
       return r;
     }
     previous = r.fit.coefficients;
@@ -468,7 +485,7 @@ ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
     previous.t_min_c -= options.points.max_point_span_c;
     previous.t_max_c += options.points.max_point_span_c;
   }
-  r.ok = true;
+  r.status = r.fit.status;
   return r;
 }
 
@@ -498,8 +515,8 @@ bool jointRows(const ThermalRun& run, const ThermalJointFitOptions& o, JointData
     return false;
   }
   const DirectObservations obs = directObservations(run.input, o.direct);
-  if (!obs.ok) {
-    *why = run.source + ": " + obs.reason;
+  if (!obs.status.ok) {
+    *why = run.source + ": " + obs.status.message;
     return false;
   }
   const std::vector<double> rates = temperatureRates(imu, o.rate);
@@ -630,18 +647,25 @@ bool ThermalJointFitOptions::IsValid(std::string* why) const {
 ThermalRunsFitResult fitThermalJoint(const std::vector<ThermalRun>& runs,
                                      const ThermalJointFitOptions& options) {
   ThermalRunsFitResult r;
-  if (!options.IsValid(&r.error)) return r;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    r.status = FitStatus::Failed(std::move(why));
+    return r;
+  }
   JointData d;
   for (const ThermalRun& run : runs) {
-    if (!jointRows(run, options, &d, &r.error)) return r;
+    if (!jointRows(run, options, &d, &why)) {
+      r.status = FitStatus::Failed(std::move(why));
+      return r;
+    }
   }
   ThermalFitResult& fit = r.fit;
   fit.distinct_temperatures = distinctTemperatures(d.temps, options.fit.same_temperature_c);
   if (fit.distinct_temperatures < 2) {
-    fit.error = "a single temperature point (all rows within " +
-                std::to_string(options.fit.same_temperature_c) +
-                " degC): a thermal model needs at least two temperatures";
-    r.error = fit.error;
+    fit.status = FitStatus::Failed("a single temperature point (all rows within " +
+                                   std::to_string(options.fit.same_temperature_c) +
+                                   " degC): a thermal model needs at least two temperatures");
+    r.status = fit.status;
     return r;
   }
   FitContext ctx{&options.fit};
@@ -661,13 +685,15 @@ ThermalRunsFitResult fitThermalJoint(const std::vector<ThermalRun>& runs,
   c.t_min_c = *std::min_element(d.temps.begin(), d.temps.end());
   c.t_max_c = *std::max_element(d.temps.begin(), d.temps.end());
   int sweeps_a = 0, sweeps_g = 0;
-  if (!fitTriadJoint(d.accel, ctx, options, "accel", &c.accel, &fit.fits, &sweeps_a, &r.error) ||
-      !fitTriadJoint(d.gyro, ctx, options, "gyro", &c.gyro, &fit.fits, &sweeps_g, &r.error)) {
-    fit.error = r.error;  // a coefficient the rows do not determine: the fit's, not a run's
+  if (!fitTriadJoint(d.accel, ctx, options, "accel", &c.accel, &fit.fits, &sweeps_a, &why) ||
+      !fitTriadJoint(d.gyro, ctx, options, "gyro", &c.gyro, &fit.fits, &sweeps_g, &why)) {
+    // A coefficient the rows do not determine: the fit's failure, not a run's.
+    fit.status = FitStatus::Failed(std::move(why));
+    r.status = fit.status;
     return r;
   }
   r.passes = std::max(sweeps_a, sweeps_g);
-  fit.ok = r.ok = true;
+  fit.status = r.status = FitStatus();
   return r;
 }
 

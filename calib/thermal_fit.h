@@ -84,8 +84,10 @@ struct ThermalCoefficientFit {
 };
 
 struct ThermalFitResult {
-  bool ok = false;
-  std::string error;  // why not (single temperature point, unobservable coefficient, ...)
+  // kFailed with why (single temperature point, unobservable coefficient, ...); kUsable once
+  // fitted. Inside a ThermalRunsFitResult it is left as constructed (kUsable, empty) when a
+  // run failed before the fit: check the outer status first.
+  FitStatus status;
   model::ThermalCoefficients coefficients;
   std::vector<ThermalCoefficientFit> fits;  // accel then gyro, block order
   int distinct_temperatures = 0;
@@ -126,8 +128,8 @@ struct ThermalPointOptions {
 };
 
 struct ThermalPointsResult {
-  bool ok = false;
-  std::string error;                    // why not (no temperatures, a point's calibration failed)
+  // Why not: no temperatures, a point's calibration failed.
+  Status status = Status::Error("no points made");
   std::vector<ThermalFitPoint> points;  // in time order
 };
 
@@ -161,8 +163,8 @@ struct ThermalRunsFitOptions {
 };
 
 struct ThermalRunsFitResult {
-  bool ok = false;
-  std::string error;  // naming the run or point at fault
+  // kFailed naming the run or point at fault, or the fit's own status (fit.status).
+  FitStatus status = FitStatus::Failed("not fitted");
   ThermalFitResult fit;
   std::vector<ThermalFitPoint> points;  // of the last pass
   int passes = 0;

@@ -69,8 +69,8 @@ bool simulateRun(const BenchTruth& truth, const Motion& motion, const Validation
   so.table_rate_hz = o.table_rate_hz;
   so.seed = seed;
   *out = simulate(si, so);
-  if (!out->ok) *why = out->error;
-  return out->ok;
+  if (!out->status.ok) *why = out->status.message;
+  return out->status.ok;
 }
 
 // Compensated increments: dth_c = G_g dth + h_g dt (exact inverse of eq. 1), same for dv.
@@ -239,8 +239,8 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
     in.direct.segments = r.direct_sim->segments;
     in.navigation.push_back({sim.imu, sim.table, sim.segments});
     const BenchCalibrationResult res = calibrateBench(in, bo);
-    if (!res.ok) {
-      b.error = std::string(r.name) + ": " + res.error;
+    if (!res.status.HasResult()) {
+      b.error = std::string(r.name) + ": " + res.status.message;
       return b;
     }
     if (r.set == 1) b.coefficients[0] = res.direct.report.values.sensors;

@@ -58,8 +58,8 @@ json indirectReport(const calib::CalibrationResult& r) {
 RunCalibration fromDirect(const calib::DirectCalibrationResult& d) {
   RunCalibration out;
   out.report = {{"method", "direct"}, {"direct", directReport(d)}};
-  if (!d.ok) {
-    out.error = "direct calibration: " + d.reason;
+  if (!d.status.HasResult()) {
+    out.error = "direct calibration: " + d.status.message;
     return out;
   }
   // Four positions fit the four unknowns of each accelerometer axis exactly: no residual is
@@ -79,8 +79,8 @@ RunCalibration fromDirect(const calib::DirectCalibrationResult& d) {
 RunCalibration fromIndirect(const calib::CalibrationResult& r, const char* method) {
   RunCalibration out;
   out.report = {{"method", method}, {"indirect", indirectReport(r)}};
-  if (!r.ok) {
-    out.error = std::string(method) + " calibration: " + r.error;
+  if (!r.status.HasResult()) {
+    out.error = std::string(method) + " calibration: " + r.status.message;
     return out;
   }
   out.ok = true;
@@ -103,8 +103,8 @@ RunCalibration indirectAlone(const io::Recording& rec) {
   in.imu = rec.imu;
   in.table = d_in.table;
   in.segments = rec.segments;
-  const bool started =
-      d.ok && sane(d.report.values.sensors.accel) && sane(d.report.values.sensors.gyro);
+  const bool started = d.status.HasResult() && sane(d.report.values.sensors.accel) &&
+                       sane(d.report.values.sensors.gyro);
   if (started) in.start = d.report.values.sensors;
   RunCalibration out =
       fromIndirect(calib::calibrateIndirect(in, calib::IndirectOptions{}), "indirect");
@@ -131,11 +131,11 @@ RunCalibration pipeline(const io::Recording& rec, const io::Recording* direct) {
   in.navigation.push_back({rec.imu, table, rec.segments});
   const calib::BenchCalibrationResult r = calib::calibrateBench(in);
   RunCalibration out = fromIndirect(r.refined, "pipeline");
-  if (!r.ok && out.ok) {
+  if (!r.status.HasResult() && out.ok) {
     out.ok = false;
-    out.error = "pipeline calibration: " + r.error;
-  } else if (!r.ok) {
-    out.error = "pipeline calibration: " + r.error;
+    out.error = "pipeline calibration: " + r.status.message;
+  } else if (!r.status.HasResult()) {
+    out.error = "pipeline calibration: " + r.status.message;
   }
   out.report["direct"] = directReport(r.direct_final);
   out.report["passes"] = r.passes;

@@ -61,8 +61,8 @@ RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
     out.error = std::string("the analysis failed: ") + e.what();
     return out;
   }
-  if (!r.ok) {
-    out.error = r.error;
+  if (!r.status.ok) {
+    out.error = r.status.message;
     return out;
   }
   if (method == plans::CalibrationMethod::kPipeline) {

@@ -32,7 +32,7 @@ struct ThermalReportOptions {
   double min_rate = calib::ThermalFitOptions{}.min_hysteresis_rate;
 };
 
-// The HTML text of the report of a successful fit (fit.ok).
+// The HTML text of the report of a successful fit (fit.status.HasResult()).
 std::string thermalReportHtml(const calib::ThermalRunsFitResult& fit,
                               const ThermalReportOptions& options);
 

@@ -141,7 +141,7 @@ constexpr int kExitUnusable = 3;
 CommandFailed scalarRefusal(const std::string& label, const calib::RecordingCheck& status) {
   const bool unusable = status.code == calib::RecordingStatusCode::kTooFewStatics ||
                         status.code == calib::RecordingStatusCode::kTooShortStatic;
-  return CommandFailed(label + ": scalar calibration: " + status.reason,
+  return CommandFailed(label + ": scalar calibration: " + status.message,
                        unusable ? kExitUnusable : 1);
 }
 
@@ -294,7 +294,7 @@ void runCalibrateReal(const CalibrateOptions& o) {
   const calib::ScalarCalibrationOptions& so = real.scalar;
   const bool accel_si = real.accel_si;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, so, accel_si);
-  if (!r.status.ok()) throw scalarRefusal(o.dir, r.status);
+  if (!r.status.ok) throw scalarRefusal(o.dir, r.status);
   std::ostream& info = o.json ? std::cerr : std::cout;
   info << "scalar calibration of " << o.dir << " (" << in.data.size() << " samples, accel in "
        << in.accel_unit << ", gyro in " << in.gyro_unit << ", g = " << so.gravity_mps2
@@ -379,7 +379,7 @@ void runPipeline(const CalibrateOptions& o, const ResolvedRecording& src,
   }
   const calib::BenchCalibrationResult r = calib::calibrateBench(in, bo);
   const std::string label = direct ? src.label + " + " + dlabel : src.label;
-  if (!r.ok) throw CommandFailed(label + ": " + r.error);
+  if (!r.status.HasResult()) throw CommandFailed(label + ": " + r.status.message);
   info << "direct calibration of " << dlabel << ": " << r.direct.statics_used << " statics, "
        << r.direct.rotations_used << " rotations\n";
   for (const std::string& n : r.direct.notes) {
@@ -428,7 +428,8 @@ void runDirectMethod(const CalibrateOptions& o, const ResolvedRecording& src,
   std::ostream& info = o.json ? std::cerr : std::cout;
   const io::Recording& rec = src.recording;
   const calib::DirectCalibrationResult r = runDirect(rec, table, checksOf(o), knownTableErrors(o));
-  if (!r.ok) throw CommandFailed(src.label + ": direct calibration failed: " + r.reason);
+  if (!r.status.HasResult())
+    throw CommandFailed(src.label + ": direct calibration failed: " + r.status.message);
   info << "direct calibration of " << src.label << ": " << r.statics_used << " statics, "
        << r.rotations_used << " rotations, normalised residual RMS " << r.normalised_residual_rms
        << "\n";
@@ -454,7 +455,7 @@ void runScalarMethod(const CalibrateOptions& o, const ResolvedRecording& src) {
   so.latitude_rad = rec.site().latitude_rad;
   so.gyro_scale_guess = 1.0;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(raw, so, true);
-  if (!r.status.ok()) throw scalarRefusal(src.label, r.status);
+  if (!r.status.ok) throw scalarRefusal(src.label, r.status);
   info << "scalar calibration of " << src.label << ": " << r.spans.size()
        << " static spans, |a|-g RMS " << r.accel_rms_before << " -> " << r.accel_rms_after
        << " m/s^2\n";
@@ -488,9 +489,9 @@ void runRefinementFrom(const CalibrateOptions& o, const ResolvedRecording& src,
   }
   info << "start values: " << o.start << "\n";
   const calib::CalibrationResult r = calib::calibrateIndirect(in, io);
-  if (!r.ok) {
+  if (!r.status.HasResult()) {
     for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
-    throw CommandFailed(src.label + ": navigation-based calibration failed: " + r.error);
+    throw CommandFailed(src.label + ": navigation-based calibration failed: " + r.status.message);
   }
   printIndirect(info, "navigation-based calibration of " + src.label, r);
   refuseIfUnusable(r.status, src.label, src.label);

@@ -163,7 +163,8 @@ void baselineFromPipeline(const ExplainCliOptions& o, const ResolvedRecording& s
   in.direct.segments = d.recording.segments;
   in.navigation.push_back({src.recording.imu, p->table, src.recording.segments});
   const calib::BenchCalibrationResult r = calib::calibrateBench(in);
-  if (!r.ok) throw CommandFailed(src.label + " + " + d.label + ": baseline: " + r.error);
+  if (!r.status.HasResult())
+    throw CommandFailed(src.label + " + " + d.label + ": baseline: " + r.status.message);
   p->input.baseline = r.refined.coefficients;
   p->input.baseline_method = "indirect";
   calib::BenchTruth t = r.refined.coefficients.values;
@@ -182,7 +183,7 @@ void baselineFromRecording(const ResolvedRecording& src, Prepared* p) {
   const calib::BaselineInput bin{p->input.geometry, p->input.site, src.recording.imu, p->table,
                                  src.recording.segments};
   const calib::BaselineCalibration b = calib::calibrateBaseline(bin);
-  if (!b.ok) throw CommandFailed(src.label + ": baseline: " + b.error);
+  if (!b.status.HasResult()) throw CommandFailed(src.label + ": baseline: " + b.status.message);
   p->input.baseline = b.coefficients;
   p->input.baseline_method = b.method;
   p->input.baseline_table_params = b.table_params;
@@ -334,7 +335,7 @@ void runExplainTable(const ExplainCliOptions& o) {
     baselineFromRecording(src, &p);
   }
   const calib::ExplainResult r = calib::explainRecording(p.input, eo);
-  if (!r.ok) throw CommandFailed(src.label + ": explain: " + r.error);
+  if (!r.status.ok) throw CommandFailed(src.label + ": explain: " + r.status.message);
   printSummary(p, r);
   writeOutputs(o, src.label, r);
 }
@@ -355,7 +356,7 @@ void runExplainScalar(const ExplainCliOptions& o) {
   const calib::ScalarCalibrationOptions& so = real.scalar;
   const bool accel_si = real.accel_si;
   const calib::ExplainResult r = calib::explainScalar(in.data, so, accel_si, eo);
-  if (!r.ok) throw CommandFailed(o.input + ": explain: " + r.error);
+  if (!r.status.ok) throw CommandFailed(o.input + ": explain: " + r.status.message);
   Prepared p;
   for (std::size_t c = 0; c < 6; ++c) {
     if (c >= 3 || !accel_si) {

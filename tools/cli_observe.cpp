@@ -42,7 +42,7 @@ void runObserve(const ObserveOptions& o) {
   const calib::CalibrationMethod m = o.method == "direct" ? calib::CalibrationMethod::kDirect
                                                           : calib::CalibrationMethod::kIndirect;
   const calib::PlanObservability r = calib::analysePlanObservability(ex.motion, m, opt);
-  if (!r.analysis.ok) throw CommandFailed(o.path + ": " + r.analysis.reason);
+  if (!r.analysis.status.ok) throw CommandFailed(o.path + ": " + r.analysis.status.message);
   const calib::InformationAnalysis& a = r.analysis;
   if (o.json) {
     nlohmann::json j;

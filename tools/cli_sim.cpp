@@ -37,7 +37,7 @@ SimOutcome simulatePlanOrFail(const SimRequest& request) {
   std::string why;
   if (!options.IsValid(&why)) throw CommandFailed("simulation options: " + why);
   out.sim = calib::simulate(input, options);
-  if (!out.sim.ok) throw CommandFailed("simulation failed: " + out.sim.error);
+  if (!out.sim.status.ok) throw CommandFailed("simulation failed: " + out.sim.status.message);
   return out;
 }
 

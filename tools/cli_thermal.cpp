@@ -135,11 +135,12 @@ void runThermalFit(const ThermalFitCliOptions& o) {
   const bool joint = o.method == "joint";
   const calib::ThermalRunsFitResult fit =
       joint ? calib::fitThermalJoint(runs, jo) : calib::fitThermalRuns(runs, fo);
-  if (!fit.ok) {
+  if (!fit.status.HasResult()) {
     std::string files;
     for (const auto& d : o.runs) files += (files.empty() ? "" : ", ") + d;
     // A run's error names its recording; a fit's (e.g. a single temperature) names all.
-    throw CommandFailed(fit.fit.error.empty() ? fit.error : files + ": " + fit.error);
+    throw CommandFailed(fit.fit.status.HasResult() ? fit.status.message
+                                                   : files + ": " + fit.status.message);
   }
   if (joint) std::cout << "joint fit of every static and rate run: " << fit.passes << " sweeps\n";
   for (const auto& pt : fit.points) {

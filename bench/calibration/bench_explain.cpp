@@ -63,8 +63,8 @@ void BM_Explain12Run2kHz(benchmark::State& state) {
     const BaselineCalibration base = calibrateBaseline(b);
     baseline_s += secondsSince(t0);
     cpu_s += processCpuSeconds() - c0;
-    if (!base.ok) {
-      state.SkipWithError(base.error.c_str());
+    if (!base.status.HasResult()) {
+      state.SkipWithError(base.status.message.c_str());
       return;
     }
     // The bins alone (their preparation is the first step inside explainRecording too).
@@ -78,8 +78,8 @@ void BM_Explain12Run2kHz(benchmark::State& state) {
     t0 = Clock::now();
     const ExplainResult r = explainRecording(in);
     analysis_s += secondsSince(t0);
-    if (!r.ok) {
-      state.SkipWithError(r.error.c_str());
+    if (!r.status.ok) {
+      state.SkipWithError(r.status.message.c_str());
       return;
     }
     accepted = r.accepted.size();

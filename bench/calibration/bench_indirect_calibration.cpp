@@ -44,8 +44,8 @@ void BM_IndirectCalibration12Run2kHz(benchmark::State& state) {
   int iterations = 0;
   for (auto _ : state) {
     CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
-    if (!r.ok) {
-      state.SkipWithError(r.error.c_str());
+    if (!r.status.HasResult()) {
+      state.SkipWithError(r.status.message.c_str());
       return;
     }
     iterations = r.outer_iterations;
@@ -82,8 +82,8 @@ void BM_BenchPipeline2kHz(benchmark::State& state) {
   int passes = 0;
   for (auto _ : state) {
     BenchCalibrationResult r = calibrateBench(in);
-    if (!r.ok) {
-      state.SkipWithError(r.error.c_str());
+    if (!r.status.HasResult()) {
+      state.SkipWithError(r.status.message.c_str());
       return;
     }
     passes = r.passes;

@@ -96,16 +96,16 @@ PlanOutcome soakPoints(const std::vector<ThermalRun>& runs, double chamber_s, co
   std::vector<ThermalFitPoint> points;
   for (const ThermalRun& run : runs) {
     const ThermalPointsResult p = thermalPointsFromRun(run.input, run.source);
-    if (!p.ok) {
-      out.error = p.error;
+    if (!p.status.ok) {
+      out.error = p.status.message;
       return out;
     }
     points.insert(points.end(), p.points.begin(), p.points.end());
   }
   out.points = points.size();
   out.fit = fitThermal(points);
-  if (!out.fit.ok) out.error = out.fit.error;
-  if (out.fit.ok)
+  if (!out.fit.status.HasResult()) out.error = out.fit.status.message;
+  if (out.fit.status.HasResult())
     out.acc = testing::thermalAccuracy(out.fit.coefficients, truth, body, noise, kImuRateHz);
   out.cpu_s = since(t0);
   return out;
@@ -118,10 +118,10 @@ PlanOutcome joint(const std::vector<ThermalRun>& runs, double chamber_s, const M
   PlanOutcome out;
   out.chamber_s = chamber_s;
   const ThermalRunsFitResult f = fitThermalJoint(runs);
-  out.error = f.error;
+  if (!f.status.HasResult()) out.error = f.status.message;
   out.points = static_cast<std::size_t>(f.passes);
   out.fit = f.fit;
-  if (out.fit.ok)
+  if (f.status.HasResult())
     out.acc = testing::thermalAccuracy(out.fit.coefficients, truth, body, noise, kImuRateHz);
   out.cpu_s = since(t0);
   return out;

@@ -54,7 +54,7 @@ inline PlanFixture simulatePlan(const char* name) {
   so.table_rate_hz = 100.0;
   out.sim = simulate(si, so);
   out.duration_s = e.motion.duration;
-  out.ok = out.sim.ok;
+  out.ok = out.sim.status.ok;
   return out;
 }
 

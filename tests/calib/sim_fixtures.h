@@ -48,7 +48,7 @@ inline Simulation simulateOk(const BenchWorld& w, const Motion& m, double rate,
   o.imu_rate_hz = rate;
   o.seed = seed;
   const Simulation s = simulate({w, m}, o);
-  EXPECT_TRUE(s.ok) << s.error;
+  EXPECT_TRUE(s.status.ok) << s.status.message;
   return s;
 }
 

@@ -231,7 +231,7 @@ TEST(Simulator, StreamingOnAGrowingMotionEqualsBatch) {
   full2.axes[0].append({2.25, 0.0, 0.2, 0.0});
   SimOptions o;
   const Simulation batch = simulate({w, full2}, o);
-  ASSERT_TRUE(batch.ok);
+  ASSERT_TRUE(batch.status.ok);
 
   Motion growing = full;
   std::string why;
@@ -262,18 +262,18 @@ TEST(Simulator, RefusesBadInput) {
   Motion m = twoAxis(1.0, {}, {});
   m.axes.pop_back();
   Simulation s = simulate({idealWorld(), m}, SimOptions{});
-  EXPECT_FALSE(s.ok);
-  EXPECT_NE(s.error.find("axes"), std::string::npos) << s.error;
+  EXPECT_FALSE(s.status.ok);
+  EXPECT_NE(s.status.message.find("axes"), std::string::npos) << s.status.message;
   SimOptions o;
   o.imu_rate_hz = 0.0;
   s = simulate({idealWorld(), twoAxis(1.0, {}, {})}, o);
-  EXPECT_FALSE(s.ok);
-  EXPECT_NE(s.error.find("imu_rate_hz"), std::string::npos);
+  EXPECT_FALSE(s.status.ok);
+  EXPECT_NE(s.status.message.find("imu_rate_hz"), std::string::npos);
   BenchWorld w = idealWorld();
   w.noise.gyro.white = -1.0;
   s = simulate({w, twoAxis(1.0, {}, {})}, SimOptions{});
-  EXPECT_FALSE(s.ok);
-  EXPECT_NE(s.error.find("noise.gyro.white"), std::string::npos);
+  EXPECT_FALSE(s.status.ok);
+  EXPECT_NE(s.status.message.find("noise.gyro.white"), std::string::npos);
 }
 
 TEST(Simulator, ThreeAxisStationaryAtTiltedAttitude) {

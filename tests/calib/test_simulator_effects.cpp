@@ -89,8 +89,8 @@ TEST(SimulatorEffects, AngleHarmonicAddsItsAngleErrorToTheGyro) {
   BenchWorld bad = idealWorld();
   bad.truth.extra.angle_harmonic = AngleHarmonic{kTableAxisMiddle, 1, c, s};
   const Simulation r = simulate({bad, m}, SimOptions{});
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.error.find("angle_harmonic"), std::string::npos);
+  EXPECT_FALSE(r.status.ok);
+  EXPECT_NE(r.status.message.find("angle_harmonic"), std::string::npos);
 }
 
 TEST(SimulatorEffects, TableEffectsAreTheTableErrors) {

@@ -73,7 +73,7 @@ TEST(CalibrationRobustness, RandomRecordingsGiveAResultOrAReason) {
     din.table = a.table;
     din.segments = a.segments;
     const DirectCalibrationResult d = calibrateDirect(din);
-    EXPECT_TRUE(d.ok || !d.reason.empty()) << "trial " << trial;
+    EXPECT_TRUE(d.status.HasResult() || !d.status.message.empty()) << "trial " << trial;
 
     IndirectInput in;
     in.geometry.kind = kind;
@@ -82,15 +82,17 @@ TEST(CalibrationRobustness, RandomRecordingsGiveAResultOrAReason) {
     in.segments = b.segments;
     in.extra_legs.push_back({a.imu, a.table, a.segments});
     const CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
-    EXPECT_TRUE(r.ok || !r.error.empty()) << "trial " << trial;
+    EXPECT_TRUE(r.status.HasResult() || !r.status.message.empty()) << "trial " << trial;
 
     BenchCalibrationInput bin;
     bin.direct = din;
     bin.navigation.push_back({b.imu, b.table, b.segments});
     const BenchCalibrationResult p = calibrateBench(bin);
-    EXPECT_TRUE(p.ok || !p.error.empty()) << "trial " << trial;
-    refused += (d.ok ? 0 : 1) + (r.ok ? 0 : 1) + (p.ok ? 0 : 1);
-    calibrated += (d.ok ? 1 : 0) + (r.ok ? 1 : 0) + (p.ok ? 1 : 0);
+    EXPECT_TRUE(p.status.HasResult() || !p.status.message.empty()) << "trial " << trial;
+    refused += (d.status.HasResult() ? 0 : 1) + (r.status.HasResult() ? 0 : 1) +
+               (p.status.HasResult() ? 0 : 1);
+    calibrated += (d.status.HasResult() ? 1 : 0) + (r.status.HasResult() ? 1 : 0) +
+                  (p.status.HasResult() ? 1 : 0);
   }
   RecordProperty("refused", refused);
   RecordProperty("calibrated", calibrated);

@@ -23,7 +23,7 @@ TEST_P(DirectPlans, RecoversTruthOnAPerfectTable) {
   const SensorModel truth = exampleSensors();
   const DirectCalibrationInput in = simulateDirect(libraryMotion(GetParam()), truth, {});
   const DirectCalibrationResult r = calibrateDirect(in);
-  ASSERT_TRUE(r.ok) << r.reason;
+  ASSERT_TRUE(r.status.HasResult()) << r.status.message;
   EXPECT_GE(r.statics_used, 12);
   EXPECT_GE(r.rotations_used, 6);
   const SensorModel& est = r.report.values.sensors;
@@ -55,7 +55,7 @@ TEST_P(DirectPlans, ErrorsStayWithinTheirSigmasUnderNoise) {
   noise.gyro.bias_sigma = 0.0;
   const DirectCalibrationInput in = simulateDirect(libraryMotion(GetParam()), truth, {}, noise);
   const DirectCalibrationResult r = calibrateDirect(in);
-  ASSERT_TRUE(r.ok) << r.reason;
+  ASSERT_TRUE(r.status.HasResult()) << r.status.message;
   const std::vector<std::string> names = flatNames(r.report.values);
   const std::vector<double> est = flatValues(r.report.values);
   BenchTruth t;
@@ -95,7 +95,7 @@ TEST_P(DirectPlans, ScaleAndBiasSigmasAreHonestOnATiltedTable) {
     const DirectCalibrationInput in = simulateDirect(
         libraryMotion(GetParam()), truth, table, NoiseModel::navigationGrade(), 50.0, 20.0, seed);
     const DirectCalibrationResult r = calibrateDirect(in);
-    ASSERT_TRUE(r.ok) << r.reason;
+    ASSERT_TRUE(r.status.HasResult()) << r.status.message;
     t.table_kind = r.report.values.table_kind;
     for (const char* triad : {"accel", "gyro"}) {
       for (const char* q : {"scale", "bias"}) {
@@ -133,7 +133,7 @@ TEST(DirectCalibration, GyroScalesDoNotDependOnEncoderAndImuRates) {
     const DirectCalibrationInput in =
         simulateDirect(motion, truth, {}, NoiseModel::none(), imu_hz, table_hz);
     const DirectCalibrationResult r = calibrateDirect(in);
-    ASSERT_TRUE(r.ok) << r.reason;
+    ASSERT_TRUE(r.status.HasResult()) << r.status.message;
     const SensorModel& est = r.report.values.sensors;
     EXPECT_LT((est.gyro.scale - truth.gyro.scale).cwiseAbs().maxCoeff(), 1e-12)
         << "imu " << imu_hz << " Hz, encoder " << table_hz
@@ -150,8 +150,8 @@ TEST(DirectCalibration, RefusesARecordingWithoutStatics) {
     if (s.kind != SegmentKind::kStatic) rot.push_back(s);
   in.segments = rot;
   const DirectCalibrationResult r = calibrateDirect(in);
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.reason.find("static"), std::string::npos) << r.reason;
+  EXPECT_FALSE(r.status.HasResult());
+  EXPECT_NE(r.status.message.find("static"), std::string::npos) << r.status.message;
 }
 
 TEST(DirectCalibration, RefusesNaNSamples) {
@@ -159,8 +159,8 @@ TEST(DirectCalibration, RefusesNaNSamples) {
       simulateDirect(libraryMotion("direct_two_axis"), exampleSensors(), {});
   in.imu[1000].dvel.x() = std::nan("");
   const DirectCalibrationResult r = calibrateDirect(in);
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.reason.find("sample 1000"), std::string::npos) << r.reason;
+  EXPECT_FALSE(r.status.HasResult());
+  EXPECT_NE(r.status.message.find("sample 1000"), std::string::npos) << r.status.message;
 }
 
 TEST(DirectCalibration, RefusesARecordingWithMissingSamples) {
@@ -168,9 +168,9 @@ TEST(DirectCalibration, RefusesARecordingWithMissingSamples) {
       simulateDirect(libraryMotion("direct_two_axis"), exampleSensors(), {});
   in.imu.erase(in.imu.begin() + 5000, in.imu.begin() + 5100);  // 2 s lost at 50 Hz
   const DirectCalibrationResult r = calibrateDirect(in);
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.reason.find("IMU sample 5000"), std::string::npos) << r.reason;
-  EXPECT_NE(r.reason.find("samples missing"), std::string::npos) << r.reason;
+  EXPECT_FALSE(r.status.HasResult());
+  EXPECT_NE(r.status.message.find("IMU sample 5000"), std::string::npos) << r.status.message;
+  EXPECT_NE(r.status.message.find("samples missing"), std::string::npos) << r.status.message;
 }
 
 TEST(DirectCalibration, RefusesSamplesAtTheImuRange) {
@@ -180,10 +180,10 @@ TEST(DirectCalibration, RefusesSamplesAtTheImuRange) {
   DirectCalibrationOptions o;
   o.checks.gyro_range_radps = 20.0 * kDegToRad;
   const DirectCalibrationResult r = calibrateDirect(in, o);
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.reason.find("at its range limit"), std::string::npos) << r.reason;
+  EXPECT_FALSE(r.status.HasResult());
+  EXPECT_NE(r.status.message.find("at its range limit"), std::string::npos) << r.status.message;
   o.checks.gyro_range_radps = 100.0 * kDegToRad;  // a range the plan stays inside
-  EXPECT_TRUE(calibrateDirect(in, o).ok);
+  EXPECT_TRUE(calibrateDirect(in, o).status.HasResult());
 }
 
 TEST(DirectCalibration, NamesParametersAPoorPlanCannotSeparate) {
@@ -200,7 +200,7 @@ TEST(DirectCalibration, NamesParametersAPoorPlanCannotSeparate) {
   ASSERT_EQ(keep.size(), 4u);
   in.segments = keep;
   const DirectCalibrationResult r = calibrateDirect(in);
-  ASSERT_TRUE(r.ok) << r.reason;
+  ASSERT_TRUE(r.status.HasResult()) << r.status.message;
   bool named = false;
   for (const std::string& n : r.notes)
     named = named || n.find("accel.scale.x") != std::string::npos;

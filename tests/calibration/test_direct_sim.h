@@ -56,7 +56,7 @@ inline DirectCalibrationInput simulateDirect(const Motion& motion, const SensorM
   so.table_rate_hz = table_rate_hz;
   so.seed = seed;
   const Simulation sim = simulate(si, so);
-  EXPECT_TRUE(sim.ok) << sim.error;
+  EXPECT_TRUE(sim.status.ok) << sim.status.message;
   DirectCalibrationInput in;
   in.geometry.kind = motion.kind;
   in.site = si.world.site;

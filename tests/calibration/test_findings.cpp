@@ -38,7 +38,7 @@ class Findings : public ::testing::TestWithParam<std::string> {
  protected:
   static SensorModel calibrate(const Motion& motion, const TableErrors& e) {
     const DirectCalibrationResult r = calibrateDirect(simulateDirect(motion, exampleSensors(), e));
-    EXPECT_TRUE(r.ok) << r.reason;
+    EXPECT_TRUE(r.status.HasResult()) << r.status.message;
     return r.report.values.sensors;
   }
   // Coefficient changes caused by the table errors e, against a perfect table.

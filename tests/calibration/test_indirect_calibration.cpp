@@ -44,7 +44,7 @@ TEST(IndirectCalibration, IgnoringBaseTiltBiasesAccelMisalignment) {
   so.imu_rate_hz = 100.0;
   so.table_rate_hz = 10.0;
   const Simulation sim = simulate(si, so);
-  ASSERT_TRUE(sim.ok) << sim.error;
+  ASSERT_TRUE(sim.status.ok) << sim.status.message;
   IndirectInput in;
   in.site = si.world.site;
   in.imu = sim.imu;
@@ -53,7 +53,7 @@ TEST(IndirectCalibration, IgnoringBaseTiltBiasesAccelMisalignment) {
   IndirectOptions opt;
   opt.estimate_base_tilt = false;
   const CalibrationResult r = calibrateIndirect(in, opt);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.HasResult()) << r.status.message;
   const GyroReferencedTruth t = toGyroReferenced(bench.truth, in.geometry);
   double worst = 0.0;
   for (const char* m : {"xy", "xz", "yx", "yz", "zx", "zy"}) {
@@ -78,7 +78,7 @@ TEST(IndirectCalibration, UnobservableParametersAreFixedAndNamed) {
   b.hold(60.0, "c");
   const Bench bench = randomBench(3, TableKind::kTwoAxis);
   const Outcome o = runBench(b.finish(), bench, 9, 100.0);
-  ASSERT_TRUE(o.result.ok) << o.result.error;
+  ASSERT_TRUE(o.result.status.HasResult()) << o.result.status.message;
   const auto& fixed = o.result.conditioning.fixed_unobservable;
   EXPECT_FALSE(fixed.empty());
   auto contains = [&fixed](const std::string& n) {
@@ -111,8 +111,8 @@ TEST(IndirectCalibration, RefusesRecordingWithoutHolds) {
   in.table = table;
   in.segments = segs;
   const CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.error.find("no usable static hold"), std::string::npos) << r.error;
+  EXPECT_FALSE(r.status.HasResult());
+  EXPECT_NE(r.status.message.find("no usable static hold"), std::string::npos) << r.status.message;
   EXPECT_FALSE(r.warnings.empty());
 }
 
@@ -134,9 +134,10 @@ TEST(IndirectCalibration, RefusesAGapInAnyRecording) {
   in.segments = segs;
   in.extra_legs.push_back({imu2, table, segs});
   const CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.error.find("recording 2: IMU sample 600"), std::string::npos) << r.error;
-  EXPECT_NE(r.error.find("samples missing"), std::string::npos) << r.error;
+  EXPECT_FALSE(r.status.HasResult());
+  EXPECT_NE(r.status.message.find("recording 2: IMU sample 600"), std::string::npos)
+      << r.status.message;
+  EXPECT_NE(r.status.message.find("samples missing"), std::string::npos) << r.status.message;
 }
 
 }  // namespace

@@ -86,7 +86,7 @@ inline Outcome runBench(const Motion& motion, const Bench& bench, std::uint64_t 
   so.table_rate_hz = 10.0;
   so.seed = seed;
   const Simulation sim = simulate(si, so);
-  EXPECT_TRUE(sim.ok) << sim.error;
+  EXPECT_TRUE(sim.status.ok) << sim.status.message;
 
   IndirectInput in;
   in.site = si.world.site;
@@ -116,7 +116,7 @@ inline constexpr double kBiasSigmaBound = 4.0;
 // (estimate - truth) / sigma of the six biases.
 inline std::vector<double> biasZScores(const Outcome& o) {
   std::vector<double> z;
-  if (!o.result.ok) return z;
+  if (!o.result.status.HasResult()) return z;
   BenchTruth truth;
   truth.sensors = o.expected.sensors;
   const CoefficientReport& r = o.result.coefficients;
@@ -134,7 +134,7 @@ inline std::vector<double> biasZScores(const Outcome& o) {
 // allow_fixed: parameters the plan cannot see may be held at the start values (then they must
 // still meet the targets: the start is the direct calibration).
 inline void expectAccurate(const Outcome& o, bool allow_fixed = false) {
-  ASSERT_TRUE(o.result.ok) << o.result.error;
+  ASSERT_TRUE(o.result.status.HasResult()) << o.result.status.message;
   const CoefficientReport& r = o.result.coefficients;
   BenchTruth truth;
   truth.sensors = o.expected.sensors;

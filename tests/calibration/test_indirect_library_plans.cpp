@@ -30,7 +30,7 @@ Simulation simulateLibrary(const Bench& bench, const char* plan, std::uint64_t s
   so.table_rate_hz = 10.0;
   so.seed = seed;
   Simulation sim = simulate(si, so);
-  EXPECT_TRUE(sim.ok) << sim.error;
+  EXPECT_TRUE(sim.status.ok) << sim.status.message;
   return sim;
 }
 
@@ -50,7 +50,7 @@ Outcome runLibrary(const char* plan, const char* direct_plan, TableKind kind, st
   const Simulation direct_sim = simulateLibrary(bench, direct_plan, seed + 100);
   const Simulation nav_sim = simulateLibrary(bench, plan, seed + 200);
   Outcome o;
-  if (!direct_sim.ok || !nav_sim.ok) {
+  if (!direct_sim.status.ok || !nav_sim.status.ok) {
     ADD_FAILURE() << "simulation failed";
     return o;
   }
@@ -63,8 +63,8 @@ Outcome runLibrary(const char* plan, const char* direct_plan, TableKind kind, st
   in.direct.segments = direct_sim.segments;
   in.navigation.push_back({nav_sim.imu, nav_sim.table, nav_sim.segments});
   const BenchCalibrationResult r = calibrateBench(in);
-  if (!r.ok) {
-    ADD_FAILURE() << r.error;
+  if (!r.status.HasResult()) {
+    ADD_FAILURE() << r.status.message;
     return o;
   }
   if (nonorthogonal_table) {

@@ -35,7 +35,7 @@ class ModelAgreement : public ::testing::TestWithParam<std::string> {};
 TEST_P(ModelAgreement, PlanAnalysisAndCalibratorJacobianShareTheNullSpace) {
   const Motion motion = libraryMotion(GetParam());
   const PlanObservability plan = testing::indirectPlanAnalysis(motion);
-  ASSERT_TRUE(plan.model_analysis.ok) << plan.model_analysis.reason;
+  ASSERT_TRUE(plan.model_analysis.status.ok) << plan.model_analysis.status.message;
 
   // A recording of the nominal bench (the plan analysis linearises there; the calibrator's
   // Jacobian at its nominal start values then depends on the model alone, not on the data).
@@ -46,7 +46,7 @@ TEST_P(ModelAgreement, PlanAnalysisAndCalibratorJacobianShareTheNullSpace) {
   const IndirectJacobian cal = indirectJacobian(in, IndirectOptions{});
   ASSERT_TRUE(cal.ok) << cal.error;
   const InformationAnalysis cal_info = analyseInformation(cal.jacobian, cal.names);
-  ASSERT_TRUE(cal_info.ok) << cal_info.reason;
+  ASSERT_TRUE(cal_info.status.ok) << cal_info.status.message;
 
   // Same parameter set, the same number of directions neither can see, the same subspace.
   std::vector<std::string> a = cal.names, b = plan.model_analysis.names;

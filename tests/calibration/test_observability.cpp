@@ -21,7 +21,7 @@ TEST(Information, NamesTheNullDirection) {
       2, 2, 1,   //
       0, 0, 3;
   const InformationAnalysis a = analyseInformation(J, {"mounting.x", "accel.misalignment.zy", "c"});
-  ASSERT_TRUE(a.ok) << a.reason;
+  ASSERT_TRUE(a.status.ok) << a.status.message;
   ASSERT_EQ(a.null_directions.size(), 1u);
   EXPECT_EQ(a.null_directions[0].description, "mounting.x + accel.misalignment.zy (0.71, -0.71)");
   EXPECT_FALSE(a.observable[0]);
@@ -30,14 +30,14 @@ TEST(Information, NamesTheNullDirection) {
 }
 
 TEST(Information, RefusesMismatchedNames) {
-  EXPECT_FALSE(analyseInformation(Eigen::MatrixXd::Identity(2, 2), {"a"}).ok);
+  EXPECT_FALSE(analyseInformation(Eigen::MatrixXd::Identity(2, 2), {"a"}).status.ok);
 }
 
 PlanObservability observe(const std::string& plan, CalibrationMethod m) {
   PlanObservabilityOptions o;
   o.site = exampleSite();
   const PlanObservability r = analysePlanObservability(libraryMotion(plan), m, o);
-  EXPECT_TRUE(r.analysis.ok) << r.analysis.reason;
+  EXPECT_TRUE(r.analysis.status.ok) << r.analysis.status.message;
   return r;
 }
 
@@ -117,7 +117,7 @@ class NavigationPlans : public ::testing::TestWithParam<std::string> {};
 TEST_P(NavigationPlans, CalibratorFixesExactlyWhatThePlanAnalysisCannotSee) {
   const Motion motion = libraryMotion(GetParam());
   const PlanObservability plan = testing::indirectPlanAnalysis(motion);
-  ASSERT_TRUE(plan.model_analysis.ok) << plan.model_analysis.reason;
+  ASSERT_TRUE(plan.model_analysis.status.ok) << plan.model_analysis.status.message;
   std::set<std::string> blind_by_plan;
   for (std::size_t k = 0; k < plan.model_analysis.names.size(); ++k) {
     if (!plan.model_analysis.observable[k]) blind_by_plan.insert(plan.model_analysis.names[k]);
@@ -131,7 +131,7 @@ TEST_P(NavigationPlans, CalibratorFixesExactlyWhatThePlanAnalysisCannotSee) {
   IndirectInput in;
   in.recording() = viewOf(rec);
   const CalibrationResult r = calibrateIndirect(in, IndirectOptions{});
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.HasResult()) << r.status.message;
   const std::set<std::string> fixed(r.conditioning.fixed_unobservable.begin(),
                                     r.conditioning.fixed_unobservable.end());
   EXPECT_EQ(fixed, blind_by_plan) << r.conditioning.describe();

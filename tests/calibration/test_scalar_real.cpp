@@ -53,7 +53,7 @@ TEST(ScalarReal, ImuTkXsensPair) {
   o.checks.accel_min = o.checks.gyro_min = 0.0;  // 16-bit unsigned raw counts
   o.checks.accel_max = o.checks.gyro_max = 65535.0;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, o, false);
-  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   print("imu_tk Xsens (raw counts)", r);
   // imu_tk's recording: an initial static then ~ 35 hand-placed poses.
   EXPECT_GE(r.spans.size(), 30u);
@@ -75,7 +75,7 @@ TEST(ScalarReal, ImucalFerrarisSession) {
   calib::ScalarCalibrationOptions o;
   o.gravity_mps2 = 9.81;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, o, true);
-  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   print("imucal Ferraris session (m/s^2, deg/s)", r);
   // Every annotated static face must lie inside one detected span.
   for (const io::LabelledRange& s : sl.sections) {
@@ -180,7 +180,7 @@ TEST(ScalarReal, AgreesWithImuTksOwnCalibrationOfItsRecording) {
   o.checks.accel_min = o.checks.gyro_min = 0.0;
   o.checks.accel_max = o.checks.gyro_max = 65535.0;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, o, false);
-  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   ImuTkTriad acc, gyr;
   acc.T << 1, -0.0033593, -0.00890639, 0, 1, -0.0213341, 0, 0, 1;
   acc.K = Vec3(0.00241278, 0.00242712, 0.00241168).asDiagonal();

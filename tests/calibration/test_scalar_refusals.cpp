@@ -29,23 +29,23 @@ calib::ScalarCalibrationResult calibrate(const calib::RawImuData& d) {
 
 TEST(ScalarRefusals, UnalteredSessionCalibrates) {
   const calib::ScalarCalibrationResult r = calibrate(ferraris());
-  EXPECT_TRUE(r.status.ok()) << r.status.reason;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
 }
 
 TEST(ScalarRefusals, AccelAndGyroColumnSwappedIsRefused) {
   calib::RawImuData d = ferraris();
   for (std::size_t i = 0; i < d.size(); ++i) std::swap(d.accel[i].x(), d.gyro[i].x());
   const calib::ScalarCalibrationResult r = calibrate(d);
-  ASSERT_FALSE(r.status.ok());
-  EXPECT_NE(r.status.reason.find("far from g"), std::string::npos) << r.status.reason;
+  ASSERT_FALSE(r.status.ok);
+  EXPECT_NE(r.status.message.find("far from g"), std::string::npos) << r.status.message;
 }
 
 TEST(ScalarRefusals, MirroredAccelerometerIsRefused) {
   calib::RawImuData d = ferraris();
   for (std::size_t i = 0; i < d.size(); ++i) std::swap(d.accel[i].x(), d.accel[i].y());
   const calib::ScalarCalibrationResult r = calibrate(d);
-  ASSERT_FALSE(r.status.ok());
-  EXPECT_NE(r.status.reason.find("gyro"), std::string::npos) << r.status.reason;
+  ASSERT_FALSE(r.status.ok);
+  EXPECT_NE(r.status.message.find("gyro"), std::string::npos) << r.status.message;
 }
 
 TEST(ScalarRefusals, OneOrientationIsRefused) {
@@ -59,7 +59,7 @@ TEST(ScalarRefusals, OneOrientationIsRefused) {
     d.gyro.push_back(full.gyro[i % face]);
   }
   const calib::ScalarCalibrationResult r = calibrate(d);
-  ASSERT_FALSE(r.status.ok()) << "coefficients from one orientation";
+  ASSERT_FALSE(r.status.ok) << "coefficients from one orientation";
 }
 
 TEST(ScalarRefusals, FewTiltsDoNotDetermineAnAxis) {
@@ -74,14 +74,14 @@ TEST(ScalarRefusals, FewTiltsDoNotDetermineAnAxis) {
     d.gyro.push_back(full.gyro[i]);
   }
   const calib::ScalarCalibrationResult r = calibrate(d);
-  ASSERT_FALSE(r.status.ok()) << "coefficients from two faces";
+  ASSERT_FALSE(r.status.ok) << "coefficients from two faces";
 }
 
 TEST(ScalarRefusals, SixColumnMpuLogCalibrates) {
   const io::RealImport in = io::readSixColumnLog(kDir + "/mikoff_mpu9150_imu0.log");
   ASSERT_TRUE(in.ok) << in.error;
   const calib::ScalarCalibrationResult r = calibrate(in.data);
-  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   EXPECT_LT(r.accel_rms_after, 0.01);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(r.accel().scale[k], 1.0, 0.02);
   EXPECT_GE(r.rotations_used, 6);

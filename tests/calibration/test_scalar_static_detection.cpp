@@ -89,7 +89,7 @@ SensorModel truthModel() {
 TEST(StaticDetection, FindsEveryPoseOfASyntheticSession) {
   const Session s = makeSession(truthModel(), 15, 10.0, 4.0, 2.0, 0.01, 0.05, 7);
   const StaticDetectionResult r = detectStaticSpans(s.data);
-  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   ASSERT_EQ(static_cast<int>(r.spans.size()), s.poses);
   EXPECT_NEAR(r.spans.front().t0, 0.01, 0.6);
   EXPECT_GT(r.spans.front().duration(), 9.0);
@@ -101,7 +101,7 @@ TEST(StaticDetection, FindsEveryPoseOfASyntheticSession) {
 TEST(StaticDetection, FindsEveryPoseOfANoiseFreeSession) {
   const Session s = makeSession(truthModel(), 15, 10.0, 4.0, 2.0, 0.0, 0.0, 7);
   const StaticDetectionResult r = detectStaticSpans(s.data);
-  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   ASSERT_EQ(static_cast<int>(r.spans.size()), s.poses);
   for (std::size_t k = 1; k < r.spans.size(); ++k) EXPECT_GT(r.spans[k].duration(), 2.5);
 }
@@ -114,7 +114,7 @@ TEST(StaticDetection, FindsEveryPoseOfAQuantisedSession) {
       for (Vec3& x : *series) x = (x / lsb).array().round().matrix() * lsb;
     }
     const StaticDetectionResult r = detectStaticSpans(s.data);
-    ASSERT_TRUE(r.status.ok()) << "lsb " << lsb << ": " << r.status.reason;
+    ASSERT_TRUE(r.status.ok) << "lsb " << lsb << ": " << r.status.message;
     EXPECT_EQ(static_cast<int>(r.spans.size()), s.poses) << "lsb " << lsb;
     for (std::size_t k = 1; k < r.spans.size(); ++k) EXPECT_GT(r.spans[k].duration(), 2.5);
   }
@@ -125,7 +125,7 @@ TEST(RecordingCheck, RefusesNaNWithTheSample) {
   s.data.gyro[123].y() = std::nan("");
   const RecordingCheck c = checkRecording(s.data);
   EXPECT_EQ(c.code, RecordingStatusCode::kNonFinite);
-  EXPECT_NE(c.reason.find("sample 123"), std::string::npos) << c.reason;
+  EXPECT_NE(c.message.find("sample 123"), std::string::npos) << c.message;
 }
 
 TEST(RecordingCheck, RefusesMissingSegment) {
@@ -133,7 +133,7 @@ TEST(RecordingCheck, RefusesMissingSegment) {
   for (std::size_t i = 500; i < s.data.t.size(); ++i) s.data.t[i] += 2.0;
   const RecordingCheck c = checkRecording(s.data);
   EXPECT_EQ(c.code, RecordingStatusCode::kMissingSegment);
-  EXPECT_NE(c.reason.find("sample 500"), std::string::npos) << c.reason;
+  EXPECT_NE(c.message.find("sample 500"), std::string::npos) << c.message;
 }
 
 TEST(RecordingCheck, RefusesTimeGoingBack) {
@@ -147,11 +147,11 @@ TEST(RecordingCheck, RefusesSaturatedSamples) {
   RecordingCheckOptions o;
   o.accel_min = -150.0;
   o.accel_max = 150.0;
-  EXPECT_TRUE(checkRecording(s.data, o).ok());
+  EXPECT_TRUE(checkRecording(s.data, o).ok);
   s.data.accel[777].x() = 150.0;
   const RecordingCheck c = checkRecording(s.data, o);
   EXPECT_EQ(c.code, RecordingStatusCode::kSaturated);
-  EXPECT_NE(c.reason.find("accel axis x"), std::string::npos) << c.reason;
+  EXPECT_NE(c.message.find("accel axis x"), std::string::npos) << c.message;
 }
 
 TEST(ScalarCalibration, RefusesTooShortInitialStatic) {
@@ -159,13 +159,13 @@ TEST(ScalarCalibration, RefusesTooShortInitialStatic) {
   ScalarCalibrationOptions o;
   o.min_initial_static_s = 8.0;
   const ScalarCalibrationResult r = scalarCalibrate(s.data, o, true);
-  EXPECT_EQ(r.status.code, RecordingStatusCode::kTooShortStatic) << r.status.reason;
+  EXPECT_EQ(r.status.code, RecordingStatusCode::kTooShortStatic) << r.status.message;
 }
 
 TEST(ScalarCalibration, RefusesTooFewStatics) {
   const Session s = makeSession(truthModel(), 4, 10.0, 4.0, 2.0, 0.01, 0.05, 3);
   const ScalarCalibrationResult r = scalarCalibrate(s.data, {}, true);
-  EXPECT_EQ(r.status.code, RecordingStatusCode::kTooFewStatics) << r.status.reason;
+  EXPECT_EQ(r.status.code, RecordingStatusCode::kTooFewStatics) << r.status.message;
 }
 
 TEST(ScalarCalibration, RecoversTruthOfASyntheticSession) {
@@ -174,7 +174,7 @@ TEST(ScalarCalibration, RecoversTruthOfASyntheticSession) {
   ScalarCalibrationOptions o;
   o.gravity_mps2 = 9.81;
   const ScalarCalibrationResult r = scalarCalibrate(s.data, o, true);
-  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   EXPECT_EQ(static_cast<int>(r.spans.size()), 30);
   const TriadModel& a = r.accel();
   for (int k = 0; k < 3; ++k) {
@@ -214,7 +214,7 @@ TEST(ScalarCalibration, EarthRateAndBiasDriftAreInTheBiasAndItsSigma) {
   o.gravity_mps2 = 9.81;
   o.latitude_rad = lat;
   const ScalarCalibrationResult r = scalarCalibrate(s.data, o, true);
-  ASSERT_TRUE(r.status.ok()) << r.status.reason;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   const TriadModel& g = r.gyro();
   for (int k = 0; k < 3; ++k) {
     const double sigma =
@@ -224,7 +224,7 @@ TEST(ScalarCalibration, EarthRateAndBiasDriftAreInTheBiasAndItsSigma) {
   ScalarCalibrationOptions held = o;
   held.interpolate_gyro_bias = false;
   const ScalarCalibrationResult h = scalarCalibrate(s.data, held, true);
-  ASSERT_TRUE(h.status.ok()) << h.status.reason;
+  ASSERT_TRUE(h.status.ok) << h.status.message;
   double err_interp = 0.0, err_held = 0.0;
   for (int k = 0; k < 3; ++k) {
     err_interp += std::pow(g.scale[k] / truth.gyro.scale[k] - 1.0, 2);
@@ -243,7 +243,7 @@ ScalarConsistency consistencyOf(const Session& s) {
   ScalarCalibrationOptions o;
   o.gravity_mps2 = 9.81;
   const ScalarCalibrationResult r = scalarCalibrate(s.data, o, true);
-  EXPECT_TRUE(r.status.ok()) << r.status.reason;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
   const ScalarConsistency c = scalarConsistency(s.data, r, o, true);
   std::printf("%s", describe(c).c_str());
   return c;
@@ -312,12 +312,12 @@ TEST(IncrementCheck, GapsAreRefusedOnlyWhereTheyHarmTheSegments) {
       segment(1.0, 8.0, SegmentKind::kStatic), segment(8.0, 12.0, SegmentKind::kRotate),
       segment(12.0, 18.0, SegmentKind::kStatic), segment(22.0, 29.0, SegmentKind::kStatic)};
   const IncrementCheckOptions o;
-  EXPECT_TRUE(checkIncrements(incrementsWithGap(18.5, 21.5), o, "run", segs).ok());
+  EXPECT_TRUE(checkIncrements(incrementsWithGap(18.5, 21.5), o, "run", segs).ok);
   const RecordingCheck strict = checkIncrements(incrementsWithGap(18.5, 21.5), o, "run");
-  EXPECT_EQ(strict.code, RecordingStatusCode::kMissingSegment) << strict.reason;
+  EXPECT_EQ(strict.code, RecordingStatusCode::kMissingSegment) << strict.message;
   const RecordingCheck inside = checkIncrements(incrementsWithGap(14.0, 15.0), o, "run", segs);
   EXPECT_EQ(inside.code, RecordingStatusCode::kMissingSegment);
-  EXPECT_NE(inside.reason.find("run: IMU sample"), std::string::npos) << inside.reason;
+  EXPECT_NE(inside.message.find("run: IMU sample"), std::string::npos) << inside.message;
   // Between the rotation and the next hold there is no unused stretch: 12.0 .. 12.0.
   const std::vector<Segment> loose = {segment(1.0, 8.0, SegmentKind::kStatic),
                                       segment(8.0, 11.0, SegmentKind::kRotate),

@@ -50,7 +50,7 @@ io::Recording directPlanRecording() {
   opt.table_rate_hz = 100.0;
   opt.seed = 4242;
   const calib::Simulation sim = calib::simulate(in, opt);
-  EXPECT_TRUE(sim.ok) << sim.error;
+  EXPECT_TRUE(sim.status.ok) << sim.status.message;
   io::RecordingIdentity id;
   id.imu_serial = "SIM-EXPLAIN";
   id.imu_rate_hz = opt.imu_rate_hz;

@@ -67,7 +67,7 @@ TEST(SimulatedRecording, WriteReadIsBitExact) {
   opt.imu_rate_hz = 400.0;
   opt.seed = 12345;
   const calib::Simulation sim = calib::simulate(in, opt);
-  ASSERT_TRUE(sim.ok) << sim.error;
+  ASSERT_TRUE(sim.status.ok) << sim.status.message;
   ASSERT_GT(sim.imu.size(), 4000u);
 
   io::RecordingIdentity id;
@@ -109,7 +109,7 @@ TEST(SimulatedRecording, DerivedSegmentsMatchThePlanWhenSegmentsFileIsMissing) {
   calib::SimOptions opt;
   opt.imu_rate_hz = 100.0;
   const calib::Simulation sim = calib::simulate(in, opt);
-  ASSERT_TRUE(sim.ok) << sim.error;
+  ASSERT_TRUE(sim.status.ok) << sim.status.message;
   io::Recording rec = io::recordingFromSimulation(sim, in.world.site, io::RecordingIdentity{});
   rec.segments.clear();
   const fs::path dir = freshDir("derived");

@@ -63,7 +63,7 @@ io::Recording twoPointRecording() {
   opt.table_rate_hz = 50.0;
   opt.seed = 16;
   const calib::Simulation sim = calib::simulate(in, opt);
-  EXPECT_TRUE(sim.ok) << sim.error;
+  EXPECT_TRUE(sim.status.ok) << sim.status.message;
   io::RecordingIdentity id;
   id.imu_serial = "SIM-THERMAL";
   id.imu_rate_hz = opt.imu_rate_hz;

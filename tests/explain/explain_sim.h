@@ -38,7 +38,7 @@ inline SimulatedRecording simulateWith(const Motion& motion, const EffectSet& ef
   so.seed = seed;
   SimulatedRecording r;
   r.sim = simulate(si, so);
-  EXPECT_TRUE(r.sim.ok) << r.sim.error;
+  EXPECT_TRUE(r.sim.status.ok) << r.sim.status.message;
   r.site = si.world.site;
   r.geometry.kind = motion.kind;
   return r;
@@ -48,7 +48,7 @@ inline SimulatedRecording simulateWith(const Motion& motion, const EffectSet& ef
 inline ExplainInput simulatedExplainInput(const SimulatedRecording& rec) {
   BaselineInput bin{rec.geometry, rec.site, rec.sim.imu, rec.sim.table, rec.sim.segments};
   const BaselineCalibration base = calibrateBaseline(bin);
-  EXPECT_TRUE(base.ok) << base.error;
+  EXPECT_TRUE(base.status.HasResult()) << base.status.message;
   return explainInput(bin, base);
 }
 
@@ -59,7 +59,7 @@ inline ExplainResult explainSimulated(const SimulatedRecording& rec,
 }
 
 inline std::string summary(const ExplainResult& r) {
-  std::string s = "baseline " + r.baseline_method + ", error '" + r.error + "'\n";
+  std::string s = "baseline " + r.baseline_method + ", error '" + r.status.message + "'\n";
   for (const ExplainAccepted& a : r.accepted) {
     s += "  accepted " + a.effect + " dBIC " + std::to_string(a.delta_bic) + ":";
     for (std::size_t k = 0; k < a.values.size(); ++k) {

@@ -91,10 +91,10 @@ inline CaseOutcome runCase(const ConcealedCase& c, const Motion& motion) {
   o.plan = c.plan;
   const SimulatedRecording rec = simulateWith(motion, c.effects, c.seed);
   const ExplainResult r = explainSimulated(rec);
-  o.ok = r.ok;
+  o.ok = r.status.ok;
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (std::getenv("EXPLAIN_VERBOSE")) std::printf("%s", summary(r).c_str());
-  if (!r.ok) return o;
+  if (!r.status.ok) return o;
   for (const ExplainUnseparable& u : r.unseparable) {
     for (const std::string& id : u.effects) o.unseparable.push_back(id);
   }

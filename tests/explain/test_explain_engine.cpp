@@ -23,7 +23,7 @@ TEST(ExplainEngine, DirectPlanLeverArm) {
   e.lever_arm->r_m = Vec3(0.05, -0.03, 0.02);
   const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), e, 3);
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   const ExplainAccepted* a = findAccepted(r, "lever_arm");
   ASSERT_NE(a, nullptr);
@@ -33,7 +33,7 @@ TEST(ExplainEngine, DirectPlanLeverArm) {
 TEST(ExplainEngine, DirectPlanClean) {
   const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), EffectSet{}, 4);
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   EXPECT_TRUE(r.accepted.empty());
 }
@@ -47,7 +47,7 @@ TEST(ExplainEngine, AngleHarmonicNamedOnItsAxisAndOrder) {
   *e.angle_harmonic = {static_cast<double>(kTableAxisInner), 2.0, 0.8 * amp, -0.6 * amp};
   const SimulatedRecording rec = simulateWith(libraryMotion("two_axis_12run"), e, 6);
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   ASSERT_EQ(r.accepted.size(), 1u);
   const nlohmann::json j = toJson(r)["accepted"][0];
@@ -64,7 +64,7 @@ TEST(ExplainEngine, AngleHarmonicNamedOnItsAxisAndOrder) {
   // evaluate them).
   const ExplainResult clean =
       explainSimulated(simulateWith(libraryMotion("two_axis_12run"), {}, 7));
-  ASSERT_TRUE(clean.ok) << clean.error;
+  ASSERT_TRUE(clean.status.ok) << clean.status.message;
   EXPECT_TRUE(clean.accepted.empty());
   EXPECT_FALSE(clean.coefficients.values.extra.has(EffectId::kAngleHarmonic));
 }
@@ -80,7 +80,7 @@ TEST(ExplainEngine, DirectPlanCannotSeparateBaseTiltFromEncoderZero) {
   e.base_tilt->x = 20.0 / 206264.8;  // 20 arcsec
   const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), e, 8);
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   bool pair = false;
   for (const ExplainUnseparable& u : r.unseparable) {
@@ -111,7 +111,7 @@ TEST(ExplainEngine, BiasStepOutsideTheLibraryIsUnexplainedWhereItIs) {
     t_prev = s.t;
   }
   const ExplainResult r = explainSimulated(rec);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   EXPECT_TRUE(r.accepted.empty());
   ASSERT_FALSE(r.unexplained.empty());
@@ -144,7 +144,7 @@ double worstRunSigmas(const ExplainResult& r, bool after) {
 TEST(ExplainEngine, NavigationResidualPerRunBeforeAndAfter) {
   const SimulatedRecording rec = simulateWith(libraryMotion("two_axis_12run"), EffectSet{}, 5);
   const ExplainResult clean = explainSimulated(rec);
-  ASSERT_TRUE(clean.ok) << clean.error;
+  ASSERT_TRUE(clean.status.ok) << clean.status.message;
   ASSERT_EQ(clean.runs.size(), 12u);
   EXPECT_LT(worstRunSigmas(clean, false), 5.0);
   EXPECT_LT(worstRunSigmas(clean, true), 5.0);
@@ -153,7 +153,7 @@ TEST(ExplainEngine, NavigationResidualPerRunBeforeAndAfter) {
   ExplainInput in = simulatedExplainInput(rec);
   in.baseline.values.sensors.gyro.mis.yz += 1e-4;  // 20.6 arcsec
   const ExplainResult off = explainRecording(in);
-  ASSERT_TRUE(off.ok) << off.error;
+  ASSERT_TRUE(off.status.ok) << off.status.message;
   ASSERT_EQ(off.runs.size(), 12u);
   EXPECT_GT(worstRunSigmas(off, false), 10.0);
   EXPECT_LT(worstRunSigmas(off, true), 5.0);

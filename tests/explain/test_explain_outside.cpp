@@ -39,7 +39,7 @@ void addToReadings(SimulatedRecording* rec, int channel, const std::function<dou
 // the largest at least `min_size`: the report gives where and how much.
 void expectUnexplainedOn(const ExplainResult& r, const std::vector<int>& channels, double min_size,
                          double max_size) {
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::cout << summary(r);
   EXPECT_TRUE(r.accepted.empty()) << "named " << r.accepted.front().effect;
   ASSERT_FALSE(r.unexplained.empty());

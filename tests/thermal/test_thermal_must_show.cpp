@@ -48,8 +48,8 @@ const SoakFit& soakFit() {
             simulateThermal(motion, &truth, NoiseModel::navigationGrade(), kImuRateHz, ++seed);
         f.runs.push_back({run, "T" + std::to_string(T)});
         const ThermalPointsResult p = thermalPointsFromRun(run, "T" + std::to_string(T));
-        EXPECT_TRUE(p.ok) << p.error;
-        if (p.ok) f.points.insert(f.points.end(), p.points.begin(), p.points.end());
+        EXPECT_TRUE(p.status.ok) << p.status.message;
+        if (p.status.ok) f.points.insert(f.points.end(), p.points.begin(), p.points.end());
       }
     }
     f.auto_fit = fitThermal(f.points);
@@ -70,7 +70,7 @@ TEST(ThermalMustShow, PointsAreTheSoakTemperaturesHeatingAndCooling) {
     EXPECT_NEAR(f.points[i].temp_c, want_T, 0.05) << f.points[i].source;
     EXPECT_NEAR(f.points[i].temp_rate, i < 11 ? kRampRate : -kRampRate, 0.05 * kRampRate);
   }
-  ASSERT_TRUE(f.auto_fit.ok) << f.auto_fit.error;
+  ASSERT_TRUE(f.auto_fit.status.HasResult()) << f.auto_fit.status.message;
   EXPECT_TRUE(f.auto_fit.hysteresis_candidate);
   EXPECT_NEAR(f.auto_fit.coefficients.t_min_c, -40.0, 0.05);
   EXPECT_NEAR(f.auto_fit.coefficients.t_max_c, 60.0, 0.05);
@@ -78,7 +78,7 @@ TEST(ThermalMustShow, PointsAreTheSoakTemperaturesHeatingAndCooling) {
 
 TEST(ThermalMustShow, BiasTemperatureCoefficientsWithinFivePercent) {
   const SoakFit& f = soakFit();
-  ASSERT_TRUE(f.auto_fit.ok) << f.auto_fit.error;
+  ASSERT_TRUE(f.auto_fit.status.HasResult()) << f.auto_fit.status.message;
   const model::ThermalCoefficients truth = cubicThermalTruth();
   double worst = 0.0;
   for (const bool accel : {true, false}) {
@@ -103,7 +103,7 @@ TEST(ThermalMustShow, BiasTemperatureCoefficientsWithinFivePercent) {
 
 TEST(ThermalMustShow, SelectedOrdersEqualTheTruthsWhereTheCubicExceedsThreeSigma) {
   const SoakFit& f = soakFit();
-  ASSERT_TRUE(f.auto_fit.ok && f.cubic_fit.ok);
+  ASSERT_TRUE(f.auto_fit.status.HasResult() && f.cubic_fit.status.HasResult());
   const model::ThermalCoefficients truth = cubicThermalTruth();
   int checked = 0;
   for (const bool accel : {true, false}) {
@@ -138,7 +138,7 @@ TEST(ThermalMustShow, SelectedOrdersEqualTheTruthsWhereTheCubicExceedsThreeSigma
 
 TEST(ThermalMustShow, CompensatedStaticResidualsWithinTwiceTheNoiseFloorBetweenPoints) {
   const SoakFit& f = soakFit();
-  ASSERT_TRUE(f.auto_fit.ok) << f.auto_fit.error;
+  ASSERT_TRUE(f.auto_fit.status.HasResult()) << f.auto_fit.status.message;
   const model::ThermalCoefficients truth = cubicThermalTruth();
   // Room-temperature coefficients only (c0): what a single calibration would give.
   model::ThermalCoefficients room = truth;
@@ -178,8 +178,8 @@ TEST(ThermalMustShow, CompensatedStaticResidualsWithinTwiceTheNoiseFloorBetweenP
 // temperatures (testing::thermalAccuracy), and is at least as accurate as the per-point fit.
 TEST(ThermalMustShow, JointFitOfTheSoakRunsMeetsTheSameTolerances) {
   const SoakFit& f = soakFit();
-  ASSERT_TRUE(f.joint.ok) << f.joint.error;
-  ASSERT_TRUE(f.auto_fit.ok) << f.auto_fit.error;
+  ASSERT_TRUE(f.joint.status.HasResult()) << f.joint.status.message;
+  ASSERT_TRUE(f.auto_fit.status.HasResult()) << f.auto_fit.status.message;
   const model::ThermalCoefficients truth = cubicThermalTruth();
   const Motion body = libraryMotion("direct_two_axis");
   const NoiseModel noise = NoiseModel::navigationGrade();

@@ -46,15 +46,15 @@ const RampFit& rampFit() {
     fo.refinements = 2;
     r.refined = fitThermalRuns({{run, "ramp"}}, fo);
     r.joint = fitThermalJoint({{run, "ramp"}});
-    if (r.joint.ok) {
+    if (r.joint.status.HasResult()) {
       r.joint_acc =
           testing::thermalAccuracy(r.joint.fit.coefficients, truth, body(), noise, kImuRateHz);
     }
-    if (r.plain.ok) {
+    if (r.plain.status.HasResult()) {
       r.plain_acc =
           testing::thermalAccuracy(r.plain.fit.coefficients, truth, body(), noise, kImuRateHz);
     }
-    if (r.refined.ok) {
+    if (r.refined.status.HasResult()) {
       r.refined_acc =
           testing::thermalAccuracy(r.refined.fit.coefficients, truth, body(), noise, kImuRateHz);
     }
@@ -65,7 +65,7 @@ const RampFit& rampFit() {
 
 TEST(ThermalRamp, EachRepetitionIsAPointWithItsLegsRate) {
   const RampFit& f = rampFit();
-  ASSERT_TRUE(f.refined.ok) << f.refined.error;
+  ASSERT_TRUE(f.refined.status.HasResult()) << f.refined.status.message;
   EXPECT_EQ(f.refined.passes, 3);
   const int reps = f.schedule.reps_up + f.schedule.reps_down;
   ASSERT_EQ(static_cast<int>(f.refined.points.size()), reps);
@@ -82,7 +82,7 @@ TEST(ThermalRamp, EachRepetitionIsAPointWithItsLegsRate) {
     // A repetition spans its duration's worth of ramp, a few degC.
     EXPECT_LT(p.temp_span_c, 1.1 * o.ramp_rate * body().duration + 0.1) << p.source;
   }
-  ASSERT_TRUE(f.refined.fit.ok) << f.refined.fit.error;
+  ASSERT_TRUE(f.refined.fit.status.HasResult()) << f.refined.fit.status.message;
   EXPECT_TRUE(f.refined.fit.hysteresis_candidate);
   EXPECT_LT(f.refined.fit.coefficients.t_min_c, -37.0);
   EXPECT_GT(f.refined.fit.coefficients.t_max_c, 57.0);
@@ -90,8 +90,8 @@ TEST(ThermalRamp, EachRepetitionIsAPointWithItsLegsRate) {
 
 TEST(ThermalRamp, RefinementRemovesMostOfTheWithinRepetitionDriftBias) {
   const RampFit& f = rampFit();
-  ASSERT_TRUE(f.plain.ok) << f.plain.error;
-  ASSERT_TRUE(f.refined.ok) << f.refined.error;
+  ASSERT_TRUE(f.plain.status.HasResult()) << f.plain.status.message;
+  ASSERT_TRUE(f.refined.status.HasResult()) << f.refined.status.message;
   ASSERT_TRUE(f.plain_acc.error.empty() && f.refined_acc.error.empty());
   const testing::ThermalScheduleOptions o;
   const testing::SoakSchedule soak = testing::soakSchedule(body().duration, o);
@@ -115,7 +115,7 @@ TEST(ThermalRamp, RefinementRemovesMostOfTheWithinRepetitionDriftBias) {
 // coefficients within 5 %, the biases' hysteresis found; and it beats the per-repetition fit.
 TEST(ThermalRamp, JointFitRecoversCubicTruthWithinTheMustShowTolerances) {
   const RampFit& f = rampFit();
-  ASSERT_TRUE(f.joint.ok) << f.joint.error;
+  ASSERT_TRUE(f.joint.status.HasResult()) << f.joint.status.message;
   ASSERT_TRUE(f.joint_acc.error.empty()) << f.joint_acc.error;
   std::cout << "joint ramp fit (" << f.joint.passes << " sweeps): worst residual / noise floor "
             << "accel " << f.joint_acc.worst_accel << ", gyro " << f.joint_acc.worst_gyro
@@ -137,7 +137,7 @@ TEST(ThermalRamp, JointFitRecoversCubicTruthWithinTheMustShowTolerances) {
       EXPECT_NEAR(fit.dTdt, t.dTdt, 0.05 * std::abs(t.dTdt));
     }
   }
-  if (f.refined.ok && f.refined_acc.error.empty()) {
+  if (f.refined.status.HasResult() && f.refined_acc.error.empty()) {
     EXPECT_LT(f.joint_acc.worst_accel, f.refined_acc.worst_accel);
     EXPECT_LT(f.joint_acc.worst_bias_tempco, f.refined_acc.worst_bias_tempco);
   }
@@ -147,9 +147,10 @@ TEST(ThermalRamp, JointFitRefusesARecordingWithoutTemperatures) {
   DirectCalibrationInput run;
   run.imu.resize(3);
   const ThermalRunsFitResult r = fitThermalJoint({{run, "rec.csv"}});
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.error.find("rec.csv: the recording has no IMU temperatures"), std::string::npos)
-      << r.error;
+  EXPECT_FALSE(r.status.HasResult());
+  EXPECT_NE(r.status.message.find("rec.csv: the recording has no IMU temperatures"),
+            std::string::npos)
+      << r.status.message;
 }
 
 TEST(ThermalRamp, RefusesAZeroWindowSpan) {
@@ -159,8 +160,8 @@ TEST(ThermalRamp, RefusesAZeroWindowSpan) {
   run.imu.push_back(nav::ImuSample{});
   run.imu.back().temp_c = 20.0;
   const ThermalPointsResult r = thermalPointsFromRun(run, "x", o);
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.error.find("max_point_span_c"), std::string::npos) << r.error;
+  EXPECT_FALSE(r.status.ok);
+  EXPECT_NE(r.status.message.find("max_point_span_c"), std::string::npos) << r.status.message;
 }
 
 }  // namespace

@@ -36,7 +36,7 @@ std::vector<std::string> plots(const std::string& html) {
 
 calib::ThermalRunsFitResult exampleFit() {
   calib::ThermalRunsFitResult r;
-  r.ok = r.fit.ok = true;
+  r.status = r.fit.status = calib::FitStatus();
   m::ThermalCoefficients& c = r.fit.coefficients;
   c.t_ref_c = 20.0;
   c.t_min_c = 5.0;

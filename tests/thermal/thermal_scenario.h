@@ -249,7 +249,7 @@ inline DirectCalibrationInput simulateThermalRun(Motion motion,
   so.seed = seed;
   so.end_time_s = end_s;
   const Simulation sim = simulate(si, so);
-  if (!sim.ok) *error = sim.error;
+  if (!sim.status.ok) *error = sim.status.message;
   DirectCalibrationInput in;
   in.geometry.kind = si.motion.kind;
   in.site = si.world.site;
