@@ -1,27 +1,25 @@
 #include "drivers/device_file.h"
 
-#include <fstream>
 #include <initializer_list>
 #include <set>
-#include <sstream>
 #include <string_view>
 #include <utility>
+
+#include "io/enum_names.h"
 
 namespace imubench::drivers {
 
 using io::Diagnostics;
 using io::Dimension;
 
+constexpr io::Named<TransportKind> kTransportKindNames[] = {
+    {TransportKind::kModbusTcp, "modbus-tcp"},
+    {TransportKind::kModbusRtu, "modbus-rtu"},
+    {TransportKind::kSerialScpi, "serial-scpi"},
+};
+
 const char* transportKindName(TransportKind k) {
-  switch (k) {
-    case TransportKind::kModbusTcp:
-      return "modbus-tcp";
-    case TransportKind::kModbusRtu:
-      return "modbus-rtu";
-    case TransportKind::kSerialScpi:
-      return "serial-scpi";
-  }
-  return "?";
+  return io::nameOf(kTransportKindNames, k, "?");
 }
 
 namespace {
@@ -74,15 +72,13 @@ std::optional<double> jerkField(const toml::table& t, std::string_view key, Diag
   return v;
 }
 
-std::optional<std::string> readFile(const std::string& path, Diagnostics& diag) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    diag.error(0, 0, "cannot open device file");
-    return std::nullopt;
-  }
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+// A device file read and parsed by `parse` (parseTableDevice, parseChamberDevice).
+template <class Spec>
+std::optional<Spec> loadDevice(const std::string& path, Diagnostics& diag,
+                               std::optional<Spec> (*parse)(std::string_view, Diagnostics&)) {
+  auto text = io::readTextFile(path, "device", diag);
+  if (!text) return std::nullopt;
+  return parse(*text, diag);
 }
 
 void parseRetry(const toml::table& t, RetryPolicy& r, Diagnostics& diag) {
@@ -601,9 +597,7 @@ std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, Diagnosti
 }
 
 std::optional<TableDeviceSpec> loadTableDevice(const std::string& path, Diagnostics& diag) {
-  auto text = readFile(path, diag);
-  if (!text) return std::nullopt;
-  return parseTableDevice(*text, diag);
+  return loadDevice(path, diag, parseTableDevice);
 }
 
 std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagnostics& diag) {
@@ -671,9 +665,7 @@ std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagn
 }
 
 std::optional<ChamberDeviceSpec> loadChamberDevice(const std::string& path, Diagnostics& diag) {
-  auto text = readFile(path, diag);
-  if (!text) return std::nullopt;
-  return parseChamberDevice(*text, diag);
+  return loadDevice(path, diag, parseChamberDevice);
 }
 
 }  // namespace imubench::drivers

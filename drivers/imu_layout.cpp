@@ -4,9 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include "drivers/can_frame.h"
 #include "drivers/dbc_parser.h"
@@ -56,38 +54,12 @@ std::optional<double> imuUnitToSi(ImuQuantity q, std::string_view unit, std::str
   static const std::vector<UnitEntry> kAccel = {
       {"m/s^2", 1.0}, {"m/s2", 1.0}, {"m/s\xC2\xB2", 1.0}, {"mm/s^2", 1e-3}, {"g", 9.80665}};
   static const std::vector<UnitEntry> kPlain = {{"", 1.0}, {"1", 1.0}, {"-", 1.0}};
-  const std::vector<UnitEntry>* table = &kPlain;
-  switch (q) {
-    case ImuQuantity::kTime:
-      table = &kTime;
-      break;
-    case ImuQuantity::kTemperature:
-      table = &kTemp;
-      break;
-    case ImuQuantity::kDthetaX:
-    case ImuQuantity::kDthetaY:
-    case ImuQuantity::kDthetaZ:
-      table = &kAngle;
-      break;
-    case ImuQuantity::kDvelX:
-    case ImuQuantity::kDvelY:
-    case ImuQuantity::kDvelZ:
-      table = &kVel;
-      break;
-    case ImuQuantity::kRateX:
-    case ImuQuantity::kRateY:
-    case ImuQuantity::kRateZ:
-      table = &kRate;
-      break;
-    case ImuQuantity::kAccelX:
-    case ImuQuantity::kAccelY:
-    case ImuQuantity::kAccelZ:
-      table = &kAccel;
-      break;
-    default:
-      table = &kPlain;
-      break;
-  }
+  // The unit list of each quantity, in ImuQuantity order (counter and status: plain numbers).
+  static const std::array<const std::vector<UnitEntry>*, kImuQuantityCount> kByQuantity = {
+      &kTime, &kPlain, &kPlain, &kTemp, &kAngle, &kAngle, &kAngle, &kVel,
+      &kVel,  &kVel,   &kRate,  &kRate, &kRate,  &kAccel, &kAccel, &kAccel};
+  const auto i = static_cast<std::size_t>(q);
+  const std::vector<UnitEntry>* table = i < kByQuantity.size() ? kByQuantity[i] : &kPlain;
   for (const auto& e : *table)
     if (unit == e.unit) return e.si;
   if (why) {
@@ -547,14 +519,9 @@ std::optional<ImuLayout> parseImuLayout(std::string_view toml_text, const std::s
 }
 
 std::optional<ImuLayout> loadImuLayoutFile(const std::string& path, io::Diagnostics& diag) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    diag.error(0, 0, "cannot open device file");
-    return std::nullopt;
-  }
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parseImuLayout(ss.str(), std::filesystem::path(path).parent_path().string(), diag);
+  auto text = io::readTextFile(path, "device", diag);
+  if (!text) return std::nullopt;
+  return parseImuLayout(*text, std::filesystem::path(path).parent_path().string(), diag);
 }
 
 }  // namespace imubench::drivers
