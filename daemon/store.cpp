@@ -10,6 +10,8 @@
 #include <unordered_map>
 #include <utility>
 
+#include "io/enum_names.h"
+
 namespace imubench::daemon {
 namespace {
 
@@ -715,40 +717,28 @@ bool runResumable(RunState state) {
          state == RunState::kFaulted;
 }
 
+constexpr io::Named<RunState> kRunStateNames[] = {
+    {RunState::kRunning, "running"},         {RunState::kFinished, "finished"},
+    {RunState::kAborted, "aborted"},         {RunState::kFaulted, "faulted"},
+    {RunState::kInterrupted, "interrupted"},
+};
+
 const char* runStateName(RunState state) {
-  switch (state) {
-    case RunState::kRunning:
-      return "running";
-    case RunState::kFinished:
-      return "finished";
-    case RunState::kAborted:
-      return "aborted";
-    case RunState::kFaulted:
-      return "faulted";
-    case RunState::kInterrupted:
-      return "interrupted";
-  }
-  return "running";
+  return io::nameOf(kRunStateNames, state, "running");
 }
 
 std::optional<RunState> runStateFromName(std::string_view name) {
-  for (auto s : {RunState::kRunning, RunState::kFinished, RunState::kAborted, RunState::kFaulted,
-                 RunState::kInterrupted}) {
-    if (name == runStateName(s)) return s;
-  }
-  return std::nullopt;
+  return io::valueOf(kRunStateNames, name);
 }
 
+constexpr io::Named<EventSeverity> kEventSeverityNames[] = {
+    {EventSeverity::kInfo, "info"},
+    {EventSeverity::kWarning, "warning"},
+    {EventSeverity::kError, "error"},
+};
+
 const char* eventSeverityName(EventSeverity severity) {
-  switch (severity) {
-    case EventSeverity::kInfo:
-      return "info";
-    case EventSeverity::kWarning:
-      return "warning";
-    case EventSeverity::kError:
-      return "error";
-  }
-  return "info";
+  return io::nameOf(kEventSeverityNames, severity, "info");
 }
 
 bool RunStart::IsValid(std::string* why) const {
