@@ -526,8 +526,9 @@ INSTANTIATE_TEST_SUITE_P(
         DbcError{"BO_ 100 M: 8 N\n SG_ S : 0|16@1+ (1,0) [0|1] \"\" N\nSIG_VALTYPE_ 100 S : 1;\n",
                  3, "must be 32 bits"}));
 
-TEST(ImuLayoutFile, DeviceFileErrorsNameLineAndReason) {
-  const char* text = R"(format = "imubench-imu-can/1"
+// A layout of one message with one signal, dtheta_x, its scale (line 12) written as `scale`.
+std::string dthetaOnlyLayout(const std::string& scale) {
+  return R"(format = "imubench-imu-can/1"
 name = "x"
 sample_period = "1 ms"
 [[message]]
@@ -538,8 +539,12 @@ length = 8
   quantity = "dtheta_x"
   byte = 0
   type = "i32"
-  scale = "1e-9 m/s"
-)";
+  scale = ")" +
+         scale + "\"\n";
+}
+
+TEST(ImuLayoutFile, DeviceFileErrorsNameLineAndReason) {
+  const std::string text = dthetaOnlyLayout("1e-9 m/s");
   io::Diagnostics diag("imu.toml");
   auto l = parseImuLayout(text, ".", diag);
   EXPECT_FALSE(l.has_value());
@@ -550,19 +555,7 @@ length = 8
 }
 
 TEST(ImuLayoutFile, IncompleteLayoutRefused) {
-  const char* text = R"(format = "imubench-imu-can/1"
-name = "x"
-sample_period = "1 ms"
-[[message]]
-name = "A"
-id = 0x100
-length = 8
-  [[message.signal]]
-  quantity = "dtheta_x"
-  byte = 0
-  type = "i32"
-  scale = "1e-9 rad"
-)";
+  const std::string text = dthetaOnlyLayout("1e-9 rad");
   io::Diagnostics diag("imu.toml");
   EXPECT_FALSE(parseImuLayout(text, ".", diag).has_value());
   EXPECT_NE(diag.str().find("axis x: need exactly one of dvel or accel"), std::string::npos)
