@@ -45,12 +45,11 @@ struct IntKey {
 
 // A table of integer keys only: unknown keys refused (`where` names the table), each key
 // present read into its place (a key left out keeps the default there).
-void readIntTable(const toml::table& t, std::initializer_list<IntKey> keys, std::string_view where,
-                  Diagnostics& diag) {
-  std::vector<std::string_view> names;
-  for (const auto& k : keys) names.push_back(k.key);
-  checkKeys(t, names, where, diag);
-  for (const auto& k : keys) readInt(t, k.key, *k.out, diag, k.lo, k.hi);
+template <class... Keys>
+void readIntTable(const toml::table& t, std::string_view where, Diagnostics& diag,
+                  const Keys&... keys) {
+  checkKeys(t, {keys.key...}, where, diag);
+  (readInt(t, keys.key, *keys.out, diag, keys.lo, keys.hi), ...);
 }
 
 // Jerk ("deg/s^3") has no io::Dimension: parse it as an angular acceleration with one more /s.
@@ -471,14 +470,11 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
 void parseStatusBits(const toml::table& root, TableStatusBits& b, Diagnostics& diag) {
   const toml::table* t = subTable(root, "status_bits", diag, false);
   if (!t) return;
-  readIntTable(*t,
-               {{"interlock_closed", &b.interlock_closed, 0, 15},
-                {"interlock_tripped", &b.interlock_tripped, 0, 15},
-                {"estop", &b.estop, 0, 15},
-                {"fault", &b.fault, 0, 15},
-                {"axis_moving", &b.axis_moving, 0, 15},
-                {"axis_in_position", &b.axis_in_position, 0, 15}},
-               "[status_bits]", diag);
+  readIntTable(*t, "[status_bits]", diag, IntKey{"interlock_closed", &b.interlock_closed, 0, 15},
+               IntKey{"interlock_tripped", &b.interlock_tripped, 0, 15},
+               IntKey{"estop", &b.estop, 0, 15}, IntKey{"fault", &b.fault, 0, 15},
+               IntKey{"axis_moving", &b.axis_moving, 0, 15},
+               IntKey{"axis_in_position", &b.axis_in_position, 0, 15});
   const int g[] = {b.interlock_closed, b.interlock_tripped, b.estop, b.fault};
   if (std::set<int>(std::begin(g), std::end(g)).size() != 4) {
     diag.error(t->source(), "global status bits must be distinct");
@@ -491,18 +487,15 @@ void parseStatusBits(const toml::table& root, TableStatusBits& b, Diagnostics& d
 void parseTableCodes(const toml::table& root, TableCodes& c, Diagnostics& diag) {
   const toml::table* t = subTable(root, "codes", diag, false);
   if (!t) return;
-  readIntTable(*t,
-               {{"mode_off", &c.mode_off, 0, 65535},
-                {"mode_position", &c.mode_position, 0, 65535},
-                {"mode_rate", &c.mode_rate, 0, 65535},
-                {"cmd_move", &c.cmd_move, 1, 65535},
-                {"cmd_rotate", &c.cmd_rotate, 1, 65535},
-                {"cmd_stop", &c.cmd_stop, 1, 65535},
-                {"ctl_estop", &c.ctl_estop, 1, 65535},
-                {"ctl_interlock_close", &c.ctl_interlock_close, 1, 65535},
-                {"ctl_interlock_open", &c.ctl_interlock_open, 1, 65535},
-                {"ctl_interlock_reset", &c.ctl_interlock_reset, 1, 65535}},
-               "[codes]", diag);
+  readIntTable(
+      *t, "[codes]", diag, IntKey{"mode_off", &c.mode_off, 0, 65535},
+      IntKey{"mode_position", &c.mode_position, 0, 65535},
+      IntKey{"mode_rate", &c.mode_rate, 0, 65535}, IntKey{"cmd_move", &c.cmd_move, 1, 65535},
+      IntKey{"cmd_rotate", &c.cmd_rotate, 1, 65535}, IntKey{"cmd_stop", &c.cmd_stop, 1, 65535},
+      IntKey{"ctl_estop", &c.ctl_estop, 1, 65535},
+      IntKey{"ctl_interlock_close", &c.ctl_interlock_close, 1, 65535},
+      IntKey{"ctl_interlock_open", &c.ctl_interlock_open, 1, 65535},
+      IntKey{"ctl_interlock_reset", &c.ctl_interlock_reset, 1, 65535});
   const int modes[] = {c.mode_off, c.mode_position, c.mode_rate};
   const int cmds[] = {c.cmd_move, c.cmd_rotate, c.cmd_stop};
   const int ctls[] = {c.ctl_estop, c.ctl_interlock_close, c.ctl_interlock_open,
@@ -646,16 +639,14 @@ std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagn
     }
   }
   if (const toml::table* c = subTable(*root, "codes", diag, false)) {
-    readIntTable(*c, {{"run", &s.codes.run, 0, 65535}, {"stop", &s.codes.stop, 0, 65535}},
-                 "[codes]", diag);
+    readIntTable(*c, "[codes]", diag, IntKey{"run", &s.codes.run, 0, 65535},
+                 IntKey{"stop", &s.codes.stop, 0, 65535});
     if (s.codes.run == s.codes.stop) diag.error(c->source(), "run and stop codes must differ");
   }
   if (const toml::table* b = subTable(*root, "alarm_bits", diag, false)) {
-    readIntTable(*b,
-                 {{"high", &s.alarm_bits.high, 0, 15},
-                  {"low", &s.alarm_bits.low, 0, 15},
-                  {"sensor", &s.alarm_bits.sensor, 0, 15}},
-                 "[alarm_bits]", diag);
+    readIntTable(*b, "[alarm_bits]", diag, IntKey{"high", &s.alarm_bits.high, 0, 15},
+                 IntKey{"low", &s.alarm_bits.low, 0, 15},
+                 IntKey{"sensor", &s.alarm_bits.sensor, 0, 15});
   }
   if (const toml::table* r = subTable(*root, "registers", diag, true)) {
     checkKeys(*r, {"word_order", "setpoint", "temperature", "ramp_rate", "run", "alarms"},

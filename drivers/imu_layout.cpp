@@ -191,28 +191,29 @@ constexpr TypeSpec kTypes[] = {
     {"u64", 64, false, ValueType::kInteger}, {"i64", 64, true, ValueType::kInteger},
     {"f32", 32, true, ValueType::kFloat32},  {"f64", 64, true, ValueType::kFloat64}};
 
-std::optional<std::int64_t> intField(const toml::table& t, std::string_view key,
-                                     io::Diagnostics& diag, bool required) {
+// The value at `key` as a T ("must be <kind>" when it is not); nullopt when it is missing (an
+// error when required) or wrong.
+template <class T>
+std::optional<T> valueField(const toml::table& t, std::string_view key, io::Diagnostics& diag,
+                            bool required, std::string_view kind) {
   const toml::node* n = t.get(key);
   if (n == nullptr) {
     if (required) diag.error(t.source(), "missing required key '" + std::string(key) + "'");
     return std::nullopt;
   }
-  if (auto v = n->value<std::int64_t>()) return *v;
-  diag.error(n->source(), "'" + std::string(key) + "' must be an integer");
+  if (auto v = n->value<T>()) return *v;
+  diag.error(n->source(), "'" + std::string(key) + "' must be " + std::string(kind));
   return std::nullopt;
+}
+
+std::optional<std::int64_t> intField(const toml::table& t, std::string_view key,
+                                     io::Diagnostics& diag, bool required) {
+  return valueField<std::int64_t>(t, key, diag, required, "an integer");
 }
 
 std::optional<std::string> stringField(const toml::table& t, std::string_view key,
                                        io::Diagnostics& diag, bool required) {
-  const toml::node* n = t.get(key);
-  if (n == nullptr) {
-    if (required) diag.error(t.source(), "missing required key '" + std::string(key) + "'");
-    return std::nullopt;
-  }
-  if (auto v = n->value<std::string>()) return *v;
-  diag.error(n->source(), "'" + std::string(key) + "' must be a string");
-  return std::nullopt;
+  return valueField<std::string>(t, key, diag, required, "a string");
 }
 
 // Scale/offset written as "<number> <unit>" (unit-less for counter and status).

@@ -178,7 +178,7 @@ std::optional<double> quantityField(const toml::table& t, std::string_view key, 
 }
 
 // Refuses keys the schema does not know: a typo must not silently fall back to a default.
-void checkKeys(const toml::table& t, std::span<const std::string_view> allowed,
+void checkKeys(const toml::table& t, std::initializer_list<std::string_view> allowed,
                std::string_view where, Diagnostics& diag) {
   for (const auto& [k, v] : t) {
     bool known = false;

@@ -8,7 +8,6 @@
 #include <cstdint>
 #include <initializer_list>
 #include <optional>
-#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -76,12 +75,8 @@ std::optional<double> quantityField(const toml::table& t, std::string_view key, 
 // diagnostic at the offending node, or at the table when a required key is missing.
 
 // Refuses keys the schema does not know: a typo must not silently fall back to a default.
-void checkKeys(const toml::table& t, std::span<const std::string_view> allowed,
+void checkKeys(const toml::table& t, std::initializer_list<std::string_view> allowed,
                std::string_view where, Diagnostics& diag);
-inline void checkKeys(const toml::table& t, std::initializer_list<std::string_view> allowed,
-                      std::string_view where, Diagnostics& diag) {
-  checkKeys(t, std::span(allowed.begin(), allowed.size()), where, diag);
-}
 const toml::table* subTable(const toml::table& t, std::string_view key, Diagnostics& diag,
                             bool required);
 std::optional<std::string> strField(const toml::table& t, std::string_view key, Diagnostics& diag,
