@@ -21,24 +21,25 @@ constexpr double kAirTau = 120.0, kImuTau = 300.0;
 constexpr double kRamp = 0.01;  // degC/s, 20 -> 60 degC
 constexpr double kEnd = 4300.0;
 
-// The chamber commanded at t = 0 to ramp to 60 degC; its history up to kEnd.
-std::vector<TemperatureKnot> chamberHistory(double imu_tau) {
+// The chamber (air time constant kAirTau, IMU imu_tau behind it) commanded at t = 0 to ramp
+// from 20 to 60 degC.
+drivers::VirtualChamber rampingChamber(double imu_tau) {
   drivers::ChamberDeviceSpec spec;
   spec.time_constant_s = kAirTau;
   drivers::VirtualChamber c(spec, 20.0, 0.0, imu_tau);
   c.setRampRate(0.0, kRamp);
   c.setSetpoint(0.0, 60.0);
   c.run(0.0, true);
-  return c.history(kEnd);
+  return c;
+}
+
+// That chamber's history up to kEnd.
+std::vector<TemperatureKnot> chamberHistory(double imu_tau) {
+  return rampingChamber(imu_tau).history(kEnd);
 }
 
 TEST(VirtualThermal, ImuTemperatureLagsTheAirByTheImuTimeConstant) {
-  drivers::ChamberDeviceSpec spec;
-  spec.time_constant_s = kAirTau;
-  drivers::VirtualChamber c(spec, 20.0, 0.0, kImuTau);
-  c.setRampRate(0.0, kRamp);
-  c.setSetpoint(0.0, 60.0);
-  c.run(0.0, true);
+  drivers::VirtualChamber c = rampingChamber(kImuTau);
   model::ThermalState s = model::thermalAtRest(20.0);
   for (double t = 250.0; t <= kEnd; t += 250.0) {
     s = model::advanceThermal(s, 60.0, kRamp, {kAirTau, kImuTau}, 250.0);
