@@ -75,18 +75,6 @@ std::unique_ptr<Store> openOrFail(const std::string& path, const StoreOptions& o
   return std::move(r.value);
 }
 
-// A store in `dir` with one run begun for `serial` (its id in *run); nullptr after a failure.
-std::unique_ptr<Store> storeWithRun(const ScratchDir& dir, const std::string& serial,
-                                    std::int64_t* run) {
-  auto store = openOrFail(dir.file("bench.db"));
-  if (!store) return nullptr;
-  const RunIdResult begun = store->beginRun(benchStart(serial));
-  EXPECT_TRUE(begun.status.ok) << begun.status.message;
-  if (!begun.status.ok) return nullptr;
-  *run = begun.value;
-  return store;
-}
-
 // IMU samples 1..n periods after 0 (nothing else set).
 nav::ImuSamples samplesEvery(std::size_t n, double period) {
   nav::ImuSamples imu(n);
@@ -104,6 +92,18 @@ RunStart benchStart(const std::string& serial) {
   s.latitude_deg = 55.75;
   s.height_m = 150.0;
   return s;
+}
+
+// A store in `dir` with one run begun for `serial` (its id in *run); nullptr after a failure.
+std::unique_ptr<Store> storeWithRun(const ScratchDir& dir, const std::string& serial,
+                                    std::int64_t* run) {
+  auto store = openOrFail(dir.file("bench.db"));
+  if (!store) return nullptr;
+  const RunIdResult begun = store->beginRun(benchStart(serial));
+  EXPECT_TRUE(begun.status.ok) << begun.status.message;
+  if (!begun.status.ok) return nullptr;
+  *run = begun.value;
+  return store;
 }
 
 TEST(Store, ImportedRecordingLoadsBitExactAndExports) {

@@ -48,10 +48,7 @@ TEST(VirtualThermal, ImuTemperatureLagsTheAirByTheImuTimeConstant) {
     EXPECT_NEAR(c.history(t).back().temp_c, s.sensor_c, 1e-9) << t;  // knots are the IMU's
   }
   // In the steady ramp the IMU trails the air by rate x tau_imu (3 degC), not by zero.
-  drivers::VirtualChamber c2(spec, 20.0, 0.0, kImuTau);
-  c2.setRampRate(0.0, kRamp);
-  c2.setSetpoint(0.0, 60.0);
-  c2.run(0.0, true);
+  drivers::VirtualChamber c2 = rampingChamber(kImuTau);
   EXPECT_NEAR(c2.temperature(3000.0) - c2.imuTemperature(3000.0), kRamp * kImuTau, 0.05);
 }
 
