@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <vector>
 
@@ -300,14 +299,9 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
 }
 
 std::optional<BenchConfig> loadBenchFile(const std::string& path, Diagnostics& diag) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    diag.error(0, 0, "cannot open bench file");
-    return std::nullopt;
-  }
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parseBenchFile(ss.str(), path, fs::path(path).parent_path().string(), diag);
+  auto text = io::readTextFile(path, "bench", diag);
+  if (!text) return std::nullopt;
+  return parseBenchFile(*text, path, fs::path(path).parent_path().string(), diag);
 }
 
 }  // namespace imubench::daemon

@@ -6,13 +6,15 @@
 #include <limits>
 #include <utility>
 
+#include "io/enum_names.h"
+
 namespace imubench::daemon {
 
 using nlohmann::json;
 
 namespace {
 
-constexpr std::array<std::pair<Command, std::string_view>, 18> kCommands{{
+constexpr std::array<io::Named<Command, std::string_view>, 18> kCommands{{
     {Command::kStart, "start"},
     {Command::kPause, "pause"},
     {Command::kResume, "resume"},
@@ -33,7 +35,7 @@ constexpr std::array<std::pair<Command, std::string_view>, 18> kCommands{{
     {Command::kQueueResume, "queue_resume"},
 }};
 
-constexpr std::array<std::pair<Topic, std::string_view>, kTopicCount> kTopics{{
+constexpr std::array<io::Named<Topic, std::string_view>, kTopicCount> kTopics{{
     {Topic::kRun, "run"},
     {Topic::kStatus, "status"},
     {Topic::kLog, "log"},
@@ -51,15 +53,11 @@ std::string quote(std::string_view s) {
 }
 
 std::string commandList() {
-  std::string out;
-  for (const auto& [c, name] : kCommands) out += (out.empty() ? "" : ", ") + std::string(name);
-  return out;
+  return io::joinNames(kCommands, ", ");
 }
 
 std::string topicList() {
-  std::string out;
-  for (const auto& [t, name] : kTopics) out += (out.empty() ? "" : ", ") + std::string(name);
-  return out;
+  return io::joinNames(kTopics, ", ");
 }
 
 std::string joinPath(std::string_view where, std::string_view key) {
@@ -272,9 +270,8 @@ bool readCommandName(const json& obj, Command* out, ProtocolError* err) {
     return fail(err, ErrorCode::kBadArgument,
                 std::string("cmd: must be a string, got ") + it->type_name());
   const std::string name = it->get<std::string>();
-  for (const auto& [c, n] : kCommands) {
-    if (n != name) continue;
-    *out = c;
+  if (const auto c = io::valueOf(kCommands, name)) {
+    *out = *c;
     return true;
   }
   return fail(err, ErrorCode::kUnknownCommand,
@@ -376,47 +373,32 @@ std::string parseErrorReason(const json::parse_error& e) {
 }  // namespace
 
 std::string_view commandName(Command c) {
-  for (const auto& [cmd, name] : kCommands)
-    if (cmd == c) return name;
-  return "?";
+  return io::nameOf(kCommands, c, "?");
 }
 
+constexpr io::Named<ErrorCode, std::string_view> kErrorCodeNames[] = {
+    {ErrorCode::kBadJson, "bad_json"},
+    {ErrorCode::kUnknownCommand, "unknown_command"},
+    {ErrorCode::kBadArgument, "bad_argument"},
+    {ErrorCode::kTooLarge, "too_large"},
+    {ErrorCode::kBusy, "busy"},
+    {ErrorCode::kBadState, "bad_state"},
+    {ErrorCode::kNotFound, "not_found"},
+    {ErrorCode::kBadPlan, "bad_plan"},
+    {ErrorCode::kForbidden, "forbidden"},
+    {ErrorCode::kInternal, "internal"},
+};
+
 std::string_view errorCodeName(ErrorCode c) {
-  switch (c) {
-    case ErrorCode::kBadJson:
-      return "bad_json";
-    case ErrorCode::kUnknownCommand:
-      return "unknown_command";
-    case ErrorCode::kBadArgument:
-      return "bad_argument";
-    case ErrorCode::kTooLarge:
-      return "too_large";
-    case ErrorCode::kBusy:
-      return "busy";
-    case ErrorCode::kBadState:
-      return "bad_state";
-    case ErrorCode::kNotFound:
-      return "not_found";
-    case ErrorCode::kBadPlan:
-      return "bad_plan";
-    case ErrorCode::kForbidden:
-      return "forbidden";
-    case ErrorCode::kInternal:
-      return "internal";
-  }
-  return "internal";
+  return io::nameOf(kErrorCodeNames, c, "internal");
 }
 
 std::string_view topicName(Topic t) {
-  for (const auto& [topic, name] : kTopics)
-    if (topic == t) return name;
-  return "?";
+  return io::nameOf(kTopics, t, "?");
 }
 
 std::optional<Topic> topicFromName(std::string_view name) {
-  for (const auto& [topic, n] : kTopics)
-    if (n == name) return topic;
-  return std::nullopt;
+  return io::valueOf(kTopics, name);
 }
 
 // Grammar (one JSON object per line, UTF-8, at most the server's max line size; blank lines

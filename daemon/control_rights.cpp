@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <functional>
 
+#include "io/enum_names.h"
+
 namespace imubench::daemon {
 namespace {
 
@@ -71,16 +73,14 @@ CommandClass commandClass(Command c) {
   return CommandClass::kCommand;  // a command added without a class needs the most rights
 }
 
+constexpr io::Named<CommandClass> kCommandClassNames[] = {
+    {CommandClass::kAnyone, "anyone"},
+    {CommandClass::kRead, "read"},
+    {CommandClass::kCommand, "command"},
+};
+
 const char* commandClassName(CommandClass c) {
-  switch (c) {
-    case CommandClass::kAnyone:
-      return "anyone";
-    case CommandClass::kRead:
-      return "read";
-    case CommandClass::kCommand:
-      return "command";
-  }
-  return "command";
+  return io::nameOf(kCommandClassNames, c, "command");
 }
 
 std::vector<gid_t> peerGroups(const PeerCredentials& peer) {

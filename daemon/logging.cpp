@@ -5,38 +5,31 @@
 #include <cstdio>
 #include <string>
 
+#include "io/enum_names.h"
+
 namespace imubench::daemon {
 
 namespace {
+struct LevelRow {
+  LogLevel value;
+  const char* name;
+  int priority;  // syslog's
+};
+
+constexpr LevelRow kLevels[] = {
+    {LogLevel::kDebug, "debug", LOG_DEBUG},    {LogLevel::kInfo, "info", LOG_INFO},
+    {LogLevel::kNotice, "notice", LOG_NOTICE}, {LogLevel::kWarning, "warning", LOG_WARNING},
+    {LogLevel::kError, "error", LOG_ERR},
+};
+
 int syslogPriority(LogLevel level) {
-  switch (level) {
-    case LogLevel::kDebug:
-      return LOG_DEBUG;
-    case LogLevel::kInfo:
-      return LOG_INFO;
-    case LogLevel::kNotice:
-      return LOG_NOTICE;
-    case LogLevel::kWarning:
-      return LOG_WARNING;
-    case LogLevel::kError:
-      return LOG_ERR;
-  }
+  for (const auto& row : kLevels)
+    if (row.value == level) return row.priority;
   return LOG_INFO;
 }
+
 const char* levelName(LogLevel level) {
-  switch (level) {
-    case LogLevel::kDebug:
-      return "debug";
-    case LogLevel::kInfo:
-      return "info";
-    case LogLevel::kNotice:
-      return "notice";
-    case LogLevel::kWarning:
-      return "warning";
-    case LogLevel::kError:
-      return "error";
-  }
-  return "info";
+  return io::nameOf(kLevels, level, "info");
 }
 }  // namespace
 

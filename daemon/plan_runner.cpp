@@ -6,6 +6,7 @@
 #include <sstream>
 #include <utility>
 
+#include "io/enum_names.h"
 #include "nav/rotation.h"
 
 namespace imubench::daemon {
@@ -17,56 +18,39 @@ constexpr const char* kInterlockOpenCause =
 
 }  // namespace
 
+constexpr io::Named<RunnerState> kRunnerStateNames[] = {
+    {RunnerState::kIdle, "idle"},         {RunnerState::kRunning, "running"},
+    {RunnerState::kPaused, "paused"},     {RunnerState::kAborting, "aborting"},
+    {RunnerState::kFinished, "finished"}, {RunnerState::kFaulted, "faulted"},
+};
+
 const char* runnerStateName(RunnerState s) {
-  switch (s) {
-    case RunnerState::kIdle:
-      return "idle";
-    case RunnerState::kRunning:
-      return "running";
-    case RunnerState::kPaused:
-      return "paused";
-    case RunnerState::kAborting:
-      return "aborting";
-    case RunnerState::kFinished:
-      return "finished";
-    case RunnerState::kFaulted:
-      return "faulted";
-  }
-  return "?";
+  return io::nameOf(kRunnerStateNames, s, "?");
 }
+
+constexpr io::Named<RunExit> kRunExitNames[] = {
+    {RunExit::kNone, "none"},
+    {RunExit::kCompleted, "completed"},
+    {RunExit::kAborted, "aborted"},
+    {RunExit::kEmergencyStop, "emergency_stop"},
+};
 
 const char* runExitName(RunExit e) {
-  switch (e) {
-    case RunExit::kNone:
-      return "none";
-    case RunExit::kCompleted:
-      return "completed";
-    case RunExit::kAborted:
-      return "aborted";
-    case RunExit::kEmergencyStop:
-      return "emergency_stop";
-  }
-  return "?";
+  return io::nameOf(kRunExitNames, e, "?");
 }
 
+constexpr io::Named<RunnerEvent::Kind> kRunnerEventKindNames[] = {
+    {RunnerEvent::Kind::kState, "state"},
+    {RunnerEvent::Kind::kStepStarted, "step_started"},
+    {RunnerEvent::Kind::kStepFinished, "step_finished"},
+    {RunnerEvent::Kind::kAlarm, "alarm"},
+    {RunnerEvent::Kind::kSoakSettled, "soak_settled"},
+    {RunnerEvent::Kind::kSoakTimeout, "soak_timeout"},
+    {RunnerEvent::Kind::kPointRestarted, "point_restarted"},
+};
+
 const char* runnerEventKindName(RunnerEvent::Kind k) {
-  switch (k) {
-    case RunnerEvent::Kind::kState:
-      return "state";
-    case RunnerEvent::Kind::kStepStarted:
-      return "step_started";
-    case RunnerEvent::Kind::kStepFinished:
-      return "step_finished";
-    case RunnerEvent::Kind::kAlarm:
-      return "alarm";
-    case RunnerEvent::Kind::kSoakSettled:
-      return "soak_settled";
-    case RunnerEvent::Kind::kSoakTimeout:
-      return "soak_timeout";
-    case RunnerEvent::Kind::kPointRestarted:
-      return "point_restarted";
-  }
-  return "?";
+  return io::nameOf(kRunnerEventKindNames, k, "?");
 }
 
 namespace {

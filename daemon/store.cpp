@@ -10,6 +10,8 @@
 #include <unordered_map>
 #include <utility>
 
+#include "io/enum_names.h"
+
 namespace imubench::daemon {
 namespace {
 
@@ -250,6 +252,12 @@ class Bound {
     }
   }
   void bindNull(int i) { sqlite3_bind_null(s_, i); }
+  // Binds ?1, ?2, ... to `values` in order.
+  template <class... V>
+  void bindAll(const V&... values) {
+    int i = 0;
+    (bind(++i, values), ...);
+  }
   int step() { return sqlite3_step(s_); }
   // Once stepped, the next use starts over (hot insert loops reuse one Bound).
   void rewind() { sqlite3_reset(s_); }
@@ -496,19 +504,10 @@ Status Store::Impl::insertRun(const RunStart& s, RunState state, std::int64_t* r
           "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)",
           &st);
   if (!q) return st;
-  q.bind(1, s.plan_name);
-  q.bind(2, s.plan_toml);
-  q.bind(3, s.bench_name);
-  q.bind(4, s.imu_serial);
-  q.bind(5, s.imu_rate_hz);
-  q.bind(6, s.latitude_deg);
-  q.bind(7, s.height_m);
-  q.bind(8, s.gravity_mps2);
-  q.bind(9, std::string_view(tableKindName(s.table_kind)));
-  q.bind(10, s.outer_axis_heading_deg);
-  q.bind(11, s.segments_from_file ? 1 : 0);
-  q.bind(12, nowUnixS());
-  q.bind(13, std::string_view(runStateName(state)));
+  q.bindAll(s.plan_name, s.plan_toml, s.bench_name, s.imu_serial, s.imu_rate_hz, s.latitude_deg,
+            s.height_m, s.gravity_mps2, std::string_view(tableKindName(s.table_kind)),
+            s.outer_axis_heading_deg, s.segments_from_file ? 1 : 0, nowUnixS(),
+            std::string_view(runStateName(state)));
   if (q.step() != SQLITE_DONE) return sqlError("cannot start a run");
   *run_id = sqlite3_last_insert_rowid(db.get());
   return Status::Ok();
@@ -523,11 +522,8 @@ Status Store::Impl::insertEvent(const RunEvent& e) {
       "INSERT INTO events(run_id, wall_unix_s, severity, kind, json) VALUES(?1, ?2, ?3, ?4, ?5)",
       &st);
   if (!q) return st;
-  q.bind(1, e.run_id);
-  q.bind(2, e.wall_unix_s);
-  q.bind(3, std::string_view(eventSeverityName(e.severity)));
-  q.bind(4, e.kind);
-  q.bind(5, e.json);
+  q.bindAll(e.run_id, e.wall_unix_s, std::string_view(eventSeverityName(e.severity)), e.kind,
+            e.json);
   if (q.step() != SQLITE_DONE) return sqlError(runLabel(e.run_id) + ": cannot add event");
   return Status::Ok();
 }
@@ -715,40 +711,28 @@ bool runResumable(RunState state) {
          state == RunState::kFaulted;
 }
 
+constexpr io::Named<RunState> kRunStateNames[] = {
+    {RunState::kRunning, "running"},         {RunState::kFinished, "finished"},
+    {RunState::kAborted, "aborted"},         {RunState::kFaulted, "faulted"},
+    {RunState::kInterrupted, "interrupted"},
+};
+
 const char* runStateName(RunState state) {
-  switch (state) {
-    case RunState::kRunning:
-      return "running";
-    case RunState::kFinished:
-      return "finished";
-    case RunState::kAborted:
-      return "aborted";
-    case RunState::kFaulted:
-      return "faulted";
-    case RunState::kInterrupted:
-      return "interrupted";
-  }
-  return "running";
+  return io::nameOf(kRunStateNames, state, "running");
 }
 
 std::optional<RunState> runStateFromName(std::string_view name) {
-  for (auto s : {RunState::kRunning, RunState::kFinished, RunState::kAborted, RunState::kFaulted,
-                 RunState::kInterrupted}) {
-    if (name == runStateName(s)) return s;
-  }
-  return std::nullopt;
+  return io::valueOf(kRunStateNames, name);
 }
 
+constexpr io::Named<EventSeverity> kEventSeverityNames[] = {
+    {EventSeverity::kInfo, "info"},
+    {EventSeverity::kWarning, "warning"},
+    {EventSeverity::kError, "error"},
+};
+
 const char* eventSeverityName(EventSeverity severity) {
-  switch (severity) {
-    case EventSeverity::kInfo:
-      return "info";
-    case EventSeverity::kWarning:
-      return "warning";
-    case EventSeverity::kError:
-      return "error";
-  }
-  return "info";
+  return io::nameOf(kEventSeverityNames, severity, "info");
 }
 
 bool RunStart::IsValid(std::string* why) const {
@@ -845,10 +829,7 @@ Status Store::finishRun(std::int64_t run_id, RunState state, const std::string& 
         "UPDATE runs SET state = ?2, exit_reason = ?3, finished_unix_s = ?4 WHERE id = ?1", &st);
     if (!q) return st;
     const double now = nowUnixS();
-    q.bind(1, run_id);
-    q.bind(2, std::string_view(runStateName(state)));
-    q.bind(3, reason);
-    q.bind(4, now);
+    q.bindAll(run_id, std::string_view(runStateName(state)), reason, now);
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot finish " + runLabel(run_id));
     const nlohmann::json details = {{"state", runStateName(state)}, {"reason", reason}};
     return impl_->insertEvent({run_id, now, endSeverity(state), "run-end", details.dump()});
@@ -1018,10 +999,8 @@ EventListResult Store::events(std::int64_t run_id) {
   q.bind(1, run_id);
   int rc;
   while ((rc = q.step()) == SQLITE_ROW) {
-    const std::string sev = q.text(1);
-    const EventSeverity severity = sev == "error"     ? EventSeverity::kError
-                                   : sev == "warning" ? EventSeverity::kWarning
-                                                      : EventSeverity::kInfo;
+    const EventSeverity severity =
+        io::valueOf(kEventSeverityNames, q.text(1)).value_or(EventSeverity::kInfo);
     r.value.push_back({run_id, q.real(0), severity, q.text(2), q.text(3)});
   }
   if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot read events of " + runLabel(run_id));
@@ -1107,12 +1086,7 @@ ResultIdResult Store::storeResult(std::int64_t run_id, const std::string& imu_se
         "VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
         &st);
     if (!q) return st;
-    q.bind(1, run_id);
-    q.bind(2, imu_serial);
-    q.bind(3, temperature_c);
-    q.bind(4, kind);
-    q.bind(5, json_text);
-    q.bind(6, nowUnixS());
+    q.bindAll(run_id, imu_serial, temperature_c, kind, json_text, nowUnixS());
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot store result");
     r.value = sqlite3_last_insert_rowid(impl_->db.get());
     return Status::Ok();
@@ -1147,11 +1121,7 @@ QueueAddResult Store::queueAdd(const QueueEntry& entry) {
         "VALUES((SELECT coalesce(max(pos), 0) + 1 FROM queue), ?1, ?2, ?3, ?4, ?5)",
         &st);
     if (!q) return st;
-    q.bind(1, entry.plan_name);
-    q.bind(2, entry.source);
-    q.bind(3, entry.plan_toml);
-    q.bind(4, entry.label);
-    q.bind(5, nowUnixS());
+    q.bindAll(entry.plan_name, entry.source, entry.plan_toml, entry.label, nowUnixS());
     if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot queue the plan");
     r.value.entry_id = sqlite3_last_insert_rowid(impl_->db.get());
     std::int64_t count = 0;

@@ -55,16 +55,11 @@ Status ModbusChamber::read(ChamberReading* out) {
   r.alarm_low = ((r.alarms_raw >> b.low) & 1u) != 0;
   r.alarm_sensor = ((r.alarms_raw >> b.sensor) & 1u) != 0;
   *out = r;
-  if (r.alarm_high || r.alarm_low || r.alarm_sensor) {
-    std::string why = r.alarm_high  ? "high-temperature alarm"
-                      : r.alarm_low ? "low-temperature alarm"
-                                    : "sensor-break alarm";
-    if (!alarm_fault_ && sink_) sink_(spec_.name() + ": fault: " + why);
-    alarm_fault_ = true;
-    return Status::Error(spec_.name() + ": " + why);
-  }
-  alarm_fault_ = false;
-  return Status::Ok();
+  const std::string why = r.alarm_high     ? "high-temperature alarm"
+                          : r.alarm_low    ? "low-temperature alarm"
+                          : r.alarm_sensor ? "sensor-break alarm"
+                                           : "";
+  return latchFault(spec_.name(), why, sink_, &alarm_fault_);
 }
 
 }  // namespace imubench::drivers

@@ -2,9 +2,7 @@
 
 #include <cctype>
 #include <charconv>
-#include <fstream>
 #include <set>
-#include <sstream>
 
 namespace imubench::drivers {
 namespace {
@@ -399,14 +397,9 @@ std::optional<DbcDatabase> parseDbc(std::string_view text, io::Diagnostics& diag
 }
 
 std::optional<DbcDatabase> loadDbcFile(const std::string& path, io::Diagnostics& diag) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    diag.error(0, 0, "cannot open DBC file");
-    return std::nullopt;
-  }
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parseDbc(ss.str(), diag);
+  auto text = io::readTextFile(path, "DBC", diag);
+  if (!text) return std::nullopt;
+  return parseDbc(*text, diag);
 }
 
 }  // namespace imubench::drivers

@@ -2,20 +2,30 @@
 
 #include <ctime>
 
+#include "io/enum_names.h"
+
 namespace imubench::drivers {
 
+constexpr io::Named<DeviceState> kDeviceStateNames[] = {
+    {DeviceState::kOffline, "offline"},
+    {DeviceState::kReady, "ready"},
+    {DeviceState::kRetrying, "retrying"},
+    {DeviceState::kFault, "fault"},
+};
+
 const char* deviceStateName(DeviceState s) {
-  switch (s) {
-    case DeviceState::kOffline:
-      return "offline";
-    case DeviceState::kReady:
-      return "ready";
-    case DeviceState::kRetrying:
-      return "retrying";
-    case DeviceState::kFault:
-      return "fault";
+  return io::nameOf(kDeviceStateNames, s, "unknown");
+}
+
+Status latchFault(const std::string& device, const std::string& fault,
+                  const std::function<void(const std::string&)>& sink, bool* faulted) {
+  if (fault.empty()) {
+    *faulted = false;
+    return Status::Ok();
   }
-  return "unknown";
+  if (!*faulted && sink) sink(device + ": fault: " + fault);
+  *faulted = true;
+  return Status::Error(device + ": " + fault);
 }
 
 double unixTimeS() {

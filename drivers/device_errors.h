@@ -3,6 +3,9 @@
 // catching exceptions. External input never crashes. unixTimeS stamps readings.
 #pragma once
 
+#include <functional>
+#include <string>
+
 #include "calib/status.h"
 
 namespace imubench::drivers {
@@ -15,6 +18,12 @@ enum class DeviceState {
 };
 
 const char* deviceStateName(DeviceState s);
+
+// The end of a reading: `fault` is what the device reports now (empty: nothing). A fault is
+// sent to `sink` (when set) once when it appears, latched in *faulted until a reading without
+// it, and returned as the reading's error ("device: fault").
+Status latchFault(const std::string& device, const std::string& fault,
+                  const std::function<void(const std::string&)>& sink, bool* faulted);
 
 // CLOCK_REALTIME in seconds: the clock of the kernel's frame receive times (can_frame.h), so a
 // reading stamped with it can be placed among the IMU's samples.

@@ -1,27 +1,26 @@
 #include "drivers/device_file.h"
 
-#include <fstream>
 #include <initializer_list>
 #include <set>
-#include <sstream>
 #include <string_view>
 #include <utility>
+#include <vector>
+
+#include "io/enum_names.h"
 
 namespace imubench::drivers {
 
 using io::Diagnostics;
 using io::Dimension;
 
+constexpr io::Named<TransportKind> kTransportKindNames[] = {
+    {TransportKind::kModbusTcp, "modbus-tcp"},
+    {TransportKind::kModbusRtu, "modbus-rtu"},
+    {TransportKind::kSerialScpi, "serial-scpi"},
+};
+
 const char* transportKindName(TransportKind k) {
-  switch (k) {
-    case TransportKind::kModbusTcp:
-      return "modbus-tcp";
-    case TransportKind::kModbusRtu:
-      return "modbus-rtu";
-    case TransportKind::kSerialScpi:
-      return "serial-scpi";
-  }
-  return "?";
+  return io::nameOf(kTransportKindNames, k, "?");
 }
 
 namespace {
@@ -35,6 +34,22 @@ using io::subTable;
 void readInt(const toml::table& t, std::string_view key, int& out, Diagnostics& diag, int64_t lo,
              int64_t hi) {
   if (auto v = intField(t, key, diag, false, lo, hi)) out = static_cast<int>(*v);
+}
+
+// One optional key of a table of integers (codes, bit numbers): where it goes, its range.
+struct IntKey {
+  std::string_view key;
+  int* out;
+  int64_t lo, hi;
+};
+
+// A table of integer keys only: unknown keys refused (`where` names the table), each key
+// present read into its place (a key left out keeps the default there).
+template <class... Keys>
+void readIntTable(const toml::table& t, std::string_view where, Diagnostics& diag,
+                  const Keys&... keys) {
+  checkKeys(t, {keys.key...}, where, diag);
+  (readInt(t, keys.key, *keys.out, diag, keys.lo, keys.hi), ...);
 }
 
 // Jerk ("deg/s^3") has no io::Dimension: parse it as an angular acceleration with one more /s.
@@ -74,15 +89,13 @@ std::optional<double> jerkField(const toml::table& t, std::string_view key, Diag
   return v;
 }
 
-std::optional<std::string> readFile(const std::string& path, Diagnostics& diag) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    diag.error(0, 0, "cannot open device file");
-    return std::nullopt;
-  }
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+// A device file read and parsed by `parse` (parseTableDevice, parseChamberDevice).
+template <class Spec>
+std::optional<Spec> loadDevice(const std::string& path, Diagnostics& diag,
+                               std::optional<Spec> (*parse)(std::string_view, Diagnostics&)) {
+  auto text = io::readTextFile(path, "device", diag);
+  if (!text) return std::nullopt;
+  return parse(*text, diag);
 }
 
 void parseRetry(const toml::table& t, RetryPolicy& r, Diagnostics& diag) {
@@ -457,16 +470,11 @@ void parseTableCommands(const toml::table& root, TableDeviceSpec& s, Diagnostics
 void parseStatusBits(const toml::table& root, TableStatusBits& b, Diagnostics& diag) {
   const toml::table* t = subTable(root, "status_bits", diag, false);
   if (!t) return;
-  checkKeys(*t,
-            {"interlock_closed", "interlock_tripped", "estop", "fault", "axis_moving",
-             "axis_in_position"},
-            "[status_bits]", diag);
-  readInt(*t, "interlock_closed", b.interlock_closed, diag, 0, 15);
-  readInt(*t, "interlock_tripped", b.interlock_tripped, diag, 0, 15);
-  readInt(*t, "estop", b.estop, diag, 0, 15);
-  readInt(*t, "fault", b.fault, diag, 0, 15);
-  readInt(*t, "axis_moving", b.axis_moving, diag, 0, 15);
-  readInt(*t, "axis_in_position", b.axis_in_position, diag, 0, 15);
+  readIntTable(*t, "[status_bits]", diag, IntKey{"interlock_closed", &b.interlock_closed, 0, 15},
+               IntKey{"interlock_tripped", &b.interlock_tripped, 0, 15},
+               IntKey{"estop", &b.estop, 0, 15}, IntKey{"fault", &b.fault, 0, 15},
+               IntKey{"axis_moving", &b.axis_moving, 0, 15},
+               IntKey{"axis_in_position", &b.axis_in_position, 0, 15});
   const int g[] = {b.interlock_closed, b.interlock_tripped, b.estop, b.fault};
   if (std::set<int>(std::begin(g), std::end(g)).size() != 4) {
     diag.error(t->source(), "global status bits must be distinct");
@@ -479,20 +487,15 @@ void parseStatusBits(const toml::table& root, TableStatusBits& b, Diagnostics& d
 void parseTableCodes(const toml::table& root, TableCodes& c, Diagnostics& diag) {
   const toml::table* t = subTable(root, "codes", diag, false);
   if (!t) return;
-  checkKeys(*t,
-            {"mode_off", "mode_position", "mode_rate", "cmd_move", "cmd_rotate", "cmd_stop",
-             "ctl_estop", "ctl_interlock_close", "ctl_interlock_open", "ctl_interlock_reset"},
-            "[codes]", diag);
-  readInt(*t, "mode_off", c.mode_off, diag, 0, 65535);
-  readInt(*t, "mode_position", c.mode_position, diag, 0, 65535);
-  readInt(*t, "mode_rate", c.mode_rate, diag, 0, 65535);
-  readInt(*t, "cmd_move", c.cmd_move, diag, 1, 65535);
-  readInt(*t, "cmd_rotate", c.cmd_rotate, diag, 1, 65535);
-  readInt(*t, "cmd_stop", c.cmd_stop, diag, 1, 65535);
-  readInt(*t, "ctl_estop", c.ctl_estop, diag, 1, 65535);
-  readInt(*t, "ctl_interlock_close", c.ctl_interlock_close, diag, 1, 65535);
-  readInt(*t, "ctl_interlock_open", c.ctl_interlock_open, diag, 1, 65535);
-  readInt(*t, "ctl_interlock_reset", c.ctl_interlock_reset, diag, 1, 65535);
+  readIntTable(
+      *t, "[codes]", diag, IntKey{"mode_off", &c.mode_off, 0, 65535},
+      IntKey{"mode_position", &c.mode_position, 0, 65535},
+      IntKey{"mode_rate", &c.mode_rate, 0, 65535}, IntKey{"cmd_move", &c.cmd_move, 1, 65535},
+      IntKey{"cmd_rotate", &c.cmd_rotate, 1, 65535}, IntKey{"cmd_stop", &c.cmd_stop, 1, 65535},
+      IntKey{"ctl_estop", &c.ctl_estop, 1, 65535},
+      IntKey{"ctl_interlock_close", &c.ctl_interlock_close, 1, 65535},
+      IntKey{"ctl_interlock_open", &c.ctl_interlock_open, 1, 65535},
+      IntKey{"ctl_interlock_reset", &c.ctl_interlock_reset, 1, 65535});
   const int modes[] = {c.mode_off, c.mode_position, c.mode_rate};
   const int cmds[] = {c.cmd_move, c.cmd_rotate, c.cmd_stop};
   const int ctls[] = {c.ctl_estop, c.ctl_interlock_close, c.ctl_interlock_open,
@@ -601,9 +604,7 @@ std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, Diagnosti
 }
 
 std::optional<TableDeviceSpec> loadTableDevice(const std::string& path, Diagnostics& diag) {
-  auto text = readFile(path, diag);
-  if (!text) return std::nullopt;
-  return parseTableDevice(*text, diag);
+  return loadDevice(path, diag, parseTableDevice);
 }
 
 std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagnostics& diag) {
@@ -638,16 +639,14 @@ std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagn
     }
   }
   if (const toml::table* c = subTable(*root, "codes", diag, false)) {
-    checkKeys(*c, {"run", "stop"}, "[codes]", diag);
-    readInt(*c, "run", s.codes.run, diag, 0, 65535);
-    readInt(*c, "stop", s.codes.stop, diag, 0, 65535);
+    readIntTable(*c, "[codes]", diag, IntKey{"run", &s.codes.run, 0, 65535},
+                 IntKey{"stop", &s.codes.stop, 0, 65535});
     if (s.codes.run == s.codes.stop) diag.error(c->source(), "run and stop codes must differ");
   }
   if (const toml::table* b = subTable(*root, "alarm_bits", diag, false)) {
-    checkKeys(*b, {"high", "low", "sensor"}, "[alarm_bits]", diag);
-    readInt(*b, "high", s.alarm_bits.high, diag, 0, 15);
-    readInt(*b, "low", s.alarm_bits.low, diag, 0, 15);
-    readInt(*b, "sensor", s.alarm_bits.sensor, diag, 0, 15);
+    readIntTable(*b, "[alarm_bits]", diag, IntKey{"high", &s.alarm_bits.high, 0, 15},
+                 IntKey{"low", &s.alarm_bits.low, 0, 15},
+                 IntKey{"sensor", &s.alarm_bits.sensor, 0, 15});
   }
   if (const toml::table* r = subTable(*root, "registers", diag, true)) {
     checkKeys(*r, {"word_order", "setpoint", "temperature", "ramp_rate", "run", "alarms"},
@@ -671,9 +670,7 @@ std::optional<ChamberDeviceSpec> parseChamberDevice(std::string_view text, Diagn
 }
 
 std::optional<ChamberDeviceSpec> loadChamberDevice(const std::string& path, Diagnostics& diag) {
-  auto text = readFile(path, diag);
-  if (!text) return std::nullopt;
-  return parseChamberDevice(*text, diag);
+  return loadDevice(path, diag, parseChamberDevice);
 }
 
 }  // namespace imubench::drivers

@@ -7,6 +7,8 @@
 #include <limits>
 #include <optional>
 
+#include "io/enum_names.h"
+
 namespace imubench::drivers {
 namespace {
 
@@ -28,22 +30,14 @@ constexpr int q(ImuQuantity x) {
 
 }  // namespace
 
+constexpr io::Named<FrameVerdict> kFrameVerdictNames[] = {
+    {FrameVerdict::kAccepted, "accepted"},    {FrameVerdict::kSampleDone, "sample-done"},
+    {FrameVerdict::kBadLength, "bad-length"}, {FrameVerdict::kUnknownId, "unknown-id"},
+    {FrameVerdict::kBadStatus, "bad-status"}, {FrameVerdict::kIncomplete, "incomplete"},
+};
+
 const char* frameVerdictName(FrameVerdict v) {
-  switch (v) {
-    case FrameVerdict::kAccepted:
-      return "accepted";
-    case FrameVerdict::kSampleDone:
-      return "sample-done";
-    case FrameVerdict::kBadLength:
-      return "bad-length";
-    case FrameVerdict::kUnknownId:
-      return "unknown-id";
-    case FrameVerdict::kBadStatus:
-      return "bad-status";
-    case FrameVerdict::kIncomplete:
-      return "incomplete";
-  }
-  return "?";
+  return io::nameOf(kFrameVerdictNames, v, "?");
 }
 
 bool ImuDecoderOptions::IsValid(std::string* why) const {

@@ -4,9 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include "drivers/can_frame.h"
 #include "drivers/dbc_parser.h"
@@ -56,38 +54,12 @@ std::optional<double> imuUnitToSi(ImuQuantity q, std::string_view unit, std::str
   static const std::vector<UnitEntry> kAccel = {
       {"m/s^2", 1.0}, {"m/s2", 1.0}, {"m/s\xC2\xB2", 1.0}, {"mm/s^2", 1e-3}, {"g", 9.80665}};
   static const std::vector<UnitEntry> kPlain = {{"", 1.0}, {"1", 1.0}, {"-", 1.0}};
-  const std::vector<UnitEntry>* table = &kPlain;
-  switch (q) {
-    case ImuQuantity::kTime:
-      table = &kTime;
-      break;
-    case ImuQuantity::kTemperature:
-      table = &kTemp;
-      break;
-    case ImuQuantity::kDthetaX:
-    case ImuQuantity::kDthetaY:
-    case ImuQuantity::kDthetaZ:
-      table = &kAngle;
-      break;
-    case ImuQuantity::kDvelX:
-    case ImuQuantity::kDvelY:
-    case ImuQuantity::kDvelZ:
-      table = &kVel;
-      break;
-    case ImuQuantity::kRateX:
-    case ImuQuantity::kRateY:
-    case ImuQuantity::kRateZ:
-      table = &kRate;
-      break;
-    case ImuQuantity::kAccelX:
-    case ImuQuantity::kAccelY:
-    case ImuQuantity::kAccelZ:
-      table = &kAccel;
-      break;
-    default:
-      table = &kPlain;
-      break;
-  }
+  // The unit list of each quantity, in ImuQuantity order (counter and status: plain numbers).
+  static const std::array<const std::vector<UnitEntry>*, kImuQuantityCount> kByQuantity = {
+      &kTime, &kPlain, &kPlain, &kTemp, &kAngle, &kAngle, &kAngle, &kVel,
+      &kVel,  &kVel,   &kRate,  &kRate, &kRate,  &kAccel, &kAccel, &kAccel};
+  const auto i = static_cast<std::size_t>(q);
+  const std::vector<UnitEntry>* table = i < kByQuantity.size() ? kByQuantity[i] : &kPlain;
   for (const auto& e : *table)
     if (unit == e.unit) return e.si;
   if (why) {
@@ -219,28 +191,29 @@ constexpr TypeSpec kTypes[] = {
     {"u64", 64, false, ValueType::kInteger}, {"i64", 64, true, ValueType::kInteger},
     {"f32", 32, true, ValueType::kFloat32},  {"f64", 64, true, ValueType::kFloat64}};
 
-std::optional<std::int64_t> intField(const toml::table& t, std::string_view key,
-                                     io::Diagnostics& diag, bool required) {
+// The value at `key` as a T ("must be <kind>" when it is not); nullopt when it is missing (an
+// error when required) or wrong.
+template <class T>
+std::optional<T> valueField(const toml::table& t, std::string_view key, io::Diagnostics& diag,
+                            bool required, std::string_view kind) {
   const toml::node* n = t.get(key);
   if (n == nullptr) {
     if (required) diag.error(t.source(), "missing required key '" + std::string(key) + "'");
     return std::nullopt;
   }
-  if (auto v = n->value<std::int64_t>()) return *v;
-  diag.error(n->source(), "'" + std::string(key) + "' must be an integer");
+  if (auto v = n->value<T>()) return *v;
+  diag.error(n->source(), "'" + std::string(key) + "' must be " + std::string(kind));
   return std::nullopt;
+}
+
+std::optional<std::int64_t> intField(const toml::table& t, std::string_view key,
+                                     io::Diagnostics& diag, bool required) {
+  return valueField<std::int64_t>(t, key, diag, required, "an integer");
 }
 
 std::optional<std::string> stringField(const toml::table& t, std::string_view key,
                                        io::Diagnostics& diag, bool required) {
-  const toml::node* n = t.get(key);
-  if (n == nullptr) {
-    if (required) diag.error(t.source(), "missing required key '" + std::string(key) + "'");
-    return std::nullopt;
-  }
-  if (auto v = n->value<std::string>()) return *v;
-  diag.error(n->source(), "'" + std::string(key) + "' must be a string");
-  return std::nullopt;
+  return valueField<std::string>(t, key, diag, required, "a string");
 }
 
 // Scale/offset written as "<number> <unit>" (unit-less for counter and status).
@@ -547,14 +520,9 @@ std::optional<ImuLayout> parseImuLayout(std::string_view toml_text, const std::s
 }
 
 std::optional<ImuLayout> loadImuLayoutFile(const std::string& path, io::Diagnostics& diag) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    diag.error(0, 0, "cannot open device file");
-    return std::nullopt;
-  }
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parseImuLayout(ss.str(), std::filesystem::path(path).parent_path().string(), diag);
+  auto text = io::readTextFile(path, "device", diag);
+  if (!text) return std::nullopt;
+  return parseImuLayout(*text, std::filesystem::path(path).parent_path().string(), diag);
 }
 
 }  // namespace imubench::drivers

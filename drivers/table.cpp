@@ -4,20 +4,19 @@
 
 #include "drivers/table_modbus.h"
 #include "drivers/table_serial.h"
+#include "io/enum_names.h"
 #include "nav/rotation.h"
 
 namespace imubench::drivers {
 
+constexpr io::Named<AxisMode> kAxisModeNames[] = {
+    {AxisMode::kOff, "off"},
+    {AxisMode::kPosition, "position"},
+    {AxisMode::kRate, "rate"},
+};
+
 const char* axisModeName(AxisMode m) {
-  switch (m) {
-    case AxisMode::kOff:
-      return "off";
-    case AxisMode::kPosition:
-      return "position";
-    case AxisMode::kRate:
-      return "rate";
-  }
-  return "?";
+  return io::nameOf(kAxisModeNames, m, "?");
 }
 
 std::unique_ptr<TableDriver> makeTableDriver(const TableDeviceSpec& spec, EventSink sink) {
@@ -25,6 +24,22 @@ std::unique_ptr<TableDriver> makeTableDriver(const TableDeviceSpec& spec, EventS
     return std::make_unique<SerialTable>(spec, std::move(sink));
   }
   return std::make_unique<ModbusTable>(spec, std::move(sink));
+}
+
+Status checkTableMotion(const TableDeviceSpec& spec, uint32_t raw, const EventSink& sink,
+                        bool* status_fault) {
+  TableReading r;
+  const std::string fault = decodeTableStatus(spec.bits, raw, &r);
+  if (!fault.empty()) {
+    *status_fault = true;
+    const std::string m = spec.name() + ": motion refused: " + fault;
+    if (sink) sink(m);
+    return Status::Error(m);
+  }
+  if (!r.interlock_closed) {
+    return Status::Error(spec.name() + ": motion refused: interlock open (close it first)");
+  }
+  return Status::Ok();
 }
 
 Status checkTableAxis(const TableDeviceSpec& spec, int axis) {

@@ -86,6 +86,10 @@ Status checkTableRate(const TableDeviceSpec& spec, double rate);
 Status checkTableTarget(const TableDeviceSpec& spec, double angle);
 // A profile the device file can set (TableDeviceSpec::profileSettable) within the spec's limits.
 Status checkTableProfile(const TableDeviceSpec& spec, const MotionLimits& limits);
+// Whether the controller's status word `raw` allows motion: an error "motion refused: ..."
+// naming its fault (then sent to `sink` and latched in *status_fault) or the open interlock.
+Status checkTableMotion(const TableDeviceSpec& spec, uint32_t raw, const EventSink& sink,
+                        bool* status_fault);
 // Fills the global flags of r from the status word; returns the reason when it is a fault.
 std::string decodeTableStatus(const TableStatusBits& bits, uint32_t raw, TableReading* r);
 

@@ -26,18 +26,17 @@ Status ModbusTable::checkMotionAllowed() {
   uint32_t raw = 0;
   Status s = link_.readBits(spec_.registers.status, "read status", &raw);
   if (!s.ok) return s;
-  TableReading r;
-  const std::string fault = decodeTableStatus(spec_.bits, raw, &r);
-  if (!fault.empty()) {
-    status_fault_ = true;
-    const std::string m = spec_.name() + ": motion refused: " + fault;
-    if (sink_) sink_(m);
-    return Status::Error(m);
-  }
-  if (!r.interlock_closed) {
-    return Status::Error(spec_.name() + ": motion refused: interlock open (close it first)");
-  }
-  return Status::Ok();
+  return checkTableMotion(spec_, raw, sink_, &status_fault_);
+}
+
+Status ModbusTable::startMotion(int axis, AxisMode mode, RegisterField TableAxisRegisters::*demand,
+                                std::string_view demand_what, double value,
+                                std::string_view command_what, int code, bool retry) {
+  if (Status s = checkMotionAllowed(); !s.ok) return s;
+  const auto& ax = spec_.registers.axes[axis];
+  if (Status s = setMode(axis, mode); !s.ok) return s;
+  if (Status s = link_.write(ax.*demand, what(demand_what, axis), value); !s.ok) return s;
+  return link_.writeCode(ax.command, what(command_what, axis), code, retry);
 }
 
 Status ModbusTable::setMode(int axis, AxisMode mode) {
@@ -61,34 +60,23 @@ Status ModbusTable::setProfile(int axis, const MotionLimits& limits) {
 Status ModbusTable::moveTo(int axis, double angle) {
   if (Status s = checkTableAxis(spec_, axis); !s.ok) return s;
   if (Status s = checkTableTarget(spec_, angle); !s.ok) return s;
-  if (Status s = checkMotionAllowed(); !s.ok) return s;
-  const auto& ax = spec_.registers.axes[axis];
-  if (Status s = setMode(axis, AxisMode::kPosition); !s.ok) return s;
-  if (Status s = link_.write(ax.position_demand, what("write position demand", axis), angle); !s.ok)
-    return s;
-  return link_.writeCode(ax.command, what("command move", axis), spec_.codes.cmd_move);
+  return startMotion(axis, AxisMode::kPosition, &TableAxisRegisters::position_demand,
+                     "write position demand", angle, "command move", spec_.codes.cmd_move);
 }
 
 Status ModbusTable::rotateBy(int axis, double delta) {
   if (Status s = checkTableAxis(spec_, axis); !s.ok) return s;
   if (!std::isfinite(delta)) return Status::Error(spec_.name() + ": rotation is not finite");
-  if (Status s = checkMotionAllowed(); !s.ok) return s;
-  const auto& ax = spec_.registers.axes[axis];
-  if (Status s = setMode(axis, AxisMode::kPosition); !s.ok) return s;
-  if (Status s = link_.write(ax.rotate_by, what("write rotation", axis), delta); !s.ok) return s;
-  return link_.writeCode(ax.command, what("command rotate", axis), spec_.codes.cmd_rotate,
-                         /*retry=*/false);
+  // Not retried: a relative rotation whose command was lost may have started already.
+  return startMotion(axis, AxisMode::kPosition, &TableAxisRegisters::rotate_by, "write rotation",
+                     delta, "command rotate", spec_.codes.cmd_rotate, /*retry=*/false);
 }
 
 Status ModbusTable::setRate(int axis, double rate) {
   if (Status s = checkTableAxis(spec_, axis); !s.ok) return s;
   if (Status s = checkTableRate(spec_, rate); !s.ok) return s;
-  if (Status s = checkMotionAllowed(); !s.ok) return s;
-  const auto& ax = spec_.registers.axes[axis];
-  if (Status s = setMode(axis, AxisMode::kRate); !s.ok) return s;
-  if (Status s = link_.write(ax.rate_demand, what("write rate demand", axis), rate); !s.ok)
-    return s;
-  return link_.writeCode(ax.command, what("command move", axis), spec_.codes.cmd_move);
+  return startMotion(axis, AxisMode::kRate, &TableAxisRegisters::rate_demand, "write rate demand",
+                     rate, "command move", spec_.codes.cmd_move);
 }
 
 Status ModbusTable::stop(int axis) {
@@ -129,13 +117,7 @@ Status ModbusTable::read(TableReading* out) {
     a.in_position = ((st >> spec_.bits.axis_in_position) & 1u) != 0;
   }
   *out = r;
-  if (!fault.empty()) {
-    if (!status_fault_ && sink_) sink_(spec_.name() + ": fault: " + fault);
-    status_fault_ = true;
-    return Status::Error(spec_.name() + ": " + fault);
-  }
-  status_fault_ = false;
-  return Status::Ok();
+  return latchFault(spec_.name(), fault, sink_, &status_fault_);
 }
 
 }  // namespace imubench::drivers

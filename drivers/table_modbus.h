@@ -27,6 +27,11 @@ class ModbusTable final : public TableDriver {
   // Motion needs a closed, untripped interlock: checked on the controller first so a refusal
   // names the reason instead of a silently ignored command.
   Status checkMotionAllowed();
+  // A motion command on an axis whose arguments are checked: motion allowed, the axis' mode,
+  // `value` to its `demand` register, then `code` to its command register.
+  Status startMotion(int axis, AxisMode mode, RegisterField TableAxisRegisters::*demand,
+                     std::string_view demand_what, double value, std::string_view command_what,
+                     int code, bool retry = true);
   std::string what(std::string_view request, int axis) const;
 
   TableDeviceSpec spec_;

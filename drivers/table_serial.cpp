@@ -116,18 +116,7 @@ Status SerialTable::query(const SerialCommand& c, int axis, std::string_view wha
 Status SerialTable::checkMotionAllowed() {
   double raw = 0;
   if (Status s = query(spec_.commands.read_status, -1, "read status", &raw); !s.ok) return s;
-  TableReading r;
-  const std::string fault = decodeTableStatus(spec_.bits, static_cast<uint32_t>(raw), &r);
-  if (!fault.empty()) {
-    status_fault_ = true;
-    const std::string m = spec_.name() + ": motion refused: " + fault;
-    emit(m);
-    return Status::Error(m);
-  }
-  if (!r.interlock_closed) {
-    return Status::Error(spec_.name() + ": motion refused: interlock open (close it first)");
-  }
-  return Status::Ok();
+  return checkTableMotion(spec_, static_cast<uint32_t>(raw), sink_, &status_fault_);
 }
 
 Status SerialTable::setMode(int axis, AxisMode mode) {
@@ -221,13 +210,7 @@ Status SerialTable::read(TableReading* out) {
     a.in_position = ((st >> spec_.bits.axis_in_position) & 1u) != 0;
   }
   *out = r;
-  if (!fault.empty()) {
-    if (!status_fault_) emit(spec_.name() + ": fault: " + fault);
-    status_fault_ = true;
-    return Status::Error(spec_.name() + ": " + fault);
-  }
-  status_fault_ = false;
-  return Status::Ok();
+  return latchFault(spec_.name(), fault, sink_, &status_fault_);
 }
 
 }  // namespace imubench::drivers

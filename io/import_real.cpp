@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -59,6 +60,39 @@ bool rowValues(const std::vector<std::string>& f, const std::vector<std::string>
   return true;
 }
 
+// The data rows of a table file from `in` (`line` lines already read), split on `sep` (' ':
+// any whitespace; a trailing '\r' dropped), blank lines skipped: each row must hold `columns`
+// finite numbers (`names` name them in errors, `shape` follows the column count there) and is
+// handed to `row`. False and *err ("path:line: why") at the first bad row, at a row `row`
+// refuses (its *why), or when there is no row at all.
+bool readRows(std::istream& in, const std::string& path, std::size_t line, char sep,
+              std::size_t columns, const std::vector<std::string>& names, std::string_view shape,
+              const std::function<bool(const double* x, std::string* why)>& row, std::string* err) {
+  std::string text;
+  std::vector<double> x(columns);
+  bool any = false;
+  while (std::getline(in, text)) {
+    ++line;
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    const auto f = fields(text, sep);
+    if (f.empty()) continue;
+    if (f.size() != columns) {
+      *err = at(path, line,
+                "expected " + std::to_string(columns) + " columns" + std::string(shape) +
+                    ", found " + std::to_string(f.size()) + (in.eof() ? " (truncated?)" : ""));
+      return false;
+    }
+    std::string why;
+    if (!rowValues(f, names, x.data(), &why) || !row(x.data(), &why)) {
+      *err = at(path, line, why);
+      return false;
+    }
+    any = true;
+  }
+  if (!any) *err = path + ": no data rows";
+  return any;
+}
+
 struct Rows {
   std::vector<double> t;
   std::vector<Vec3> v;
@@ -71,34 +105,18 @@ bool readTxyz(const std::string& path, Rows* rows, std::string* err) {
     *err = path + ": cannot open";
     return false;
   }
-  std::string line;
-  std::size_t n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    const auto f = fields(line, ' ');
-    if (f.empty()) continue;
-    if (f.size() != 4) {
-      *err = at(path, n, "expected 4 columns (t x y z), found " + std::to_string(f.size()));
-      return false;
-    }
-    double x[4];
-    std::string why;
-    if (!rowValues(f, {}, x, &why)) {
-      *err = at(path, n, why);
-      return false;
-    }
-    if (!rows->t.empty() && !(x[0] > rows->t.back())) {
-      *err = at(path, n, "time does not increase");
-      return false;
-    }
-    rows->t.push_back(x[0]);
-    rows->v.emplace_back(x[1], x[2], x[3]);
-  }
-  if (rows->t.empty()) {
-    *err = path + ": no data rows";
-    return false;
-  }
-  return true;
+  return readRows(
+      in, path, 0, ' ', 4, {}, " (t x y z)",
+      [&](const double* x, std::string* why) {
+        if (!rows->t.empty() && !(x[0] > rows->t.back())) {
+          *why = "time does not increase";
+          return false;
+        }
+        rows->t.push_back(x[0]);
+        rows->v.emplace_back(x[1], x[2], x[3]);
+        return true;
+      },
+      err);
 }
 
 // Opens a file whose samples are counted at rate_hz (no time column of their own).
@@ -150,32 +168,16 @@ RealImport readSixColumnLog(const std::string& path, double rate_hz) {
   std::ifstream in;
   if (!openAtRate(path, rate_hz, &in, &r.error)) return r;
   const std::vector<std::string> names = {"ax", "ay", "az", "wx", "wy", "wz"};
-  std::string line;
-  std::size_t n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    const auto f = fields(line, ' ');
-    if (f.empty()) continue;
-    if (f.size() != names.size()) {
-      r.error = at(path, n,
-                   "expected 6 columns (ax ay az wx wy wz), found " + std::to_string(f.size()) +
-                       (in.eof() ? " (truncated?)" : ""));
-      return r;
-    }
-    double x[6];
-    std::string why;
-    if (!rowValues(f, names, x, &why)) {
-      r.error = at(path, n, why);
-      return r;
-    }
-    r.data.t.push_back(static_cast<double>(r.data.t.size()) / rate_hz);
-    r.data.accel.emplace_back(x[0], x[1], x[2]);
-    r.data.gyro.emplace_back(x[3], x[4], x[5]);
-  }
-  if (r.data.t.empty()) {
-    r.error = path + ": no data rows";
-    return r;
-  }
+  const bool read = readRows(
+      in, path, 0, ' ', names.size(), names, " (ax ay az wx wy wz)",
+      [&](const double* x, std::string*) {
+        r.data.t.push_back(static_cast<double>(r.data.t.size()) / rate_hz);
+        r.data.accel.emplace_back(x[0], x[1], x[2]);
+        r.data.gyro.emplace_back(x[3], x[4], x[5]);
+        return true;
+      },
+      &r.error);
+  if (!read) return r;
   r.accel_unit = "m/s^2";
   r.gyro_unit = "rad/s";
   r.ok = true;
@@ -198,36 +200,22 @@ RealImport readImucalCsv(const std::string& path, double rate_hz) {
     r.error = at(path, 1, "header must be n_samples,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z");
     return r;
   }
-  std::size_t n = 1;
   double last = -1.0;
-  while (std::getline(in, line)) {
-    ++n;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    const auto f = fields(line, ',');
-    if (f.size() != 7) {
-      r.error = at(path, n, "expected 7 columns, found " + std::to_string(f.size()));
-      return r;
-    }
-    double x[7];
-    std::string why;
-    if (!rowValues(f, expected, x, &why)) {
-      r.error = at(path, n, why);
-      return r;
-    }
-    if (!(x[0] > last)) {
-      r.error = at(path, n, "n_samples does not increase");
-      return r;
-    }
-    last = x[0];
-    r.data.t.push_back(x[0] / rate_hz);
-    r.data.gyro.emplace_back(x[1], x[2], x[3]);
-    r.data.accel.emplace_back(x[4], x[5], x[6]);
-  }
-  if (r.data.t.empty()) {
-    r.error = path + ": no data rows";
-    return r;
-  }
+  const bool read = readRows(
+      in, path, 1, ',', expected.size(), expected, "",
+      [&](const double* x, std::string* why) {
+        if (!(x[0] > last)) {
+          *why = "n_samples does not increase";
+          return false;
+        }
+        last = x[0];
+        r.data.t.push_back(x[0] / rate_hz);
+        r.data.gyro.emplace_back(x[1], x[2], x[3]);
+        r.data.accel.emplace_back(x[4], x[5], x[6]);
+        return true;
+      },
+      &r.error);
+  if (!read) return r;
   r.accel_unit = "m/s^2";
   r.gyro_unit = "deg/s";
   r.ok = true;

@@ -573,6 +573,31 @@ Status writeFile(const std::string& path, Fn&& body) {
   return Status::Ok();
 }
 
+// A table file: its header line, then a line per row, each written by write_row (no line end).
+template <class Rows, class WriteRow>
+Status writeTable(const fs::path& path, std::string_view header, const Rows& rows,
+                  WriteRow&& write_row) {
+  return writeFile(path.string(), [&](CsvWriter& w) {
+    w.text(header);
+    w.endLine();
+    for (const auto& row : rows) {
+      write_row(w, row);
+      w.endLine();
+    }
+  });
+}
+
+// An optional table file (chamber.csv, segments.csv): written when there are rows, otherwise
+// removed, so that a directory written again says what the recording says.
+template <class Rows, class WriteRow>
+Status writeOptionalTable(const fs::path& path, std::string_view header, const Rows& rows,
+                          WriteRow&& write_row) {
+  if (!rows.empty()) return writeTable(path, header, rows, write_row);
+  std::error_code ec;
+  fs::remove(path, ec);
+  return Status::Ok();
+}
+
 std::string quoteLabel(const std::string& label) {
   if (label.find_first_of(",\"\n\r") == std::string::npos &&
       (label.empty() || label.front() != '"')) {
@@ -681,78 +706,51 @@ Status writeRecording(const std::string& dir, const Recording& rec) {
     if (!st.ok) return st;
   }
   // imu.csv
-  auto st = writeFile((d / "imu.csv").string(), [&](CsvWriter& w) {
-    w.text(kImuHeader);
-    w.endLine();
-    for (const auto& s : rec.imu) {
-      w.number(s.t);
-      for (int i = 0; i < 3; ++i) {
-        w.comma();
-        w.number(s.dtheta[i]);
-      }
-      for (int i = 0; i < 3; ++i) {
-        w.comma();
-        w.number(s.dvel[i]);
-      }
+  auto st = writeTable(d / "imu.csv", kImuHeader, rec.imu, [](CsvWriter& w, const auto& s) {
+    w.number(s.t);
+    for (int i = 0; i < 3; ++i) {
       w.comma();
-      if (!std::isnan(s.temp_c)) w.number(s.temp_c);
-      w.endLine();
+      w.number(s.dtheta[i]);
     }
+    for (int i = 0; i < 3; ++i) {
+      w.comma();
+      w.number(s.dvel[i]);
+    }
+    w.comma();
+    if (!std::isnan(s.temp_c)) w.number(s.temp_c);
   });
   if (!st.ok) return st;
   // table.csv
   const int n_axes = calib::axisCount(rec.table_kind);
-  st = writeFile((d / "table.csv").string(), [&](CsvWriter& w) {
-    w.text(n_axes == 2 ? kTable2Header : kTable3Header);
-    w.endLine();
-    for (const auto& s : rec.table) {
-      w.number(s.t);
-      for (int a = 0; a < n_axes; ++a) {
-        w.comma();
-        w.number(s.angles_deg[static_cast<size_t>(a)]);
-      }
-      w.endLine();
-    }
-  });
+  st = writeTable(d / "table.csv", n_axes == 2 ? kTable2Header : kTable3Header, rec.table,
+                  [&](CsvWriter& w, const auto& s) {
+                    w.number(s.t);
+                    for (int a = 0; a < n_axes; ++a) {
+                      w.comma();
+                      w.number(s.angles_deg[static_cast<size_t>(a)]);
+                    }
+                  });
   if (!st.ok) return st;
-  // chamber.csv, segments.csv: optional; remove stale ones so the directory says what rec says.
-  if (!rec.chamber.empty()) {
-    st = writeFile((d / "chamber.csv").string(), [&](CsvWriter& w) {
-      w.text(kChamberHeader);
-      w.endLine();
-      for (const auto& s : rec.chamber) {
-        w.number(s.t);
-        w.comma();
-        w.number(s.setpoint_c);
-        w.comma();
-        w.number(s.temp_c);
-        w.endLine();
-      }
-    });
-    if (!st.ok) return st;
-  } else {
-    fs::remove(d / "chamber.csv", ec);
-  }
-  if (!rec.segments.empty()) {
-    st = writeFile((d / "segments.csv").string(), [&](CsvWriter& w) {
-      w.text(kSegmentsHeader);
-      w.endLine();
-      for (const auto& s : rec.segments) {
-        w.number(s.t0);
-        w.comma();
-        w.number(s.t1);
-        w.comma();
-        w.text(calib::segmentKindName(s.kind));
-        w.comma();
-        w.text(quoteLabel(s.label));
-        w.endLine();
-      }
-    });
-    if (!st.ok) return st;
-  } else {
-    fs::remove(d / "segments.csv", ec);
-  }
-  return Status::Ok();
+  // chamber.csv, segments.csv: optional.
+  st = writeOptionalTable(d / "chamber.csv", kChamberHeader, rec.chamber,
+                          [](CsvWriter& w, const auto& s) {
+                            w.number(s.t);
+                            w.comma();
+                            w.number(s.setpoint_c);
+                            w.comma();
+                            w.number(s.temp_c);
+                          });
+  if (!st.ok) return st;
+  return writeOptionalTable(d / "segments.csv", kSegmentsHeader, rec.segments,
+                            [](CsvWriter& w, const auto& s) {
+                              w.number(s.t0);
+                              w.comma();
+                              w.number(s.t1);
+                              w.comma();
+                              w.text(calib::segmentKindName(s.kind));
+                              w.comma();
+                              w.text(quoteLabel(s.label));
+                            });
 }
 
 RecordingReadResult readRecording(const std::string& dir) {

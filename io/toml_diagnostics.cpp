@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <sstream>
 #include <utility>
 
@@ -32,6 +33,18 @@ std::string Diagnostics::str() const {
   std::string s;
   for (const auto& d : items_) s += d.str() + "\n";
   return s;
+}
+
+std::optional<std::string> readTextFile(const std::string& path, std::string_view what,
+                                        Diagnostics& diag) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    diag.error(0, 0, "cannot open " + std::string(what) + " file");
+    return std::nullopt;
+  }
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 std::optional<toml::table> parseToml(std::string_view text, Diagnostics& diag) {
@@ -177,45 +190,48 @@ void checkKeys(const toml::table& t, std::initializer_list<std::string_view> all
   }
 }
 
-const toml::table* subTable(const toml::table& t, std::string_view key, Diagnostics& diag,
-                            bool required) {
+namespace {
+
+// The node at `key` when it is there and of the type `want`; nullptr otherwise, with a
+// diagnostic at the table when a required key is missing, at the node when it is "\"key\"
+// must be <must_be>".
+const toml::node* typedField(const toml::table& t, std::string_view key, toml::node_type want,
+                             std::string_view must_be, bool required, Diagnostics& diag) {
   const toml::node* n = t.get(key);
   if (!n) {
-    if (required) diag.error(t.source(), "missing required table [" + std::string(key) + "]");
+    if (required) {
+      diag.error(t.source(), want == toml::node_type::table
+                                 ? "missing required table [" + std::string(key) + "]"
+                                 : "missing required key \"" + std::string(key) + "\"");
+    }
     return nullptr;
   }
-  if (!n->is_table()) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" must be a table");
+  if (n->type() != want) {
+    diag.error(n->source(), "\"" + std::string(key) + "\" must be " + std::string(must_be));
     return nullptr;
   }
-  return n->as_table();
+  return n;
+}
+
+}  // namespace
+
+const toml::table* subTable(const toml::table& t, std::string_view key, Diagnostics& diag,
+                            bool required) {
+  const toml::node* n = typedField(t, key, toml::node_type::table, "a table", required, diag);
+  return n ? n->as_table() : nullptr;
 }
 
 std::optional<std::string> strField(const toml::table& t, std::string_view key, Diagnostics& diag,
                                     bool required) {
-  const toml::node* n = t.get(key);
-  if (!n) {
-    if (required) diag.error(t.source(), "missing required key \"" + std::string(key) + "\"");
-    return std::nullopt;
-  }
-  if (!n->is_string()) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" must be a string");
-    return std::nullopt;
-  }
+  const toml::node* n = typedField(t, key, toml::node_type::string, "a string", required, diag);
+  if (!n) return std::nullopt;
   return n->as_string()->get();
 }
 
 std::optional<int64_t> intField(const toml::table& t, std::string_view key, Diagnostics& diag,
                                 bool required, int64_t lo, int64_t hi) {
-  const toml::node* n = t.get(key);
-  if (!n) {
-    if (required) diag.error(t.source(), "missing required key \"" + std::string(key) + "\"");
-    return std::nullopt;
-  }
-  if (!n->is_integer()) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" must be an integer");
-    return std::nullopt;
-  }
+  const toml::node* n = typedField(t, key, toml::node_type::integer, "an integer", required, diag);
+  if (!n) return std::nullopt;
   const int64_t v = n->as_integer()->get();
   if (v < lo || v > hi) {
     diag.error(n->source(), "\"" + std::string(key) + "\" = " + std::to_string(v) +
@@ -227,12 +243,8 @@ std::optional<int64_t> intField(const toml::table& t, std::string_view key, Diag
 }
 
 std::optional<bool> boolField(const toml::table& t, std::string_view key, Diagnostics& diag) {
-  const toml::node* n = t.get(key);
+  const toml::node* n = typedField(t, key, toml::node_type::boolean, "true or false", false, diag);
   if (!n) return std::nullopt;
-  if (!n->is_boolean()) {
-    diag.error(n->source(), "\"" + std::string(key) + "\" must be true or false");
-    return std::nullopt;
-  }
   return n->as_boolean()->get();
 }
 

@@ -39,6 +39,11 @@ class Diagnostics {
   std::vector<Diagnostic> items_;
 };
 
+// The whole text of the file at `path`; when it cannot be opened, the diagnostic
+// "cannot open <what> file" (what: "device", "bench", "DBC", ...) and nullopt.
+std::optional<std::string> readTextFile(const std::string& path, std::string_view what,
+                                        Diagnostics& diag);
+
 // Parses TOML text; a syntax error becomes a diagnostic and nullopt is returned.
 std::optional<toml::table> parseToml(std::string_view text, Diagnostics& diag);
 

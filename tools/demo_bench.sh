@@ -52,17 +52,8 @@ port = 1503
 layout = "$W/imu.toml"
 interface = "vcan0"
 serial = "DEMO-0001"
-[safety]
-comm_timeout = "5 s"
-imu_timeout = "5 s"
-[acceptance]
-"gyro.bias" = "0.05 deg/h"
-"accel.bias" = "100 ug"
-"accel.scale" = "300 ppm"
-"gyro.scale" = "100 ppm"
-"gyro.misalignment" = "100 arcsec"
-"accel.misalignment" = "100 arcsec"
 TOML
+cat "$SRC/tools/demo_bench_limits.toml" >>"$W/bench.toml"
 
 echo "== virtual bench (time x$SCALE, truth $TRUTH) and imubenchd on vcan0"
 "$B/tools/imubench-virtual-bench" --table "$DEV/tables/imubench-ref-2axis-tcp.toml" \

@@ -352,6 +352,18 @@ void serveUntilStopped(const Args& a, const FaultTargets& f, const daemon::Logge
   }
 }
 
+// Starts a device's Modbus TCP server on the port given on the command line (port >= 0), else
+// on its device file's, and announces where it listens ("table modbus-tcp HOST:PORT device
+// FILE"); the error names the device.
+Status startTcpDevice(ModbusServer& server, const std::string& what, const std::string& host,
+                      int port, int file_port, const std::string& device_file) {
+  if (Status s = server.startTcp(host, port >= 0 ? port : file_port); !s.ok)
+    return Status::Error(what + ": " + s.message);
+  announce(what + " modbus-tcp " + host + ":" + std::to_string(server.port()) + " device " +
+           device_file);
+  return Status::Ok();
+}
+
 int run(const Args& a) {
   daemon::Logger log("imubench-virtual-bench", /*also_stderr=*/true);
   auto fail = [&](const std::string& m) {
@@ -369,10 +381,10 @@ int run(const Args& a) {
 
   VirtualTableRegisters table_regs(world, dev->table, sink);
   ModbusServer table_tcp(table_regs, faults, sink);
-  const int tport = a.table_port >= 0 ? a.table_port : dev->table.transport.port;
-  if (Status s = table_tcp.startTcp(a.host, tport); !s.ok) return fail("table: " + s.message);
-  announce("table modbus-tcp " + a.host + ":" + std::to_string(table_tcp.port()) + " device " +
-           a.table_file);
+  if (Status s = startTcpDevice(table_tcp, "table", a.host, a.table_port, dev->table.transport.port,
+                                a.table_file);
+      !s.ok)
+    return fail(s.message);
   std::unique_ptr<ModbusServer> table_rtu;
   if (a.table_rtu) {
     table_rtu = std::make_unique<ModbusServer>(table_regs, faults, sink);
@@ -387,10 +399,10 @@ int run(const Args& a) {
   }
   VirtualChamberRegisters chamber_regs(world, dev->chamber, sink);
   ModbusServer chamber_tcp(chamber_regs, faults, sink);
-  const int cport = a.chamber_port >= 0 ? a.chamber_port : dev->chamber.transport.port;
-  if (Status s = chamber_tcp.startTcp(a.host, cport); !s.ok) return fail("chamber: " + s.message);
-  announce("chamber modbus-tcp " + a.host + ":" + std::to_string(chamber_tcp.port()) + " device " +
-           a.chamber_file);
+  if (Status s = startTcpDevice(chamber_tcp, "chamber", a.host, a.chamber_port,
+                                dev->chamber.transport.port, a.chamber_file);
+      !s.ok)
+    return fail(s.message);
 
   std::unique_ptr<ImuStreamer> imu;
   if (!a.imu_layout_file.empty()) {

@@ -59,12 +59,29 @@ bool appendSecond(daemon::RunWriter& writer, long second, std::mt19937_64& rng) 
   return true;
 }
 
-void BM_StoreAppendSecondOf2kHz(benchmark::State& state, const std::string& db_path) {
+// The store at db_path with a run begun (its id in *run); nullptr, the benchmark skipped with
+// the reason, when either fails.
+std::unique_ptr<daemon::Store> openWithRun(benchmark::State& state, const std::string& db_path,
+                                           std::int64_t* run) {
   auto opened = daemon::Store::open(db_path);
-  if (!opened.status.ok) return state.SkipWithError(opened.status.message.c_str());
-  const auto run = opened.value->beginRun(benchStart());
-  if (!run.status.ok) return state.SkipWithError(run.status.message.c_str());
-  daemon::RunWriter writer(*opened.value, run.value);
+  if (!opened.status.ok) {
+    state.SkipWithError(opened.status.message.c_str());
+    return nullptr;
+  }
+  const auto begun = opened.value->beginRun(benchStart());
+  if (!begun.status.ok) {
+    state.SkipWithError(begun.status.message.c_str());
+    return nullptr;
+  }
+  *run = begun.value;
+  return std::move(opened.value);
+}
+
+void BM_StoreAppendSecondOf2kHz(benchmark::State& state, const std::string& db_path) {
+  std::int64_t run = 0;
+  const auto store = openWithRun(state, db_path, &run);
+  if (!store) return;
+  daemon::RunWriter writer(*store, run);
   std::mt19937_64 rng(42);
   long second = 0;
   double wall_s = 0.0;  // own wall clock: rate counters would use CPU time
@@ -81,12 +98,11 @@ void BM_StoreAppendSecondOf2kHz(benchmark::State& state, const std::string& db_p
 }
 
 void BM_StoreLoad10MinRun(benchmark::State& state, const std::string& db_path) {
-  auto opened = daemon::Store::open(db_path);
-  if (!opened.status.ok) return state.SkipWithError(opened.status.message.c_str());
-  const auto run = opened.value->beginRun(benchStart());
-  if (!run.status.ok) return state.SkipWithError(run.status.message.c_str());
+  std::int64_t run = 0;
+  const auto store = openWithRun(state, db_path, &run);
+  if (!store) return;
   {
-    daemon::RunWriter writer(*opened.value, run.value);
+    daemon::RunWriter writer(*store, run);
     std::mt19937_64 rng(7);
     for (long s = 0; s < 600; ++s)
       if (!appendSecond(writer, s, rng)) return state.SkipWithError("append failed");
@@ -94,7 +110,7 @@ void BM_StoreLoad10MinRun(benchmark::State& state, const std::string& db_path) {
   }
   size_t rows = 0;
   for (auto _ : state) {
-    auto r = opened.value->loadRecording(run.value);
+    auto r = store->loadRecording(run);
     if (!r.status.ok) return state.SkipWithError(r.status.message.c_str());
     rows = r.value.imu.size() + r.value.table.size();
     benchmark::DoNotOptimize(r.value.imu.data());

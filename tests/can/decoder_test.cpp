@@ -15,6 +15,13 @@
 namespace imubench::drivers {
 namespace {
 
+// The samples `dec` decodes from `frames`.
+std::vector<DecodedImuSample> decodeAll(ImuDecoder& dec, const std::vector<CanFrame>& frames) {
+  std::vector<DecodedImuSample> out;
+  dec.feed(frames, &out);
+  return out;
+}
+
 using testing::expectSameWithinResolution;
 using testing::loadShipped;
 using testing::makeSamples;
@@ -179,8 +186,7 @@ TEST_P(RoundTrip, EncodeDecodeWithinResolutionNoLoss) {
   }
   EXPECT_EQ(frames.size(), samples.size() * layout.messages.size());
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   expectSameWithinResolution(layout, samples, out);
   EXPECT_EQ(dec.counters().lost_samples, 0U);
   EXPECT_EQ(dec.counters().badFrames(), 0U);
@@ -219,8 +225,7 @@ TEST(ImuDecoder, CounterGapsCountLostSamples) {
   // Every 10th sample's (only) frame dropped: 100 lost.
   const auto frames = encodeAll(layout, samples, {.drop_frame_every = 10});
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   EXPECT_EQ(out.size(), 900U);
   // The last sample (index 999) is dropped and unseen: gaps before 9, 19, ..., 989 = 99.
   EXPECT_EQ(dec.counters().lost_samples, 99U);
@@ -232,8 +237,7 @@ TEST(ImuDecoder, TimeStampGapsCountLostSamplesWithoutCounter) {
   const auto samples = makeSamples(500, layout.sample_period_s);
   const auto frames = encodeAll(layout, samples, {.drop_frame_every = 50});
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   EXPECT_EQ(out.size(), 490U);
   // 10 samples lost their last frame: each is "incomplete"; 9 gaps are seen (last is at the end).
   EXPECT_EQ(dec.counters().incomplete, 9U);
@@ -250,8 +254,7 @@ TEST(ImuDecoder, CounterAndTimeWrapAround) {
   for (std::size_t k = 0; k < samples.size(); ++k)
     enc.encode(samples[k], 0xFFFFFFFDULL + k, enc.goodStatus(), &frames);
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   ASSERT_EQ(out.size(), 10U);
   EXPECT_EQ(dec.counters().lost_samples, 0U);
   // Time stamps wrapped: decoded time keeps increasing by one period.
@@ -287,8 +290,7 @@ TEST(ImuDecoder, RestartReBasesTheTimeAxis) {
   const double rx_restart = kRx0 + 1999 * p + 0.2;
   appendStream(layout, makeSamples(1000, p, 9), 0, rx_restart, p, &frames);
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   ASSERT_EQ(out.size(), 3000U);
   EXPECT_EQ(dec.counters().restarts, 1U);
   EXPECT_EQ(dec.counters().lost_samples, 0U);
@@ -311,8 +313,7 @@ TEST(ImuDecoder, RestartSeenFromTheTimeStampAlone) {
   appendStream(layout, makeSamples(500, p, 7, 100.0), 0, kRx0, p, &frames);
   appendStream(layout, makeSamples(100, p), 0, kRx0 + 499 * p + 1.0, p, &frames);
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   ASSERT_EQ(out.size(), 600U);
   EXPECT_EQ(dec.counters().restarts, 1U);
   EXPECT_EQ(dec.counters().lost_samples, 0U);
@@ -334,8 +335,7 @@ TEST(ImuDecoder, WrapConsistentWithTheReceiveClockStaysAWrap) {
     frames[i].rx_time_s = kRx0 + 0.005 * static_cast<double>(i / 25);
   }
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   ASSERT_EQ(out.size(), 6000U);
   EXPECT_EQ(dec.counters().restarts, 0U);
   EXPECT_EQ(dec.counters().lost_samples, 0U);
@@ -355,8 +355,7 @@ TEST(ImuDecoder, ForwardStepsJudgedAgainstTheReceiveClock) {
   appendStream(layout, makeSamples(100, p), 0, kRx0, p, &frames);
   appendStream(layout, makeSamples(100, p, 7, 10.1), 10100, kRx0 + 10.1, p, &frames);
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   EXPECT_EQ(dec.counters().restarts, 0U);
   EXPECT_EQ(dec.counters().lost_samples, 10000U);
   frames.clear();
@@ -394,8 +393,7 @@ TEST(VirtualImuCan, RestartFaultAndWrapStart) {
     frames[i].rx_time_s = kRx0 + static_cast<double>(i < 2999 ? i : i + 200) * p;
   }
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   ASSERT_EQ(out.size(), frames.size());
   EXPECT_EQ(dec.counters().restarts, 1U);
   EXPECT_EQ(dec.counters().lost_samples, 0U);
@@ -415,8 +413,7 @@ TEST(ImuDecoder, BadFramesCountedNotFatal) {
   frames.insert(frames.begin() + 30, unknown);  // between samples
   frames.insert(frames.begin() + 60, wrong_len);
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   EXPECT_EQ(dec.counters().unknown_id, 1U);
   EXPECT_EQ(dec.counters().bad_length, 1U);
   EXPECT_EQ(out.size(), 100U);  // bad frames are skipped, every sample still assembles
@@ -430,8 +427,7 @@ TEST(ImuDecoder, InjectedCorruptionAndBadStatus) {
   const auto frames =
       encodeAll(layout, samples, {.corrupt_frame_every = 20, .bad_status_every = 25});
   ImuDecoder dec(layout);
-  std::vector<DecodedImuSample> out;
-  dec.feed(frames, &out);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
   // 50 corrupted (25 wrong length, 25 unknown id), 40 bad status, 10 of them both.
   EXPECT_EQ(dec.counters().bad_length, 25U);
   EXPECT_EQ(dec.counters().unknown_id, 25U);
@@ -526,8 +522,9 @@ INSTANTIATE_TEST_SUITE_P(
         DbcError{"BO_ 100 M: 8 N\n SG_ S : 0|16@1+ (1,0) [0|1] \"\" N\nSIG_VALTYPE_ 100 S : 1;\n",
                  3, "must be 32 bits"}));
 
-TEST(ImuLayoutFile, DeviceFileErrorsNameLineAndReason) {
-  const char* text = R"(format = "imubench-imu-can/1"
+// A layout of one message with one signal, dtheta_x, its scale (line 12) written as `scale`.
+std::string dthetaOnlyLayout(const std::string& scale) {
+  return R"(format = "imubench-imu-can/1"
 name = "x"
 sample_period = "1 ms"
 [[message]]
@@ -538,8 +535,12 @@ length = 8
   quantity = "dtheta_x"
   byte = 0
   type = "i32"
-  scale = "1e-9 m/s"
-)";
+  scale = ")" +
+         scale + "\"\n";
+}
+
+TEST(ImuLayoutFile, DeviceFileErrorsNameLineAndReason) {
+  const std::string text = dthetaOnlyLayout("1e-9 m/s");
   io::Diagnostics diag("imu.toml");
   auto l = parseImuLayout(text, ".", diag);
   EXPECT_FALSE(l.has_value());
@@ -550,19 +551,7 @@ length = 8
 }
 
 TEST(ImuLayoutFile, IncompleteLayoutRefused) {
-  const char* text = R"(format = "imubench-imu-can/1"
-name = "x"
-sample_period = "1 ms"
-[[message]]
-name = "A"
-id = 0x100
-length = 8
-  [[message.signal]]
-  quantity = "dtheta_x"
-  byte = 0
-  type = "i32"
-  scale = "1e-9 rad"
-)";
+  const std::string text = dthetaOnlyLayout("1e-9 rad");
   io::Diagnostics diag("imu.toml");
   EXPECT_FALSE(parseImuLayout(text, ".", diag).has_value());
   EXPECT_NE(diag.str().find("axis x: need exactly one of dvel or accel"), std::string::npos)

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <span>
 #include <string>
 
 namespace imubench::daemon {
@@ -25,6 +26,15 @@ ProtocolError parseErr(const std::string& line, ErrorCode code) {
   EXPECT_EQ(errorCodeName(r.error.code), errorCodeName(code)) << line << " -> " << r.error.message;
   EXPECT_FALSE(r.error.message.empty());
   return r.error;
+}
+
+// Each request line is refused with bad_argument, its message holding the reason paired with it.
+using BadArgument = std::pair<const char*, const char*>;
+void expectBadArguments(std::span<const BadArgument> cases) {
+  for (const auto& [line, want] : cases) {
+    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
+    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
+  }
 }
 
 TEST(ControlProtocol, CommandsWithoutArguments) {
@@ -102,7 +112,7 @@ TEST(ControlProtocol, StartWithPathOrInlinePlanAndOptions) {
 }
 
 TEST(ControlProtocol, StartArgumentErrorsNameTheField) {
-  const std::pair<const char*, const char*> cases[] = {
+  const BadArgument cases[] = {
       {R"({"cmd":"start"})", "plan: missing"},
       {R"({"cmd":"start","plan":"/p.toml"})", "plan: must be an object"},
       {R"({"cmd":"start","plan":{}})", "plan: needs exactly one of"},
@@ -124,10 +134,7 @@ TEST(ControlProtocol, StartArgumentErrorsNameTheField) {
        "options.speed: unknown field"},
       {R"({"cmd":"start","plan":{"path":"/a"},"run":2})", "run: unknown field of command"},
   };
-  for (const auto& [line, want] : cases) {
-    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
-    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
-  }
+  expectBadArguments(cases);
   const std::string long_label = R"({"cmd":"start","plan":{"path":"/a"},"options":{"label":")" +
                                  std::string(201, 'x') + "\"}}";
   EXPECT_NE(parseErr(long_label, ErrorCode::kBadArgument).message.find("options.label: longer"),
@@ -153,7 +160,7 @@ TEST(ControlProtocol, QueueCommands) {
     EXPECT_EQ(r.command, cmd);
     EXPECT_EQ(commandName(cmd), name);
   }
-  const std::pair<const char*, const char*> cases[] = {
+  const BadArgument cases[] = {
       {R"({"cmd":"start","plan":{"toml":"x"},"options":{"queue":true,"dry_run":true}})",
        "options.queue: not with dry_run"},
       {R"({"cmd":"start","plan":{"toml":"x"},"options":{"queue":"yes"}})",
@@ -168,10 +175,7 @@ TEST(ControlProtocol, QueueCommands) {
       {R"({"cmd":"queue_remove","entry":3,"position":1})", "position: unknown field of command"},
       {R"({"cmd":"queue_list","entry":3})", "entry: unknown field of command"},
   };
-  for (const auto& [line, want] : cases) {
-    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
-    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
-  }
+  expectBadArguments(cases);
 }
 
 TEST(ControlProtocol, SubscribeAndUnsubscribe) {
@@ -181,7 +185,7 @@ TEST(ControlProtocol, SubscribeAndUnsubscribe) {
   EXPECT_TRUE(std::get<UnsubscribeArgs>(r.args).topics.empty());
   r = parseOk(R"({"cmd":"unsubscribe","topics":["status"]})");
   EXPECT_EQ(std::get<UnsubscribeArgs>(r.args).topics, std::vector<Topic>{Topic::kStatus});
-  const std::pair<const char*, const char*> cases[] = {
+  const BadArgument cases[] = {
       {R"({"cmd":"subscribe"})", "topics: missing"},
       {R"({"cmd":"subscribe","topics":[]})", "topics: must be a non-empty array"},
       {R"({"cmd":"subscribe","topics":"run"})", "topics: must be a non-empty array"},
@@ -190,10 +194,7 @@ TEST(ControlProtocol, SubscribeAndUnsubscribe) {
       {R"({"cmd":"subscribe","topics":["run","run"]})", "topics[1]: duplicate topic"},
       {R"({"cmd":"unsubscribe","topics":[]})", "topics: must be a non-empty array"},
   };
-  for (const auto& [line, want] : cases) {
-    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
-    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
-  }
+  expectBadArguments(cases);
 }
 
 TEST(ControlProtocol, ValidatePlanResultsExport) {
@@ -206,7 +207,7 @@ TEST(ControlProtocol, ValidatePlanResultsExport) {
   EXPECT_EQ(std::get<ExportArgs>(r.args).run, 7);
   EXPECT_EQ(std::get<ExportArgs>(r.args).dir, "unit-42_b.1");
   EXPECT_EQ(std::get<ExportArgs>(parseOk(R"({"cmd":"export","run":7})").args).dir, "");
-  const std::pair<const char*, const char*> cases[] = {
+  const BadArgument cases[] = {
       {R"({"cmd":"validate_plan"})", "plan: missing"},
       {R"({"cmd":"results","run":1.0})", "run: must be an integer run id, got 1.0"},
       {R"({"cmd":"results","run":"3"})", "run: must be an integer run id"},
@@ -219,10 +220,7 @@ TEST(ControlProtocol, ValidatePlanResultsExport) {
       {R"({"cmd":"export","run":1,"dir":""})", "dir: must not be empty"},
       {R"({"cmd":"export","run":1,"dir":"x","format":"csv"})", "format: unknown field"},
   };
-  for (const auto& [line, want] : cases) {
-    const ProtocolError e = parseErr(line, ErrorCode::kBadArgument);
-    EXPECT_NE(e.message.find(want), std::string::npos) << line << " -> " << e.message;
-  }
+  expectBadArguments(cases);
 }
 
 TEST(ControlProtocol, BadJsonSaysWhichByte) {

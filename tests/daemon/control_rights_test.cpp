@@ -29,6 +29,11 @@ PeerCredentials peer(uid_t uid, gid_t gid) {
   return {true, uid, gid, 4242};
 }
 
+// kUser in group g both ways: as its primary gid, and as a supplementary group.
+std::vector<std::pair<PeerCredentials, std::vector<gid_t>>> membersOf(gid_t g) {
+  return {{peer(kUser, g), {g}}, {peer(kUser, kOtherGid), {kOtherGid, g}}};
+}
+
 const Command kCommands[] = {Command::kStart,       Command::kPause,      Command::kResume,
                              Command::kAbort,       Command::kRearm,      Command::kQueueMove,
                              Command::kQueueRemove, Command::kQueueResume};
@@ -68,9 +73,7 @@ TEST(ControlRights, StrangerMayStopAndPingOnly) {
 TEST(ControlRights, ReadGroupReadsOnly) {
   const ControlRights r = configured(true);
   // By primary gid, and by a supplementary group.
-  for (const auto& [p, groups] :
-       {std::pair{peer(kUser, kReadGid), std::vector<gid_t>{kReadGid}},
-        std::pair{peer(kUser, kOtherGid), std::vector<gid_t>{kOtherGid, kReadGid}}}) {
+  for (const auto& [p, groups] : membersOf(kReadGid)) {
     for (Command c : kReads) EXPECT_FALSE(refuseCommand(r, p, c, groups)) << commandName(c);
     for (Command c : kAnyone) EXPECT_FALSE(refuseCommand(r, p, c, groups)) << commandName(c);
     for (Command c : kCommands) EXPECT_TRUE(refuseCommand(r, p, c, groups)) << commandName(c);
@@ -79,9 +82,7 @@ TEST(ControlRights, ReadGroupReadsOnly) {
 
 TEST(ControlRights, CommandGroupMayDoEverything) {
   const ControlRights r = configured(true);
-  for (const auto& [p, groups] :
-       {std::pair{peer(kUser, kCommandGid), std::vector<gid_t>{kCommandGid}},
-        std::pair{peer(kUser, kOtherGid), std::vector<gid_t>{kOtherGid, kCommandGid}}}) {
+  for (const auto& [p, groups] : membersOf(kCommandGid)) {
     for (Command c : kCommands) EXPECT_FALSE(refuseCommand(r, p, c, groups)) << commandName(c);
     for (Command c : kReads) EXPECT_FALSE(refuseCommand(r, p, c, groups)) << commandName(c);
   }

@@ -42,6 +42,15 @@ ControlServerOptions optionsAt(const std::string& path) {
   return o;
 }
 
+// With the request line and per-client output queue limits of a test about them.
+ControlServerOptions optionsAt(const std::string& path, std::size_t max_line_bytes,
+                               std::size_t max_output_bytes) {
+  ControlServerOptions o = optionsAt(path);
+  o.max_line_bytes = max_line_bytes;
+  o.max_output_bytes = max_output_bytes;
+  return o;
+}
+
 json readJson(Conn& c, int timeout_ms = 5000) {
   const auto line = c.readLine(timeout_ms);
   if (!line) return json();
@@ -111,10 +120,7 @@ TEST_F(ControlServerTest, ProtocolErrorsKeepTheConnection) {
 }
 
 TEST_F(ControlServerTest, OversizedLineIsRefusedAndTheRestDiscarded) {
-  ControlServerOptions o = optionsAt(path_);
-  o.max_line_bytes = 1024;
-  o.max_output_bytes = 64 * 1024;
-  ServerThread s(o, testHandler);
+  ServerThread s(optionsAt(path_, 1024, 64 * 1024), testHandler);
   ASSERT_TRUE(s.startStatus().ok);
   Conn c(path_);
   // 1 MB without a newline, then its end and a ping: one too_large, then the pong.
@@ -338,10 +344,7 @@ TEST_F(ControlServerTest, DeferredReplyArrivesThroughSendReply) {
 // A client that sends requests and never reads its replies is dropped when its queue passes
 // max_output_bytes; meanwhile another client is answered promptly.
 TEST_F(ControlServerTest, ClientThatNeverReadsIsDisconnected) {
-  ControlServerOptions o = optionsAt(path_);
-  o.max_line_bytes = 1024;
-  o.max_output_bytes = 16 * 1024;
-  ServerThread s(o, testHandler);
+  ServerThread s(optionsAt(path_, 1024, 16 * 1024), testHandler);
   ASSERT_TRUE(s.startStatus().ok);
   Conn slow(path_);
   int rcvbuf = 4096;
@@ -362,10 +365,7 @@ TEST_F(ControlServerTest, ClientThatNeverReadsIsDisconnected) {
 }
 
 TEST_F(ControlServerTest, SubscriberThatNeverReadsIsDisconnectedOnBroadcast) {
-  ControlServerOptions o = optionsAt(path_);
-  o.max_line_bytes = 1024;
-  o.max_output_bytes = 8 * 1024;
-  ServerThread s(o, testHandler);
+  ServerThread s(optionsAt(path_, 1024, 8 * 1024), testHandler);
   ASSERT_TRUE(s.startStatus().ok);
   Conn stuck(path_), good(path_);
   for (Conn* c : {&stuck, &good}) {

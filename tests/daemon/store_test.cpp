@@ -75,6 +75,13 @@ std::unique_ptr<Store> openOrFail(const std::string& path, const StoreOptions& o
   return std::move(r.value);
 }
 
+// IMU samples 1..n periods after 0 (nothing else set).
+nav::ImuSamples samplesEvery(std::size_t n, double period) {
+  nav::ImuSamples imu(n);
+  for (std::size_t i = 0; i < n; ++i) imu[i].t = period * static_cast<double>(i + 1);
+  return imu;
+}
+
 RunStart benchStart(const std::string& serial) {
   RunStart s;
   s.plan_name = "direct-12";
@@ -85,6 +92,18 @@ RunStart benchStart(const std::string& serial) {
   s.latitude_deg = 55.75;
   s.height_m = 150.0;
   return s;
+}
+
+// A store in `dir` with one run begun for `serial` (its id in *run); nullptr after a failure.
+std::unique_ptr<Store> storeWithRun(const ScratchDir& dir, const std::string& serial,
+                                    std::int64_t* run) {
+  auto store = openOrFail(dir.file("bench.db"));
+  if (!store) return nullptr;
+  const RunIdResult begun = store->beginRun(benchStart(serial));
+  EXPECT_TRUE(begun.status.ok) << begun.status.message;
+  if (!begun.status.ok) return nullptr;
+  *run = begun.value;
+  return store;
 }
 
 TEST(Store, ImportedRecordingLoadsBitExactAndExports) {
@@ -219,14 +238,12 @@ TEST(Store, RunLifeCycleEventsAndResults) {
 // step_finished event, and its writer continues after the stored rows (never before them).
 TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
   ScratchDir dir("store");
-  auto store = openOrFail(dir.file("bench.db"));
+  std::int64_t run = 0;
+  auto store = storeWithRun(dir, "SN-R", &run);
   ASSERT_TRUE(store);
-  const auto run = store->beginRun(benchStart("SN-R"));
-  ASSERT_TRUE(run.status.ok);
   {
-    RunWriter w(*store, run.value);
-    nav::ImuSamples imu(10);
-    for (std::size_t i = 0; i < imu.size(); ++i) imu[i].t = 0.1 * static_cast<double>(i + 1);
+    RunWriter w(*store, run);
+    const nav::ImuSamples imu = samplesEvery(10, 0.1);
     ASSERT_TRUE(w.appendImu(imu).ok);
     calib::Segment seg;
     seg.t0 = 0.1;
@@ -236,19 +253,19 @@ TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
     ASSERT_TRUE(w.flush().ok);
   }
   for (int step : {0, 1}) {
-    RunEvent e{run.value, 1.0, EventSeverity::kInfo, "step_finished",
+    RunEvent e{run, 1.0, EventSeverity::kInfo, "step_finished",
                "{\"step\":" + std::to_string(step) + "}"};
     ASSERT_TRUE(store->addEvent(e).ok);
   }
-  EXPECT_FALSE(store->resumeRun(run.value).ok) << "a running run is not resumable";
+  EXPECT_FALSE(store->resumeRun(run).ok) << "a running run is not resumable";
   ASSERT_EQ(store->markInterruptedRuns().value, 1);
-  const RunInfoResult info = store->runInfo(run.value);
+  const RunInfoResult info = store->runInfo(run);
   ASSERT_TRUE(info.status.ok);
   EXPECT_EQ(info.value.state, RunState::kInterrupted);
   EXPECT_NE(info.value.exit_reason.find("last stored sample at t = 1.0"), std::string::npos)
       << info.value.exit_reason;
 
-  const ResumePoint point = store->resumePoint(run.value);
+  const ResumePoint point = store->resumePoint(run);
   ASSERT_TRUE(point.status.ok) << point.status.message;
   EXPECT_EQ(point.last_finished_step, 1);
   ASSERT_TRUE(point.last_imu_t && point.last_segment_t1);
@@ -256,10 +273,10 @@ TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
   EXPECT_DOUBLE_EQ(*point.last_segment_t1, 0.5);
   EXPECT_FALSE(point.last_table_t);
 
-  const Status resumed = store->resumeRun(run.value);
+  const Status resumed = store->resumeRun(run);
   ASSERT_TRUE(resumed.ok) << resumed.message;
-  EXPECT_FALSE(store->resumeRun(run.value).ok) << "resumed twice";
-  RunWriter w(*store, run.value, point);
+  EXPECT_FALSE(store->resumeRun(run).ok) << "resumed twice";
+  RunWriter w(*store, run, point);
   nav::ImuSample old;
   old.t = 1.0;
   EXPECT_FALSE(w.appendImu(std::span(&old, 1)).ok) << "a row at the stored end is refused";
@@ -267,11 +284,11 @@ TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
   next.t = 5.0;
   ASSERT_TRUE(w.appendImu(std::span(&next, 1)).ok);
   ASSERT_TRUE(w.flush().ok);
-  ASSERT_TRUE(store->finishRun(run.value, RunState::kFinished, "completed").ok);
-  const auto rec = store->loadRecording(run.value);
+  ASSERT_TRUE(store->finishRun(run, RunState::kFinished, "completed").ok);
+  const auto rec = store->loadRecording(run);
   ASSERT_TRUE(rec.status.ok);
   EXPECT_EQ(rec.value.imu.size(), 11u);
-  const EventListResult events = store->events(run.value);
+  const EventListResult events = store->events(run);
   ASSERT_TRUE(events.status.ok);
   bool saw_resumed = false;
   for (const RunEvent& e : events.value) saw_resumed = saw_resumed || e.kind == "resumed";
@@ -302,13 +319,11 @@ TEST(Store, UnknownRunIsAnError) {
 
 TEST(Store, NonFiniteAndUnorderedSamplesAreRefusedWithTheirIndex) {
   ScratchDir dir("store");
-  auto store = openOrFail(dir.file("bench.db"));
+  std::int64_t run = 0;
+  auto store = storeWithRun(dir, "SN-A", &run);
   ASSERT_TRUE(store);
-  const auto run = store->beginRun(benchStart("SN-A"));
-  ASSERT_TRUE(run.status.ok);
-  RunWriter writer(*store, run.value);
-  nav::ImuSamples imu(6);
-  for (size_t i = 0; i < imu.size(); ++i) imu[i].t = 0.001 * static_cast<double>(i + 1);
+  RunWriter writer(*store, run);
+  nav::ImuSamples imu = samplesEvery(6, 0.001);
   imu[3].dvel.y() = std::numeric_limits<double>::quiet_NaN();
   Status st = writer.appendImu(imu);
   EXPECT_FALSE(st.ok);
@@ -331,11 +346,11 @@ TEST(Store, NonFiniteAndUnorderedSamplesAreRefusedWithTheirIndex) {
       << st.message;
   RunBatch batch;
   batch.chamber = {{0.0, 20.0, 20.0}, {1.0, std::nan(""), 20.0}};
-  st = store->appendBatch(run.value, batch);
+  st = store->appendBatch(run, batch);
   EXPECT_NE(st.message.find("chamber sample 1 has a non-finite value"), std::string::npos)
       << st.message;
   ASSERT_TRUE(writer.flush().ok);
-  const auto loaded = store->loadRecording(run.value);
+  const auto loaded = store->loadRecording(run);
   ASSERT_TRUE(loaded.status.ok);
   EXPECT_EQ(loaded.value.imu.size(), 6u);
   EXPECT_TRUE(std::isnan(loaded.value.imu[4].temp_c));

@@ -21,24 +21,25 @@ constexpr double kAirTau = 120.0, kImuTau = 300.0;
 constexpr double kRamp = 0.01;  // degC/s, 20 -> 60 degC
 constexpr double kEnd = 4300.0;
 
-// The chamber commanded at t = 0 to ramp to 60 degC; its history up to kEnd.
-std::vector<TemperatureKnot> chamberHistory(double imu_tau) {
+// The chamber (air time constant kAirTau, IMU imu_tau behind it) commanded at t = 0 to ramp
+// from 20 to 60 degC.
+drivers::VirtualChamber rampingChamber(double imu_tau) {
   drivers::ChamberDeviceSpec spec;
   spec.time_constant_s = kAirTau;
   drivers::VirtualChamber c(spec, 20.0, 0.0, imu_tau);
   c.setRampRate(0.0, kRamp);
   c.setSetpoint(0.0, 60.0);
   c.run(0.0, true);
-  return c.history(kEnd);
+  return c;
+}
+
+// That chamber's history up to kEnd.
+std::vector<TemperatureKnot> chamberHistory(double imu_tau) {
+  return rampingChamber(imu_tau).history(kEnd);
 }
 
 TEST(VirtualThermal, ImuTemperatureLagsTheAirByTheImuTimeConstant) {
-  drivers::ChamberDeviceSpec spec;
-  spec.time_constant_s = kAirTau;
-  drivers::VirtualChamber c(spec, 20.0, 0.0, kImuTau);
-  c.setRampRate(0.0, kRamp);
-  c.setSetpoint(0.0, 60.0);
-  c.run(0.0, true);
+  drivers::VirtualChamber c = rampingChamber(kImuTau);
   model::ThermalState s = model::thermalAtRest(20.0);
   for (double t = 250.0; t <= kEnd; t += 250.0) {
     s = model::advanceThermal(s, 60.0, kRamp, {kAirTau, kImuTau}, 250.0);
@@ -47,10 +48,7 @@ TEST(VirtualThermal, ImuTemperatureLagsTheAirByTheImuTimeConstant) {
     EXPECT_NEAR(c.history(t).back().temp_c, s.sensor_c, 1e-9) << t;  // knots are the IMU's
   }
   // In the steady ramp the IMU trails the air by rate x tau_imu (3 degC), not by zero.
-  drivers::VirtualChamber c2(spec, 20.0, 0.0, kImuTau);
-  c2.setRampRate(0.0, kRamp);
-  c2.setSetpoint(0.0, 60.0);
-  c2.run(0.0, true);
+  drivers::VirtualChamber c2 = rampingChamber(kImuTau);
   EXPECT_NEAR(c2.temperature(3000.0) - c2.imuTemperature(3000.0), kRamp * kImuTau, 0.05);
 }
 

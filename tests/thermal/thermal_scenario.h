@@ -102,6 +102,24 @@ inline std::vector<TemperatureKnot> rampKnots(double temp_c, double rate, double
   return knots;
 }
 
+// Appends the phases and segments of `from` to `to` (same axes), `shift` s later, each segment
+// label passed through `relabel`; `to.duration` is the caller's.
+template <class Relabel>
+void appendShifted(Motion& to, const Motion& from, double shift, Relabel relabel) {
+  for (std::size_t a = 0; a < from.axes.size(); ++a) {
+    for (AxisPhase p : from.axes[a].phases()) {
+      p.t0 += shift;
+      to.axes[a].append(p);
+    }
+  }
+  for (Segment s : from.segments) {
+    s.t0 += shift;
+    s.t1 += shift;
+    s.label = relabel(s.label);
+    to.segments.push_back(s);
+  }
+}
+
 // `reps` copies of body back to back, starting at t0 (the body must end where it starts, as
 // the bundled direct plan does, at home). Segment labels become "<prefix(k)>/<label>".
 template <class Prefix>
@@ -110,19 +128,8 @@ Motion repeatMotion(const Motion& body, int reps, Prefix prefix) {
   m.kind = body.kind;
   m.axes.resize(body.axes.size());
   for (int k = 0; k < reps; ++k) {
-    const double shift = k * body.duration;
-    for (std::size_t a = 0; a < body.axes.size(); ++a) {
-      for (AxisPhase p : body.axes[a].phases()) {
-        p.t0 += shift;
-        m.axes[a].append(p);
-      }
-    }
-    for (Segment s : body.segments) {
-      s.t0 += shift;
-      s.t1 += shift;
-      s.label = prefix(k) + "/" + s.label;
-      m.segments.push_back(s);
-    }
+    appendShifted(m, body, k * body.duration,
+                  [&](const std::string& label) { return prefix(k) + "/" + label; });
   }
   m.duration = reps * body.duration;
   return m;
@@ -204,17 +211,7 @@ inline RampSchedule rampSchedule(const Motion& body, const ThermalScheduleOption
   Motion down = repeatMotion(body, out.reps_down, [](int k) { return repetitionLabel("down", k); });
   // Append the cooling leg after the heating leg.
   const double shift = up.duration;
-  for (std::size_t a = 0; a < up.axes.size(); ++a) {
-    for (AxisPhase p : down.axes[a].phases()) {
-      p.t0 += shift;
-      up.axes[a].append(p);
-    }
-  }
-  for (Segment sg : down.segments) {
-    sg.t0 += shift;
-    sg.t1 += shift;
-    up.segments.push_back(sg);
-  }
+  appendShifted(up, down, shift, [](const std::string& label) { return label; });
   up.duration += down.duration;
   // Temperatures: the program turns at the top when the heating leg's repetitions end.
   model::ThermalState s = model::thermalAtRest(o.t_low_c);

@@ -307,24 +307,28 @@ class Client:
             if self._sock is not None:
                 self._sock.settimeout(None)
         deadline = None if timeout is None else time.monotonic() + timeout
+        for kind, obj in self._incoming(deadline):
+            if kind == "event":
+                self._events.append(obj)
+                continue
+            if obj.get("id") == rid:
+                return obj
+            # An error the daemon could not attach an id to is the answer to our request.
+            if obj.get("id") is None and not obj["ok"]:
+                return obj
+            # else: a late reply to an earlier request that timed out; dropped.
+        raise ControlTimeout('no reply from imubenchd to "%s" within %g s (socket %s)'
+                             % (cmd, timeout, self.path))
+
+    def _incoming(self, deadline):
+        """Yields each line read, as (kind, obj), until none arrives by deadline (None: waits
+        forever). Raises ConnectionClosed / ProtocolError."""
         while True:
-            while True:
-                got = self._take_line()
-                if got is None:
-                    break
-                kind, obj = got
-                if kind == "event":
-                    self._events.append(obj)
-                    continue
-                if obj.get("id") == rid:
-                    return obj
-                # An error the daemon could not attach an id to is the answer to our request.
-                if obj.get("id") is None and not obj["ok"]:
-                    return obj
-                # else: a late reply to an earlier request that timed out; dropped.
-            if not self._read_some(deadline):
-                raise ControlTimeout('no reply from imubenchd to "%s" within %g s (socket %s)'
-                                     % (cmd, timeout, self.path))
+            got = self._take_line()
+            if got is not None:
+                yield got
+            elif not self._read_some(deadline):
+                return
 
     def call(self, cmd, timeout=None, **fields):
         """request(), then the reply's result; ok=false raises RemoteError."""
@@ -341,15 +345,10 @@ class Client:
         if self._events:
             return self._events.pop(0)
         deadline = None if timeout is None else time.monotonic() + timeout
-        while True:
-            while True:
-                got = self._take_line()
-                if got is None:
-                    break
-                if got[0] == "event":
-                    return got[1]
-            if not self._read_some(deadline):
-                return None
+        for kind, obj in self._incoming(deadline):
+            if kind == "event":
+                return obj
+        return None
 
     def events(self, timeout=None):
         """Yields events until none arrives within timeout (None: forever)."""

@@ -10,48 +10,30 @@ set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
 E2E_CHAMBER_EXTRA='poll_period = "0.4 s"' e2e_bench_file
-cat >"$W/plan.toml" <<'TOML'
-[plan]
-name = "chamber-samples"
-[table]
-kind = "two-axis"
-outer_axis_heading = "90 deg"
-max_rate = "20 deg/s"
-max_accel = "10 deg/s^2"
-[chamber]
-min_temp = "-40 degC"
-max_temp = "70 degC"
-max_ramp = "5 degC/min"
-initial = "20 degC"
-[[step]]
-type = "hold"
-duration = "20 s"
-label = "h1"
+{
+  e2e_plan_head chamber-samples
+  e2e_plan_chamber -40 70 20
+  e2e_hold h1 "20 s"
+  cat <<'TOML'
 [[step]]
 type = "chamber"
 setpoint = "22 degC"
 ramp = "5 degC/min"
 soak = "0 min"
 label = "c1"
-[[step]]
-type = "hold"
-duration = "20 s"
-label = "h2"
 TOML
-e2e_start_vb --time-scale 5
-e2e_start_daemon
+  e2e_hold h2 "20 s"
+} >"$W/plan.toml"
+e2e_start 5
 
 e2e_py <<'PY' || fail "client checks"
 import sys
-from e2e_client import Client, check, read_csv, plan_file
+from e2e_client import check, read_csv, start_run
 
 work = sys.argv[1]
 SPACING = 0.4 * 5  # poll period x time scale: chamber samples apart on the IMU clock
-c = Client(work + "/control.sock")
-c.subscribe("run")
-start = c.reply({"cmd": "start", "plan": plan_file(work + "/plan.toml")})
-check(start["ok"], "start: %s" % start)
-run = start["result"]["run"]
+c = start_run(work, work + "/plan.toml")
+run = c.run
 fin = c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run, "run end", 120)
 check(fin["state"] == "finished" and fin["exit"] == "completed", "the run completed")
 exp = c.reply({"cmd": "export", "run": run, "dir": "export"})

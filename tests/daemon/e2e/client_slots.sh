@@ -14,21 +14,16 @@ set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
 
-e2e_bench_file
-e2e_start_vb --time-scale 2
-e2e_start_daemon
+e2e_start 2
 
 e2e_py "$SRC/tests/daemon/data/smoke_plan.toml" <<'PY' || fail "reserved slot checks"
 import socket, sys, time
-from e2e_client import Client, check
+from e2e_client import Client, check, start_run
 
 work, plan = sys.argv[1], sys.argv[2]
 sock = work + "/control.sock"
-watcher = Client(sock)
-watcher.subscribe("run")
-start = watcher.reply({"cmd": "start", "plan": {"toml": open(plan).read()}})
-check(start["ok"], "start: %s" % start)
-run = start["result"]["run"]
+watcher = start_run(work, plan)
+run = watcher.run
 watcher.wait_event(lambda e: e["event"] == "step_started" and e["label"] == "r1", "rotation")
 
 idle = []

@@ -16,62 +16,27 @@ set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
 
-cat >"$W/resume_plan.toml" <<'TOML'
-[plan]
-name = "resume"
-description = "crash-resume e2e: holds and two signed half turns"
-[table]
-kind = "two-axis"
-outer_axis_heading = "90 deg"
-max_rate = "20 deg/s"
-max_accel = "10 deg/s^2"
-[[step]]
-type = "hold"
-duration = "5 s"
-label = "h1"
-[[step]]
-type = "rotate"
-axis = "outer"
-angle = "180 deg"
-direction = "+"
-rate = "10 deg/s"
-accel = "5 deg/s^2"
-label = "r1"
-[[step]]
-type = "hold"
-duration = "5 s"
-label = "h2"
-[[step]]
-type = "rotate"
-axis = "inner"
-angle = "180 deg"
-direction = "-"
-rate = "10 deg/s"
-accel = "5 deg/s^2"
-label = "r2"
-[[step]]
-type = "hold"
-duration = "5 s"
-label = "h3"
-TOML
+{
+  e2e_plan_head resume "crash-resume e2e: holds and two signed half turns"
+  e2e_hold h1 "5 s"
+  e2e_rotate r1 outer "180 deg" +
+  e2e_hold h2 "5 s"
+  e2e_rotate r2 inner "180 deg" -
+  e2e_hold h3 "5 s"
+} >"$W/resume_plan.toml"
 
 SCALE=5
-# A loaded machine (user-mode-linux on 2 shared cores) can hold the IMU up for more than the
-# default 0.5 s: a longer imu_timeout keeps this test about its own fault.
-e2e_bench_file $'[safety]\nimu_timeout = "2 s"'
-e2e_start_vb --time-scale $SCALE
-e2e_start_daemon
+e2e_bench_file "$E2E_SLOW_IMU"
+e2e_start $SCALE
 
 # Into r2 (steps h1, r1, h2 finished), then kill -9 of imubenchd; the IMU time of the kill is
 # bounded from above by the daemon's last status plus the wall time to the kill x time scale.
 e2e_py "$DPID" "$SCALE" "$W/resume_plan.toml" <<'PY' || fail "run and kill -9"
 import json, os, signal, sys, time
-from e2e_client import Client, check, plan_file
+from e2e_client import Client, check, start_run
 work, dpid, scale, plan = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
-c = Client(work + "/control.sock")
-c.subscribe("run")
-start = c.reply({"cmd": "start", "plan": plan_file(plan)})
-check(start["ok"] and start["result"]["run"] == 1, "start: %s" % start)
+c = start_run(work, plan)
+check(c.run == 1, "the first run is run 1")
 c.wait_event(lambda e: e["event"] == "step_started" and e["label"] == "r2", "r2 start", 120)
 time.sleep(1.0)  # 5 s of plan time into the 20 s half turn
 st = c.reply({"cmd": "status"})["result"]

@@ -3,6 +3,7 @@
     from e2e_client import Client, check, plan_file
     c = Client(work + "/control.sock")
     c.reply({"cmd": "start", "plan": plan_file(path)})
+    c = start_run(work, path)                  # subscribed to "run", the plan started: c.run
     c.reply({"cmd": "status"})                 # ids assigned; events seen meanwhile are queued
     c.wait_event(lambda e: e["event"] == "run_finished", "run end", limit=120)
 """
@@ -78,6 +79,17 @@ def plan_file(path):
     reads by path only its own plan library)."""
     with open(path) as fh:
         return {"toml": fh.read(), "name": path}
+
+
+def start_run(work, plan):
+    """A client of the daemon in `work`, subscribed to "run", that started the plan file `plan`
+    (checked); the run's id in c.run."""
+    c = Client(work + "/control.sock")
+    c.subscribe("run")
+    start = c.reply({"cmd": "start", "plan": plan_file(plan)})
+    check(start["ok"], "start: %s" % start)
+    c.run = start["result"]["run"]
+    return c
 
 
 def read_csv(path):

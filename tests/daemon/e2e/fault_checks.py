@@ -17,7 +17,7 @@ import re
 import subprocess
 import time
 
-from e2e_client import Client, check, plan_file, read_csv
+from e2e_client import Client, check, plan_file, read_csv, start_run
 
 IMU_PERIOD_S = 0.001  # navgrade_fd.toml: 1 kHz
 
@@ -37,11 +37,7 @@ def timed_status(c):
 
 def start_smoke_run(work, plan, into="r1", after_s=0.5):
     """Starts the plan; returns once step `into` has run for after_s wall seconds."""
-    c = Client(work + "/control.sock")
-    c.subscribe("run")
-    start = c.reply({"cmd": "start", "plan": plan_file(plan)})
-    check(start["ok"], "start: %s" % start)
-    c.run = start["result"]["run"]
+    c = start_run(work, plan)
     c.wait_event(lambda e: e["event"] == "step_started" and e["label"] == into, into + " start")
     time.sleep(after_s)
     return c

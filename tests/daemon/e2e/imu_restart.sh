@@ -11,26 +11,12 @@
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
-e2e_bench_file
-cat >"$W/plan.toml" <<'TOML'
-[plan]
-name = "imu-restart"
-[table]
-kind = "two-axis"
-outer_axis_heading = "90 deg"
-max_rate = "20 deg/s"
-max_accel = "10 deg/s^2"
-[[step]]
-type = "hold"
-duration = "60 s"
-label = "h1"
-[[step]]
-type = "hold"
-duration = "60 s"
-label = "h2"
-TOML
-e2e_start_vb --time-scale 5 --imu-wrap-at 80
-e2e_start_daemon
+{
+  e2e_plan_head imu-restart
+  e2e_hold h1 "60 s"
+  e2e_hold h2 "60 s"
+} >"$W/plan.toml"
+e2e_start 5 --imu-wrap-at 80
 
 e2e_py "$VPID" <<'PY' || fail "client checks"
 import os, signal, sys, time

@@ -8,19 +8,14 @@
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
-e2e_bench_file
-e2e_start_vb --time-scale 1
-e2e_start_daemon
+e2e_start 1
 
 e2e_py "$SRC/tests/daemon/data/smoke_plan.toml" <<'PY' || fail "start"
 import sys
-from e2e_client import Client, check, plan_file
+from e2e_client import start_run
 
 work, plan = sys.argv[1], sys.argv[2]
-c = Client(work + "/control.sock")
-c.subscribe("run")
-start = c.reply({"cmd": "start", "plan": plan_file(plan)})
-check(start["ok"], "start: %s" % start)
+c = start_run(work, plan)
 c.wait_event(lambda e: e["event"] == "step_started" and e["label"] == "h1", "step h1", 30)
 c.close()
 PY

@@ -16,30 +16,12 @@ set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
 
-cat >"$W/profile.toml" <<'TOML'
-[plan]
-name = "profile"
-description = "issue 17: a rotate step and a rate step at the plan's rate and acceleration"
-[table]
-kind = "two-axis"
-max_rate = "20 deg/s"
-max_accel = "10 deg/s^2"
-[[step]]
-type = "hold"
-duration = "3 s"
-label = "h1"
-[[step]]
-type = "rotate"
-axis = "outer"
-angle = "180 deg"
-direction = "+"
-rate = "10 deg/s"
-accel = "5 deg/s^2"
-label = "rot"
-[[step]]
-type = "hold"
-duration = "3 s"
-label = "h2"
+{
+  e2e_plan_head profile "issue 17: a rotate step and a rate step at the plan's rate and acceleration"
+  e2e_hold h1 "3 s"
+  e2e_rotate rot outer "180 deg" +
+  e2e_hold h2 "3 s"
+  cat <<'TOML'
 [[step]]
 type = "rate"
 axis = "inner"
@@ -48,16 +30,12 @@ direction = "-"
 duration = "10 s"
 accel = "3 deg/s^2"
 label = "rate"
-[[step]]
-type = "hold"
-duration = "3 s"
-label = "h3"
 TOML
+  e2e_hold h3 "3 s"
+} >"$W/profile.toml"
 sed -e 's/^max_rate = "20 deg\/s"/max_rate = "50 deg\/s"/' "$W/profile.toml" >"$W/too_fast.toml"
 
-e2e_bench_file
-e2e_start_vb --time-scale 4
-e2e_start_daemon
+e2e_start 4
 
 e2e_py "$W/profile.toml" "$W/too_fast.toml" <<'PY' || fail "motion profile checks"
 import math, sys

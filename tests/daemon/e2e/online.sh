@@ -40,19 +40,8 @@ sed 's/^name = "direct_two_axis"/&\ncalibration = "direct"/' \
 sed 's/^name = "two_axis_12run"/&\ncalibration = "pipeline"\ndirect_plan = "direct_two_axis"/' \
   "$SRC/plans/library/two_axis_12run.toml" >"$W/12run.toml"
 
-# A loaded CI machine can starve user-mode Linux for a moment: the silence alarms (tested
-# elsewhere) get room here, so the plans run through.
-e2e_bench_file '
-[safety]
-comm_timeout = "5 s"
-imu_timeout = "5 s"
-[acceptance]
-"gyro.bias" = "0.05 deg/h"
-"accel.bias" = "100 ug"
-"accel.scale" = "300 ppm"
-"gyro.scale" = "100 ppm"
-"gyro.misalignment" = "100 arcsec"
-"accel.misalignment" = "100 arcsec"'
+# The demo's silence alarm timeouts and acceptance limits.
+e2e_bench_file "$(cat "$SRC/tools/demo_bench_limits.toml")"
 e2e_start_vb --time-scale "$SCALE" --truth "$TRUTH" --noise nav-grade --seed 3
 e2e_start_daemon
 

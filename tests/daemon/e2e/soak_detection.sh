@@ -27,21 +27,8 @@ RUNAWAY_C=80
 E2E_IMU_LAYOUT=$DEV/imus/sbg_ecan.toml
 
 plan_head() {  # NAME INITIAL_C
-  cat <<TOML
-[plan]
-name = "$1"
-description = "soak detection e2e"
-[table]
-kind = "two-axis"
-outer_axis_heading = "90 deg"
-max_rate = "20 deg/s"
-max_accel = "10 deg/s^2"
-[chamber]
-min_temp = "0 degC"
-max_temp = "40 degC"
-max_ramp = "5 degC/min"
-initial = "$2 degC"
-TOML
+  e2e_plan_head "$1" "soak detection e2e"
+  e2e_plan_chamber 0 40 "$2"
 }
 
 # Case 1: 20 -> 30 degC at 2 degC/min (5 min ramp), settled below 0.05 degC/min for 5 min.
@@ -85,33 +72,26 @@ label = "after"
 TOML
 } >"$W/runaway_plan.toml"
 
-e2e_bench_file $'[safety]\nimu_timeout = "2 s"'
+e2e_bench_file "$E2E_SLOW_IMU"
 for p in settle runaway; do
   "$PREDICT" "$W/${p}_plan.toml" "$E2E_CHAMBER_DEVICE" "$IMU_TAU" >"$W/$p.predicted" 2>&1 ||
     fail "soak prediction: $(cat "$W/$p.predicted")"
   cat "$W/$p.predicted"
 done
 
-e2e_start_vb --time-scale $SCALE --ambient 20 --imu-thermal-tau $IMU_TAU \
-  --fault-chamber-runaway $RUNAWAY_C
-
-
-e2e_start_daemon
+e2e_start $SCALE --ambient 20 --imu-thermal-tau $IMU_TAU --fault-chamber-runaway $RUNAWAY_C
 
 # Case 1: the soak ends within 10 % of the model's settling time.
 e2e_py <<'PY' || fail "case 1: soak settled at the model's time"
 import sqlite3, sys
-from e2e_client import Client, check, plan_file
+from e2e_client import check, start_run
 work = sys.argv[1]
 label, predicted, max_soak = open(work + "/settle.predicted").read().split()
 predicted, max_soak = float(predicted), float(max_soak)
 check(label == "T30C/soak" and 600.0 < predicted < 0.5 * max_soak,
       "the model settles the soak well inside max_soak: %.1f s" % predicted)
-c = Client(work + "/control.sock")
-c.subscribe("run")
-start = c.reply({"cmd": "start", "plan": plan_file(work + "/settle_plan.toml")})
-check(start["ok"], "start: %s" % start)
-run = start["result"]["run"]
+c = start_run(work, work + "/settle_plan.toml")
+run = c.run
 soak = c.wait_event(lambda e: e["event"] in ("soak_settled", "soak_timeout"), "soak end", 150)
 check(soak["event"] == "soak_settled" and soak["settled"] and soak["label"] == label,
       "soak_settled: %s" % soak)

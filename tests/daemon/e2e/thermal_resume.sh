@@ -14,19 +14,10 @@ set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
 e2e_init "$@"
 
-cat >"$W/thermal_plan.toml" <<'TOML'
-[plan]
-name = "thermal_resume"
-description = "thermal resume e2e: two soak points, a tiny body"
-[table]
-kind = "two-axis"
-outer_axis_heading = "90 deg"
-max_rate = "20 deg/s"
-max_accel = "10 deg/s^2"
-[chamber]
-min_temp = "0 degC"
-max_temp = "40 degC"
-max_ramp = "5 degC/min"
+{
+  e2e_plan_head thermal_resume "thermal resume e2e: two soak points, a tiny body"
+  e2e_plan_chamber 0 40
+  cat <<'TOML'
 [[step]]
 type = "thermal"
 setpoints = ["22 degC", "26 degC"]
@@ -49,21 +40,19 @@ soak = "5 s"
   duration = "3 s"
   label = "h2"
 TOML
+} >"$W/thermal_plan.toml"
 
 SCALE=5
-e2e_bench_file $'[safety]\nimu_timeout = "2 s"'
-e2e_start_vb --time-scale $SCALE
-e2e_start_daemon
+e2e_bench_file "$E2E_SLOW_IMU"
+e2e_start $SCALE
 
 # Into T26C/r1 (T26C/soak and T26C/h1 finished), then kill -9 of imubenchd.
 e2e_py "$DPID" "$W/thermal_plan.toml" <<'PY' || fail "run and kill -9"
 import json, os, signal, sys
-from e2e_client import Client, check, plan_file
+from e2e_client import check, start_run
 work, dpid, plan = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-c = Client(work + "/control.sock")
-c.subscribe("run")
-start = c.reply({"cmd": "start", "plan": plan_file(plan)})
-check(start["ok"] and start["result"]["run"] == 1, "start: %s" % start)
+c = start_run(work, plan)
+check(c.run == 1, "the first run is run 1")
 c.wait_event(lambda e: e["event"] == "step_started" and e["label"] == "T26C/r1", "T26C/r1", 300)
 os.kill(dpid, signal.SIGKILL)
 PY
