@@ -72,6 +72,7 @@ struct Candidate {
   GateStatus status = GateStatus::kActive;
   std::string held_note;     // parameters held and why
   std::string inconsistent;  // why it was withdrawn (kInconsistent)
+  bool all_or_none = false;  // ExplainCandidateSpec::all_or_none
 };
 
 // Static holds of the recording as readings (rates), trimmed.
@@ -656,6 +657,7 @@ Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval, const Expl
     Candidate c;
     c.id = spec.id;
     c.names = spec.names;
+    c.all_or_none = spec.all_or_none;
     for (const std::string& nm : c.names) {
       c.cols.push_back(static_cast<int>(L.cnames.size()));
       L.cnames.push_back(nm);
@@ -882,6 +884,7 @@ std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& o) {
         }
       }
     }
+    c.all_or_none = !c.fixed.empty();
     out.push_back(std::move(c));
   }
   return out;
@@ -957,6 +960,13 @@ Pass selectAndRefit(ExplainProblem* problem, const ExplainOptions& o, ExplainEva
   const GateInput gate{&L.Jb, &p.baseline_names, &L.C, &L.Cperp, &L.raw_max};
   for (Candidate& c : L.cands) gateParameters(gate, o, &c);
   gatePairs(gate, o, &L.cands, &q.gate);
+  for (Candidate& c : L.cands) {
+    if (!c.all_or_none || c.status != GateStatus::kActive || c.active.size() == c.cols.size()) {
+      continue;
+    }
+    c.status = GateStatus::kBaselineCollinear;
+    c.held_note += "its parameters describe one term together and cannot be fitted in part; ";
+  }
   const Selector selector(L.Cperp, L.rperp, &L.cands);
   std::vector<std::size_t> all;
   for (std::size_t g = 0; g < L.cands.size(); ++g) {

@@ -227,6 +227,11 @@ struct ExplainCandidateSpec {
   // Alternative values of `fixed` (angle_harmonic on each turning axis at each order): the
   // first pass keeps the one that fits most of what the other candidates leave.
   std::vector<Fixed> variants;
+  // Its parameters are one term together (angle_harmonic's cos and sin: a harmonic of unknown
+  // phase): when the gate holds any of them, the candidate is not selected, since fitting the
+  // rest would fix a phase the data did not choose (on the daemon's 20x recordings a sine
+  // alone, its cosine absorbed by the baseline, came out at 780 arcsec).
+  bool all_or_none = false;
 };
 // Every registry effect with fittable parameters (options.candidates filters).
 std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& options);
