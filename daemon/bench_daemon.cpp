@@ -587,6 +587,9 @@ void BenchDaemon::closeStep(std::optional<double> t1) {
       stored_segment = seg;
       if (auto fl = run_->writer->flush(); !fl.ok) log_.error("store: " + fl.message);
     }
+  } else {
+    log_.warning("run " + std::to_string(run_->id) + ": step '" + c.label +
+                 "' ended before an IMU sample after its start: no segment stored");
   }
   // The checkpoint after the segment it vouches for (samples and segment committed above).
   if (auto st = store_->addEvent(c.finished); !st.ok) log_.error("store: " + st.message);

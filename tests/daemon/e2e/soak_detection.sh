@@ -46,7 +46,7 @@ max_soak = "2 h"
 label = "T30C/soak"
 [[step]]
 type = "hold"
-duration = "2 s"
+duration = "20 s"
 label = "after"
 TOML
 } >"$W/settle_plan.toml"
@@ -67,7 +67,7 @@ max_soak = "30 min"
 label = "T31C/soak"
 [[step]]
 type = "hold"
-duration = "2 s"
+duration = "20 s"
 label = "after"
 TOML
 } >"$W/runaway_plan.toml"
