@@ -138,15 +138,16 @@ bool openAtRate(const std::string& path, double rate_hz, std::ifstream* in, std:
 RealImport readImuTkPair(const std::string& accel_path, const std::string& gyro_path) {
   RealImport r;
   Rows a, g;
-  if (!readTxyz(accel_path, &a, &r.error) || !readTxyz(gyro_path, &g, &r.error)) return r;
+  if (!readTxyz(accel_path, &a, &r.status.message) || !readTxyz(gyro_path, &g, &r.status.message))
+    return r;
   if (a.t.size() != g.t.size()) {
-    r.error = gyro_path + ": " + std::to_string(g.t.size()) + " rows, but " + accel_path + " has " +
-              std::to_string(a.t.size());
+    r.status.message = gyro_path + ": " + std::to_string(g.t.size()) + " rows, but " + accel_path +
+                       " has " + std::to_string(a.t.size());
     return r;
   }
   for (std::size_t i = 0; i < a.t.size(); ++i)
     if (a.t[i] != g.t[i]) {
-      r.error = at(gyro_path, i + 1, "time differs from the accelerometer file's row");
+      r.status.message = at(gyro_path, i + 1, "time differs from the accelerometer file's row");
       return r;
     }
   r.data.t = std::move(a.t);
@@ -159,14 +160,14 @@ RealImport readImuTkPair(const std::string& accel_path, const std::string& gyro_
     r.unsigned_counts = r.data.accel[i].minCoeff() >= 0.0 && r.data.gyro[i].minCoeff() >= 0.0;
   r.accel_unit = r.unsigned_counts ? "count" : "reading";
   r.gyro_unit = r.unsigned_counts ? "count" : "reading";
-  r.ok = true;
+  r.status = Status::Ok();
   return r;
 }
 
 RealImport readSixColumnLog(const std::string& path, double rate_hz) {
   RealImport r;
   std::ifstream in;
-  if (!openAtRate(path, rate_hz, &in, &r.error)) return r;
+  if (!openAtRate(path, rate_hz, &in, &r.status.message)) return r;
   const std::vector<std::string> names = {"ax", "ay", "az", "wx", "wy", "wz"};
   const bool read = readRows(
       in, path, 0, ' ', names.size(), names, " (ax ay az wx wy wz)",
@@ -176,28 +177,28 @@ RealImport readSixColumnLog(const std::string& path, double rate_hz) {
         r.data.gyro.emplace_back(x[3], x[4], x[5]);
         return true;
       },
-      &r.error);
+      &r.status.message);
   if (!read) return r;
   r.accel_unit = "m/s^2";
   r.gyro_unit = "rad/s";
-  r.ok = true;
+  r.status = Status::Ok();
   return r;
 }
 
 RealImport readImucalCsv(const std::string& path, double rate_hz) {
   RealImport r;
   std::ifstream in;
-  if (!openAtRate(path, rate_hz, &in, &r.error)) return r;
+  if (!openAtRate(path, rate_hz, &in, &r.status.message)) return r;
   std::string line;
   if (!std::getline(in, line)) {
-    r.error = path + ":1: empty file";
+    r.status.message = path + ":1: empty file";
     return r;
   }
   if (!line.empty() && line.back() == '\r') line.pop_back();
   const std::vector<std::string> expected = {"n_samples", "gyr_x", "gyr_y", "gyr_z",
                                              "acc_x",     "acc_y", "acc_z"};
   if (fields(line, ',') != expected) {
-    r.error = at(path, 1, "header must be n_samples,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z");
+    r.status.message = at(path, 1, "header must be n_samples,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z");
     return r;
   }
   double last = -1.0;
@@ -214,11 +215,11 @@ RealImport readImucalCsv(const std::string& path, double rate_hz) {
         r.data.accel.emplace_back(x[4], x[5], x[6]);
         return true;
       },
-      &r.error);
+      &r.status.message);
   if (!read) return r;
   r.accel_unit = "m/s^2";
   r.gyro_unit = "deg/s";
-  r.ok = true;
+  r.status = Status::Ok();
   return r;
 }
 
@@ -226,34 +227,34 @@ SectionListImport readImucalSectionList(const std::string& path) {
   SectionListImport r;
   std::ifstream in(path);
   if (!in) {
-    r.error = path + ": cannot open";
+    r.status.message = path + ": cannot open";
     return r;
   }
   nlohmann::ordered_json j;
   try {
     j = nlohmann::ordered_json::parse(in);
   } catch (const nlohmann::json::parse_error& e) {
-    r.error = path + ": " + e.what();
+    r.status.message = path + ": " + e.what();
     return r;
   }
   if (!j.is_object()) {
-    r.error = path + ": expected an object of sections";
+    r.status.message = path + ": expected an object of sections";
     return r;
   }
   for (const auto& [name, v] : j.items()) {
     if (!v.is_object() || !v.contains("start") || !v.contains("end") ||
         !v["start"].is_number_unsigned() || !v["end"].is_number_unsigned()) {
-      r.error = path + ": " + name + ": expected {\"start\": n, \"end\": n} with n >= 0";
+      r.status.message = path + ": " + name + ": expected {\"start\": n, \"end\": n} with n >= 0";
       return r;
     }
     LabelledRange s{name, v["start"].get<std::size_t>(), v["end"].get<std::size_t>()};
     if (s.end <= s.start) {
-      r.error = path + ": " + name + ": end must be after start";
+      r.status.message = path + ": " + name + ": end must be after start";
       return r;
     }
     r.sections.push_back(s);
   }
-  r.ok = true;
+  r.status = Status::Ok();
   return r;
 }
 

@@ -18,12 +18,13 @@
 #include <vector>
 
 #include "calib/static_detection.h"
+#include "calib/status.h"
 
 namespace imubench::io {
 
 struct RealImport {
-  bool ok = false;
-  std::string error;  // "file:line: reason" when !ok
+  // ok with the data; otherwise the message is "file:line: reason".
+  Status status = Status::Error("not read");
   calib::RawImuData data;
   std::string accel_unit;  // "count", "reading" (signed, unit not stated) or "m/s^2"
   std::string gyro_unit;   // "count", "reading", "deg/s" or "rad/s"
@@ -51,9 +52,8 @@ struct LabelledRange {
 };
 
 struct SectionListImport {
-  bool ok = false;
-  std::string error;
-  std::vector<LabelledRange> sections;  // in file order
+  Status status = Status::Error("not read");  // the message names the file and why
+  std::vector<LabelledRange> sections;        // in file order
 };
 
 // imucal section list JSON.

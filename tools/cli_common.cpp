@@ -145,7 +145,7 @@ RealRecording readRealRecording(const RealRecordingOptions& o) {
     r.import = io::readImucalCsv(o.path, o.rate_hz.value_or(io::kImucalExampleRateHz));
     r.accel_si = true;
   }
-  if (!r.import.ok) throw CommandFailed(r.import.error);
+  if (!r.import.status.ok) throw CommandFailed(r.import.status.message);
   if (o.latitude_deg) so.latitude_rad = *o.latitude_deg * kDegToRad;
   if (o.gravity) {
     so.gravity_mps2 = *o.gravity;

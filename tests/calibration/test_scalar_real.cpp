@@ -43,7 +43,7 @@ void checkConsistency(const calib::RawImuData& data, const calib::ScalarCalibrat
 TEST(ScalarReal, ImuTkXsensPair) {
   const io::RealImport in =
       io::readImuTkPair(kDir + "/imutk_xsens_acc.txt", kDir + "/imutk_xsens_gyro.txt");
-  ASSERT_TRUE(in.ok) << in.error;
+  ASSERT_TRUE(in.status.ok) << in.status.message;
   ASSERT_GT(in.data.size(), 50000u);
   calib::ScalarCalibrationOptions o;
   // imu_tk's own example uses g = 9.81744 m/s^2 (Padova); we use WGS-84 normal gravity at
@@ -67,10 +67,10 @@ TEST(ScalarReal, ImuTkXsensPair) {
 
 TEST(ScalarReal, ImucalFerrarisSession) {
   const io::RealImport in = io::readImucalCsv(kDir + "/imucal_example_ferraris_session.csv");
-  ASSERT_TRUE(in.ok) << in.error;
+  ASSERT_TRUE(in.status.ok) << in.status.message;
   const io::SectionListImport sl =
       io::readImucalSectionList(kDir + "/imucal_example_ferraris_session_list.json");
-  ASSERT_TRUE(sl.ok) << sl.error;
+  ASSERT_TRUE(sl.status.ok) << sl.status.message;
   ASSERT_EQ(sl.sections.size(), 9u);
   calib::ScalarCalibrationOptions o;
   o.gravity_mps2 = 9.81;
@@ -172,7 +172,7 @@ double compareTriad(const calib::CoefficientReport& rep, const std::string& tria
 TEST(ScalarReal, AgreesWithImuTksOwnCalibrationOfItsRecording) {
   const io::RealImport in =
       io::readImuTkPair(kDir + "/imutk_xsens_acc.txt", kDir + "/imutk_xsens_gyro.txt");
-  ASSERT_TRUE(in.ok) << in.error;
+  ASSERT_TRUE(in.status.ok) << in.status.message;
   calib::ScalarCalibrationOptions o;
   o.gravity_mps2 = 9.81744;         // imu_tk's test program
   o.interpolate_gyro_bias = false;  // imu_tk: the initial static's bias throughout

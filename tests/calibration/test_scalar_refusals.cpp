@@ -17,7 +17,7 @@ const std::string kDir = IMUBENCH_REAL_DATA_DIR;
 
 calib::RawImuData ferraris() {
   const io::RealImport in = io::readImucalCsv(kDir + "/imucal_example_ferraris_session.csv");
-  EXPECT_TRUE(in.ok) << in.error;
+  EXPECT_TRUE(in.status.ok) << in.status.message;
   return in.data;
 }
 
@@ -79,7 +79,7 @@ TEST(ScalarRefusals, FewTiltsDoNotDetermineAnAxis) {
 
 TEST(ScalarRefusals, SixColumnMpuLogCalibrates) {
   const io::RealImport in = io::readSixColumnLog(kDir + "/mikoff_mpu9150_imu0.log");
-  ASSERT_TRUE(in.ok) << in.error;
+  ASSERT_TRUE(in.status.ok) << in.status.message;
   const calib::ScalarCalibrationResult r = calibrate(in.data);
   ASSERT_TRUE(r.status.ok) << r.status.message;
   EXPECT_LT(r.accel_rms_after, 0.01);
