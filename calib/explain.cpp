@@ -627,9 +627,9 @@ bool ExplainOptions::IsValid(std::string* why) const {
 namespace {
 
 // The state with a candidate's discrete parameters set (the effect enabled at them).
-ExplainState withFixed(const ExplainState& at, const ExplainCandidateSpec& spec) {
+ExplainState withFixed(const ExplainState& at, const ExplainCandidateSpec::Fixed& fixed) {
   ExplainState s = at;
-  for (const auto& [name, value] : spec.fixed) {
+  for (const auto& [name, value] : fixed) {
     std::string why;
     setStateValue(&s, name, value, &why);
   }
@@ -683,8 +683,9 @@ Linearised linearise(const ExplainProblem& p, ExplainEvaluator* eval, const Expl
       }
       continue;
     }
+    if (!spec.variants.empty()) continue;  // chooseVariants computes the chosen variant's
     std::vector<double> raw;
-    const Eigen::MatrixXd S = eval->jacobian(withFixed(at, spec), spec.names, &raw);
+    const Eigen::MatrixXd S = eval->jacobian(withFixed(at, spec.fixed), spec.names, &raw);
     for (std::size_t k = 0; k < cols.size(); ++k) {
       L.C.col(cols[k]) = S.col(static_cast<int>(k));
       L.raw_max[static_cast<std::size_t>(cols[k])] = raw[k];
@@ -906,7 +907,8 @@ struct Pass {
 
 // For every candidate with variants (ExplainCandidateSpec::variants): the variant whose
 // columns, off the baseline's and every other candidate's, fit most of the residual. Sets the
-// spec's fixed values and its columns in L. Trying a dozen 2-parameter variants this way is
+// spec's fixed values and its columns in L (linearise leaves them to this). Trying a few
+// 2-parameter variants (at most 3 axes x harmonic_max_order) this way is
 // far below the BIC's penalty in chance gain, and against the fullest model a variant is not
 // picked for residual another effect (a table error) explains.
 void chooseVariants(ExplainProblem* p, ExplainEvaluator* eval, const ExplainState& at,
@@ -926,10 +928,8 @@ void chooseVariants(ExplainProblem* p, ExplainEvaluator* eval, const ExplainStat
     std::vector<double> best_raw;
     double best_gain = -1.0;
     for (const ExplainCandidateSpec::Fixed& v : spec.variants) {
-      ExplainCandidateSpec trial = spec;
-      trial.fixed = v;
       std::vector<double> raw;
-      const Eigen::MatrixXd S = eval->jacobian(withFixed(at, trial), spec.names, &raw);
+      const Eigen::MatrixXd S = eval->jacobian(withFixed(at, v), spec.names, &raw);
       const Eigen::MatrixXd Sp = projectOff(B, projectOff(L->Ub, S));
       const double gain = e.squaredNorm() - fitResidual(Sp, e).squaredNorm();
       if (gain > best_gain) {
@@ -994,7 +994,7 @@ Pass selectAndRefit(ExplainProblem* problem, const ExplainOptions& o, ExplainEva
   q.names = p.baseline_names;
   ExplainState start = at;
   for (std::size_t g : q.sel.accepted) {
-    start = withFixed(start, p.candidates[g]);
+    start = withFixed(start, p.candidates[g].fixed);
     for (int j : L.cands[g].active) {
       const std::string& n = L.cnames[static_cast<std::size_t>(j)];
       q.names.push_back(n);
