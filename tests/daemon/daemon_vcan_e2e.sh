@@ -31,17 +31,20 @@ work, plan = sys.argv[1], sys.argv[2]
 sock = socket.socket(socket.AF_UNIX)
 sock.connect(work + "/control.sock")
 sock.settimeout(150)  # longer than any wait below: a stall is reported by wait_event
-f = sock.makefile("rw")
+# Read-only: a text file object opened "rw" drops the lines it has read ahead whenever it is
+# written to (CPython's TextIOWrapper.write resets its decoder); requests go out by sendall.
+f = sock.makefile("r", encoding="utf-8")
 events = []
+seen = []  # every line received, for a failure's message
 
 def send(obj):
-    f.write((obj if isinstance(obj, str) else json.dumps(obj)) + "\n")
-    f.flush()
+    sock.sendall(((obj if isinstance(obj, str) else json.dumps(obj)) + "\n").encode("utf-8"))
 
 def reply(obj):
     send(obj)
     while True:
         line = json.loads(f.readline())
+        seen.append(line)
         if "event" in line:
             events.append(line)
         else:
@@ -55,6 +58,7 @@ def wait_event(pred, what, limit=120):
             return e
     while time.time() < end:
         e = json.loads(f.readline())
+        seen.append(e)
         if "event" not in e:
             continue
         if pred(e):
@@ -81,7 +85,8 @@ check(st["ok"] and st["result"]["state"] == "running", "status running")
 fin = wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run1, "run 1 end")
 check(fin["state"] == "finished" and fin["exit"] == "completed", "run 1 completed")
 started = [e["label"] for e in events if e["event"] == "step_started"]
-check(started == ["h1", "r1", "h2"], "step events in order: %s" % started)
+check(started == ["h1", "r1", "h2"], "step events in order: %s (received: %s)" %
+      (started, "; ".join(json.dumps(x) for x in seen[-30:])))
 events.clear()
 
 exp = reply({"id": 6, "cmd": "export", "run": run1, "dir": "export1"})

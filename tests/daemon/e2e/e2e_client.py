@@ -23,7 +23,10 @@ class Client:
         self.sock = socket.socket(socket.AF_UNIX)
         self.sock.connect(path)
         self.sock.settimeout(timeout)
-        self.f = self.sock.makefile("rw")
+        # Read-only: a text file object opened "rw" drops the lines it has read ahead whenever
+        # it is written to (CPython's TextIOWrapper.write resets its decoder), which lost events
+        # that arrived with a reply; requests go out through sendall.
+        self.f = self.sock.makefile("r", encoding="utf-8")
         self.events = []
         self.next_id = 1
 
@@ -32,8 +35,8 @@ class Client:
         self.sock.close()
 
     def send(self, obj):
-        self.f.write((obj if isinstance(obj, str) else json.dumps(obj)) + "\n")
-        self.f.flush()
+        line = (obj if isinstance(obj, str) else json.dumps(obj)) + "\n"
+        self.sock.sendall(line.encode("utf-8"))
 
     def reply(self, obj):
         if isinstance(obj, dict) and "id" not in obj:
