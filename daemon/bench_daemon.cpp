@@ -73,7 +73,7 @@ std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& t
     *why = name + ": " + ex.error;
     return std::nullopt;
   }
-  if (const PlanFit fit = checkPlanForBench(*plan, ex.motion, bench); !fit.ok) {
+  if (const Status fit = checkPlanForBench(*plan, ex.motion, bench); !fit.ok) {
     *why = fit.message;
     return std::nullopt;
   }
@@ -776,8 +776,8 @@ std::optional<Reply> BenchDaemon::withPlanText(const Request& request, ClientId 
       log_.info("plan " + path + " read for a client that has gone; dropped");
       return;
     }
-    Reply r =
-        file.ok ? use(path, file.text) : errorReply(request.id, ErrorCode::kBadPlan, file.error);
+    Reply r = file.status.ok ? use(path, file.text)
+                             : errorReply(request.id, ErrorCode::kBadPlan, file.status.message);
     r.id = request.id;
     server_->sendReply(client, r);
   };
@@ -1073,7 +1073,7 @@ void BenchDaemon::startPointCalibrations(std::int64_t run_id) {
         const auto r = store_->storeResult(run_id, serial, p.temperature_c, "point_coefficients",
                                            pointJson(p).dump());
         if (!r.status.ok) log_.error("store: " + r.status.message);
-        ok += p.ok ? 1 : 0;
+        ok += p.status.ok ? 1 : 0;
       }
       log_.info(who + ": " + std::to_string(ok) + " of " + std::to_string(points.size()) +
                 " temperature points calibrated (IMU " + serial + ")");
@@ -1091,10 +1091,10 @@ void BenchDaemon::startPointCalibrations(std::int64_t run_id) {
 
 void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f) {
   const std::string who = "run " + std::to_string(setup.run_id);
-  if (!f.ok) {
-    log_.error(who + ": no calibration results: " + f.error);
+  if (!f.status.ok) {
+    log_.error(who + ": no calibration results: " + f.status.message);
     server_->broadcast(Topic::kRun, "results",
-                       {{"run", setup.run_id}, {"ok", false}, {"error", f.error}});
+                       {{"run", setup.run_id}, {"ok", false}, {"error", f.status.message}});
     return;
   }
   json stored = json::object();

@@ -176,7 +176,8 @@ void OnlineEngine::startEstimate() {
     }
     RunCalibration c =
         calibrateRun(method, rec, reference->recording ? &*reference->recording : nullptr);
-    if (!c.ok && !reference->error.empty()) c.error += " (direct run: " + reference->error + ")";
+    if (!c.status.ok && !reference->error.empty())
+      c.status.message += " (direct run: " + reference->error + ")";
     return [this, alive, c = std::move(c), step, label] {
       if (*alive) onEstimate(c, step, label);
     };
@@ -184,7 +185,7 @@ void OnlineEngine::startEstimate() {
   auto failed = [this, alive = alive_, step, label](const std::string& what) {
     if (!*alive) return;
     RunCalibration c;
-    c.error = "estimate failed: " + what;
+    c.status = Status::Error("estimate failed: " + what);
     onEstimate(c, step, label);
   };
   std::string why;
@@ -211,38 +212,39 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
   FinalCalibration out;
   auto opened = Store::open(setup.db_path, StoreOptions{});
   if (!opened.status.ok) {
-    out.error = opened.status.message;
+    out.status = opened.status;
     return out;
   }
   auto run = opened.value->loadRecording(setup.run_id);
   if (!run.status.ok) {
-    out.error = run.status.message;
+    out.status = run.status;
     return out;
   }
   std::optional<io::Recording> direct;
   if (setup.direct_run) {
     auto d = opened.value->loadRecording(*setup.direct_run);
     if (!d.status.ok) {
-      out.error = "direct run " + std::to_string(*setup.direct_run) + ": " + d.status.message;
+      out.status = Status::Error("direct run " + std::to_string(*setup.direct_run) + ": " +
+                                 d.status.message);
       return out;
     }
     direct = std::move(d.value);
   }
   const auto temperature = runTemperature(run.value);
   if (!temperature) {
-    out.error = "run " + std::to_string(setup.run_id) +
-                " recorded no temperature (no chamber samples, no IMU temperature)";
+    out.status = Status::Error("run " + std::to_string(setup.run_id) +
+                               " recorded no temperature (no chamber samples, no IMU temperature)");
     return out;
   }
-  out.ok = true;
+  out.status = Status::Ok();
   out.imu_serial = run.value.imu_serial;
   out.temperature_c = *temperature;
   const RunCalibration c = calibrateRun(setup.method, run.value, direct ? &*direct : nullptr);
-  out.calibrated = c.ok;
-  if (c.ok) out.coefficients = calib::toJson(c.coefficients);
+  out.calibrated = c.status.ok;
+  if (c.status.ok) out.coefficients = calib::toJson(c.coefficients);
   out.report = c.report;
-  out.report["ok"] = c.ok;
-  if (!c.ok) out.report["error"] = c.error;
+  out.report["ok"] = c.status.ok;
+  if (!c.status.ok) out.report["error"] = c.status.message;
   out.report["estimate"] = estimateJson(c);
   if (setup.direct_run) out.report["direct_run"] = *setup.direct_run;
   out.report["temperature_c"] = *temperature;
@@ -253,11 +255,11 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
   out.verdict = acceptanceVerdict(c, setup.acceptance);
   // The missing-physics analysis from the final coefficients, on this worker like them.
   RunExplain e = explainRun(setup.method, run.value, c, setup.explain);
-  if (e.ok) {
+  if (e.status.ok) {
     out.explain = std::move(e.report);
     out.explain_summary = std::move(e.summary);
   } else {
-    out.explain_error = "missing-physics analysis not stored: " + e.error;
+    out.explain_error = "missing-physics analysis not stored: " + e.status.message;
     out.verdict["notes"].push_back(out.explain_error);
   }
   return out;

@@ -138,8 +138,8 @@ class OnlineEngine {
 // A failed analysis never fails the run: no "explain" result, its reason in explain_error and
 // as a note of the verdict.
 struct FinalCalibration {
-  bool ok = false;  // the run could be read (the calibration itself may still have failed)
-  std::string error;
+  // Ok: the run could be read (the calibration itself may still have failed: `calibrated`).
+  Status status = Status::Error("not read");
   std::string imu_serial;
   double temperature_c = 0.0;
   bool calibrated = false;

@@ -11,20 +11,15 @@
 #include <string>
 
 #include "calib/motion.h"
+#include "calib/status.h"
 #include "daemon/bench_file.h"
 #include "plans/plan.h"
 
 namespace imubench::daemon {
 
-struct PlanFit {
-  bool ok = true;
-  std::string message;  // empty when ok; otherwise "<plan file>: why"
-  static PlanFit Ok() { return {}; }
-  static PlanFit No(std::string why) { return {false, std::move(why)}; }
-};
-
 // plan: parsed and validated (plans::validatePlan); motion: its expansion (plans::expand).
-PlanFit checkPlanForBench(const plans::Plan& plan, const calib::Motion& motion,
-                          const BenchConfig& bench);
+// Ok, or why not: "<plan file>: why".
+Status checkPlanForBench(const plans::Plan& plan, const calib::Motion& motion,
+                         const BenchConfig& bench);
 
 }  // namespace imubench::daemon

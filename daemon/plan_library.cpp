@@ -41,7 +41,7 @@ std::optional<std::string> refuseLibraryPath(const std::string& path, const std:
 PlanFile readLibraryFile(const std::string& path, const PlanLibraryOptions& options) {
   if (auto why = refuseLibraryPath(path, options.plan_dir)) {
     PlanFile f;
-    f.error = *why;
+    f.status = Status::Error(*why);
     return f;
   }
   // The file actually opened (symlinks resolved) must be inside the library too.
@@ -56,9 +56,8 @@ PlanFile readLibraryFile(const std::string& path, const PlanLibraryOptions& opti
   };
   io::UserFile read = io::readUserFile(path, options.max_bytes, "a plan may have", resolves_inside);
   PlanFile f;
-  f.ok = read.ok();
+  f.status = read.ok() ? Status::Ok() : Status::Error(std::move(read.message));
   f.text = std::move(read.text);
-  f.error = std::move(read.message);
   return f;
 }
 
@@ -86,7 +85,7 @@ bool PlanLibrary::read(const std::string& path, std::function<void(PlanFile)> do
   };
   auto failed = [path, done](const std::string& what) {
     PlanFile file;
-    file.error = path + ": " + what;
+    file.status = Status::Error(path + ": " + what);
     done(file);
   };
   if (jobs_.run(job, failed, why)) return true;

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/status.h"
 #include "daemon/event_loop.h"
 #include "daemon/off_loop.h"
 
@@ -31,9 +32,9 @@ struct PlanLibraryOptions {
 };
 
 struct PlanFile {
-  bool ok = false;
-  std::string text;   // the file's contents, when ok
-  std::string error;  // "path: why", when !ok (never any of the file's contents)
+  // Not ok: "path: why" (never any of the file's contents).
+  Status status = Status::Error("not read");
+  std::string text;  // the file's contents, when status.ok
 };
 
 // Why a client-given path is not read (nullopt: it is inside plan_dir). Lexical only.

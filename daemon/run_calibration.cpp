@@ -59,18 +59,19 @@ RunCalibration fromDirect(const calib::DirectCalibrationResult& d) {
   RunCalibration out;
   out.report = {{"method", "direct"}, {"direct", directReport(d)}};
   if (!d.status.HasResult()) {
-    out.error = "direct calibration: " + d.status.message;
+    out.status = Status::Error("direct calibration: " + d.status.message);
     return out;
   }
   // Four positions fit the four unknowns of each accelerometer axis exactly: no residual is
   // left, so the sigmas (from the residual scatter) would claim a precision nobody measured.
   if (d.statics_used <= kDirectUnknownsPerAxis) {
-    out.error = "direct calibration: " + std::to_string(d.statics_used) +
-                " static positions fit the " + std::to_string(kDirectUnknownsPerAxis) +
-                " unknowns per axis exactly: no redundancy yet, sigmas undefined";
+    out.status =
+        Status::Error("direct calibration: " + std::to_string(d.statics_used) +
+                      " static positions fit the " + std::to_string(kDirectUnknownsPerAxis) +
+                      " unknowns per axis exactly: no redundancy yet, sigmas undefined");
     return out;
   }
-  out.ok = true;
+  out.status = Status::Ok();
   out.coefficients = d.report;
   out.unobservable = unobservableOf(d.report);
   return out;
@@ -80,10 +81,10 @@ RunCalibration fromIndirect(const calib::CalibrationResult& r, const char* metho
   RunCalibration out;
   out.report = {{"method", method}, {"indirect", indirectReport(r)}};
   if (!r.status.HasResult()) {
-    out.error = std::string(method) + " calibration: " + r.status.message;
+    out.status = Status::Error(std::string(method) + " calibration: " + r.status.message);
     return out;
   }
-  out.ok = true;
+  out.status = Status::Ok();
   out.coefficients = r.coefficients;
   out.unobservable = unobservableOf(r.coefficients);
   return out;
@@ -115,13 +116,14 @@ RunCalibration indirectAlone(const io::Recording& rec) {
 RunCalibration pipeline(const io::Recording& rec, const io::Recording* direct) {
   if (direct == nullptr) {
     RunCalibration out;
-    out.error = "pipeline calibration: no direct-plan run";
+    out.status = Status::Error("pipeline calibration: no direct-plan run");
     out.report = {{"method", "pipeline"}};
     return out;
   }
   if (direct->table_kind != rec.table_kind) {
     RunCalibration out;
-    out.error = "pipeline calibration: the direct run was recorded on another table kind";
+    out.status =
+        Status::Error("pipeline calibration: the direct run was recorded on another table kind");
     out.report = {{"method", "pipeline"}};
     return out;
   }
@@ -131,12 +133,8 @@ RunCalibration pipeline(const io::Recording& rec, const io::Recording* direct) {
   in.navigation.push_back({rec.imu, table, rec.segments});
   const calib::BenchCalibrationResult r = calib::calibrateBench(in);
   RunCalibration out = fromIndirect(r.refined, "pipeline");
-  if (!r.status.HasResult() && out.ok) {
-    out.ok = false;
-    out.error = "pipeline calibration: " + r.status.message;
-  } else if (!r.status.HasResult()) {
-    out.error = "pipeline calibration: " + r.status.message;
-  }
+  if (!r.status.HasResult())
+    out.status = Status::Error("pipeline calibration: " + r.status.message);
   out.report["direct"] = directReport(r.direct_final);
   out.report["passes"] = r.passes;
   return out;
@@ -158,16 +156,16 @@ RunCalibration calibrateRun(plans::CalibrationMethod method, const io::Recording
       out = pipeline(rec, direct);
       break;
     case plans::CalibrationMethod::kNone:
-      out.error = "the plan names no calibration";
+      out.status = Status::Error("the plan names no calibration");
       break;
   }
-  if (!out.ok) out.unobservable = calib::flatNames(calib::BenchTruth{});
+  if (!out.status.ok) out.unobservable = calib::flatNames(calib::BenchTruth{});
   return out;
 }
 
 json estimateJson(const RunCalibration& c) {
   json params = json::object();
-  if (c.ok) {
+  if (c.status.ok) {
     for (const auto& [name, u] : c.coefficients.uncertainty) {
       if (!u.observable || !u.sigma) continue;
       const double v = calib::flatValue(c.coefficients.values, name).value_or(0.0);
@@ -178,15 +176,15 @@ json estimateJson(const RunCalibration& c) {
                       {"unit", d.label}};
     }
   }
-  json out = {{"ok", c.ok}, {"parameters", params}, {"unobservable", c.unobservable}};
-  if (!c.ok) out["reason"] = c.error;
+  json out = {{"ok", c.status.ok}, {"parameters", params}, {"unobservable", c.unobservable}};
+  if (!c.status.ok) out["reason"] = c.status.message;
   return out;
 }
 
 json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimit>& limits) {
   json rows = json::array();
   if (limits.empty()) return {{"pass", nullptr}, {"rows", rows}, {"why", "no acceptance limits"}};
-  bool pass = c.ok;
+  bool pass = c.status.ok;
   for (const AcceptanceLimit& lim : limits) {
     for (const std::string& name : calib::flatNames(calib::BenchTruth{})) {
       if (name != lim.parameter && name.rfind(lim.parameter + ".", 0) != 0) continue;
@@ -196,7 +194,8 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
                   {"unit", d.label},
                   {"limit_text", lim.text}};
       const auto u = c.coefficients.uncertainty.find(name);
-      const bool determined = c.ok && u != c.coefficients.uncertainty.end() && u->second.observable;
+      const bool determined =
+          c.status.ok && u != c.coefficients.uncertainty.end() && u->second.observable;
       if (!determined) {
         row["pass"] = false;
         row["why"] = "not determined by this calibration";
@@ -216,7 +215,7 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
     }
   }
   json out = {{"pass", pass}, {"rows", rows}};
-  if (!c.ok) out["why"] = "calibration failed: " + c.error;
+  if (!c.status.ok) out["why"] = "calibration failed: " + c.status.message;
   return out;
 }
 

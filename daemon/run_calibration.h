@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/status.h"
 #include "daemon/bench_file.h"
 #include "io/recording.h"
 #include "plans/plan.h"
@@ -19,11 +20,11 @@
 namespace imubench::daemon {
 
 struct RunCalibration {
-  bool ok = false;
-  std::string error;  // why not, when !ok (too little data so far, a refused recording, ...)
-  calib::CoefficientReport coefficients;  // valid when ok
+  // Not ok: why not (too little data so far, a refused recording, ...).
+  Status status = Status::Error("not calibrated");
+  calib::CoefficientReport coefficients;  // valid when status.ok
   // The flat names the method could not determine from these data ("observable": false in
-  // the coefficients, or every parameter when !ok).
+  // the coefficients, or every parameter when not ok).
   std::vector<std::string> unobservable;
   nlohmann::json report;  // method, the calibrator's diagnostics (residuals, conditioning, notes)
 };

@@ -39,8 +39,8 @@ std::vector<std::string> estimatedTableParams(const calib::CoefficientReport& co
 RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
                       const RunCalibration& c, const calib::ExplainOptions& options) {
   RunExplain out;
-  if (!c.ok) {
-    out.error = "no final calibration to start from (" + c.error + ")";
+  if (!c.status.ok) {
+    out.status = Status::Error("no final calibration to start from (" + c.status.message + ")");
     return out;
   }
   const std::vector<calib::TableSample> table = io::tableSamples(rec);
@@ -58,11 +58,11 @@ RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
     r = calib::explainRecording(in, options);
   } catch (const std::exception& e) {
     // The analysis never fails the run: whatever it throws (allocation) is its error.
-    out.error = std::string("the analysis failed: ") + e.what();
+    out.status = Status::Error(std::string("the analysis failed: ") + e.what());
     return out;
   }
   if (!r.status.ok) {
-    out.error = r.status.message;
+    out.status = r.status;
     return out;
   }
   if (method == plans::CalibrationMethod::kPipeline) {
@@ -70,7 +70,7 @@ RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
         "baseline: the run's pipeline calibration (direct plan run, then the navigation-based "
         "refinement over this run)");
   }
-  out.ok = true;
+  out.status = Status::Ok();
   out.report = calib::toJson(r);
   out.summary = summaryOf(r);
   return out;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "calib/explain.h"
+#include "calib/status.h"
 #include "daemon/run_calibration.h"
 #include "io/recording.h"
 #include "plans/plan.h"
@@ -18,8 +19,8 @@
 namespace imubench::daemon {
 
 struct RunExplain {
-  bool ok = false;
-  std::string error;      // why no report, when !ok (the run itself is not affected)
+  // Not ok: why no report (the run itself is not affected).
+  Status status = Status::Error("not analysed");
   nlohmann::json report;  // imubench-explain/1 (interchange.md "Explain report"), when ok
   // One line for the log and the `results` event: the accepted effects, the whitened residual
   // RMS before and after (1 = the noise floor), the windows nothing explains.

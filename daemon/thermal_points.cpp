@@ -52,12 +52,8 @@ void calibratePoint(const io::Recording& rec, const std::vector<calib::Segment>&
   sub.chamber = cropped(rec.chamber, p->t0, p->t1);
   sub.segments = body;
   const RunCalibration c = calibrateRun(plans::CalibrationMethod::kDirect, sub, nullptr);
-  p->ok = c.ok;
-  if (c.ok) {
-    p->coefficients = calib::toJson(c.coefficients);
-  } else {
-    p->error = c.error;
-  }
+  p->status = c.status;
+  if (c.status.ok) p->coefficients = calib::toJson(c.coefficients);
 }
 
 }  // namespace
@@ -104,11 +100,11 @@ nlohmann::json pointJson(const PointCalibration& p) {
                       {"t1", p.t1},
                       {"segments", p.segments},
                       {"method", "direct"},
-                      {"ok", p.ok}};
-  if (p.ok) {
+                      {"ok", p.status.ok}};
+  if (p.status.ok) {
     j["coefficients"] = p.coefficients;
   } else {
-    j["error"] = p.error;
+    j["error"] = p.status.message;
   }
   return j;
 }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/status.h"
 #include "daemon/plan_runner.h"
 #include "io/recording.h"
 
@@ -24,10 +25,9 @@ struct PointCalibration {
   // Mean IMU temperature over the body's samples; the chamber's measured one when the IMU
   // reports none; the setpoint when neither was recorded (temperature_source says which).
   double temperature_c = 0.0;
-  std::string temperature_source;  // "imu", "chamber" or "setpoint"
-  bool ok = false;
-  std::string error;            // why not, when !ok
-  nlohmann::json coefficients;  // calib::toJson of the direct calibration, when ok
+  std::string temperature_source;                   // "imu", "chamber" or "setpoint"
+  Status status = Status::Error("not calibrated");  // not ok: why not
+  nlohmann::json coefficients;  // calib::toJson of the direct calibration, when status.ok
 };
 
 // The plan has a temperature point (a kSoak step): its completed run gets point results.

@@ -81,7 +81,7 @@ TEST(BundledLibrary, EveryPlanFitsTheBundledBenchesItIsMeantFor) {
     for (const Bench& b : benches) {
       if (b.config.table.kind != p->plan.table.kind) continue;
       ++benches_for;
-      const PlanFit fit = checkPlanForBench(p->plan, p->motion, b.config);
+      const Status fit = checkPlanForBench(p->plan, p->motion, b.config);
       EXPECT_TRUE(fit.ok) << p->file << " on " << b.file << ": " << fit.message;
       EXPECT_NE(b.text.find(p->file), std::string::npos)
           << b.file << "'s comment does not name " << p->file << ", a plan meant for it";
@@ -117,7 +117,7 @@ TEST(PlanCheck, RefusesAPlanAskingMoreThanTheBench) {
   ASSERT_TRUE(p.has_value());
   ASSERT_TRUE(checkPlanForBench(p->plan, p->motion, bench).ok);
   p->plan.table.max_rate->value = 50 * kDegToRad;
-  const PlanFit fit = checkPlanForBench(p->plan, p->motion, bench);
+  const Status fit = checkPlanForBench(p->plan, p->motion, bench);
   EXPECT_FALSE(fit.ok);
   EXPECT_NE(fit.message.find("asks for more than this bench allows (30 deg/s, 10 deg/s^2)"),
             std::string::npos)
@@ -132,7 +132,7 @@ TEST(PlanCheck, RefusesAStepFasterThanTheBench) {
   ASSERT_TRUE(p.has_value());
   bench.table.limits.max_rate = 15 * kDegToRad;
   p->plan.table.max_rate->value = 15 * kDegToRad;
-  const PlanFit fit = checkPlanForBench(p->plan, p->motion, bench);
+  const Status fit = checkPlanForBench(p->plan, p->motion, bench);
   EXPECT_FALSE(fit.ok);
   EXPECT_NE(fit.message.find("step 'place_"), std::string::npos) << fit.message;
   EXPECT_NE(fit.message.find("at 20 deg/s, 10 deg/s^2: more than this bench allows"),
@@ -147,7 +147,7 @@ TEST(PlanCheck, RefusesMotionOnATableWithoutAProfile) {
   for (auto& a : bench.table.registers.axes) a.rate_limit = a.accel_limit = {};
   auto p = libraryPlan("two_axis_12run.toml");
   ASSERT_TRUE(p.has_value());
-  const PlanFit fit = checkPlanForBench(p->plan, p->motion, bench);
+  const Status fit = checkPlanForBench(p->plan, p->motion, bench);
   EXPECT_FALSE(fit.ok);
   EXPECT_NE(fit.message.find("gives no way to set the rate and acceleration"), std::string::npos)
       << fit.message;

@@ -54,7 +54,7 @@ TEST(StepStats, RunTurnedAngle) {
 
 RunCalibration calibrated(double gyro_bias_z, bool gyro_bias_z_observable) {
   RunCalibration c;
-  c.ok = true;
+  c.status = Status::Ok();
   c.coefficients.values.sensors.gyro.bias = {1e-8, -1e-8, gyro_bias_z};
   c.coefficients.values.sensors.accel.scale = {1.0002, 1.0, 0.9999};
   for (const char* n : {"gyro.bias.x", "gyro.bias.y", "gyro.bias.z", "accel.scale.x",
@@ -94,7 +94,7 @@ TEST(AcceptanceVerdict, FailOutsideAndWhenNotDetermined) {
   EXPECT_EQ(v["pass"], false);
   // A failed calibration fails every limit; no limits: no verdict.
   RunCalibration failed;
-  failed.error = "too little data";
+  failed.status = Status::Error("too little data");
   EXPECT_EQ(acceptanceVerdict(failed, limits())["pass"], false);
   EXPECT_TRUE(acceptanceVerdict(calibrated(0.0, true), {})["pass"].is_null());
 }

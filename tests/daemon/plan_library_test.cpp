@@ -54,31 +54,34 @@ class PlanLibraryFiles : public ::testing::Test {
 
 TEST_F(PlanLibraryFiles, ReadsRegularFilesAndRefusesTheRest) {
   const PlanFile good = readLibraryFile(lib_ + "/good.toml", options_);
-  ASSERT_TRUE(good.ok) << good.error;
+  ASSERT_TRUE(good.status.ok) << good.status.message;
   EXPECT_EQ(good.text, "[plan]\nname = \"g\"\n");
 
   ASSERT_EQ(::mkfifo((lib_ + "/fifo.toml").c_str(), 0644), 0);
   const auto t0 = std::chrono::steady_clock::now();
   const PlanFile fifo = readLibraryFile(lib_ + "/fifo.toml", options_);  // no writer: no wait
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(1));
-  EXPECT_FALSE(fifo.ok);
-  EXPECT_TRUE(has(fifo.error, "fifo.toml: not a regular file")) << fifo.error;
+  EXPECT_FALSE(fifo.status.ok);
+  EXPECT_TRUE(has(fifo.status.message, "fifo.toml: not a regular file")) << fifo.status.message;
 
   std::ofstream(lib_ + "/big.toml") << std::string(101, '#');
   const PlanFile big = readLibraryFile(lib_ + "/big.toml", options_);
-  EXPECT_FALSE(big.ok);
-  EXPECT_TRUE(has(big.error, "101 bytes, more than the 100 bytes a plan may have")) << big.error;
+  EXPECT_FALSE(big.status.ok);
+  EXPECT_TRUE(has(big.status.message, "101 bytes, more than the 100 bytes a plan may have"))
+      << big.status.message;
 
   ASSERT_EQ(::symlink(dir_.file("secret.toml").c_str(), (lib_ + "/link.toml").c_str()), 0);
   const PlanFile link = readLibraryFile(lib_ + "/link.toml", options_);
-  EXPECT_FALSE(link.ok);
-  EXPECT_TRUE(has(link.error, "resolves outside this bench's plan library")) << link.error;
-  EXPECT_FALSE(has(link.error, "secret = 1"));
+  EXPECT_FALSE(link.status.ok);
+  EXPECT_TRUE(has(link.status.message, "resolves outside this bench's plan library"))
+      << link.status.message;
+  EXPECT_FALSE(has(link.status.message, "secret = 1"));
 
   const PlanFile outside = readLibraryFile(dir_.file("secret.toml"), options_);
-  EXPECT_FALSE(outside.ok);
-  EXPECT_TRUE(has(outside.error, "not in this bench's plan library")) << outside.error;
-  EXPECT_FALSE(readLibraryFile(lib_ + "/none.toml", options_).ok);
+  EXPECT_FALSE(outside.status.ok);
+  EXPECT_TRUE(has(outside.status.message, "not in this bench's plan library"))
+      << outside.status.message;
+  EXPECT_FALSE(readLibraryFile(lib_ + "/none.toml", options_).status.ok);
 
   // The listing: regular *.toml files (and symlinks to them), sorted; no FIFO.
   std::ofstream(lib_ + "/notes.txt") << "x";
@@ -107,7 +110,7 @@ TEST_F(PlanLibraryFiles, ResultComesBackOnTheLoopThread) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while (!got && std::chrono::steady_clock::now() < deadline) ASSERT_TRUE(loop.runOnce(100).ok);
   ASSERT_TRUE(got.has_value());
-  EXPECT_TRUE(got->ok) << got->error;
+  EXPECT_TRUE(got->status.ok) << got->status.message;
   EXPECT_EQ(ran_on, std::this_thread::get_id());
 }
 

@@ -84,7 +84,7 @@ TEST(RunExplain, FinalCalibrationStoresAnExplainReportFromItsOwnCoefficients) {
   ScratchDir dir("explain");
   const OnlineSetup setup = storedRun(dir, recording());
   const FinalCalibration f = finalCalibration(setup);
-  ASSERT_TRUE(f.ok) << f.error;
+  ASSERT_TRUE(f.status.ok) << f.status.message;
   ASSERT_TRUE(f.calibrated) << f.report.dump(2);
   ASSERT_TRUE(f.explain.has_value()) << f.explain_error;
   EXPECT_TRUE(f.explain_error.empty());
@@ -120,7 +120,7 @@ TEST(RunExplain, AFailedAnalysisStoresNothingAndNotesWhyInTheVerdict) {
   // No hold of the plan is a day long: no noise floor, so no analysis.
   setup.explain.min_static_s = 86400.0;
   const FinalCalibration f = finalCalibration(setup);
-  ASSERT_TRUE(f.ok) << f.error;
+  ASSERT_TRUE(f.status.ok) << f.status.message;
   EXPECT_TRUE(f.calibrated) << f.report.dump(2);  // the run's calibration is untouched
   EXPECT_FALSE(f.coefficients.is_null());
   EXPECT_FALSE(f.explain.has_value());
@@ -132,10 +132,10 @@ TEST(RunExplain, AFailedAnalysisStoresNothingAndNotesWhyInTheVerdict) {
 
 TEST(RunExplain, NoAnalysisWithoutACalibrationToStartFrom) {
   RunCalibration failed;
-  failed.error = "direct calibration: too few positions";
+  failed.status = Status::Error("direct calibration: too few positions");
   const RunExplain e = explainRun(plans::CalibrationMethod::kDirect, recording(), failed);
-  EXPECT_FALSE(e.ok);
-  EXPECT_NE(e.error.find("too few positions"), std::string::npos) << e.error;
+  EXPECT_FALSE(e.status.ok);
+  EXPECT_NE(e.status.message.find("too few positions"), std::string::npos) << e.status.message;
   EXPECT_TRUE(e.report.is_null());
 }
 

@@ -79,7 +79,7 @@ TEST(ThermalPoints, EachPointIsCalibratedAtItsOwnTemperature) {
   const double setpoints[] = {-10.0, 30.0};
   for (int k = 0; k < 2; ++k) {
     const PointCalibration& p = points[k];
-    ASSERT_TRUE(p.ok) << p.label << ": " << p.error;
+    ASSERT_TRUE(p.status.ok) << p.label << ": " << p.status.message;
     EXPECT_EQ(p.temperature_source, "imu");
     EXPECT_NEAR(p.temperature_c, setpoints[k], 0.5) << p.label;
     EXPECT_GT(p.segments, 10) << p.label;
