@@ -457,8 +457,8 @@ PlanCheck checkPlanText(std::string_view text, std::string_view file_name,
   if (plan) validatePlan(*plan, diag, options);
   if (plan && diag.ok()) {
     ExpandResult e = expand(*plan);
-    if (!e.ok) {
-      diag.error(0, 0, "expansion failed: " + e.error);
+    if (!e.status.ok) {
+      diag.error(0, 0, "expansion failed: " + e.status.message);
     } else {
       PlanSummary& s = result.summary;
       s.name = plan->name;

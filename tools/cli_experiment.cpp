@@ -38,7 +38,7 @@ calib::Motion planMotionOrFail(const std::string& file) {
   auto plan = plans::loadPlanFile(path, diag);
   if (!plan || !plans::validatePlan(*plan, diag)) throw CommandFailed(diag.str());
   plans::ExpandResult e = plans::expand(*plan);
-  if (!e.ok) throw CommandFailed(path + ": " + e.error);
+  if (!e.status.ok) throw CommandFailed(path + ": " + e.status.message);
   return std::move(e.motion);
 }
 

@@ -32,7 +32,7 @@ Loaded load(const std::string& name) {
   if (!plan) return {};
   EXPECT_TRUE(validatePlan(*plan, diag)) << diag.str();
   ExpandResult r = expand(*plan);
-  EXPECT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
   return {*plan, r.motion};
 }
 

@@ -32,7 +32,7 @@ calib::Motion expandText(const std::string& text, const ExpandOptions& options =
   if (!p) return {};
   EXPECT_TRUE(validatePlan(*p, diag)) << diag.str();
   ExpandResult r = expand(*p, options);
-  EXPECT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
   return r.motion;
 }
 
