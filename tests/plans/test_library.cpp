@@ -70,7 +70,7 @@ TEST(Library, EveryBundledPlanChecksAndExpandsSanely) {
     ++n;
     SCOPED_TRACE(entry.path().string());
     const PlanCheck c = checkPlan(entry.path().string());
-    ASSERT_TRUE(c.ok) << test::allDiagnostics(c);
+    ASSERT_TRUE(c.status.ok) << test::allDiagnostics(c);
     const Loaded l = load(entry.path().filename().string());
     const Motion& m = l.motion;
     EXPECT_GT(m.duration, 10 * 60.0);
