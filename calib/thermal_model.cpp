@@ -65,8 +65,8 @@ ThermalApplyResult applyThermal(const model::ThermalCoefficients& c, const nav::
   }
   for (std::size_t i = 0; i < imu.size(); ++i) {
     if (!std::isfinite(imu[i].temp_c)) {
-      r.status = Status::Error("sample " + std::to_string(i + 1) + " (t = " +
-                               std::to_string(imu[i].t) + " s) has no temperature");
+      r.status = Status::Error("sample " + std::to_string(i + 1) +
+                               " (t = " + std::to_string(imu[i].t) + " s) has no temperature");
       return r;
     }
     if (i > 0 && !(imu[i].t > imu[i - 1].t)) {

@@ -187,7 +187,8 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
       motions.three_axis_runs.kind != TableKind::kThreeAxis ||
       motions.direct_three_axis.kind != TableKind::kThreeAxis ||
       motions.validation.kind != TableKind::kTwoAxis) {
-    b.status = Status::Error("motions: direct, 12-run and validation must be two-axis, the refinement three-axis");
+    b.status = Status::Error(
+        "motions: direct, 12-run and validation must be two-axis, the refinement three-axis");
     return b;
   }
   std::mt19937_64 rng(seed);
@@ -258,7 +259,7 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
   for (int i = 0; i < kSetCount; ++i) {
     if (!navigate(sim, b.coefficients[i], o, &b.curve[i], &why)) {
       b.status = Status::Error(std::string("validation with ") +
-                coefficientSetName(static_cast<CoefficientSet>(i)) + ": " + why);
+                               coefficientSetName(static_cast<CoefficientSet>(i)) + ": " + why);
       return b;
     }
   }
