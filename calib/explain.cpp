@@ -1040,11 +1040,11 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   Pass q = selectAndRefit(&p, o, &eval, p.start, log_n, o.passes == 1);
   const Linearised first = q.L;  // residuals before: about the given baseline
   res.baseline_normalised_rms = std::sqrt(first.rperp.squaredNorm() / std::max(1, first.dof_b));
-  for (int pass = 1; pass < o.passes && q.fit.ok && !q.sel.accepted.empty(); ++pass) {
+  for (int pass = 1; pass < o.passes && q.fit.status.ok && !q.sel.accepted.empty(); ++pass) {
     q = selectAndRefit(&p, o, &eval, withoutCandidates(q, p.start), log_n, true);
   }
-  if (!q.fit.ok) {
-    res.status = Status::Error(q.fit.error);
+  if (!q.fit.status.ok) {
+    res.status = q.fit.status;
     return res;
   }
   if (std::string why = givenMismatch(p, o, q.fit.state.model); !why.empty()) {
@@ -1177,8 +1177,8 @@ ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) 
   }
   ExplainProblem p;
   p.noise = noiseFloor(holds, o.noise);
-  if (!p.noise.ok) {
-    res.status = Status::Error("the static holds are too short for an Allan deviation");
+  if (!p.noise.status.ok) {
+    res.status = p.noise.status;
     return res;
   }
   const ExplainData data =

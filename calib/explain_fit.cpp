@@ -107,7 +107,8 @@ RefitResult refitJointly(ExplainEvaluator* eval, const ExplainState& start,
       const double v = stateValue(out.state, names[j]) + step(j) / d(j);
       std::string why;
       if (!std::isfinite(v) || !setStateValue(&out.state, names[j], v, &why)) {
-        out.error = "refit of " + names[j] + " failed: " + (why.empty() ? "not finite" : why);
+        out.status = Status::Error("refit of " + names[j] +
+                                   " failed: " + (why.empty() ? "not finite" : why));
         return out;
       }
     }
@@ -126,7 +127,7 @@ RefitResult refitJointly(ExplainEvaluator* eval, const ExplainState& start,
     }
     out.sigma[static_cast<std::size_t>(j)] = std::sqrt(var * scale) / d(j);
   }
-  out.ok = true;
+  out.status = Status::Ok();
   return out;
 }
 

@@ -9,6 +9,7 @@
 
 #include "calib/bench_truth.h"
 #include "calib/explain_model.h"
+#include "calib/status.h"
 
 namespace imubench::calib {
 
@@ -48,8 +49,7 @@ inline Eigen::MatrixXd projectOff(const Eigen::MatrixXd& U, const Eigen::MatrixX
 }
 
 struct RefitResult {
-  bool ok = false;
-  std::string error;
+  Status status = Status::Error("not refitted");  // why not (a refitted value invalid), when !ok
   ExplainState state;
   std::vector<double> sigma;  // per name, 1-sigma (NaN where the data cannot see it)
   double chi2 = 0.0;

@@ -67,7 +67,7 @@ NoiseFloor noiseFloor(std::span<const HoldReadings> holds, const NoiseFloorOptio
     nf.bias_instability[c] = best->adev[c] / 0.664;
     nf.bias_instability_tau_s[c] = best->tau_s;
   }
-  nf.ok = true;
+  nf.status = Status::Ok();
   return nf;
 }
 

@@ -15,6 +15,7 @@
 #include <span>
 #include <vector>
 
+#include "calib/status.h"
 #include "nav/rotation.h"
 
 namespace imubench::calib {
@@ -45,7 +46,8 @@ struct NoiseFloorOptions {
 };
 
 struct NoiseFloor {
-  bool ok = false;
+  // Error when the holds give no point of the curve (none, or all too short for min_pairs).
+  Status status = Status::Error("the static holds are too short for an Allan deviation");
   std::vector<AllanPoint> curve;  // increasing tau
   // White-noise density per channel: adev(tau) sqrt(tau) at the shortest tau (accel in
   // m/s/sqrt(s), gyro in rad/sqrt(s)).

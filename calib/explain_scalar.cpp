@@ -176,7 +176,7 @@ ExplainResult explainScalar(const RawImuData& data, const ScalarCalibrationOptio
   }
   ExplainProblem p;
   p.noise = noiseFloor(pb.holds, options.noise);
-  if (!p.noise.ok) {
+  if (!p.noise.status.ok) {
     res.status = Status::Error("the static poses are too short for an Allan deviation");
     return res;
   }

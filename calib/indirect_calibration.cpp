@@ -793,7 +793,7 @@ IndirectJacobian indirectJacobian(const IndirectInput& in, const IndirectOptions
   Observations obs;
   std::string why;
   if (!opt.IsValid(&why) || !observe(in, opt, &obs, &result)) {
-    out.error = why.empty() ? result.status.message : why;
+    out.status = Status::Error(why.empty() ? result.status.message : why);
     return out;
   }
   Parameters p = initialParameters(in, opt, &result.warnings);
@@ -807,7 +807,7 @@ IndirectJacobian indirectJacobian(const IndirectInput& in, const IndirectOptions
     out.jacobian.conservativeResize(J.rows(), out.jacobian.cols() + 1);
     out.jacobian.col(out.jacobian.cols() - 1) = J.col(g);
   }
-  out.ok = true;
+  out.status = Status::Ok();
   return out;
 }
 

@@ -39,6 +39,7 @@
 #include "calib/sensor_model.h"
 #include "calib/simulator.h"
 #include "calib/static_detection.h"
+#include "calib/status.h"
 #include "calib/table_model.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"
@@ -154,8 +155,7 @@ CalibrationResult calibrateIndirect(const IndirectInput& input, const IndirectOp
 // w.r.t. the parameters of this table's chain, named "accel.scale.x", ..., in the order of
 // calib/indirect_params.h): what its information analysis sees before the first solve.
 struct IndirectJacobian {
-  bool ok = false;
-  std::string error;
+  Status status = Status::Error("not computed");  // why not (bad options or input), when !ok
   std::vector<std::string> names;
   Eigen::MatrixXd jacobian;
 };

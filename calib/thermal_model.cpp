@@ -59,15 +59,18 @@ std::vector<double> temperatureRates(const nav::ImuSamples& imu,
 ThermalApplyResult applyThermal(const model::ThermalCoefficients& c, const nav::ImuSamples& imu,
                                 const ThermalApplyOptions& options) {
   ThermalApplyResult r;
-  if (!options.rate.IsValid(&r.error)) return r;
+  if (std::string why; !options.rate.IsValid(&why)) {
+    r.status = Status::Error(why);
+    return r;
+  }
   for (std::size_t i = 0; i < imu.size(); ++i) {
     if (!std::isfinite(imu[i].temp_c)) {
-      r.error = "sample " + std::to_string(i + 1) + " (t = " + std::to_string(imu[i].t) +
-                " s) has no temperature";
+      r.status = Status::Error("sample " + std::to_string(i + 1) +
+                               " (t = " + std::to_string(imu[i].t) + " s) has no temperature");
       return r;
     }
     if (i > 0 && !(imu[i].t > imu[i - 1].t)) {
-      r.error = "sample times not increasing at sample " + std::to_string(i + 1);
+      r.status = Status::Error("sample times not increasing at sample " + std::to_string(i + 1));
       return r;
     }
   }
@@ -96,7 +99,7 @@ ThermalApplyResult applyThermal(const model::ThermalCoefficients& c, const nav::
     r.temp_min_c = i == 0 ? s.temp_c : std::min(r.temp_min_c, s.temp_c);
     r.temp_max_c = i == 0 ? s.temp_c : std::max(r.temp_max_c, s.temp_c);
   }
-  r.ok = true;
+  r.status = Status::Ok();
   return r;
 }
 

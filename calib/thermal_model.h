@@ -11,6 +11,7 @@
 
 #include "calib/model/thermal_coefficients.h"
 #include "calib/sensor_model.h"
+#include "calib/status.h"
 #include "nav/imu_sample.h"
 
 namespace imubench::calib {
@@ -39,8 +40,8 @@ struct ThermalApplyOptions {
 };
 
 struct ThermalApplyResult {
-  bool ok = false;
-  std::string error;               // why not (no temperatures, unsorted samples), when !ok
+  // Why not (no temperatures, unsorted samples, bad options), when !ok.
+  Status status = Status::Error("not applied");
   nav::ImuSamples compensated;     // increments of the true inputs: G dtheta + h dt (eq. 1 inverse)
   std::vector<double> temp_rate;   // degC/s per sample
   std::vector<bool> extrapolated;  // per sample: temperature outside the calibrated range

@@ -179,7 +179,7 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
   b.seed = seed;
   std::string why;
   if (!o.IsValid(&why)) {
-    b.error = "invalid options: " + why;
+    b.status = Status::Error("invalid options: " + why);
     return b;
   }
   if (motions.direct.kind != TableKind::kTwoAxis ||
@@ -187,7 +187,8 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
       motions.three_axis_runs.kind != TableKind::kThreeAxis ||
       motions.direct_three_axis.kind != TableKind::kThreeAxis ||
       motions.validation.kind != TableKind::kTwoAxis) {
-    b.error = "motions: direct, 12-run and validation must be two-axis, the refinement three-axis";
+    b.status = Status::Error(
+        "motions: direct, 12-run and validation must be two-axis, the refinement three-axis");
     return b;
   }
   std::mt19937_64 rng(seed);
@@ -204,7 +205,7 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
   if (!simulateRun(b.truth_two_axis, motions.direct, o, true, seed * 8 + 1, &direct2, &why) ||
       !simulateRun(b.truth_three_axis, motions.direct_three_axis, o, true, seed * 8 + 2, &direct3,
                    &why)) {
-    b.error = "simulating a direct plan: " + why;
+    b.status = Status::Error("simulating a direct plan: " + why);
     return b;
   }
   // (0) direct calibration on the two-axis table; (2) and (3): the production pipeline on
@@ -228,7 +229,7 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
   for (const Refine& r : refines) {
     if (!simulateRun(*r.truth, *r.motion, o, true, seed * 8 + 3 + static_cast<std::uint64_t>(r.set),
                      &sim, &why)) {
-      b.error = std::string("simulating the ") + r.name + " plan: " + why;
+      b.status = Status::Error(std::string("simulating the ") + r.name + " plan: " + why);
       return b;
     }
     BenchCalibrationInput in;
@@ -240,7 +241,7 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
     in.navigation.push_back({sim.imu, sim.table, sim.segments});
     const BenchCalibrationResult res = calibrateBench(in, bo);
     if (!res.status.HasResult()) {
-      b.error = std::string(r.name) + ": " + res.status.message;
+      b.status = Status::Error(std::string(r.name) + ": " + res.status.message);
       return b;
     }
     if (r.set == 1) b.coefficients[0] = res.direct.report.values.sensors;
@@ -252,13 +253,13 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
   // Validation: 8 headings on the two-axis table, each coefficient set.
   if (!simulateRun(b.truth_two_axis, motions.validation, o, o.validation_noise, seed * 8 + 7, &sim,
                    &why)) {
-    b.error = "simulating the validation plan: " + why;
+    b.status = Status::Error("simulating the validation plan: " + why);
     return b;
   }
   for (int i = 0; i < kSetCount; ++i) {
     if (!navigate(sim, b.coefficients[i], o, &b.curve[i], &why)) {
-      b.error = std::string("validation with ") +
-                coefficientSetName(static_cast<CoefficientSet>(i)) + ": " + why;
+      b.status = Status::Error(std::string("validation with ") +
+                               coefficientSetName(static_cast<CoefficientSet>(i)) + ": " + why);
       return b;
     }
   }
@@ -279,7 +280,7 @@ ValidationBench runValidationBench(const ValidationMotions& motions, std::uint64
     b.mean_S[i] = c.t.empty() ? 0.0 : sum / static_cast<double>(c.t.size());
   }
   for (int i = 0; i < kSetCount; ++i) b.ratio[i] = b.mean_S[i] / std::max(b.mean_S[0], 1e-300);
-  b.ok = true;
+  b.status = Status::Ok();
   return b;
 }
 
@@ -287,7 +288,7 @@ ValidationAggregate aggregate(const std::vector<ValidationBench>& benches) {
   ValidationAggregate a;
   std::vector<double> ratios[kSetCount];
   for (const ValidationBench& b : benches) {
-    if (!b.ok) continue;
+    if (!b.status.ok) continue;
     ++a.benches;
     for (int i = 0; i < kSetCount; ++i) {
       a.mean_ratio[i] += b.ratio[i];

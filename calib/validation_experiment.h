@@ -35,6 +35,7 @@
 #include "calib/indirect_calibration.h"
 #include "calib/motion.h"
 #include "calib/noise.h"
+#include "calib/status.h"
 #include "nav/earth.h"
 
 namespace imubench::calib {
@@ -106,8 +107,7 @@ inline constexpr int kSetCount = 3;
 const char* coefficientSetName(CoefficientSet s);  // "direct (0)", ...
 
 struct ValidationBench {
-  bool ok = false;
-  std::string error;  // which stage failed and why
+  Status status = Status::Error("not run");  // which stage failed and why, when !ok
   std::uint64_t seed = 0;
   BenchTruth truth_two_axis;    // sensors + two-axis table errors
   BenchTruth truth_three_axis;  // same sensors + three-axis table errors

@@ -69,8 +69,8 @@ std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& t
     options.thermal = {bench.chamber->device.time_constant_s, bench.chamber->imu_time_constant_s};
   }
   auto ex = plans::expand(*plan, options);
-  if (!ex.ok) {
-    *why = name + ": " + ex.error;
+  if (!ex.status.ok) {
+    *why = name + ": " + ex.status.message;
     return std::nullopt;
   }
   if (const Status fit = checkPlanForBench(*plan, ex.motion, bench); !fit.ok) {

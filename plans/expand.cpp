@@ -407,16 +407,24 @@ class Expander {
 
 ExpandResult expand(const Plan& plan, const ExpandOptions& options) {
   ExpandResult r;
-  if (!options.IsValid(&r.error)) return r;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    r.status = Status::Error(why);
+    return r;
+  }
   const int n = calib::axisCount(plan.table.kind);
   if (!options.initial_angles.empty() && static_cast<int>(options.initial_angles.size()) != n) {
-    r.error = "initial_angles must have one entry per axis (" + std::to_string(n) + ")";
+    r.status =
+        Status::Error("initial_angles must have one entry per axis (" + std::to_string(n) + ")");
     return r;
   }
   Expander e(plan, options);
-  if (!e.run(&r.error)) return r;
+  if (!e.run(&why)) {
+    r.status = Status::Error(why);
+    return r;
+  }
   r.motion = e.take();
-  r.ok = true;
+  r.status = Status::Ok();
   return r;
 }
 

@@ -43,6 +43,7 @@
 
 #include "calib/model/thermal_lag.h"
 #include "calib/motion.h"
+#include "calib/status.h"
 #include "plans/plan.h"
 
 namespace imubench::plans {
@@ -59,12 +60,12 @@ struct ExpandOptions {
 };
 
 struct ExpandResult {
-  bool ok = false;
-  std::string error;  // why not, when !ok (plan not validated, incomplete steps, bad options)
+  // Why not, when !ok (plan not validated, incomplete steps, bad options).
+  Status status = Status::Error("not expanded");
   calib::Motion motion;
 };
 
-// Expands a plan that passed validatePlan(). A plan with problems gives ok = false and the
+// Expands a plan that passed validatePlan(). A plan with problems gives status.ok false and the
 // first problem found (run the validator for the full list).
 ExpandResult expand(const Plan& plan, const ExpandOptions& options = {});
 

@@ -449,6 +449,16 @@ std::string formatSummary(const PlanSummary& s) {
   return out;
 }
 
+namespace {
+
+// The status of a plan with problems: how many, and that it is refused.
+Status refused(std::string_view file_name, std::size_t problems) {
+  return Status::Error(std::string(file_name) + ": " + std::to_string(problems) +
+                       " problem(s), plan refused");
+}
+
+}  // namespace
+
 PlanCheck checkPlanText(std::string_view text, std::string_view file_name,
                         const ValidatorOptions& options) {
   PlanCheck result;
@@ -457,8 +467,8 @@ PlanCheck checkPlanText(std::string_view text, std::string_view file_name,
   if (plan) validatePlan(*plan, diag, options);
   if (plan && diag.ok()) {
     ExpandResult e = expand(*plan);
-    if (!e.ok) {
-      diag.error(0, 0, "expansion failed: " + e.error);
+    if (!e.status.ok) {
+      diag.error(0, 0, "expansion failed: " + e.status.message);
     } else {
       PlanSummary& s = result.summary;
       s.name = plan->name;
@@ -481,7 +491,7 @@ PlanCheck checkPlanText(std::string_view text, std::string_view file_name,
     }
   }
   result.diagnostics = diag.items();
-  result.ok = diag.ok();
+  result.status = diag.ok() ? Status::Ok() : refused(file_name, result.diagnostics.size());
   return result;
 }
 
@@ -491,6 +501,7 @@ PlanCheck checkPlan(const std::string& path, const ValidatorOptions& options) {
     PlanCheck r;
     r.diagnostics.push_back(
         {path, 0, 0, std::string("cannot open plan file: ") + std::strerror(errno)});
+    r.status = refused(path, r.diagnostics.size());
     return r;
   }
   std::ostringstream ss;

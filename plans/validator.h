@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "calib/status.h"
 #include "io/toml_diagnostics.h"
 #include "plans/plan.h"
 
@@ -56,7 +57,8 @@ struct PlanSummary {
 std::string formatSummary(const PlanSummary& s);
 
 struct PlanCheck {
-  bool ok = false;
+  // Error "FILE: N problem(s), plan refused" when the plan has errors (listed in diagnostics).
+  Status status = Status::Error("not checked");
   std::vector<io::Diagnostic> diagnostics;  // every problem found; empty when ok
   PlanSummary summary;                      // meaningful when ok
 };

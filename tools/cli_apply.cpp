@@ -64,7 +64,8 @@ void runApply(const ApplyOptions& o) {
   ao.rate.window_s = o.rate_window_s;
   const calib::ThermalApplyResult r =
       calib::applyThermal(comp.value.coefficients, rec.recording.imu, ao);
-  if (!r.ok) throw CommandFailed(o.run + "/imu.csv: " + r.error + "; nothing to compensate with");
+  if (!r.status.ok)
+    throw CommandFailed(o.run + "/imu.csv: " + r.status.message + "; nothing to compensate with");
   io::Recording out = std::move(rec.recording);
   out.imu = r.compensated;
   if (auto st = io::writeRecording(o.out, out); !st.ok) throw CommandFailed(st.message);

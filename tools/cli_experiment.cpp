@@ -38,7 +38,7 @@ calib::Motion planMotionOrFail(const std::string& file) {
   auto plan = plans::loadPlanFile(path, diag);
   if (!plan || !plans::validatePlan(*plan, diag)) throw CommandFailed(diag.str());
   plans::ExpandResult e = plans::expand(*plan);
-  if (!e.ok) throw CommandFailed(path + ": " + e.error);
+  if (!e.status.ok) throw CommandFailed(path + ": " + e.status.message);
   return std::move(e.motion);
 }
 
@@ -114,8 +114,9 @@ void runValidation(const ExperimentOptions& o) {
   for (int n = 0; n < o.benches; ++n) {
     const std::uint64_t seed = o.seed + static_cast<std::uint64_t>(n);
     calib::ValidationBench b = calib::runValidationBench(m, seed, vo);
-    if (!b.ok) {
-      std::printf("%6llu | FAILED: %s\n", static_cast<unsigned long long>(seed), b.error.c_str());
+    if (!b.status.ok) {
+      std::printf("%6llu | FAILED: %s\n", static_cast<unsigned long long>(seed),
+                  b.status.message.c_str());
       benches.push_back(std::move(b));
       continue;
     }

@@ -36,7 +36,7 @@ void runObserve(const ObserveOptions& o) {
     throw CommandFailed(o.path + ": plan refused");
   }
   const plans::ExpandResult ex = plans::expand(*plan);
-  if (!ex.ok) throw CommandFailed(o.path + ": " + ex.error);
+  if (!ex.status.ok) throw CommandFailed(o.path + ": " + ex.status.message);
   calib::PlanObservabilityOptions opt;
   opt.site.latitude_rad = o.latitude_deg * kDegToRad;
   const calib::CalibrationMethod m = o.method == "direct" ? calib::CalibrationMethod::kDirect

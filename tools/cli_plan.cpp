@@ -11,10 +11,9 @@ namespace {
 
 void runPlanCheck(const std::string& path) {
   const plans::PlanCheck check = plans::checkPlan(path);
-  if (!check.ok) {
+  if (!check.status.ok) {
     for (const auto& d : check.diagnostics) std::cerr << d.str() << "\n";
-    throw CommandFailed(path + ": " + std::to_string(check.diagnostics.size()) +
-                        " problem(s), plan refused");
+    throw CommandFailed(check.status.message);
   }
   std::cout << plans::formatSummary(check.summary) << "\n" << path << ": OK\n";
 }

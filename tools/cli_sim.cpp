@@ -19,7 +19,8 @@ SimOutcome simulatePlanOrFail(const SimRequest& request) {
   }
   out.plan = std::move(*plan);
   auto expanded = plans::expand(out.plan);
-  if (!expanded.ok) throw CommandFailed(request.plan_path + ": cannot expand: " + expanded.error);
+  if (!expanded.status.ok)
+    throw CommandFailed(request.plan_path + ": cannot expand: " + expanded.status.message);
   out.motion = std::move(expanded.motion);
 
   calib::SimulatorInput input;

@@ -51,9 +51,9 @@ bool loadBody(Motion* body) {
     return false;
   }
   const plans::ExpandResult e = plans::expand(*plan);
-  if (!e.ok) std::fprintf(stderr, "%s: %s\n", path.c_str(), e.error.c_str());
+  if (!e.status.ok) std::fprintf(stderr, "%s: %s\n", path.c_str(), e.status.message.c_str());
   *body = e.motion;
-  return e.ok;
+  return e.status.ok;
 }
 
 struct PlanOutcome {

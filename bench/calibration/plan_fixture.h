@@ -32,7 +32,7 @@ inline PlanFixture simulatePlan(const char* name) {
     return out;
   }
   const plans::ExpandResult e = plans::expand(*plan);
-  if (!e.ok) return out;
+  if (!e.status.ok) return out;
   SimulatorInput si;
   si.world.site.latitude_rad = 58.0 * kDegToRad;
   si.world.site.height_m = 100.0;

@@ -20,7 +20,7 @@ inline Motion libraryMotion(const std::string& name) {
   if (!plan) return {};
   EXPECT_TRUE(plans::validatePlan(*plan, diag)) << diag.str();
   plans::ExpandResult r = plans::expand(*plan);
-  EXPECT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
   return r.motion;
 }
 

@@ -44,7 +44,7 @@ TEST_P(ModelAgreement, PlanAnalysisAndCalibratorJacobianShareTheNullSpace) {
   IndirectInput in;
   in.recording() = viewOf(rec);
   const IndirectJacobian cal = indirectJacobian(in, IndirectOptions{});
-  ASSERT_TRUE(cal.ok) << cal.error;
+  ASSERT_TRUE(cal.status.ok) << cal.status.message;
   const InformationAnalysis cal_info = analyseInformation(cal.jacobian, cal.names);
   ASSERT_TRUE(cal_info.status.ok) << cal_info.status.message;
 

@@ -37,7 +37,7 @@ TEST(ValidationExperiment, RefinedCoefficientsBeatDirectBaselineOverTwentyBenche
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
     benches.push_back(runValidationBench(m, seed, opt));
     const ValidationBench& b = benches.back();
-    ASSERT_TRUE(b.ok) << b.error;
+    ASSERT_TRUE(b.status.ok) << b.status.message;
     EXPECT_DOUBLE_EQ(b.ratio[0], 1.0);
     // The direct baseline itself must show a real error (the metric is not 0/0).
     EXPECT_GT(maxPositionError(b.curve[0]), 100.0) << "direct solution position error (m)";
@@ -74,7 +74,7 @@ TEST(ValidationExperiment, NoiseFreeCalibrationLeavesOnlyNumericalError) {
   opt.accel_noise_ug_sqrt_hz = 0.0;
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
     const ValidationBench b = runValidationBench(m, seed, opt);
-    ASSERT_TRUE(b.ok) << b.error;
+    ASSERT_TRUE(b.status.ok) << b.status.message;
     EXPECT_LT(b.ratio[1], 0.02) << "seed " << seed;
     EXPECT_LT(b.ratio[2], 0.02) << "seed " << seed;
   }
@@ -90,7 +90,7 @@ TEST(ValidationExperiment, TableHeadingAlignmentStillImprovesOnDirect) {
   std::vector<ValidationBench> benches;
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
     benches.push_back(runValidationBench(m, seed, opt));
-    ASSERT_TRUE(benches.back().ok) << benches.back().error;
+    ASSERT_TRUE(benches.back().status.ok) << benches.back().status.message;
   }
   const ValidationAggregate a = aggregate(benches);
   EXPECT_LT(a.mean_ratio[1], 0.5);
@@ -101,8 +101,8 @@ TEST(ValidationExperiment, RefusesMotionsOfTheWrongTable) {
   ValidationMotions m = bundledMotions();
   std::swap(m.two_axis_runs, m.three_axis_runs);
   const ValidationBench b = runValidationBench(m, 1, ValidationOptions{});
-  EXPECT_FALSE(b.ok);
-  EXPECT_NE(b.error.find("motions"), std::string::npos) << b.error;
+  EXPECT_FALSE(b.status.ok);
+  EXPECT_NE(b.status.message.find("motions"), std::string::npos) << b.status.message;
 }
 
 }  // namespace

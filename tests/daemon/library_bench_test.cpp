@@ -60,8 +60,8 @@ std::optional<LibraryPlan> loadLibraryPlan(const fs::path& path) {
   EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
   if (!plan || !diag.ok()) return std::nullopt;
   auto ex = plans::expand(*plan);
-  EXPECT_TRUE(ex.ok) << path << ": " << ex.error;
-  if (!ex.ok) return std::nullopt;
+  EXPECT_TRUE(ex.status.ok) << path << ": " << ex.status.message;
+  if (!ex.status.ok) return std::nullopt;
   return LibraryPlan{path.filename().string(), std::move(*plan), std::move(ex.motion)};
 }
 

@@ -20,7 +20,7 @@ inline std::vector<RunStep> libraryPlanSteps(const std::string& file) {
   EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
   if (!plan) return {};
   const auto ex = plans::expand(*plan);
-  EXPECT_TRUE(ex.ok) << ex.error;
+  EXPECT_TRUE(ex.status.ok) << ex.status.message;
   return runSteps(ex.motion);
 }
 

@@ -488,7 +488,7 @@ duration = "1 min"
   plans::ExpandOptions o;
   o.thermal = lag;
   const auto ex = plans::expand(*plan, o);
-  EXPECT_TRUE(ex.ok) << ex.error;
+  EXPECT_TRUE(ex.status.ok) << ex.status.message;
   return runSteps(ex.motion);
 }
 

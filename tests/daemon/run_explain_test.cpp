@@ -36,7 +36,7 @@ io::Recording directPlanRecording() {
   EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
   if (!plan) return {};
   const plans::ExpandResult e = plans::expand(*plan);
-  EXPECT_TRUE(e.ok) << e.error;
+  EXPECT_TRUE(e.status.ok) << e.status.message;
   calib::SimulatorInput in;
   in.motion = e.motion;
   in.world.site.latitude_rad = 55.75 * kDegToRad;

@@ -44,7 +44,7 @@ calib::Motion twoPointMotion() {
   EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
   if (!plan) return {};
   const plans::ExpandResult e = plans::expand(*plan);
-  EXPECT_TRUE(e.ok) << e.error;
+  EXPECT_TRUE(e.status.ok) << e.status.message;
   return e.motion;
 }
 

@@ -72,7 +72,7 @@ std::vector<RunStep> planSteps(const char* text) {
   EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
   if (!plan) return {};
   const auto ex = plans::expand(*plan);
-  EXPECT_TRUE(ex.ok) << ex.error;
+  EXPECT_TRUE(ex.status.ok) << ex.status.message;
   return runSteps(ex.motion);
 }
 

@@ -105,7 +105,7 @@ void drive(VirtualTable& table, const calib::Motion& m) {
 
 TEST(PlanOnVirtualTable, MotionEqualsThePlanExpandersProfileSampleForSample) {
   const plans::ExpandResult ex = plans::expand(parseValid(motionPlan()));
-  ASSERT_TRUE(ex.ok) << ex.error;
+  ASSERT_TRUE(ex.status.ok) << ex.status.message;
   const calib::Motion& m = ex.motion;
   ASSERT_EQ(m.segments.size(), 5u);  // hold, move, rotate, hold, rate
 
@@ -193,7 +193,7 @@ TEST(PlanOnVirtualChamber, PredictedTemperatureEqualsTheVirtualChambers) {
   plans::ExpandOptions options;
   options.thermal.chamber_tau_s = spec.time_constant_s;
   const plans::ExpandResult ex = plans::expand(plan, options);
-  ASSERT_TRUE(ex.ok) << ex.error;
+  ASSERT_TRUE(ex.status.ok) << ex.status.message;
   const calib::Motion& m = ex.motion;
 
   // The chamber's commands at the planned times: each soak's ramp rate and setpoint.

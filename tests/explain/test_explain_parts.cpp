@@ -24,7 +24,7 @@ TEST(ExplainNoise, WhiteNoiseDensityAndAveraging) {
     }
   }
   const NoiseFloor nf = noiseFloor(holds);
-  ASSERT_TRUE(nf.ok);
+  ASSERT_TRUE(nf.status.ok) << nf.status.message;
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(nf.white[c], density, 0.05 * density);
   for (int c = 3; c < 6; ++c) EXPECT_NEAR(nf.white[c], 1e-5, 0.05e-5);
   // The deviation of a 1 s mean of white noise is density / sqrt(1 s).
@@ -33,7 +33,7 @@ TEST(ExplainNoise, WhiteNoiseDensityAndAveraging) {
 }
 
 TEST(ExplainNoise, NoHoldsIsNotOk) {
-  EXPECT_FALSE(noiseFloor({}).ok);
+  EXPECT_FALSE(noiseFloor({}).status.ok);
 }
 
 TEST(ExplainSpline, RateAndAccelerationOfAQuadraticMotion) {

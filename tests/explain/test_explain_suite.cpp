@@ -179,7 +179,7 @@ Motion planMotion(const std::string& plan) {
   if (!p) return {};
   EXPECT_TRUE(plans::validatePlan(*p, diag)) << diag.str();
   plans::ExpandResult r = plans::expand(*p);
-  EXPECT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
   return r.motion;
 }
 

@@ -77,7 +77,7 @@ calib::Motion expandText(const std::string& text, const ExpandOptions& options =
   if (!plan) return {};
   EXPECT_TRUE(validatePlan(*plan, diag)) << diag.str();
   ExpandResult r = expand(*plan, options);
-  EXPECT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
   return r.motion;
 }
 
@@ -214,8 +214,8 @@ TEST(Expand, InitialAnglesOption) {
   ASSERT_TRUE(plan);
   o.initial_angles = {0.0};
   const ExpandResult r = expand(*plan, o);
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.error.find("one entry per axis"), std::string::npos);
+  EXPECT_FALSE(r.status.ok);
+  EXPECT_NE(r.status.message.find("one entry per axis"), std::string::npos);
 }
 
 TEST(Expand, UnvalidatedUnknownAxisIsAnErrorNotACrash) {
@@ -224,8 +224,9 @@ TEST(Expand, UnvalidatedUnknownAxisIsAnErrorNotACrash) {
       parsePlan(test::twoAxis("[[step]]\ntype = \"move\"\nmiddle = \"10 deg\"\n"), "e.toml", diag);
   ASSERT_TRUE(plan) << diag.str();  // the parser accepts axis names; the validator refuses
   const ExpandResult r = expand(*plan);
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.error.find("unknown axis \"middle\""), std::string::npos) << r.error;
+  EXPECT_FALSE(r.status.ok);
+  EXPECT_NE(r.status.message.find("unknown axis \"middle\""), std::string::npos)
+      << r.status.message;
 }
 
 }  // namespace

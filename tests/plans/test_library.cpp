@@ -32,7 +32,7 @@ Loaded load(const std::string& name) {
   if (!plan) return {};
   EXPECT_TRUE(validatePlan(*plan, diag)) << diag.str();
   ExpandResult r = expand(*plan);
-  EXPECT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
   return {*plan, r.motion};
 }
 
@@ -70,7 +70,7 @@ TEST(Library, EveryBundledPlanChecksAndExpandsSanely) {
     ++n;
     SCOPED_TRACE(entry.path().string());
     const PlanCheck c = checkPlan(entry.path().string());
-    ASSERT_TRUE(c.ok) << test::allDiagnostics(c);
+    ASSERT_TRUE(c.status.ok) << test::allDiagnostics(c);
     const Loaded l = load(entry.path().filename().string());
     const Motion& m = l.motion;
     EXPECT_GT(m.duration, 10 * 60.0);

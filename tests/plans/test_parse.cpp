@@ -187,7 +187,7 @@ duration = "5 s"
   ASSERT_EQ(plan->steps.size(), 2u);
   EXPECT_FALSE(plan->steps[0].complete);
   EXPECT_TRUE(plan->steps[1].complete);
-  EXPECT_FALSE(expand(*plan).ok) << "expand must refuse a plan with parse errors";
+  EXPECT_FALSE(expand(*plan).status.ok) << "expand must refuse a plan with parse errors";
 }
 
 TEST(ParsePlan, MissingTableAndStepsAreReported) {

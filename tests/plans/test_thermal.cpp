@@ -32,7 +32,7 @@ calib::Motion expandText(const std::string& text, const ExpandOptions& options =
   if (!p) return {};
   EXPECT_TRUE(validatePlan(*p, diag)) << diag.str();
   ExpandResult r = expand(*p, options);
-  EXPECT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.status.ok) << r.status.message;
   return r.motion;
 }
 
@@ -221,7 +221,7 @@ legs = "up"
 mode = "fast"
 soak = "10 min"
 )" + kBody));
-  EXPECT_FALSE(bad_leg.ok);
+  EXPECT_FALSE(bad_leg.status.ok);
   const std::string all = allDiagnostics(bad_leg);
   EXPECT_TRUE(hasError(bad_leg, 17, "each setpoint must be a string with its unit")) << all;
   EXPECT_TRUE(hasError(bad_leg, 18, "legs must be \"heat\", \"cool\" or \"heat-cool\"")) << all;

@@ -56,7 +56,7 @@ TEST_P(BrokenPlan, FailsAtTheRightPlaceWithTheRightReason) {
   const auto expected = expectationsOf(path);
   ASSERT_FALSE(expected.empty()) << path << " has no '# expect:' lines";
   const PlanCheck check = checkPlan(path);
-  EXPECT_FALSE(check.ok);
+  EXPECT_FALSE(check.status.ok);
   const std::string all = allDiagnostics(check);
   for (const auto& e : expected) {
     const bool found = std::any_of(
@@ -93,15 +93,15 @@ PlanCheck check(const std::string& text) {
 
 TEST(Validator, MoveNear180IsAmbiguousButRotateIsNot) {
   auto near = check(twoAxis("[[step]]\ntype = \"move\"\nouter = \"179.5 deg\"\n"));
-  EXPECT_FALSE(near.ok);
+  EXPECT_FALSE(near.status.ok);
   EXPECT_NE(allDiagnostics(near).find("180-degree move is ambiguous"), std::string::npos);
   auto fine =
       check(twoAxis("[[step]]\ntype = \"move\"\nouter = \"178 deg\"\n"
                     "[[step]]\ntype = \"hold\"\nduration = \"1 s\"\n"));
-  EXPECT_TRUE(fine.ok) << allDiagnostics(fine);
+  EXPECT_TRUE(fine.status.ok) << allDiagnostics(fine);
   auto rotate =
       check(twoAxis("[[step]]\ntype = \"rotate\"\naxis = \"outer\"\nangle = \"180 deg\"\n"));
-  EXPECT_TRUE(rotate.ok) << allDiagnostics(rotate);
+  EXPECT_TRUE(rotate.status.ok) << allDiagnostics(rotate);
 }
 
 TEST(Validator, The180RuleFollowsTheTableThroughRotationsAndRepeats) {
@@ -118,7 +118,7 @@ count = 3
 type = "move"
 outer = "180 deg"
 )"));
-  EXPECT_FALSE(c.ok);
+  EXPECT_FALSE(c.status.ok);
   ASSERT_EQ(c.diagnostics.size(), 1u) << allDiagnostics(c);
   EXPECT_EQ(c.diagnostics[0].line, 18);
   EXPECT_NE(c.diagnostics[0].message.find("180-degree move is ambiguous"), std::string::npos);
@@ -131,7 +131,7 @@ angle = "120 deg"
 type = "move"
 outer = "180 deg"
 )"));
-  EXPECT_TRUE(ok.ok) << allDiagnostics(ok);
+  EXPECT_TRUE(ok.status.ok) << allDiagnostics(ok);
 }
 
 TEST(Validator, LimitedAxisRangesAndNoRateRuns) {
@@ -146,7 +146,7 @@ max_angle = "190 deg"
 )";
   // On a limited axis a move goes the direct way: 0 -> 180 is not ambiguous.
   auto direct = check(header + "[[step]]\ntype = \"move\"\nouter = \"180 deg\"\n");
-  EXPECT_TRUE(direct.ok) << allDiagnostics(direct);
+  EXPECT_TRUE(direct.status.ok) << allDiagnostics(direct);
   auto outside = check(header +
                        "[[step]]\ntype = \"move\"\nouter = \"200 deg\"\n"
                        "[[step]]\ntype = \"rotate\"\naxis = \"outer\"\nangle = \"-220 deg\"\n"
@@ -182,7 +182,7 @@ axis = "middle"
 angle = "90 deg"
 rate = "21 deg/s"
 )");
-  EXPECT_FALSE(c.ok);
+  EXPECT_FALSE(c.status.ok);
   ASSERT_EQ(c.diagnostics.size(), 2u) << allDiagnostics(c);
   EXPECT_EQ(c.diagnostics[0].line, 13);
   EXPECT_NE(c.diagnostics[0].message.find("accel 11 deg/s^2 above the inner axis limit 10"),
@@ -196,7 +196,7 @@ TEST(Validator, MissingTableLimitsAreNamed) {
   auto c = check(
       "[table]\nkind = \"two-axis\"\nmax_rate = \"1 deg/s\"\n"
       "[[step]]\ntype = \"hold\"\nduration = \"1 s\"\n");
-  EXPECT_FALSE(c.ok);
+  EXPECT_FALSE(c.status.ok);
   const std::string all = allDiagnostics(c);
   EXPECT_NE(all.find("no acceleration limit for the outer axis"), std::string::npos) << all;
   EXPECT_NE(all.find("no acceleration limit for the inner axis"), std::string::npos) << all;
@@ -227,7 +227,7 @@ TEST(Validator, RunawayRepeatCountIsRefused) {
       check(twoAxis("[[step]]\ntype = \"repeat\"\ncount = 1000\n"
                     "  [[step.steps]]\n  type = \"repeat\"\n  count = 100000\n"
                     "    [[step.steps.steps]]\n    type = \"hold\"\n    duration = \"1 s\"\n"));
-  EXPECT_FALSE(c.ok);
+  EXPECT_FALSE(c.status.ok);
   ASSERT_EQ(c.diagnostics.size(), 1u) << allDiagnostics(c);
   EXPECT_EQ(c.diagnostics[0].line, 11);
   EXPECT_NE(c.diagnostics[0].message.find("unrolls to more than"), std::string::npos);
@@ -239,7 +239,7 @@ TEST(Validator, RecordingOffThenOnIsFine) {
                     "[[step]]\ntype = \"hold\"\nduration = \"1 s\"\n"
                     "[[step]]\ntype = \"record\"\nstate = \"on\"\n"
                     "[[step]]\ntype = \"hold\"\nduration = \"1 s\"\n"));
-  EXPECT_TRUE(c.ok) << allDiagnostics(c);
+  EXPECT_TRUE(c.status.ok) << allDiagnostics(c);
   EXPECT_DOUBLE_EQ(c.summary.recording_s, 1.0);
   EXPECT_DOUBLE_EQ(c.summary.duration_s, 2.0);
 }
@@ -264,7 +264,7 @@ angle = "90 deg"
 rate = "10 deg/s"
 accel = "10 deg/s^2"
 )"));
-  ASSERT_TRUE(c.ok) << allDiagnostics(c);
+  ASSERT_TRUE(c.status.ok) << allDiagnostics(c);
   EXPECT_EQ(c.summary.holds, 1);
   EXPECT_EQ(c.summary.rotates, 1);
   EXPECT_EQ(c.summary.segments, 2);

@@ -131,7 +131,7 @@ TEST(ThermalApply, UndoesTheSimulatorsThermalTruthAndFlagsExtrapolation) {
   const auto ideal =
       calib::testing::simulateThermal(motion, nullptr, calib::NoiseModel::none(), 20.0, 1, end);
   const calib::ThermalApplyResult r = calib::applyThermal(truth, run.imu);
-  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_TRUE(r.status.ok) << r.status.message;
   std::size_t above = 0;
   double worst_a = 0.0, worst_g = 0.0;
   for (std::size_t k = 0; k < run.imu.size(); ++k) {

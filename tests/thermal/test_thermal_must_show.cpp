@@ -158,7 +158,7 @@ TEST(ThermalMustShow, CompensatedStaticResidualsWithinTwiceTheNoiseFloorBetweenP
         simulateThermal(motion, nullptr, NoiseModel::none(), kImuRateHz, 7, end_s);
     ASSERT_EQ(run.imu.size(), ideal.imu.size());
     const ThermalApplyResult comp = applyThermal(f.auto_fit.coefficients, run.imu);
-    ASSERT_TRUE(comp.ok) << comp.error;
+    ASSERT_TRUE(comp.status.ok) << comp.status.message;
     EXPECT_EQ(comp.extrapolated_count, 0u);
     const StaticResidual r = staticResidual(comp.compensated, ideal, noise, kImuRateHz);
     const StaticResidual r_room =

@@ -86,7 +86,7 @@ TEST(VirtualThermal, ProducerCarriesTheLaggedTemperatureAndTheTruthsCoefficients
   int checked = 0;
   double worst_a = 0.0, worst_g = 0.0, raw_a = 0.0;
   const ThermalApplyResult comp = applyThermal(*world.thermal, imu);
-  ASSERT_TRUE(comp.ok) << comp.error;
+  ASSERT_TRUE(comp.status.ok) << comp.status.message;
   for (std::size_t k = 0; k < imu.size(); ++k) {
     const double t = imu[k].t;
     // The frame's temperature: the IMU's at the middle of its interval (knots 1 s apart).

@@ -312,8 +312,8 @@ inline ThermalAccuracy thermalAccuracy(const model::ThermalCoefficients& fit,
         simulateThermalRun(body, nullptr, NoiseModel::none(), rate_hz, 7, end_s, &a.error);
     if (!a.error.empty()) return a;
     const ThermalApplyResult comp = applyThermal(fit, run.imu);
-    if (!comp.ok) {
-      a.error = comp.error;
+    if (!comp.status.ok) {
+      a.error = comp.status.message;
       return a;
     }
     a.extrapolated = a.extrapolated || comp.extrapolated_count > 0;

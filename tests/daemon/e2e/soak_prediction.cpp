@@ -33,8 +33,8 @@ int run(const std::string& plan_path, const std::string& chamber_path, double im
   plans::ExpandOptions options;
   options.thermal = {chamber->time_constant_s, imu_tau_s};
   const plans::ExpandResult ex = plans::expand(*plan, options);
-  if (!ex.ok) {
-    std::fprintf(stderr, "%s: %s\n", plan_path.c_str(), ex.error.c_str());
+  if (!ex.status.ok) {
+    std::fprintf(stderr, "%s: %s\n", plan_path.c_str(), ex.status.message.c_str());
     return 1;
   }
   for (const calib::Segment& s : ex.motion.segments) {
