@@ -44,6 +44,11 @@ struct CalibrationResult {
   std::string solver_report;  // Ceres BriefReport of the final solve
   int outer_iterations = 0;
   double rms_normalised_residual = 0.0;  // ~1 when the noise model fits the data
+  // The same per kind of residual (goodness of fit per triad): accelerometer holds, gyro holds,
+  // the runs' navigated end attitudes (gyro); 0 where the recording has none.
+  double accel_normalised_rms = 0.0;
+  double gyro_normalised_rms = 0.0;
+  double run_normalised_rms = 0.0;
   std::vector<std::string> warnings;     // skipped runs/holds and why
 };
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <span>
 #include <sstream>
 #include <utility>
 
@@ -29,7 +30,7 @@ namespace {
 constexpr std::array<const char*, 3> kAxis = {"x", "y", "z"};
 
 // Encoder angles at time t, linear between samples, held outside.
-TableAngles anglesAt(const std::vector<TableSample>& table, double t) {
+TableAngles anglesAt(std::span<const TableSample> table, double t) {
   auto it = std::lower_bound(table.begin(), table.end(), t,
                              [](const TableSample& s, double v) { return s.t < v; });
   if (it == table.begin()) return table.front().angles;
@@ -45,7 +46,7 @@ TableAngles anglesAt(const std::vector<TableSample>& table, double t) {
 // Encoder angles of the table at rest just outside a motion that starts at t (before = true:
 // the last sample at or before t) or ends at t (the first sample at or after t). A sample
 // taken during the motion's ramps must not be interpolated: the angle is quadratic there.
-TableAngles restAngles(const std::vector<TableSample>& table, double t, bool before) {
+TableAngles restAngles(std::span<const TableSample> table, double t, bool before) {
   if (before) {
     auto it = std::upper_bound(table.begin(), table.end(), t,
                                [](double v, const TableSample& s) { return v < s.t; });
@@ -354,7 +355,7 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
 }
 
 // Mean encoder angles over [a, b] (the nearest interpolated angles when no sample falls in).
-TableAngles meanAngles(const std::vector<TableSample>& table, double a, double b) {
+TableAngles meanAngles(std::span<const TableSample> table, double a, double b) {
   TableAngles m{0, 0, 0};
   int cnt = 0;
   for (const TableSample& ts : table) {
@@ -370,7 +371,7 @@ TableAngles meanAngles(const std::vector<TableSample>& table, double a, double b
 
 // What every row of the fit is built from: the input, the table as taken, the site.
 struct RowContext {
-  const DirectCalibrationInput& in;
+  const RecordingView& in;
   const DirectCalibrationOptions& o;
   TableModel table;  // nominal, or with the errors known beforehand
   Vec3 up_g;         // (0, 0, g) in L
@@ -532,6 +533,14 @@ void judgeDirect(const DirectRows& rows, const std::vector<double>& acc_ss,
   for (double v : gyr_ss) ss += v;
   const double nres = 3.0 * static_cast<double>(acc_ss.size() + gyr_ss.size());
   res->normalised_residual_rms = std::sqrt(ss / std::max(1.0, nres - 24.0));
+  // Per triad: its rows' sum of squares over their degrees of freedom (12 unknowns each).
+  auto triadRms = [](const std::vector<double>& triad_ss) {
+    double sum = 0.0;
+    for (double v : triad_ss) sum += v;
+    return std::sqrt(sum / std::max(1.0, 3.0 * static_cast<double>(triad_ss.size()) - 12.0));
+  };
+  res->accel_normalised_rms = triadRms(acc_ss);
+  res->gyro_normalised_rms = triadRms(gyr_ss);
   std::vector<std::string> reasons;
   if (res->normalised_residual_rms > o.quality.max_normalised_rms) {
     char buf[200];
@@ -559,7 +568,7 @@ void judgeDirect(const DirectRows& rows, const std::vector<double>& acc_ss,
 }
 
 // Checks of the options and the recording; "" when usable.
-std::string checkInput(const DirectCalibrationInput& in, const DirectCalibrationOptions& o) {
+std::string checkInput(const RecordingView& in, const DirectCalibrationOptions& o) {
   std::string why;
   if (!o.IsValid(&why)) return "options: " + why;
   if (in.imu.size() < 2) return "recording has fewer than 2 IMU samples";
@@ -570,7 +579,7 @@ std::string checkInput(const DirectCalibrationInput& in, const DirectCalibration
 
 // Every usable static and rate run of the recording as rows (spans: each gyro row's segment
 // span, in row order); counts and notes into res.
-void collectRows(const DirectCalibrationInput& in, const DirectCalibrationOptions& o,
+void collectRows(const RecordingView& in, const DirectCalibrationOptions& o,
                  DirectRows* rows, std::vector<std::pair<double, double>>* spans,
                  DirectCalibrationResult* res) {
   const RowContext c{in,
@@ -597,7 +606,7 @@ void collectRows(const DirectCalibrationInput& in, const DirectCalibrationOption
 
 }  // namespace
 
-DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
+DirectCalibrationResult calibrateDirect(const RecordingView& in,
                                         const DirectCalibrationOptions& o) {
   DirectCalibrationResult res;
   if (std::string why = checkInput(in, o); !why.empty()) {
@@ -631,7 +640,7 @@ DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
   return res;
 }
 
-DirectObservations directObservations(const DirectCalibrationInput& in,
+DirectObservations directObservations(const RecordingView& in,
                                       const DirectCalibrationOptions& o) {
   DirectObservations out;
   if (std::string why = checkInput(in, o); !why.empty()) {
@@ -663,6 +672,16 @@ DirectObservations directObservations(const DirectCalibrationInput& in,
   }
   out.status = Status::Ok();
   return out;
+}
+
+DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& in,
+                                        const DirectCalibrationOptions& o) {
+  return calibrateDirect(viewOf(in), o);
+}
+
+DirectObservations directObservations(const DirectCalibrationInput& in,
+                                      const DirectCalibrationOptions& o) {
+  return directObservations(viewOf(in), o);
 }
 
 }  // namespace imubench::calib

@@ -19,6 +19,7 @@
 #include "calib/bench_truth.h"
 #include "calib/fit_quality.h"
 #include "calib/motion.h"
+#include "calib/recording_view.h"
 #include "calib/segment_check.h"
 #include "calib/simulator.h"
 #include "calib/static_detection.h"
@@ -28,7 +29,8 @@
 
 namespace imubench::calib {
 
-// A recording-like value (imubench-csv/1 in memory, SI).
+// A recording-like value that owns its data (imubench-csv/1 in memory, SI); every function
+// taking it also takes a RecordingView (calib/recording_view.h) of data the caller keeps.
 struct DirectCalibrationInput {
   TableGeometry geometry;          // kind and (two-axis) outer-axis heading
   nav::Site site;                  // gravity and Earth-rate projection
@@ -92,6 +94,9 @@ struct DirectCalibrationResult {
   // coefficient undetermined give status kUnusable with the reasons and the largest residuals.
   FitStatus status = FitStatus::Failed("not calibrated");
   double normalised_residual_rms = 0.0;  // static and rotation rows, residual / noise sigma
+  // The same per triad (goodness of fit): accelerometer rows, gyro rows (statics and runs).
+  double accel_normalised_rms = 0.0;
+  double gyro_normalised_rms = 0.0;
   // Accel and gyro coefficients (report.values.sensors), sigmas and unobservable flags by
   // flat name; report.values.table stays zero (direct calibration does not estimate it).
   CoefficientReport report;
@@ -102,6 +107,8 @@ struct DirectCalibrationResult {
   std::vector<std::string> notes;   // plain-language: skipped segments, weak parameters
 };
 
+DirectCalibrationResult calibrateDirect(const RecordingView& input,
+                                        const DirectCalibrationOptions& options = {});
 DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& input,
                                         const DirectCalibrationOptions& options = {});
 
@@ -123,6 +130,8 @@ struct DirectObservations {
   std::vector<std::string> notes;  // skipped segments
 };
 
+DirectObservations directObservations(const RecordingView& input,
+                                      const DirectCalibrationOptions& options = {});
 DirectObservations directObservations(const DirectCalibrationInput& input,
                                       const DirectCalibrationOptions& options = {});
 

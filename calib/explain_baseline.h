@@ -1,12 +1,11 @@
 // The baseline of the model-discrepancy analysis (calib/explain.h) when no coefficients are
-// given: the recording calibrated with the method its motion supports.
-//   direct    when the direct calibration (calib/direct_calibration.h) determines every
-//             coefficient (static positions with each axis up and down, rate runs about each
-//             axis) and gives sane values;
-//   indirect  otherwise, the navigation-based calibration (calib/indirect_calibration.h),
-//             started from the direct result when that is sane (the seed's gyro-referenced
-//             convention) or from nominal values (gyro misalignments estimated from the runs);
-//             it also estimates the base tilt and nonorthogonality.
+// given: the recording calibrated by the one calibration service (calib/calibration_service.h)
+// with the method its motion supports, without escalation: when the direct calibration
+// determines every coefficient its result is the baseline even if unusable, since naming what
+// it misses (the table errors among them) is the analysis' job.
+//   direct    the direct calibration (calib/direct_calibration.h);
+//   indirect  the navigation-based calibration (calib/indirect_calibration.h), which also
+//             estimates the base tilt and nonorthogonality (table_params).
 #pragma once
 
 #include <span>

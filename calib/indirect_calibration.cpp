@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <deque>
 #include <array>
 #include <cmath>
 #include <cstdarg>
@@ -236,6 +237,7 @@ bool IndirectOptions::IsValid(std::string* why) const {
     if (why) *why = "the sigma floors must be > 0";
     return false;
   }
+  if (!(anchor_window_s > 0.0)) return invalidOption(why, "anchor_window_s must be > 0");
   if (!segment_check.IsValid(why) || !quality.IsValid(why)) return false;
   return checks.IsValid(why);
 }
@@ -344,21 +346,45 @@ double medianGyroNoise(const std::vector<Hold>& holds) {
   return noises[noises.size() / 2];
 }
 
-// Every rotation run between two usable holds of the same leg.
+// The table's setting at a short rest next to a run (a settle segment too short to be a hold):
+// the encoder angles over the part of the rest closest to the run. The navigation through the
+// run starts (or ends) at this setting; the rest gives no static residual of its own.
+const Hold* restAnchor(const IndirectLeg& leg, int l, const Segment& run, bool before,
+                       const IndirectOptions& opt, std::deque<Hold>* anchors) {
+  for (const Segment& s : leg.segments) {
+    if (s.kind != SegmentKind::kStatic) continue;
+    const double gap = before ? run.t0 - s.t1 : s.t0 - run.t1;
+    if (std::abs(gap) > opt.adjacency_tolerance_s) continue;
+    const double w = std::min(opt.anchor_window_s, s.t1 - s.t0);
+    Hold h;
+    h.leg = l;
+    h.segment = &s;
+    h.angles = before ? holdAngles(leg.table, s.t1 - w, s.t1) : holdAngles(leg.table, s.t0, s.t0 + w);
+    anchors->push_back(h);
+    return &anchors->back();
+  }
+  return nullptr;
+}
+
+// Every rotation run between two holds of the same leg (or short rests, restAnchor).
 std::vector<Run> collectRuns(const std::vector<IndirectLeg>& legs, const std::vector<Hold>& holds,
-                             const IndirectOptions& opt, std::vector<std::string>* warnings) {
+                             const IndirectOptions& opt, std::deque<Hold>* anchors,
+                             std::vector<std::string>* warnings) {
   std::vector<Run> runs;
   for (std::size_t l = 0; l < legs.size(); ++l) {
     const std::span<const nav::ImuSample> imu = legs[l].imu;
+    const int leg = static_cast<int>(l);
     for (const Segment& seg : legs[l].segments) {
       if (seg.kind != SegmentKind::kRotate || !seg.recording) continue;
       const Hold* before = nullptr;
       const Hold* after = nullptr;
       for (const Hold& h : holds) {
-        if (h.leg != static_cast<int>(l)) continue;
+        if (h.leg != leg) continue;
         if (std::abs(h.segment->t1 - seg.t0) <= opt.adjacency_tolerance_s) before = &h;
         if (std::abs(h.segment->t0 - seg.t1) <= opt.adjacency_tolerance_s) after = &h;
       }
+      if (!before) before = restAnchor(legs[l], leg, seg, true, opt, anchors);
+      if (!after) after = restAnchor(legs[l], leg, seg, false, opt, anchors);
       if (!before || !after) {
         warn(warnings, "run '%s' (%.1f-%.1f s): no usable hold %s it, skipped", seg.label.c_str(),
              seg.t0, seg.t1, before ? "after" : "before");
@@ -445,6 +471,7 @@ Parameters initialParameters(const IndirectInput& in, const IndirectOptions& opt
 struct Observations {
   std::vector<std::vector<Segment>> segments;  // per leg, merged and checked (holds point here)
   std::vector<Hold> holds;
+  std::deque<Hold> anchors;  // short rests next to runs: settings only (restAnchor)
   std::vector<Run> runs;
   double gyro_noise = 0.0;
   double gravity = 0.0;
@@ -453,9 +480,12 @@ struct Observations {
 
 // The residual blocks at the current parameters (the runs re-navigated at them).
 // A residual block with where its data come from (for naming the largest residuals).
+enum class ResidualGroup { kAccelHold, kGyroHold, kRun };
+
 struct LabelledBlock {
   ceres::ResidualBlockId id = nullptr;
   std::string where;
+  ResidualGroup group = ResidualGroup::kAccelHold;
 };
 
 std::string holdLabel(const Segment& s, const char* what) {
@@ -482,12 +512,12 @@ void addResiduals(const IndirectInput& in, const IndirectOptions& opt, const Obs
         {problem->AddResidualBlock(StaticAccelCost::Create(h.accel_mean, in.geometry, h.angles,
                                                            obs.gravity, h.accel_sigma),
                                    nullptr, p->accel, p->table),
-         holdLabel(*h.segment, "accel")});
+         holdLabel(*h.segment, "accel"), ResidualGroup::kAccelHold});
     blocks->push_back(
         {problem->AddResidualBlock(
              StaticGyroCost::Create(h.gyro_mean, in.geometry, h.angles, obs.w_ie_L, h.gyro_sigma),
              nullptr, p->gyro, p->table),
-         holdLabel(*h.segment, "gyro")});
+         holdLabel(*h.segment, "gyro"), ResidualGroup::kGyroHold});
   }
   for (const Run& r : obs.runs) {
     // Navigate from the start setting at the current table estimate.
@@ -502,7 +532,7 @@ void addResiduals(const IndirectInput& in, const IndirectOptions& opt, const Obs
         {problem->AddResidualBlock(RunCost::Create(pre, in.geometry, r.before->angles,
                                                    r.after->angles, C_LP_start0, sigma_angle),
                                    nullptr, p->gyro, p->table),
-         buf});
+         buf, ResidualGroup::kRun});
   }
 }
 
@@ -653,7 +683,7 @@ bool observe(const IndirectInput& in, const IndirectOptions& opt, Observations* 
     return false;
   }
   obs->gyro_noise = medianGyroNoise(obs->holds);
-  obs->runs = collectRuns(legs, obs->holds, opt, &result->warnings);
+  obs->runs = collectRuns(legs, obs->holds, opt, &obs->anchors, &result->warnings);
   return true;
 }
 
@@ -674,6 +704,28 @@ std::vector<std::string> largestResiduals(ceres::Problem* problem,
   std::vector<std::string> out;
   for (std::size_t k = 0; k < v.size() && k < 3; ++k) out.push_back(v[k].second);
   return out;
+}
+
+// The goodness of fit per kind of residual: the normalised RMS of the accelerometer holds, the
+// gyro holds and the runs' end attitudes (0 where there are none).
+void groupRms(ceres::Problem* problem, const std::vector<LabelledBlock>& blocks,
+              CalibrationResult* result) {
+  double ss[3] = {0.0, 0.0, 0.0};
+  int n[3] = {0, 0, 0};
+  for (const LabelledBlock& b : blocks) {
+    double cost = 0.0;
+    if (!problem->EvaluateResidualBlock(b.id, false, &cost, nullptr, nullptr)) continue;
+    const auto g = static_cast<std::size_t>(b.group);
+    ss[g] += 2.0 * cost;
+    n[g] += problem->GetCostFunctionForResidualBlock(b.id)->num_residuals();
+  }
+  auto rms = [&](ResidualGroup g) {
+    const auto k = static_cast<std::size_t>(g);
+    return n[k] > 0 ? std::sqrt(ss[k] / n[k]) : 0.0;
+  };
+  result->accel_normalised_rms = rms(ResidualGroup::kAccelHold);
+  result->gyro_normalised_rms = rms(ResidualGroup::kGyroHold);
+  result->run_normalised_rms = rms(ResidualGroup::kRun);
 }
 
 // Fit quality of the result: residuals against the noise, every coefficient determined and
@@ -719,6 +771,7 @@ bool solveOuter(const IndirectInput& in, const IndirectOptions& opt, const Obser
     if (!solve(&problem, result)) return false;
     if (!parameterSigmas(&problem, p, sigma, result)) return false;
     *largest = largestResiduals(&problem, blocks);
+    groupRms(&problem, blocks, result);
     if (largestChangeInSigmas(*p, before, *sigma) < opt.outer_tolerance_sigma) break;
   }
   return true;

@@ -93,6 +93,11 @@ struct IndirectOptions {
   double run_pad_s = 0.5;
   // Segments adjacent within this time count as "the hold before/after" a run.
   double adjacency_tolerance_s = 0.5;
+  // A run next to a rest too short to be a hold (a settle segment after a move, before the
+  // run starts) still starts or ends at the table's setting there: the encoder angles over at
+  // most this much of the rest, the part next to the run, s. Such a rest gives no static
+  // residual (too little averaging), only the run's start or end setting.
+  double anchor_window_s = 0.5;
   // Outer iterations: re-navigate the runs at the new coefficients and re-solve; the problem
   // is nearly linear, so 2-3 suffice from a direct-calibration start.
   int max_outer_iterations = 5;

@@ -2,10 +2,8 @@
 
 #include <cmath>
 
-#include "calib/bench_calibration.h"
 #include "calib/calibration_result.h"
-#include "calib/direct_calibration.h"
-#include "calib/indirect_calibration.h"
+#include "calib/calibration_service.h"
 #include "calib/truth_comparison.h"
 #include "io/sim_recording.h"
 #include "nav/rotation.h"
@@ -14,22 +12,6 @@ namespace imubench::daemon {
 namespace {
 
 using nlohmann::json;
-
-// Unknowns of the direct calibration per sensor axis: scale, bias, two misalignments.
-constexpr int kDirectUnknownsPerAxis = 4;
-
-using io::geometryOf;
-using io::tableSamples;
-
-calib::DirectCalibrationInput directInput(const io::Recording& rec) {
-  calib::DirectCalibrationInput in;
-  in.geometry = geometryOf(rec);
-  in.site = rec.site();
-  in.imu = rec.imu;
-  in.table = tableSamples(rec);
-  in.segments = rec.segments;
-  return in;
-}
 
 // Every flat name the report marks unobservable.
 std::vector<std::string> unobservableOf(const calib::CoefficientReport& r) {
@@ -45,99 +27,45 @@ json directReport(const calib::DirectCalibrationResult& d) {
           {"rotations_used", d.rotations_used},
           {"accel_residual_rms_mps2", d.accel_residual_rms},
           {"gyro_residual_rms_radps", d.gyro_residual_rms},
+          {"goodness_of_fit", {{"accel", d.accel_normalised_rms}, {"gyro", d.gyro_normalised_rms}}},
           {"notes", d.notes}};
 }
 
 json indirectReport(const calib::CalibrationResult& r) {
   return {{"conditioning", calib::toJson(r.conditioning)},
           {"rms_normalised_residual", r.rms_normalised_residual},
+          {"goodness_of_fit",
+           {{"accel_holds", r.accel_normalised_rms},
+            {"gyro_holds", r.gyro_normalised_rms},
+            {"runs", r.run_normalised_rms}}},
           {"outer_iterations", r.outer_iterations},
           {"warnings", r.warnings}};
 }
 
-RunCalibration fromDirect(const calib::DirectCalibrationResult& d) {
-  RunCalibration out;
-  out.report = {{"method", "direct"}, {"direct", directReport(d)}};
-  if (!d.status.HasResult()) {
-    out.status = Status::Error("direct calibration: " + d.status.message);
-    return out;
-  }
-  // Four positions fit the four unknowns of each accelerometer axis exactly: no residual is
-  // left, so the sigmas (from the residual scatter) would claim a precision nobody measured.
-  if (d.statics_used <= kDirectUnknownsPerAxis) {
-    out.status =
-        Status::Error("direct calibration: " + std::to_string(d.statics_used) +
-                      " static positions fit the " + std::to_string(kDirectUnknownsPerAxis) +
-                      " unknowns per axis exactly: no redundancy yet, sigmas undefined");
-    return out;
-  }
-  out.status = Status::Ok();
-  out.coefficients = d.report;
-  out.unobservable = unobservableOf(d.report);
-  return out;
+// The plan's method as the calibration service's request (calib/calibration_service.h).
+calib::ServiceMethod serviceMethod(plans::CalibrationMethod method) {
+  return method == plans::CalibrationMethod::kDirect ? calib::ServiceMethod::kDirect
+                                                     : calib::ServiceMethod::kNavigation;
 }
 
-RunCalibration fromIndirect(const calib::CalibrationResult& r, const char* method) {
-  RunCalibration out;
-  out.report = {{"method", method}, {"indirect", indirectReport(r)}};
-  if (!r.status.HasResult()) {
-    out.status = Status::Error(std::string(method) + " calibration: " + r.status.message);
-    return out;
+json outcomeReport(const char* method, const calib::CalibrationOutcome& c) {
+  json report = {{"method", method}, {"why_method", c.why_method}};
+  if (c.direct) report["direct"] = directReport(*c.direct);
+  if (c.refined) report["indirect"] = indirectReport(*c.refined);
+  if (!c.start.empty()) report["start"] = c.start;
+  if (c.passes > 0) report["passes"] = c.passes;
+  report["usable"] = c.status.IsSolutionUsable();
+  if (c.status.HasResult() && !c.status.IsSolutionUsable()) {
+    report["findings"] = c.status.reasons;
+    report["largest_residuals"] = c.status.largest_residuals;
   }
-  out.status = Status::Ok();
-  out.coefficients = r.coefficients;
-  out.unobservable = unobservableOf(r.coefficients);
-  return out;
-}
-
-// The navigation-based calibration of rec alone, started from the direct calibration of the
-// same recording when that is usable (plausible scales), else from nominal values.
-RunCalibration indirectAlone(const io::Recording& rec) {
-  const calib::DirectCalibrationInput d_in = directInput(rec);
-  const calib::DirectCalibrationResult d = calib::calibrateDirect(d_in);
-  auto sane = [](const calib::TriadModel& t) {
-    return ((t.scale.array() - 1.0).abs() < 0.01).all() && t.bias.allFinite();
-  };
-  calib::IndirectInput in;
-  in.site = d_in.site;
-  in.geometry = d_in.geometry;
-  in.imu = rec.imu;
-  in.table = d_in.table;
-  in.segments = rec.segments;
-  const bool started = d.status.HasResult() && sane(d.report.values.sensors.accel) &&
-                       sane(d.report.values.sensors.gyro);
-  if (started) in.start = d.report.values.sensors;
-  RunCalibration out =
-      fromIndirect(calib::calibrateIndirect(in, calib::IndirectOptions{}), "indirect");
-  out.report["start"] = started ? "direct calibration of the same run" : "nominal";
-  return out;
-}
-
-RunCalibration pipeline(const io::Recording& rec, const io::Recording* direct) {
-  if (direct == nullptr) {
-    RunCalibration out;
-    out.status = Status::Error("pipeline calibration: no direct-plan run");
-    out.report = {{"method", "pipeline"}};
-    return out;
+  json table = json::array();
+  for (const calib::TableParamDecision& d : c.table) {
+    table.push_back({{"name", d.name}, {"estimated", d.estimated}, {"reason", d.reason}});
   }
-  if (direct->table_kind != rec.table_kind) {
-    RunCalibration out;
-    out.status =
-        Status::Error("pipeline calibration: the direct run was recorded on another table kind");
-    out.report = {{"method", "pipeline"}};
-    return out;
-  }
-  const std::vector<calib::TableSample> table = tableSamples(rec);
-  calib::BenchCalibrationInput in;
-  in.direct = directInput(*direct);
-  in.navigation.push_back({rec.imu, table, rec.segments});
-  const calib::BenchCalibrationResult r = calib::calibrateBench(in);
-  RunCalibration out = fromIndirect(r.refined, "pipeline");
-  if (!r.status.HasResult())
-    out.status = Status::Error("pipeline calibration: " + r.status.message);
-  out.report["direct"] = directReport(r.direct_final);
-  out.report["passes"] = r.passes;
-  return out;
+  report["table"] = table;
+  report["notes"] = c.notes;
+  return report;
 }
 
 }  // namespace
@@ -145,19 +73,34 @@ RunCalibration pipeline(const io::Recording& rec, const io::Recording* direct) {
 RunCalibration calibrateRun(plans::CalibrationMethod method, const io::Recording& rec,
                             const io::Recording* direct) {
   RunCalibration out;
-  switch (method) {
-    case plans::CalibrationMethod::kDirect:
-      out = fromDirect(calib::calibrateDirect(directInput(rec)));
-      break;
-    case plans::CalibrationMethod::kIndirect:
-      out = indirectAlone(rec);
-      break;
-    case plans::CalibrationMethod::kPipeline:
-      out = pipeline(rec, direct);
-      break;
-    case plans::CalibrationMethod::kNone:
-      out.status = Status::Error("the plan names no calibration");
-      break;
+  const char* name = plans::calibrationMethodName(method);
+  if (method == plans::CalibrationMethod::kNone) {
+    out.status = Status::Error("the plan names no calibration");
+  } else if (method == plans::CalibrationMethod::kPipeline && direct == nullptr) {
+    out.status = Status::Error("pipeline calibration: no direct-plan run");
+    out.report = {{"method", name}};
+  } else {
+    const io::CalibrationView view(rec);
+    std::optional<io::CalibrationView> direct_view;
+    calib::CalibrationRequest rq;
+    rq.recording = view.view();
+    rq.method = serviceMethod(method);
+    if (method == plans::CalibrationMethod::kPipeline) {
+      direct_view.emplace(*direct);
+      rq.direct = direct_view->view();
+    }
+    const calib::CalibrationOutcome c = calib::calibrateRecording(rq);
+    out.report = outcomeReport(name, c);
+    out.fit = c.status;
+    out.table_params = c.estimatedTableParams();
+    out.baseline_method = calib::gyroReferenced(c.method) ? "indirect" : "direct";
+    if (c.status.HasResult()) {
+      out.status = Status::Ok();
+      out.coefficients = c.coefficients;
+      out.unobservable = unobservableOf(c.coefficients);
+    } else {
+      out.status = Status::Error(std::string(name) + " calibration: " + c.status.message);
+    }
   }
   if (!out.status.ok) out.unobservable = calib::flatNames(calib::BenchTruth{});
   return out;
@@ -176,15 +119,20 @@ json estimateJson(const RunCalibration& c) {
                       {"unit", d.label}};
     }
   }
-  json out = {{"ok", c.status.ok}, {"parameters", params}, {"unobservable", c.unobservable}};
+  json out = {{"ok", c.status.ok},
+              {"usable", c.status.ok && c.fit.IsSolutionUsable()},
+              {"parameters", params},
+              {"unobservable", c.unobservable}};
   if (!c.status.ok) out["reason"] = c.status.message;
+  if (c.status.ok && !c.fit.IsSolutionUsable()) out["findings"] = c.fit.reasons;
   return out;
 }
 
 json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimit>& limits) {
   json rows = json::array();
   if (limits.empty()) return {{"pass", nullptr}, {"rows", rows}, {"why", "no acceptance limits"}};
-  bool pass = c.status.ok;
+  const bool usable = c.status.ok && c.fit.IsSolutionUsable();
+  bool pass = usable;
   for (const AcceptanceLimit& lim : limits) {
     for (const std::string& name : calib::flatNames(calib::BenchTruth{})) {
       if (name != lim.parameter && name.rfind(lim.parameter + ".", 0) != 0) continue;
@@ -195,10 +143,11 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
                   {"limit_text", lim.text}};
       const auto u = c.coefficients.uncertainty.find(name);
       const bool determined =
-          c.status.ok && u != c.coefficients.uncertainty.end() && u->second.observable;
+          usable && u != c.coefficients.uncertainty.end() && u->second.observable;
       if (!determined) {
         row["pass"] = false;
-        row["why"] = "not determined by this calibration";
+        row["why"] = usable ? "not determined by this calibration"
+                            : "not determined: the calibration is unusable";
         pass = false;
         rows.push_back(row);
         continue;
@@ -215,7 +164,11 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
     }
   }
   json out = {{"pass", pass}, {"rows", rows}};
-  if (!c.status.ok) out["why"] = "calibration failed: " + c.status.message;
+  if (!c.status.ok) {
+    out["why"] = "calibration failed: " + c.status.message;
+  } else if (!usable) {
+    out["why"] = "calibration unusable: " + c.fit.message;
+  }
   return out;
 }
 

@@ -1,7 +1,7 @@
 // The calibration of a bench run as the daemon runs it: the plan's method
 // (plans::CalibrationMethod) over the run's recording (and, for the pipeline, the recording of
-// the direct plan's run), through the library calibrators (calib/direct_calibration.h,
-// calib/indirect_calibration.h, calib/bench_calibration.h); then the pass/fail verdict against
+// the direct plan's run), through the one calibration service (calib/calibration_service.h)
+// the CLI and explain's baseline call too; then the pass/fail verdict against
 // the bench file's acceptance limits. Used for the online estimates during a run (on a part of
 // the recording) and for the full calibration at its end. Pure apart from nothing: value
 // types in, value types out (it runs on a worker thread).
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/fit_quality.h"
 #include "calib/status.h"
 #include "daemon/bench_file.h"
 #include "io/recording.h"
@@ -20,9 +21,16 @@
 namespace imubench::daemon {
 
 struct RunCalibration {
-  // Not ok: why not (too little data so far, a refused recording, ...).
+  // Not ok: why not (too little data so far, a refused recording, ...). ok: coefficients were
+  // computed; whether they can be used is `fit` (the online estimates show partial ones).
   Status status = Status::Error("not calibrated");
+  // The calibration service's gate (calib/fit_quality.h): unusable results never pass.
+  calib::FitStatus fit = calib::FitStatus::Failed("not calibrated");
   calib::CoefficientReport coefficients;  // valid when status.ok
+  // The table parameters the method estimated (flat names) and the baseline method name of
+  // the missing-physics analysis ("direct" | "indirect"), as the service decided them.
+  std::vector<std::string> table_params;
+  std::string baseline_method;
   // The flat names the method could not determine from these data ("observable": false in
   // the coefficients, or every parameter when not ok).
   std::vector<std::string> unobservable;
@@ -41,8 +49,9 @@ nlohmann::json estimateJson(const RunCalibration& c);
 
 // Pass/fail of the coefficients against the limits: {"pass": bool|null, "rows": [{parameter,
 // value, sigma, limit, unit, pass, why}]}. A limited parameter the calibration did not
-// determine fails ("not determined"): the verdict never passes what was not measured. No
-// limits: "pass": null (no verdict).
+// determine fails ("not determined"), and so does every parameter of an unusable calibration
+// (residuals far above the noise: the model misses the data): the verdict never passes what
+// was not measured. No limits: "pass": null (no verdict).
 nlohmann::json acceptanceVerdict(const RunCalibration& c,
                                  const std::vector<AcceptanceLimit>& limits);
 

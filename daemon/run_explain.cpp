@@ -24,18 +24,6 @@ std::string summaryOf(const calib::ExplainResult& r) {
 
 }  // namespace
 
-const char* explainBaselineMethod(plans::CalibrationMethod method) {
-  return method == plans::CalibrationMethod::kDirect ? "direct" : "indirect";
-}
-
-std::vector<std::string> estimatedTableParams(const calib::CoefficientReport& coefficients) {
-  std::vector<std::string> out;
-  for (const auto& [name, u] : coefficients.uncertainty) {
-    if (name.rfind("table.", 0) == 0 && u.observable && u.sigma) out.push_back(name);
-  }
-  return out;
-}
-
 RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
                       const RunCalibration& c, const calib::ExplainOptions& options) {
   RunExplain out;
@@ -43,16 +31,12 @@ RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
     out.status = Status::Error("no final calibration to start from (" + c.status.message + ")");
     return out;
   }
-  const std::vector<calib::TableSample> table = io::tableSamples(rec);
+  const io::CalibrationView view(rec);
   calib::ExplainInput in;
-  in.geometry = io::geometryOf(rec);
-  in.site = rec.site();
-  in.imu = rec.imu;
-  in.table = table;
-  in.segments = rec.segments;
+  in.recording() = view.view();
   in.baseline = c.coefficients;
-  in.baseline_method = explainBaselineMethod(method);
-  in.baseline_table_params = estimatedTableParams(c.coefficients);
+  in.baseline_method = c.baseline_method;
+  in.baseline_table_params = c.table_params;
   calib::ExplainResult r;
   try {
     r = calib::explainRecording(in, options);

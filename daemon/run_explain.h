@@ -27,16 +27,10 @@ struct RunExplain {
   std::string summary;
 };
 
-// The baseline method the explain report names for a plan's calibration ("direct" |
-// "indirect"): the pipeline's final coefficients are its navigation-based refinement.
-const char* explainBaselineMethod(plans::CalibrationMethod method);
-
-// The table error coefficients (flat names, "table.*") the calibration estimated: observable
-// with a sigma in its report. The other table errors are candidate effects of the analysis.
-std::vector<std::string> estimatedTableParams(const calib::CoefficientReport& coefficients);
-
-// The analysis of rec from c (the final calibration of rec with `method`). !c.ok: no
-// analysis (nothing to start from), the error says why.
+// The analysis of rec from c (the final calibration of rec with `method`): its baseline is
+// c's coefficients, with the method and the table parameters the calibration service
+// estimated (RunCalibration::baseline_method, table_params). !c.ok: no analysis (nothing to
+// start from), the error says why.
 RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
                       const RunCalibration& c, const calib::ExplainOptions& options = {});
 

@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "calib/recording_view.h"
 #include "calib/simulator.h"
 #include "io/recording.h"
 
@@ -22,5 +23,21 @@ Recording recordingFromSimulation(const calib::Simulation& sim, const nav::Site&
 // in rad as TableAngles) and the table geometry (kind, outer-axis heading from meta.json).
 std::vector<calib::TableSample> tableSamples(const Recording& rec);
 calib::TableGeometry geometryOf(const Recording& rec);
+
+// A recording as the calibrators and the analysis read it (calib/recording_view.h): the table
+// samples converted once and kept here, the rest viewed in the recording, which must outlive
+// this. The one place a front end turns an io::Recording into calib's input.
+class CalibrationView {
+ public:
+  explicit CalibrationView(const Recording& rec) : rec_(&rec), table_(tableSamples(rec)) {}
+  calib::RecordingView view() const {
+    return {geometryOf(*rec_), rec_->site(), rec_->imu, table_, rec_->segments};
+  }
+  const std::vector<calib::TableSample>& table() const { return table_; }
+
+ private:
+  const Recording* rec_;
+  std::vector<calib::TableSample> table_;
+};
 
 }  // namespace imubench::io

@@ -17,12 +17,14 @@
 // JSON (what --out writes) as a result of kind "coefficients" of the run DIR names, with the
 // recording's IMU serial and mean temperature (IMU temperature, else the chamber's).
 // Reads an imubench-csv/1 recording (or, with --format, a third-party recording without table
-// angles: scalar calibration only) and runs one calibration method. Without --method it
-// picks what the recording supports and says why: holds and rotation runs -> the whole
-// pipeline on the one recording (the same answer as --method indirect --direct DIR); holds
-// only -> direct. The methods:
+// angles: scalar calibration only) and calibrates it through the one calibration service
+// (calib/calibration_service.h), which the daemon and explain's baseline call too. Without
+// --method the service picks what the motion supports and says why: holds only -> direct;
+// holds and rotation runs -> direct when the direct calibration determines every coefficient
+// and is usable, else the navigation-based calibration, which estimates the table errors the
+// direct calibration takes as nominal. The methods:
 //   direct    the table-based direct calibration (calib/direct_calibration.h);
-//   indirect  the navigation-based refinement (calib/indirect_calibration.h), started from the
+//   indirect  the navigation-based calibration (calib/indirect_calibration.h), started from the
 //             direct calibration of the same recording (or --start FILE, a coefficient file);
 //             with --direct DIRECT_DIR (the direct plan's recording of the same device on the
 //             same table) the production pipeline of calib/bench_calibration.h: direct
@@ -47,10 +49,8 @@
 #include <memory>
 #include <optional>
 
-#include "calib/bench_calibration.h"
-#include "calib/direct_calibration.h"
+#include "calib/calibration_service.h"
 #include "calib/fit_quality.h"
-#include "calib/indirect_calibration.h"
 #include "calib/scalar_calibration.h"
 #include "calib/scalar_consistency.h"
 #include "calib/segment_check.h"
@@ -160,25 +160,6 @@ void refuseIfUnusable(const calib::FitStatus& s, const std::string& what, const 
 calib::TableErrors knownTableErrors(const CalibrateOptions& o) {
   if (o.table_errors.empty()) return {};
   return loadTruthOrFail(o.table_errors).table;
-}
-
-using io::geometryOf;
-using io::tableSamples;
-
-calib::DirectCalibrationResult runDirect(const io::Recording& rec,
-                                         const std::vector<calib::TableSample>& table,
-                                         const calib::IncrementCheckOptions& checks,
-                                         const calib::TableErrors& known = {}) {
-  calib::DirectCalibrationInput in;
-  in.geometry = geometryOf(rec);
-  in.site = rec.site();
-  in.imu = rec.imu;
-  in.table = table;
-  in.segments = rec.segments;
-  calib::DirectCalibrationOptions o;
-  o.checks = checks;
-  o.known_table_errors = known;
-  return calib::calibrateDirect(in, o);
 }
 
 // One line per coefficient: value and sigma in engineering units.
@@ -332,110 +313,116 @@ calib::IncrementCheckOptions checksOf(const CalibrateOptions& o) {
   return c;
 }
 
-nlohmann::json indirectExtra(const calib::CalibrationResult& r) {
+// The --json "calibration" section: which method and why, what the navigation-based method
+// reports of its solve, what was done with each table error.
+nlohmann::json calibrationJson(const calib::CalibrationOutcome& c) {
   nlohmann::json extra;
-  extra["method"] = "indirect";
-  extra["conditioning"] = calib::toJson(r.conditioning);
-  extra["rms_normalised_residual"] = r.rms_normalised_residual;
+  extra["method"] = c.method == calib::ServiceMethod::kDirect
+                        ? "direct"
+                        : (c.start == "given" ? "indirect" : "pipeline");
+  extra["why_method"] = c.why_method;
+  if (c.refined) {
+    const calib::CalibrationResult& r = *c.refined;
+    extra["start"] = c.start;
+    extra["passes"] = c.passes;
+    extra["conditioning"] = calib::toJson(r.conditioning);
+    extra["rms_normalised_residual"] = r.rms_normalised_residual;
+    extra["goodness_of_fit"] = {{"accel_holds", r.accel_normalised_rms},
+                                {"gyro_holds", r.gyro_normalised_rms},
+                                {"runs", r.run_normalised_rms}};
+  } else if (c.direct) {
+    extra["rms_normalised_residual"] = c.direct->normalised_residual_rms;
+    extra["goodness_of_fit"] = {{"accel", c.direct->accel_normalised_rms},
+                                {"gyro", c.direct->gyro_normalised_rms}};
+  }
+  nlohmann::json table = nlohmann::json::array();
+  for (const calib::TableParamDecision& d : c.table) {
+    table.push_back({{"name", d.name}, {"estimated", d.estimated}, {"reason", d.reason}});
+  }
+  extra["table"] = table;
   return extra;
+}
+
+void printDirect(std::ostream& info, const std::string& label,
+                 const calib::DirectCalibrationResult& d, bool all_notes) {
+  info << "direct calibration of " << label << ": " << d.statics_used << " statics, "
+       << d.rotations_used << " rotations, normalised residual RMS "
+       << d.normalised_residual_rms << " (accel " << d.accel_normalised_rms << ", gyro "
+       << d.gyro_normalised_rms << "; 1 = the noise)\n";
+  for (const std::string& n : d.notes) {
+    if (all_notes || n.rfind("static segments joined", 0) == 0 ||
+        n.rfind("segments.csv", 0) == 0) {
+      info << "  note: " << n << "\n";
+    }
+  }
 }
 
 void printIndirect(std::ostream& info, const std::string& what, const calib::CalibrationResult& r) {
   for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
   info << what << ": " << r.outer_iterations << " outer iterations, normalised residual RMS "
-       << r.rms_normalised_residual << "\n"
+       << r.rms_normalised_residual << " (accel holds " << r.accel_normalised_rms
+       << ", gyro holds " << r.gyro_normalised_rms << ", runs " << r.run_normalised_rms
+       << "; 1 = the noise)\n"
        << "  solver: " << r.solver_report << "\n"
        << "  " << r.conditioning.describe();
 }
 
-// The pipeline (calib/bench_calibration.h): direct calibration of the direct recording,
-// refinement over it and the navigation recording, nonorthogonality pass. direct == nullptr:
-// the one recording src holds both the direct positions and the navigation runs.
-void runPipeline(const CalibrateOptions& o, const ResolvedRecording& src,
-                 const std::vector<calib::TableSample>& table, const ResolvedRecording* direct) {
-  std::ostream& info = o.json ? std::cerr : std::cout;
-  const io::Recording& rec = src.recording;
-  const io::Recording& drec = direct ? direct->recording : rec;
-  const std::string& dlabel = direct ? direct->label : src.label;
-  if (drec.table_kind != rec.table_kind) {
-    throw CommandFailed(dlabel + " and " + src.label +
-                        " were recorded on different table kinds: not the same table");
+// What the service did, in the order it did it.
+void printOutcome(std::ostream& info, const std::string& label, const std::string& dlabel,
+                  const calib::CalibrationOutcome& c) {
+  const bool navigation = c.method == calib::ServiceMethod::kNavigation;
+  if (c.direct) printDirect(info, navigation ? dlabel : label, *c.direct, !navigation);
+  for (const std::string& n : c.notes) info << n << "\n";
+  if (c.refined) printIndirect(info, "navigation-based calibration of " + label, *c.refined);
+  for (const calib::TableParamDecision& d : c.table) {
+    if (!d.estimated && d.reason.rfind("held at zero: the direct", 0) != 0) continue;
+    info << "  " << d.name << ": " << d.reason << "\n";
   }
-  const std::vector<calib::TableSample> dtable = direct ? tableSamples(drec) : table;
-  calib::BenchCalibrationInput in;
-  in.direct.geometry = geometryOf(drec);
-  in.direct.site = drec.site();
-  in.direct.imu = drec.imu;
-  in.direct.table = dtable;
-  in.direct.segments = drec.segments;
-  if (direct) in.navigation.push_back({rec.imu, table, rec.segments});
-  calib::BenchCalibrationOptions bo;
-  bo.direct.checks = bo.indirect.checks = checksOf(o);
+}
+
+calib::ServiceMethod serviceMethod(const std::string& method) {
+  if (method == "direct") return calib::ServiceMethod::kDirect;
+  if (method == "indirect") return calib::ServiceMethod::kNavigation;
+  return calib::ServiceMethod::kAuto;
+}
+
+// Every table-based method through the one calibration service (calib/calibration_service.h).
+// direct: the direct plan's recording when it is another recording than src.
+void runService(const CalibrateOptions& o, const ResolvedRecording& src,
+                const ResolvedRecording* direct) {
+  std::ostream& info = o.json ? std::cerr : std::cout;
+  const io::CalibrationView view(src.recording);
+  std::optional<io::CalibrationView> dview;
+  calib::CalibrationRequest rq;
+  rq.recording = view.view();
+  rq.method = serviceMethod(o.method);
+  if (direct) {
+    dview.emplace(direct->recording);
+    rq.direct = dview->view();
+  }
+  if (!o.start.empty()) {
+    const io::CoefficientFileResult s = io::readCoefficientFile(o.start);
+    if (!s.status.ok) throw CommandFailed(s.status.message);
+    rq.start = s.value;
+    info << "start values: " << o.start << "\n";
+  }
   if (!o.table_errors.empty()) {
-    bo.direct.known_table_errors = knownTableErrors(o);
-    bo.indirect.estimate_nonorthogonality = false;
+    rq.known_table_errors = knownTableErrors(o);
     info << "table errors known beforehand: " << o.table_errors
-         << " (direct calibration takes them; the refinement holds the nonorthogonality)\n";
+         << " (every method takes them; the navigation-based calibration holds the "
+            "nonorthogonality)\n";
   }
-  const calib::BenchCalibrationResult r = calib::calibrateBench(in, bo);
+  calib::ServiceOptions so;
+  so.checks = checksOf(o);
+  const calib::CalibrationOutcome c = calib::calibrateRecording(rq, so);
+  const std::string dlabel = direct ? direct->label : src.label;
   const std::string label = direct ? src.label + " + " + dlabel : src.label;
-  if (!r.status.HasResult()) throw CommandFailed(label + ": " + r.status.message);
-  info << "direct calibration of " << dlabel << ": " << r.direct.statics_used << " statics, "
-       << r.direct.rotations_used << " rotations\n";
-  for (const std::string& n : r.direct.notes) {
-    if (n.rfind("static segments joined", 0) == 0 || n.rfind("segments.csv", 0) == 0) {
-      info << "  note: " << n << "\n";
-    }
-  }
-  if (r.passes == 2) {
-    info << "table axes nonorthogonal: direct calibration repeated with the estimated "
-            "nonorthogonality, refinement repeated from it\n";
-  }
-  printIndirect(info, "navigation-based calibration of " + label, r.refined);
-  refuseIfUnusable(r.status, label, src.label);
-  nlohmann::json extra = indirectExtra(r.refined);
-  extra["passes"] = r.passes;
-  extra["method"] = "pipeline";
-  emit(o, src, r.refined.coefficients, extra, in.direct.geometry, TruthFrame::kGyroReferenced);
-}
-
-// The method for a recording when none is given, with the reason printed.
-std::string chooseMethod(const io::Recording& rec, const std::vector<calib::TableSample>& table,
-                         std::ostream& info) {
-  const calib::SegmentCheckResult c = calib::checkSegments(rec.table_kind, table, rec.segments);
-  int holds = 0, runs = 0;
-  for (const calib::Segment& s : c.segments) {
-    if (!s.recording) continue;
-    holds += s.kind == calib::SegmentKind::kStatic ? 1 : 0;
-    runs += s.kind == calib::SegmentKind::kRotate ? 1 : 0;
-  }
-  const std::string counts = std::to_string(holds) + " holds and " + std::to_string(runs) +
-                             " rotation runs" +
-                             (rec.segments_from_file ? " (segments.csv)" : " (from the encoders)");
-  if (runs > 0) {
-    info << "method: the whole pipeline (direct calibration, navigation-based refinement, "
-            "nonorthogonality pass) on this one recording: it holds "
-         << counts << "\n";
-    return "pipeline";
-  }
-  info << "method: direct: the recording holds " << counts
-       << "; without rotation runs the navigation-based refinement has nothing to navigate\n";
-  return "direct";
-}
-
-void runDirectMethod(const CalibrateOptions& o, const ResolvedRecording& src,
-                     const std::vector<calib::TableSample>& table) {
-  std::ostream& info = o.json ? std::cerr : std::cout;
-  const io::Recording& rec = src.recording;
-  const calib::DirectCalibrationResult r = runDirect(rec, table, checksOf(o), knownTableErrors(o));
-  if (!r.status.HasResult())
-    throw CommandFailed(src.label + ": direct calibration failed: " + r.status.message);
-  info << "direct calibration of " << src.label << ": " << r.statics_used << " statics, "
-       << r.rotations_used << " rotations, normalised residual RMS " << r.normalised_residual_rms
-       << "\n";
-  for (const std::string& n : r.notes) info << "  note: " << n << "\n";
-  refuseIfUnusable(r.status, src.label + ": direct calibration", src.label);
-  emit(o, src, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
+  info << "method: " << c.why_method << "\n";
+  if (!c.status.HasResult()) throw CommandFailed(label + ": " + c.status.message);
+  printOutcome(info, label, dlabel, c);
+  refuseIfUnusable(c.status, label, src.label);
+  emit(o, src, c.coefficients, calibrationJson(c), rq.recording.geometry,
+       calib::gyroReferenced(c.method) ? TruthFrame::kGyroReferenced : TruthFrame::kAsIs);
 }
 
 void runScalarMethod(const CalibrateOptions& o, const ResolvedRecording& src) {
@@ -460,42 +447,7 @@ void runScalarMethod(const CalibrateOptions& o, const ResolvedRecording& src) {
        << " static spans, |a|-g RMS " << r.accel_rms_before << " -> " << r.accel_rms_after
        << " m/s^2\n";
   for (const std::string& n : r.notes) info << "  note: " << n << "\n";
-  emit(o, src, r.report, nullptr, geometryOf(rec), TruthFrame::kAsIs);
-}
-
-// --method indirect --start FILE: the refinement alone from the given start values.
-void runRefinementFrom(const CalibrateOptions& o, const ResolvedRecording& src,
-                       const std::vector<calib::TableSample>& table) {
-  std::ostream& info = o.json ? std::cerr : std::cout;
-  const io::Recording& rec = src.recording;
-  calib::IndirectInput in;
-  in.site = rec.site();
-  in.geometry = geometryOf(rec);
-  in.imu = rec.imu;
-  in.table = table;
-  in.segments = rec.segments;
-  const io::CoefficientFileResult s = io::readCoefficientFile(o.start);
-  if (!s.status.ok) throw CommandFailed(s.status.message);
-  in.start = s.value.values.sensors;
-  in.start_uncertainty = s.value.uncertainty;
-  in.start_base_tilt = s.value.values.table.base_tilt;
-  calib::IndirectOptions io;
-  io.checks = checksOf(o);
-  if (!o.table_errors.empty()) {
-    const calib::TableErrors known = knownTableErrors(o);
-    in.start_base_tilt = known.base_tilt;
-    in.start_nonorthogonality = known.nonorthogonality;
-    io.estimate_nonorthogonality = false;
-  }
-  info << "start values: " << o.start << "\n";
-  const calib::CalibrationResult r = calib::calibrateIndirect(in, io);
-  if (!r.status.HasResult()) {
-    for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
-    throw CommandFailed(src.label + ": navigation-based calibration failed: " + r.status.message);
-  }
-  printIndirect(info, "navigation-based calibration of " + src.label, r);
-  refuseIfUnusable(r.status, src.label, src.label);
-  emit(o, src, r.coefficients, indirectExtra(r), in.geometry, TruthFrame::kGyroReferenced);
+  emit(o, src, r.report, nullptr, io::geometryOf(rec), TruthFrame::kAsIs);
 }
 
 // True when two RUN_OR_DIR arguments hold the same recording (a directory and the run stored
@@ -526,25 +478,15 @@ void runCalibrate(const CalibrateOptions& o) {
   }
   const ResolvedRecording src = loadRunOrDir(o.dir, o.db);
   checkStoreResult(o, src);
-  const std::vector<calib::TableSample> table = tableSamples(src.recording);
-  std::ostream& info = o.json ? std::cerr : std::cout;
-  std::string method = o.method;
-  if (method.empty()) {
-    method = o.direct_dir.empty() ? chooseMethod(src.recording, table, info) : "indirect";
-  }
-  if (method == "direct") return runDirectMethod(o, src, table);
-  if (method == "scalar") return runScalarMethod(o, src);
-  if (method != "indirect" && method != "pipeline") {
-    throw CommandFailed("unknown method '" + method + "'", 2);
-  }
-  if (!o.start.empty()) return runRefinementFrom(o, src, table);
-  if (o.direct_dir.empty()) return runPipeline(o, src, table, nullptr);
+  if (o.method == "scalar") return runScalarMethod(o, src);
+  if (o.direct_dir.empty()) return runService(o, src, nullptr);
   const ResolvedRecording direct = loadRunOrDir(o.direct_dir, o.db);
   if (sameRecording(src.recording, direct.recording)) {
+    std::ostream& info = o.json ? std::cerr : std::cout;
     info << "--direct names the recording itself: its data are used once\n";
-    return runPipeline(o, src, table, nullptr);
+    return runService(o, src, nullptr);
   }
-  runPipeline(o, src, table, &direct);
+  runService(o, src, &direct);
 }
 
 }  // namespace

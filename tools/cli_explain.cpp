@@ -37,7 +37,7 @@
 #include <optional>
 #include <sstream>
 
-#include "calib/bench_calibration.h"
+#include "calib/calibration_service.h"
 #include "calib/explain.h"
 #include "calib/explain_baseline.h"
 #include "calib/explain_scalar.h"
@@ -86,8 +86,7 @@ ChannelUnits siUnits() {
 // The analysis's input recording and baseline, with the lines that say where it came from.
 struct Prepared {
   ChannelUnits units = siUnits();
-  calib::ExplainInput input;
-  std::vector<calib::TableSample> table;
+  calib::ExplainInput input;  // its recording viewed in the caller's io::CalibrationView
   std::vector<std::string> said;  // printed before the result
 };
 
@@ -150,39 +149,24 @@ void baselineFromFile(const ExplainCliOptions& o, Prepared* p) {
 
 void baselineFromPipeline(const ExplainCliOptions& o, const ResolvedRecording& src, Prepared* p) {
   const ResolvedRecording d = loadRunOrDir(o.direct, o.db);
-  if (d.recording.table_kind != src.recording.table_kind) {
-    throw CommandFailed(d.label + " and " + src.label +
-                        " were recorded on different table kinds: not the same table");
-  }
-  const std::vector<calib::TableSample> dtable = io::tableSamples(d.recording);
-  calib::BenchCalibrationInput in;
-  in.direct.geometry = io::geometryOf(d.recording);
-  in.direct.site = d.recording.site();
-  in.direct.imu = d.recording.imu;
-  in.direct.table = dtable;
-  in.direct.segments = d.recording.segments;
-  in.navigation.push_back({src.recording.imu, p->table, src.recording.segments});
-  const calib::BenchCalibrationResult r = calib::calibrateBench(in);
-  if (!r.status.HasResult())
-    throw CommandFailed(src.label + " + " + d.label + ": baseline: " + r.status.message);
-  p->input.baseline = r.refined.coefficients;
+  const io::CalibrationView dview(d.recording);
+  calib::CalibrationRequest rq;
+  rq.recording = p->input.recording();
+  rq.direct = dview.view();
+  rq.method = calib::ServiceMethod::kNavigation;
+  const calib::CalibrationOutcome c = calib::calibrateRecording(rq);
+  if (!c.status.HasResult())
+    throw CommandFailed(src.label + " + " + d.label + ": baseline: " + c.status.message);
+  p->input.baseline = c.coefficients;
   p->input.baseline_method = "indirect";
-  calib::BenchTruth t = r.refined.coefficients.values;
-  t.table_kind = src.recording.table_kind;
-  for (const std::string& n : calib::flatNames(t)) {
-    if (n.rfind("table.base_tilt.", 0) == 0 || n.rfind("table.nonorthogonality.", 0) == 0) {
-      p->input.baseline_table_params.push_back(n);
-    }
-  }
+  p->input.baseline_table_params = c.estimatedTableParams();
   p->said.push_back("baseline: the production pipeline (direct calibration of " + d.label +
                     ", navigation-based refinement over both recordings, " +
-                    std::to_string(r.passes) + " pass(es))");
+                    std::to_string(c.passes) + " pass(es))");
 }
 
 void baselineFromRecording(const ResolvedRecording& src, Prepared* p) {
-  const calib::BaselineInput bin{p->input.geometry, p->input.site, src.recording.imu, p->table,
-                                 src.recording.segments};
-  const calib::BaselineCalibration b = calib::calibrateBaseline(bin);
+  const calib::BaselineCalibration b = calib::calibrateBaseline(p->input.recording());
   if (!b.status.HasResult()) throw CommandFailed(src.label + ": baseline: " + b.status.message);
   p->input.baseline = b.coefficients;
   p->input.baseline_method = b.method;
@@ -318,13 +302,9 @@ void runExplainTable(const ExplainCliOptions& o) {
   }
   const calib::ExplainOptions eo = analysisOptions(o);
   const ResolvedRecording src = loadRunOrDir(o.input, o.db);
+  const io::CalibrationView view(src.recording);
   Prepared p;
-  p.table = io::tableSamples(src.recording);
-  p.input.geometry = io::geometryOf(src.recording);
-  p.input.site = src.recording.site();
-  p.input.imu = src.recording.imu;
-  p.input.table = p.table;
-  p.input.segments = src.recording.segments;
+  p.input.recording() = view.view();
   p.said.push_back("explain " + src.label + ": " + std::to_string(src.recording.imu.size()) +
                    " IMU samples, " + std::to_string(src.recording.segments.size()) + " segments");
   if (!o.coeffs.empty()) {

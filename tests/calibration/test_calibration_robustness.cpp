@@ -85,7 +85,7 @@ TEST(CalibrationRobustness, RandomRecordingsGiveAResultOrAReason) {
     EXPECT_TRUE(r.status.HasResult() || !r.status.message.empty()) << "trial " << trial;
 
     BenchCalibrationInput bin;
-    bin.direct = din;
+    bin.direct = viewOf(din);
     bin.navigation.push_back({b.imu, b.table, b.segments});
     const BenchCalibrationResult p = calibrateBench(bin);
     EXPECT_TRUE(p.status.HasResult() || !p.status.message.empty()) << "trial " << trial;

@@ -139,19 +139,18 @@ TEST(RunExplain, NoAnalysisWithoutACalibrationToStartFrom) {
   EXPECT_TRUE(e.report.is_null());
 }
 
-TEST(RunExplain, BaselineIsWhatTheMethodEstimated) {
-  EXPECT_STREQ(explainBaselineMethod(plans::CalibrationMethod::kDirect), "direct");
-  EXPECT_STREQ(explainBaselineMethod(plans::CalibrationMethod::kIndirect), "indirect");
-  EXPECT_STREQ(explainBaselineMethod(plans::CalibrationMethod::kPipeline), "indirect");
-  calib::CoefficientReport r;
-  r.setSigma("table.base_tilt.x", 1e-6);
-  r.setSigma("table.nonorthogonality.inner_y", 2e-6);
-  r.setUnobservable("table.mounting.x");
-  r.setSigma("gyro.bias.x", 1e-8);
-  r.uncertainty["table.base_tilt.y"];  // no sigma: not estimated
-  const std::vector<std::string> names = estimatedTableParams(r);
-  EXPECT_EQ(names,
-            (std::vector<std::string>{"table.base_tilt.x", "table.nonorthogonality.inner_y"}));
+TEST(RunExplain, BaselineIsWhatTheCalibrationServiceEstimated) {
+  // The direct calibration holds every table error at zero: the analysis' baseline is
+  // "direct" with no table parameter, so each table error stays a candidate effect.
+  const RunCalibration d = calibrateRun(plans::CalibrationMethod::kDirect, recording(), nullptr);
+  ASSERT_TRUE(d.status.ok) << d.status.message;
+  EXPECT_EQ(d.baseline_method, "direct");
+  EXPECT_TRUE(d.table_params.empty());
+  ASSERT_TRUE(d.report.contains("table")) << d.report.dump(2);
+  for (const auto& row : d.report["table"]) {
+    EXPECT_FALSE(row["estimated"].get<bool>()) << row.dump();
+    EXPECT_FALSE(row["reason"].get<std::string>().empty()) << row.dump();
+  }
 }
 
 }  // namespace
