@@ -128,6 +128,17 @@ class Triad:
         return {"scale": list(self.scale), "bias": list(self.bias), "misalignment": self.mis}
 
 
+def graded_triad(rng, bias_range):
+    """A navigation/tactical-grade triad: |scale - 1| 100-1000 ppm, misalignments 30-300
+    arcsec, |bias| in bias_range, random signs."""
+    keys = ["xy", "xz", "yx", "yz", "zx", "zy"]
+
+    def signed(lo, hi, n=None):
+        return rng.choice([-1.0, 1.0], n) * rng.uniform(lo, hi, n)
+    return Triad(1 + signed(100.0, 1000.0, 3) * 1e-6, signed(*bias_range, 3),
+                 {k: float(signed(30.0, 300.0) * ARCSEC) for k in keys})
+
+
 def random_triad(rng, scale_ppm, bias, mis_rad):
     keys = ["xy", "xz", "yx", "yz", "zx", "zy"]
     return Triad(1 + rng.uniform(-scale_ppm, scale_ppm, 3) * 1e-6, rng.uniform(-bias, bias, 3),
@@ -142,9 +153,21 @@ class Schedule:
         self.t = t0
         self.q = np.zeros(naxes)  # encoder readings, rad
         self.steps = []  # (t_start, t_end, axis or -1, q_start, delta, rate, ramp)
+        self.kinds = []  # per step: "hold", "move" or "settle"
+        self.last_axis = 0
 
     def hold(self, dur):
         self.steps.append((self.t, self.t + dur, -1, self.q.copy(), 0.0, 0.0, 0.0))
+        self.kinds.append("hold")
+        self.t += dur
+
+    def settle(self, dur, amp_rad=0.0, freq_hz=4.0, decay_s=0.3):
+        """The table at its target after a move; amp_rad > 0: a decaying servo oscillation of
+        the axis that moved last, A exp(-tau/T) (1 - cos(2 pi f tau)) (angle and rate zero at
+        the start, so the motion stays smooth; the encoders read it, it is real motion)."""
+        self.steps.append((self.t, self.t + dur, self.last_axis, self.q.copy(), amp_rad, freq_hz,
+                           decay_s))
+        self.kinds.append("settle")
         self.t += dur
 
     def move(self, axis, delta_deg, rate_dps=20.0, ramp_s=1.0):
@@ -152,8 +175,10 @@ class Schedule:
         w = min(rate_dps * DEG, abs(d) / ramp_s)
         dur = 2 * ramp_s + (abs(d) - w * ramp_s) / w
         self.steps.append((self.t, self.t + dur, axis, self.q.copy(), d, w, ramp_s))
+        self.kinds.append("move")
         self.t += dur
         self.q[axis] += d
+        self.last_axis = axis
 
     def state(self, t):
         """Encoder readings and rates at times t (n,) -> (n, naxes) each."""
@@ -165,6 +190,13 @@ class Schedule:
             sel = idx == k
             t0, t1, axis, q0, d, w, Tr = self.steps[k]
             q[sel] = q0
+            if self.kinds[k] == "settle":  # d: amplitude, w: frequency, Tr: decay time
+                tau = np.clip(t[sel] - t0, 0.0, t1 - t0)
+                env = d * np.exp(-tau / Tr)
+                ph = 2 * np.pi * w * tau
+                q[sel, axis] += env * (1 - np.cos(ph))
+                qd[sel, axis] = env * (2 * np.pi * w * np.sin(ph) - (1 - np.cos(ph)) / Tr)
+                continue
             if axis < 0:
                 continue
             tau = np.clip(t[sel] - t0, 0.0, t1 - t0)
@@ -258,8 +290,12 @@ def write_case(out, spec):
     w_ie_L = EARTH_RATE * np.array([0.0, np.cos(lat * DEG), np.sin(lat * DEG)])
     errs = spec["table_errors"]
     table = Table(kind, spec.get("heading_deg", 90.0), **errs)
-    accel = random_triad(rng, 500.0, 1e-3, 2e-4)
-    gyro = random_triad(rng, 300.0, 5e-7, 2e-4)
+    if spec.get("graded"):  # accel 30-300 ug, gyro 0.01-0.1 deg/h
+        accel = graded_triad(rng, (30 * 9.80665e-6, 300 * 9.80665e-6))
+        gyro = graded_triad(rng, (0.01 * DEG / 3600, 0.1 * DEG / 3600))
+    else:
+        accel = random_triad(rng, 500.0, 1e-3, 2e-4)
+        gyro = random_triad(rng, 300.0, 5e-7, 2e-4)
     sched = Schedule(table.naxes, spec.get("t0", 1000.0))
     spec["schedule"](sched, spec)
     rate = spec["rate_hz"]
@@ -267,11 +303,13 @@ def write_case(out, spec):
     n = int((sched.t - sched.steps[0][0]) * rate)
     t_end = sched.steps[0][0] + dt * np.arange(1, n + 1)
     dth, dv = integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt,
-                                   extra=spec.get("extra"))
+                                   sub=spec.get("quad_sub", 2), extra=spec.get("extra"))
     if spec.get("noise", True):
         # white noise inside the sensor equation: diag(scale) * noise, integrated
-        dv += rng.normal(0, 3e-5 * np.sqrt(dt), (n, 3)) * accel.scale  # 3e-5 m/s/sqrt(s)
-        dth += rng.normal(0, 1e-6 * np.sqrt(dt), (n, 3)) * gyro.scale  # 1e-6 rad/sqrt(s)
+        # default 3e-5 m/s/sqrt(s), 1e-6 rad/sqrt(s); spec noise_density overrides
+        na, ng = spec.get("noise_density", (3e-5, 1e-6))
+        dv += rng.normal(0, na * np.sqrt(dt), (n, 3)) * accel.scale
+        dth += rng.normal(0, ng * np.sqrt(dt), (n, 3)) * gyro.scale
     if "quantum" in spec:  # quantised outputs with the remainder carried (counting sensors)
         qa, qg = spec["quantum"]
         dv = np.diff(np.round(np.cumsum(dv, axis=0) / qa), axis=0, prepend=0.0) * qa
@@ -322,17 +360,28 @@ def extra_json(effect, v):
 
 def write_segments(out, sched, spec):
     """segments.csv: 'hold' one static per hold, 'settle+hold' a short settle and the hold
-    proper, 'none' no file (derived from the encoders)."""
+    proper, 'none' no file (derived from the encoders). An explicit settle step of the schedule
+    (Schedule.settle) is written as its own segment of kind spec["settle_kind"] (interchange.md
+    has no settle kind: "static" -- the table is at its target --, or "move" -- it still
+    moves); with 'hold' it is part of the static that follows it."""
     mode = spec.get("segments", "settle+hold")
     if mode == "none":
         return
     rows = []
     for k, (t0, t1, axis, *_rest) in enumerate(sched.steps):
-        if axis >= 0:
+        kind = sched.kinds[k]
+        if kind == "settle":
+            if mode == "hold":
+                rows.append((t0, t1, "static", "hold-%d" % k))
+            else:
+                rows.append((t0, t1, spec.get("settle_kind", "static"), "settle-%d" % k))
+        elif axis >= 0:
             rows.append((t0, t1, "rotate", "run-%d" % k))
-        elif mode == "settle+hold" and t1 - t0 > 4.0:
+        elif mode == "settle+hold" and t1 - t0 > 4.0 and spec.get("split_holds", True):
             rows.append((t0, t0 + 2.0, "static", "settle-%d" % k))
             rows.append((t0 + 2.0, t1, "static", "hold-%d" % k))
+        elif mode == "hold" and k > 0 and sched.kinds[k - 1] == "settle":
+            rows[-1] = (rows[-1][0], t1, "static", rows[-1][3])  # settle + hold: one static
         else:
             rows.append((t0, t1, "static", "hold-%d" % k))
     with open(os.path.join(out, "segments.csv"), "w") as f:
@@ -405,6 +454,84 @@ def three_axis_combined(s, spec):
     s.hold(H)
 
 
+class Placer:
+    """Moves a three-axis table to (outer, middle, inner) one axis at a time, each move followed
+    by a settle (spec settle_s, 0: none; servo_arcsec: its decaying oscillation) and a hold."""
+
+    def __init__(self, s, spec):
+        self.s, self.spec = s, spec
+        self.hold_s = spec.get("hold_s", 12.0)
+        self.settle_s = spec.get("settle_s", 2.0)
+        self.servo = spec.get("servo_arcsec", 0.0) * ARCSEC
+
+    def rest(self, hold=True):
+        if self.settle_s > 0:  # no oscillation before the first move
+            self.s.settle(self.settle_s, self.servo if self.s.steps else 0.0)
+        if hold:
+            self.s.hold(self.hold_s)
+
+    def turn(self, axis, deg, rate_dps=20.0, hold=True):
+        self.s.move(axis, deg, rate_dps=rate_dps)
+        self.rest(hold)
+
+    def goto(self, target_deg):
+        for axis in range(3):
+            d = target_deg[axis] - self.s.q[axis] / DEG
+            if abs(d) > 1e-9:
+                self.turn(axis, d)
+
+    def rate_pair(self):
+        """Full turns about the vertical outer axis, both ways (gyro scale and the rate-run
+        misalignments of the body axis that points up). spec runs_after_settle: the second turn
+        follows the first after the settle only (a continuous test flow, no hold between)."""
+        self.turn(0, 360.0, hold=not self.spec.get("runs_after_settle", False))
+        self.turn(0, -360.0)
+
+    def reversal(self, axis):
+        """180 degrees about a horizontal table axis and back (a body axis turned end over end
+        about itself: the navigation-based calibration's run)."""
+        self.turn(axis, 180.0)
+        self.turn(axis, -180.0)
+
+
+def three_axis_natural(s, spec):
+    """The natural three-axis calibration schedule, written from the physics (not copied from
+    plans/library): C_LB = Rz(outer) Rx(middle) Rz(inner).
+      statics with each body axis up and down: z up (0, 0, 0), z down (0, 180, 0), y up
+      (0, 90, 0), y down (0, 90, 180), x up (0, 90, 90), x down (0, 90, 270), and z up at the
+      four outer angles (base tilt against nu1, which turns with the outer axis);
+      rate runs: a full turn each way about the vertical outer axis with each body axis up and
+      down (the direct calibration's gyro scales and rate-run misalignments);
+      180-degree reversals about each horizontal body axis at two headings of the horizontal
+      table axis (outer 0 and 90: two Earth-rate projections): x_B about the middle axis
+      (inner 0), y_B about the middle axis (inner 90), z_B about the inner axis (middle 90).
+    Every move is followed by a settle and a hold (Placer)."""
+    P = Placer(s, spec)
+    MID, INN = 1, 2
+    P.rest()  # z up
+    P.rate_pair()
+    for o in (0.0, 90.0):
+        P.goto((o, 0.0, 0.0))
+        P.reversal(MID)  # about x_B
+        if o == 0.0:
+            P.turn(MID, 180.0)  # z down: rate runs
+            P.rate_pair()
+            P.turn(MID, -180.0)
+        P.goto((o, 0.0, 90.0))
+        P.reversal(MID)  # about y_B
+    for o in (180.0, 270.0):
+        P.goto((o, 0.0, 90.0))
+    P.goto((0.0, 0.0, 0.0))
+    for o in (0.0, 90.0):
+        P.goto((o, 90.0, 0.0))  # y up
+        P.reversal(INN)  # about z_B
+    P.goto((0.0, 90.0, 0.0))
+    for i in (0.0, 90.0, 180.0, 270.0):  # y up, x up, y down, x down
+        P.goto((0.0, 90.0, i))
+        P.rate_pair()
+    P.goto((0.0, 0.0, 0.0))
+
+
 def table_errors(kind, big_tilt=False):
     a = ARCSEC
     theta = (1.0 * DEG, -0.4 * DEG) if big_tilt else (35 * a, -22 * a)
@@ -443,6 +570,49 @@ def make_cases():
     return c
 
 
+# Navigation-grade white noise: velocity random walk 10 ug/sqrt(Hz) (1e-4 m/s/sqrt(s)), angle
+# random walk 0.002 deg/sqrt(h) (5.8e-7 rad/sqrt(s)).
+NAV_NOISE = (1.0e-4, 0.002 * DEG / 60.0)
+
+
+def three_axis_errors(tilt_deg=None):
+    """20-60 arcsec on every geometric term of the three-axis chain (interchange.md): base tilt
+    (theta_x, theta_y), nu1 (x, y), nu2_y, mounting (x, y), encoder zeros (outer, middle,
+    inner); tilt_deg: the base tilt in degrees instead."""
+    a = ARCSEC
+    theta = (tilt_deg[0] * DEG, tilt_deg[1] * DEG) if tilt_deg else (-27 * a, 44 * a)
+    return {"theta": theta, "nu": (52 * a, -33 * a, 41 * a), "mu": (29 * a, -57 * a),
+            "zero": (-46 * a, 38 * a, 23 * a)}
+
+
+def make_calibrate_cases():
+    """Three-axis recordings with realistic table and IMU errors on the natural schedule
+    (three_axis_natural), for calibrate_cases.py, and the variants that locate a refusal."""
+    def nat(**kw):
+        return {**dict(kind="three-axis", schedule=three_axis_natural, rate_hz=100.0,
+                       table_errors=three_axis_errors(), graded=True, noise_density=NAV_NOISE,
+                       seed=31, split_holds=False), **kw}
+    c = {
+        "nat3_100hz": nat(),
+        # 3 quadrature nodes per 2.5 ms sample: the motion is smooth on that scale
+        "nat3_400hz": nat(seed=32, rate_hz=400.0, table_rate_hz=100.0, quad_sub=1),
+        "nat3_tilt_1deg": nat(seed=33, table_errors=three_axis_errors(tilt_deg=(0.8, -0.6))),
+        "nat3_servo": nat(seed=34, servo_arcsec=25.0),
+        "nat3_servo_move": nat(seed=34, servo_arcsec=25.0, settle_kind="move"),
+        # a servo oscillation beyond the segment check's still span: the settle moves
+        "nat3_servo_45": nat(seed=34, servo_arcsec=45.0),
+        "nat3_runs_after_settle": nat(seed=35, runs_after_settle=True),
+        # diagnosis variants (calibrate_cases.py --diagnose)
+        "nat3_no_settle": nat(settle_s=0.0, hold_s=14.0),
+        "nat3_settle_in_hold": nat(segments="hold"),
+        "nat3_zero_table": nat(table_errors={}),
+        "nat3_derived_segments": nat(segments="none"),
+    }
+    for name, spec in c.items():
+        spec["name"] = name
+    return c
+
+
 def make_explain_cases():
     """Recordings with physics the calibration model lacks, for `imubench explain`
     (explain_cases.py): the two-axis combined schedule at other rates than ours."""
@@ -465,7 +635,7 @@ def make_explain_cases():
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out")
-    cases = {**make_cases(), **make_explain_cases()}
+    cases = {**make_cases(), **make_explain_cases(), **make_calibrate_cases()}
     ap.add_argument("--case", required=True, choices=sorted(cases))
     args = ap.parse_args()
     write_case(args.out, cases[args.case])
