@@ -58,7 +58,7 @@ struct BenchCalibrationResult {
   DirectCalibrationResult direct;        // (0): the first, table-unaware direct calibration
   DirectCalibrationResult direct_final;  // the direct calibration the refinement started from
   CalibrationResult refined;             // the final refinement
-  int passes = 0;  // 1, or more when the nonorthogonality was fed back
+  int passes = 0;                        // 1, or more when the nonorthogonality was fed back
 };
 
 BenchCalibrationResult calibrateBench(const BenchCalibrationInput& input,

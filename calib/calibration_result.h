@@ -49,7 +49,7 @@ struct CalibrationResult {
   double accel_normalised_rms = 0.0;
   double gyro_normalised_rms = 0.0;
   double run_normalised_rms = 0.0;
-  std::vector<std::string> warnings;     // skipped runs/holds and why
+  std::vector<std::string> warnings;  // skipped runs/holds and why
 };
 
 nlohmann::json toJson(const Conditioning& c);

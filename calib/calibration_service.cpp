@@ -58,21 +58,24 @@ std::vector<TableParamDecision> tableDecisions(TableKind kind, ServiceMethod met
                      ? "held at the given table errors (certification data) as the "
                        "navigation-based frame takes them"
                      : "held at the given table errors (certification data)";
-      if (method == ServiceMethod::kNavigation && inGroup(n, "base_tilt") && io.estimate_base_tilt) {
+      if (method == ServiceMethod::kNavigation && inGroup(n, "base_tilt") &&
+          io.estimate_base_tilt) {
         d.estimated = true;
         d.reason = "estimated, started at the given value";
       }
     } else if (method == ServiceMethod::kDirect) {
-      d.reason = "held at zero: the direct calibration takes the table as nominal (the error "
-                 "leaks into the coefficients; `imubench explain` names it)";
+      d.reason =
+          "held at zero: the direct calibration takes the table as nominal (the error "
+          "leaks into the coefficients; `imubench explain` names it)";
     } else if (inGroup(n, "base_tilt") && io.estimate_base_tilt) {
       d.estimated = true;
     } else if (inGroup(n, "nonorthogonality") && io.estimate_nonorthogonality) {
       d.estimated = true;
     } else if (inGroup(n, "mounting") || inGroup(n, "encoder_zero")) {
-      d.reason = "not separable by this method: absorbed into the gyro-referenced frame "
-                 "(mounting, inner encoder zero), the base tilt (outer zero of a two-axis "
-                 "table) or the middle nonorthogonality (middle zero of a three-axis table)";
+      d.reason =
+          "not separable by this method: absorbed into the gyro-referenced frame "
+          "(mounting, inner encoder zero), the base tilt (outer zero of a two-axis "
+          "table) or the middle nonorthogonality (middle zero of a three-axis table)";
     } else {
       d.reason = "held at zero by the options";
     }
@@ -116,9 +119,9 @@ DirectCalibrationOptions directOptions(const CalibrationRequest& rq, const Servi
   DirectCalibrationOptions d = o.direct;
   d.checks = o.checks;
   if (rq.known_table_errors) {
-    d.known_table_errors =
-        navigation ? navigationFrame(*rq.known_table_errors, rq.recording.geometry)
-                   : *rq.known_table_errors;
+    d.known_table_errors = navigation
+                               ? navigationFrame(*rq.known_table_errors, rq.recording.geometry)
+                               : *rq.known_table_errors;
   }
   return d;
 }
@@ -146,10 +149,10 @@ CalibrationOutcome fromDirect(const DirectCalibrationResult& d, const ServiceOpt
     return out;
   }
   if (d.statics_used <= o.direct_unknowns_per_axis) {
-    out.status = FitStatus::Failed(
-        "direct calibration: " + std::to_string(d.statics_used) + " static positions fit the " +
-        std::to_string(o.direct_unknowns_per_axis) +
-        " unknowns per axis exactly: no redundancy, sigmas undefined");
+    out.status = FitStatus::Failed("direct calibration: " + std::to_string(d.statics_used) +
+                                   " static positions fit the " +
+                                   std::to_string(o.direct_unknowns_per_axis) +
+                                   " unknowns per axis exactly: no redundancy, sigmas undefined");
     return out;
   }
   out.coefficients = d.report;
@@ -222,9 +225,10 @@ CalibrationOutcome navigationFromDirect(const CalibrationRequest& rq, const Serv
   out.passes = r.passes;
   out.status = r.status;
   if (out.passes >= 2) {
-    out.notes.push_back("table axes nonorthogonal: direct calibration repeated with the estimated "
-                        "nonorthogonality, refinement repeated from it (" +
-                        std::to_string(out.passes) + " passes)");
+    out.notes.push_back(
+        "table axes nonorthogonal: direct calibration repeated with the estimated "
+        "nonorthogonality, refinement repeated from it (" +
+        std::to_string(out.passes) + " passes)");
   }
   return out;
 }
@@ -268,17 +272,18 @@ CalibrationOutcome automatic(const CalibrationRequest& rq, const ServiceOptions&
   const bool direct_complete = plausibleStart(d, o) && fullyDetermined(d.report);
   if (direct_complete && (d.status.IsSolutionUsable() || !o.escalate_unusable)) {
     CalibrationOutcome out = fromDirect(d, o);
-    out.why_method = "direct: the direct calibration determines every coefficient from the " +
-                     counts;
+    out.why_method =
+        "direct: the direct calibration determines every coefficient from the " + counts;
     return out;
   }
   // With known table errors the navigation-based start takes them in its own frame.
   CalibrationOutcome out =
       navigation(rq, o, rq.known_table_errors ? std::nullopt : std::optional(d));
   if (!direct_complete) {
-    out.why_method = "navigation-based: the direct calibration does not determine every "
-                     "coefficient plausibly on the " +
-                     counts;
+    out.why_method =
+        "navigation-based: the direct calibration does not determine every "
+        "coefficient plausibly on the " +
+        counts;
     return out;
   }
   out.why_method = "navigation-based: the direct calibration is unusable (" + d.status.message +
@@ -309,7 +314,9 @@ const char* serviceMethodName(ServiceMethod m) {
   return "?";
 }
 
-bool gyroReferenced(ServiceMethod method) { return method == ServiceMethod::kNavigation; }
+bool gyroReferenced(ServiceMethod method) {
+  return method == ServiceMethod::kNavigation;
+}
 
 bool ServiceOptions::IsValid(std::string* why) const {
   if (!(nonorthogonality_significance_sigma >= 0.0)) {
@@ -347,8 +354,8 @@ CalibrationOutcome calibrateRecording(const CalibrationRequest& rq, const Servic
   }
   CalibrationOutcome motion;
   countMotion(rq.recording, o, &motion);
-  const std::string counts = std::to_string(motion.holds) + " holds and " +
-                             std::to_string(motion.runs) + " rotation runs";
+  const std::string counts =
+      std::to_string(motion.holds) + " holds and " + std::to_string(motion.runs) + " rotation runs";
   switch (rq.method) {
     case ServiceMethod::kDirect:
       out = fromDirect(calibrateDirect(rq.recording, directOptions(rq, o)), o);

@@ -579,9 +579,8 @@ std::string checkInput(const RecordingView& in, const DirectCalibrationOptions& 
 
 // Every usable static and rate run of the recording as rows (spans: each gyro row's segment
 // span, in row order); counts and notes into res.
-void collectRows(const RecordingView& in, const DirectCalibrationOptions& o,
-                 DirectRows* rows, std::vector<std::pair<double, double>>* spans,
-                 DirectCalibrationResult* res) {
+void collectRows(const RecordingView& in, const DirectCalibrationOptions& o, DirectRows* rows,
+                 std::vector<std::pair<double, double>>* spans, DirectCalibrationResult* res) {
   const RowContext c{in,
                      o,
                      TableModel(in.geometry, o.known_table_errors),
@@ -640,8 +639,7 @@ DirectCalibrationResult calibrateDirect(const RecordingView& in,
   return res;
 }
 
-DirectObservations directObservations(const RecordingView& in,
-                                      const DirectCalibrationOptions& o) {
+DirectObservations directObservations(const RecordingView& in, const DirectCalibrationOptions& o) {
   DirectObservations out;
   if (std::string why = checkInput(in, o); !why.empty()) {
     out.status = Status::Error(std::move(why));

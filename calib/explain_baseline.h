@@ -32,10 +32,16 @@ struct BaselineCalibration {
   std::string method;  // "direct" | "indirect"
   CoefficientReport coefficients;
   std::vector<std::string> table_params;  // table coefficients the method estimated (flat names)
+  int passes = 0;                         // indirect: passes of the pipeline
   std::vector<std::string> notes;         // why this method, what the other said
 };
 
 BaselineCalibration calibrateBaseline(const BaselineInput& input,
+                                      const IncrementCheckOptions& checks = {});
+
+// The baseline of a navigation recording with the direct plan's recording of the same device
+// and table (`imubench explain NAV --direct DIRECT`): the production pipeline over both.
+BaselineCalibration calibrateBaseline(const BaselineInput& navigation, const RecordingView& direct,
                                       const IncrementCheckOptions& checks = {});
 
 // The analysis' input (calib/explain.h): the recording and the baseline calibrated from it.

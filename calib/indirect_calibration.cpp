@@ -4,11 +4,11 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <deque>
 #include <array>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <deque>
 #include <vector>
 
 #include "calib/indirect_params.h"
@@ -359,7 +359,8 @@ const Hold* restAnchor(const IndirectLeg& leg, int l, const Segment& run, bool b
     Hold h;
     h.leg = l;
     h.segment = &s;
-    h.angles = before ? holdAngles(leg.table, s.t1 - w, s.t1) : holdAngles(leg.table, s.t0, s.t0 + w);
+    h.angles =
+        before ? holdAngles(leg.table, s.t1 - w, s.t1) : holdAngles(leg.table, s.t0, s.t0 + w);
     anchors->push_back(h);
     return &anchors->back();
   }

@@ -346,12 +346,11 @@ nlohmann::json calibrationJson(const calib::CalibrationOutcome& c) {
 void printDirect(std::ostream& info, const std::string& label,
                  const calib::DirectCalibrationResult& d, bool all_notes) {
   info << "direct calibration of " << label << ": " << d.statics_used << " statics, "
-       << d.rotations_used << " rotations, normalised residual RMS "
-       << d.normalised_residual_rms << " (accel " << d.accel_normalised_rms << ", gyro "
-       << d.gyro_normalised_rms << "; 1 = the noise)\n";
+       << d.rotations_used << " rotations, normalised residual RMS " << d.normalised_residual_rms
+       << " (accel " << d.accel_normalised_rms << ", gyro " << d.gyro_normalised_rms
+       << "; 1 = the noise)\n";
   for (const std::string& n : d.notes) {
-    if (all_notes || n.rfind("static segments joined", 0) == 0 ||
-        n.rfind("segments.csv", 0) == 0) {
+    if (all_notes || n.rfind("static segments joined", 0) == 0 || n.rfind("segments.csv", 0) == 0) {
       info << "  note: " << n << "\n";
     }
   }
@@ -360,9 +359,8 @@ void printDirect(std::ostream& info, const std::string& label,
 void printIndirect(std::ostream& info, const std::string& what, const calib::CalibrationResult& r) {
   for (const std::string& w : r.warnings) info << "  warning: " << w << "\n";
   info << what << ": " << r.outer_iterations << " outer iterations, normalised residual RMS "
-       << r.rms_normalised_residual << " (accel holds " << r.accel_normalised_rms
-       << ", gyro holds " << r.gyro_normalised_rms << ", runs " << r.run_normalised_rms
-       << "; 1 = the noise)\n"
+       << r.rms_normalised_residual << " (accel holds " << r.accel_normalised_rms << ", gyro holds "
+       << r.gyro_normalised_rms << ", runs " << r.run_normalised_rms << "; 1 = the noise)\n"
        << "  solver: " << r.solver_report << "\n"
        << "  " << r.conditioning.describe();
 }

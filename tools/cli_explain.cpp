@@ -37,7 +37,6 @@
 #include <optional>
 #include <sstream>
 
-#include "calib/calibration_service.h"
 #include "calib/explain.h"
 #include "calib/explain_baseline.h"
 #include "calib/explain_scalar.h"
@@ -86,7 +85,7 @@ ChannelUnits siUnits() {
 // The analysis's input recording and baseline, with the lines that say where it came from.
 struct Prepared {
   ChannelUnits units = siUnits();
-  calib::ExplainInput input;  // its recording viewed in the caller's io::CalibrationView
+  calib::ExplainInput input;      // its recording viewed in the caller's io::CalibrationView
   std::vector<std::string> said;  // printed before the result
 };
 
@@ -150,19 +149,15 @@ void baselineFromFile(const ExplainCliOptions& o, Prepared* p) {
 void baselineFromPipeline(const ExplainCliOptions& o, const ResolvedRecording& src, Prepared* p) {
   const ResolvedRecording d = loadRunOrDir(o.direct, o.db);
   const io::CalibrationView dview(d.recording);
-  calib::CalibrationRequest rq;
-  rq.recording = p->input.recording();
-  rq.direct = dview.view();
-  rq.method = calib::ServiceMethod::kNavigation;
-  const calib::CalibrationOutcome c = calib::calibrateRecording(rq);
-  if (!c.status.HasResult())
-    throw CommandFailed(src.label + " + " + d.label + ": baseline: " + c.status.message);
-  p->input.baseline = c.coefficients;
-  p->input.baseline_method = "indirect";
-  p->input.baseline_table_params = c.estimatedTableParams();
+  const calib::BaselineCalibration b = calib::calibrateBaseline(p->input.recording(), dview.view());
+  if (!b.status.HasResult())
+    throw CommandFailed(src.label + " + " + d.label + ": baseline: " + b.status.message);
+  p->input.baseline = b.coefficients;
+  p->input.baseline_method = b.method;
+  p->input.baseline_table_params = b.table_params;
   p->said.push_back("baseline: the production pipeline (direct calibration of " + d.label +
                     ", navigation-based refinement over both recordings, " +
-                    std::to_string(c.passes) + " pass(es))");
+                    std::to_string(b.passes) + " pass(es))");
 }
 
 void baselineFromRecording(const ResolvedRecording& src, Prepared* p) {

@@ -2,12 +2,11 @@
 // the start values, what is done with every table error, one gate; and the three-axis
 // schedule whose runs follow a move after a short settle only (no hold before them), on a
 // table with realistic errors.
-#include "calib/calibration_service.h"
-
 #include <gtest/gtest.h>
 
 #include <string>
 
+#include "calib/calibration_service.h"
 #include "calib/simulator.h"
 #include "nav/rotation.h"
 #include "test_direct_sim.h"
@@ -159,14 +158,26 @@ TEST(CalibrationService, KnownTableErrorsAreHeldAsCertificationData) {
 }
 
 TEST(CalibrationService, ThreeAxisRunsAfterOnlyASettleAreUsedOnARealisticTable) {
+  // The production pipeline: the bundled direct three-axis plan, then the navigation schedule
+  // whose first run of every placement follows the move after a 2 s settle only.
   const TableErrors table = realisticThreeAxisTable();
+  const SimulatedRecording d = simulateOn(testing::libraryMotion("direct_three_axis"), table, 15);
   const SimulatedRecording r = simulateOn(threeAxisSettleBeforeRuns(), table, 14);
   CalibrationRequest rq;
   rq.recording = r.view();
+  rq.direct = d.view();
   const CalibrationOutcome c = calibrateRecording(rq);
   ASSERT_TRUE(c.status.HasResult()) << c.status.message;
   EXPECT_TRUE(c.status.IsSolutionUsable()) << c.status.message;
   ASSERT_TRUE(c.refined.has_value());
+  std::string said = c.why_method + "\n";
+  for (const std::string& why : c.status.reasons) said += "  " + why + "\n";
+  for (const std::string& w : c.refined->warnings) said += "  warning: " + w + "\n";
+  said += "  passes " + std::to_string(c.passes) + ", runs normalised RMS " +
+          std::to_string(c.refined->run_normalised_rms) + ", holds " +
+          std::to_string(c.refined->accel_normalised_rms) + "/" +
+          std::to_string(c.refined->gyro_normalised_rms);
+  SCOPED_TRACE(said);
   for (const std::string& w : c.refined->warnings) {
     EXPECT_EQ(w.find("no usable hold"), std::string::npos) << w;
   }

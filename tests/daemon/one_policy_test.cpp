@@ -19,8 +19,8 @@
 #include "calib/simulator.h"
 #include "daemon/run_calibration.h"
 #include "io/recording.h"
-#include "nav/rotation.h"
 #include "io/sim_recording.h"
+#include "nav/rotation.h"
 #include "plans/expand.h"
 #include "plans/plan.h"
 #include "plans/validator.h"
@@ -69,15 +69,18 @@ io::Recording writtenRecording(const std::string& plan_name, const calib::TableE
   return r.value;
 }
 
-// `imubench calibrate DIR --json`: its coefficient JSON (exit code in *rc).
-nlohmann::json cliCoefficients(const std::string& dir, int* rc) {
-  const std::string cmd = std::string(IMUBENCH_CLI) + " calibrate " + dir + " --json 2>/dev/null";
+// `imubench calibrate DIR [--direct DIRECT] --json`: its coefficient JSON (exit code in *rc).
+nlohmann::json cliCoefficients(const std::string& dir, const std::string& direct, int* rc) {
+  const std::string cmd = std::string(IMUBENCH_CLI) + " calibrate " + dir +
+                          (direct.empty() ? "" : " --direct " + direct) + " --json 2>/dev/null";
   std::unique_ptr<FILE, int (*)(FILE*)> p(popen(cmd.c_str(), "r"), pclose);
   std::string out;
   std::array<char, 4096> buf{};
   while (p && fgets(buf.data(), buf.size(), p.get())) out += buf.data();
   *rc = p ? pclose(p.release()) : -1;
-  return nlohmann::json::parse(out, nullptr, false);
+  nlohmann::json j = nlohmann::json::parse(out, nullptr, false);
+  if (j.is_object()) j.erase("calibration");  // the method's report beside the coefficients
+  return j;
 }
 
 // The three front ends agree on every coefficient (value and observability).
@@ -96,54 +99,73 @@ void expectSame(const calib::CoefficientReport& a, const calib::CoefficientRepor
   }
 }
 
-struct Case {
-  const char* plan;
-  plans::CalibrationMethod daemon_method;  // the method the bundled plan names
-  double table_error_arcsec;               // every base tilt and nonorthogonality term
-};
-
-class OnePolicy : public ::testing::TestWithParam<Case> {};
-
-TEST_P(OnePolicy, CliDaemonAndExplainBaselineGiveIdenticalCoefficients) {
-  const Case c = GetParam();
-  ScratchDir dir("policy");
+// A table with errors: every base tilt and nonorthogonality term of this size.
+calib::TableErrors tableWithErrors(double arcsec) {
   calib::TableErrors table;
-  const double e = c.table_error_arcsec * kArcsecToRad;
+  const double e = arcsec * kArcsecToRad;
   table.base_tilt = Vec2(e, -0.8 * e);
   table.nonorthogonality.inner_y = 0.6 * e;
-  const io::Recording rec = writtenRecording(c.plan, table, dir.file("rec"));
-  ASSERT_FALSE(rec.imu.empty());
+  return table;
+}
 
+// The bundled direct plan on a level table: the direct calibration, wherever it is asked.
+TEST(OnePolicy, DirectPlanGivesIdenticalCoefficientsInCliDaemonAndExplainBaseline) {
+  ScratchDir dir("policy");
+  const io::Recording rec = writtenRecording("direct_two_axis", {}, dir.file("direct"));
+  ASSERT_FALSE(rec.imu.empty());
   int rc = 0;
-  const nlohmann::json j = cliCoefficients(dir.file("rec"), &rc);
+  const nlohmann::json j = cliCoefficients(dir.file("direct"), "", &rc);
   ASSERT_EQ(rc, 0) << "imubench calibrate exit status";
   calib::CoefficientReport cli;
   std::string why;
   ASSERT_TRUE(calib::fromJson(j, &cli, &why)) << why;
 
-  const RunCalibration daemon = calibrateRun(c.daemon_method, rec, nullptr);
+  const RunCalibration daemon = calibrateRun(plans::CalibrationMethod::kDirect, rec, nullptr);
   ASSERT_TRUE(daemon.status.ok) << daemon.status.message;
   EXPECT_TRUE(daemon.fit.IsSolutionUsable()) << daemon.fit.message;
 
   const io::CalibrationView view(rec);
   const calib::BaselineCalibration base = calib::calibrateBaseline(view.view());
   ASSERT_TRUE(base.status.HasResult()) << base.status.message;
+  EXPECT_EQ(base.method, "direct");
   EXPECT_EQ(base.method, daemon.baseline_method);
   EXPECT_EQ(base.table_params, daemon.table_params);
-
   expectSame(cli, daemon.coefficients, "CLI vs daemon");
   expectSame(cli, base.coefficients, "CLI vs explain baseline");
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Recordings, OnePolicy,
-    ::testing::Values(Case{"direct_two_axis", plans::CalibrationMethod::kDirect, 0.0},
-                      Case{"two_axis_12run", plans::CalibrationMethod::kIndirect, 30.0}),
-    [](const ::testing::TestParamInfo<Case>& i) {
-      return std::string(i.param.daemon_method == plans::CalibrationMethod::kDirect
-                             ? "DirectPlanLevelTable"
-                             : "TwelveRunPlanTableErrors30arcsec");
-    });
+// The production pipeline on a table with 30 arcsec errors: `calibrate NAV --direct DIRECT`,
+// the daemon's pipeline plan, `explain NAV --direct DIRECT`'s baseline.
+TEST(OnePolicy, PipelineGivesIdenticalCoefficientsInCliDaemonAndExplainBaseline) {
+  ScratchDir dir("policy");
+  const calib::TableErrors table = tableWithErrors(30.0);
+  const io::Recording direct = writtenRecording("direct_two_axis", table, dir.file("direct"));
+  const io::Recording nav = writtenRecording("two_axis_12run", table, dir.file("nav"));
+  ASSERT_FALSE(direct.imu.empty());
+  ASSERT_FALSE(nav.imu.empty());
+  int rc = 0;
+  const nlohmann::json j = cliCoefficients(dir.file("nav"), dir.file("direct"), &rc);
+  ASSERT_EQ(rc, 0) << "imubench calibrate exit status";
+  calib::CoefficientReport cli;
+  std::string why;
+  ASSERT_TRUE(calib::fromJson(j, &cli, &why)) << why;
+
+  const RunCalibration daemon = calibrateRun(plans::CalibrationMethod::kPipeline, nav, &direct);
+  ASSERT_TRUE(daemon.status.ok) << daemon.status.message;
+  EXPECT_TRUE(daemon.fit.IsSolutionUsable()) << daemon.fit.message;
+
+  const io::CalibrationView nview(nav), dview(direct);
+  const calib::BaselineCalibration base = calib::calibrateBaseline(nview.view(), dview.view());
+  ASSERT_TRUE(base.status.HasResult()) << base.status.message;
+  EXPECT_EQ(base.method, "indirect");
+  EXPECT_EQ(base.method, daemon.baseline_method);
+  EXPECT_EQ(base.table_params, daemon.table_params);
+  expectSame(cli, daemon.coefficients, "CLI vs daemon");
+  expectSame(cli, base.coefficients, "CLI vs explain baseline");
+  EXPECT_NEAR(cli.values.table.base_tilt.x(), table.base_tilt.x(), 3.0 * kArcsecToRad);
+  EXPECT_NEAR(cli.values.table.nonorthogonality.inner_y, table.nonorthogonality.inner_y,
+              3.0 * kArcsecToRad);
+}
 
 }  // namespace
 }  // namespace imubench::daemon
