@@ -302,8 +302,8 @@ TEST(ControlProtocol, RandomAndMutatedLinesNeverThrow) {
 // out_of_range.406 escaped the parser). Each is bad_json naming the number, wherever it is.
 TEST(ControlProtocolHostile, NumbersOutOfRangeAreErrors) {
   const std::string huge_integer(400, '9');
-  for (const std::string number : {std::string("1e400"), std::string("-1e400"),
-                                   std::string("1E+999"), huge_integer, "-" + huge_integer}) {
+  for (const std::string& number : {std::string("1e400"), std::string("-1e400"),
+                                    std::string("1E+999"), huge_integer, "-" + huge_integer}) {
     for (const std::string& line :
          {R"({"cmd":"ping","id":)" + number + "}", R"({"cmd":"results","run":)" + number + "}",
           R"({"cmd":"queue_move","entry":1,"position":)" + number + "}",
