@@ -88,9 +88,11 @@ bool refuseUnknownFields(const json& obj, std::initializer_list<std::string_view
     if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
     std::string known;
     for (std::string_view a : allowed) known += (known.empty() ? "" : ", ") + std::string(a);
-    return fail(err, ErrorCode::kBadArgument,
-                joinPath(where, key) + ": unknown field of " + std::string(owner) +
-                    " (known: " + known + ")");
+    // The key is the client's: quoted and bounded like any text of theirs.
+    return fail(
+        err, ErrorCode::kBadArgument,
+        (key.size() > kMaxQuotedBytes ? joinPath(where, quote(key)) : joinPath(where, key)) +
+            ": unknown field of " + std::string(owner) + " (known: " + known + ")");
   }
   return true;
 }

@@ -322,7 +322,8 @@ TEST(ControlProtocolHostile, NumbersOutOfRangeAreErrors) {
   parseErr(R"({"cmd":"results","run":18446744073709551616})", ErrorCode::kBadArgument);
   parseErr(R"({"cmd":"results","run":-9223372036854775808})", ErrorCode::kBadArgument);
   parseErr(R"({"cmd":"queue_move","entry":1,"position":4294967296})", ErrorCode::kBadArgument);
-  EXPECT_EQ(parseOk(R"({"cmd":"ping","id":1e-400})").command, Command::kPing) << "underflow is 0";
+  // Underflow is 0.0: a number, but not an integer id.
+  parseErr(R"({"cmd":"ping","id":1e-400})", ErrorCode::kBadArgument);
 }
 
 // Deep nesting: refused before nlohmann builds (and would recurse through) the value.
@@ -457,7 +458,7 @@ TEST(ControlProtocolHostile, FuzzCorpusOfTenThousandLines) {
     ASSERT_TRUE(json::accept(reply.substr(0, reply.size() - 1))) << reply.substr(0, 200);
     ASSERT_EQ(reply.find('\n'), reply.size() - 1);
   }
-  EXPECT_GT(accepted, 100);
+  EXPECT_GT(accepted, 20);  // mutations that stay valid (e.g. inside a string)
   EXPECT_GT(out_of_range, 500);
   EXPECT_GT(too_deep, 500);
 }
