@@ -82,32 +82,36 @@ std::optional<LoadedPlan> loadPlan(const std::string& name, const std::string& t
   return out;
 }
 
-// The database and its WAL companions are the daemon's: owner and group (the operators'
-// imubench group, as the systemd unit sets it) read them, nobody else. Before the store opens
-// it: a missing database is created with that mode, an existing one (and its -wal/-shm) is
-// tightened to it. SQLite gives the -wal/-shm it creates the database file's mode; after the
-// store is open they are chmod-ed by path only (closing any descriptor of the database file
-// would drop the process's SQLite locks on it).
+// The database and its WAL companions are the daemon's: owner and group read them, nobody
+// else. The group is the bench file's read group (else its command group; else the daemon's,
+// the operators' imubench group as the systemd unit sets it), so readers can `export --db`. Before
+// the store opens it: a missing database is created with that mode, an existing one (and its
+// -wal/-shm) is tightened to it. SQLite gives the -wal/-shm it creates the database file's mode;
+// after the store is open they are chmod-ed by path only (closing any descriptor of the database
+// file would drop the process's SQLite locks on it).
 constexpr mode_t kDatabaseMode = 0640;
 
-Status chmodDatabaseFiles(const std::string& db) {
+Status chmodDatabaseFiles(const std::string& db, const std::optional<NamedGroup>& group) {
   for (const std::string& f : {db, db + "-wal", db + "-shm"}) {
-    if (::chmod(f.c_str(), kDatabaseMode) != 0 && errno != ENOENT)
-      return Status::Error(f + ": chmod 0640: " + std::strerror(errno));
+    struct stat st {};
+    if (::lstat(f.c_str(), &st) != 0 && errno == ENOENT) continue;
+    if (Status s = shareWithGroup(f, group, kDatabaseMode); !s.ok) return s;
   }
   return Status::Ok();
 }
 
-Status createDatabaseFile(const std::string& db) {
+Status createDatabaseFile(const std::string& db, const std::optional<NamedGroup>& group) {
   const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, kDatabaseMode);
   if (fd < 0) return Status::Error(db + ": cannot open: " + std::strerror(errno));
   ::close(fd);
-  return chmodDatabaseFiles(db);
+  return chmodDatabaseFiles(db, group);
 }
 
-// The directory exports go to (exports/ next to the database), created 0750 when missing.
-// Refused when it is anything but a real directory (e.g. a symlink planted there).
-Status exportRoot(const std::string& db, std::string* root) {
+// The directory exports go to (exports/ next to the database), created 0750 when missing and
+// given to the readers' group. Refused when it is anything but a real directory (e.g. a
+// symlink planted there).
+Status exportRoot(const std::string& db, const std::optional<NamedGroup>& group,
+                  std::string* root) {
   std::error_code ec;
   *root = (fs::absolute(fs::path(db), ec).parent_path() / "exports").string();
   if (ec) return Status::Error(db + ": " + ec.message());
@@ -116,15 +120,15 @@ Status exportRoot(const std::string& db, std::string* root) {
   struct stat st {};
   if (::lstat(root->c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
     return Status::Error(*root + ": not a directory");
-  return Status::Ok();
+  return shareWithGroup(*root, group, 0750);
 }
 
 // Writes run `run` of the store at db to exports/<name> next to it (runs off the loop: its own
 // store connection). The reply to the export request with id `id`.
 Reply exportToStateDir(const std::string& db, std::int64_t run, const std::string& name,
-                       const json& id) {
+                       const json& id, const std::optional<NamedGroup>& group) {
   std::string root;
-  if (auto st = exportRoot(db, &root); !st.ok)
+  if (auto st = exportRoot(db, group, &root); !st.ok)
     return errorReply(id, ErrorCode::kInternal, st.message);
   auto opened = Store::open(db, StoreOptions{});
   if (!opened.status.ok) return errorReply(id, ErrorCode::kInternal, opened.status.message);
@@ -138,6 +142,8 @@ Reply exportToStateDir(const std::string& db, std::int64_t run, const std::strin
                                     : ": cannot create: " + std::string(std::strerror(errno))));
   }
   if (auto st = io::writeRecording(dir, rec.value); !st.ok)
+    return errorReply(id, ErrorCode::kInternal, st.message);
+  if (auto st = shareDirWithGroup(dir, group); !st.ok)
     return errorReply(id, ErrorCode::kInternal, st.message);
   return okReply(id, toJson(ExportReply{run, dir, rec.value.imu.size()}));
 }
@@ -177,6 +183,13 @@ struct BenchDaemon::ActiveRun {
   std::optional<OnlineSetup> calibration;  // the plan names a calibration
   std::unique_ptr<OnlineEngine> engine;    // with it
   std::optional<double> segment_t0;        // IMU time the current step's command went out
+  // The progress shown (status, progress events): never below what was shown before in this
+  // run, though the runner's planned-time figure drops when a step re-runs after a pause.
+  double progress_shown = 0.0;
+  double shownProgress() {
+    progress_shown = std::max(progress_shown, runner->progress());
+    return progress_shown;
+  }
   // A finished step whose segment waits for the first IMU sample received after the table
   // reading that ended it (after_unix_s, CLOCK_REALTIME like the frames' kernel time stamps).
   struct ClosingStep {
@@ -294,11 +307,13 @@ Status BenchDaemon::start() {
 
   const std::string db =
       options_.storage_path.empty() ? bench_.storage_path : options_.storage_path;
-  if (auto st = createDatabaseFile(db); !st.ok) return Status::Error("store: " + st.message);
+  const std::optional<NamedGroup> group =
+      fileGroup({bench_.control.command_group, bench_.control.read_group, ::geteuid()});
+  if (auto st = createDatabaseFile(db, group); !st.ok) return Status::Error("store: " + st.message);
   auto opened = Store::open(db, StoreOptions{});
   if (!opened.status.ok) return Status::Error("store: " + opened.status.message);
   store_ = std::move(opened.value);
-  if (auto st = chmodDatabaseFiles(db); !st.ok) return Status::Error("store: " + st.message);
+  if (auto st = chmodDatabaseFiles(db, group); !st.ok) return Status::Error("store: " + st.message);
   db_path_ = db;
   const auto cut = store_->markInterruptedRuns();
   if (cut.status.ok && cut.value > 0) {
@@ -372,12 +387,21 @@ Status BenchDaemon::startControl(std::string* socket_path) {
   server_options.socket_path =
       options_.socket_path.empty() ? bench_.control_socket : options_.socket_path;
   server_options.idle_timeout_s = bench_.control.idle_timeout_s;
+  server_options.max_connections_per_uid = bench_.control.max_connections_per_uid;
+  server_options.stop_socket_path = bench_.control.stop_socket.empty()
+                                        ? server_options.socket_path + ".stop"
+                                        : bench_.control.stop_socket;
   if (auto st = systemdListenFd(&server_options.listen_fd); !st.ok) return st;
   server_ = std::make_unique<ControlServer>(
       &loop_, server_options, [this](const Request& r, ClientId c) { return handle(r, c); }, &log_);
   const ControlRights rights{bench_.control.command_group, bench_.control.read_group, ::geteuid()};
   server_->setAccessPolicy([rights](Command c, const PeerCredentials& peer) {
     return checkCommandRights(rights, peer, c);
+  });
+  // Reserved slots for who may command; root and the daemon's user hold any number.
+  server_->setPeerPolicy([rights](const PeerCredentials& peer) {
+    const bool trusted = peer.known && (peer.uid == 0 || peer.uid == rights.daemon_uid);
+    return ControlServer::PeerClass{mayCommand(rights, peer), !trusted};
   });
   if (rights.command_group) {
     log_.info("control rights: commands need group " + rights.command_group->name +
@@ -717,11 +741,12 @@ void BenchDaemon::onStatusTimer() {
   const PlanRunner& r = *run_->runner;
   const RunStep& s = r.displayedStep();
   const int k = s.index;
-  server_->broadcast(
-      ProgressEvent{run_->id, runnerStateName(r.state()), r.progress(), r.etaS(), k, s.label});
+  server_->broadcast(ProgressEvent{run_->id, runnerStateName(r.state()), run_->shownProgress(),
+                                   r.etaS(), k, s.label});
   std::ostringstream ss;
   ss << run_->plan_name << ": " << runnerStateName(r.state()) << ", step " << k + 1 << "/"
-     << r.steps().size() << " (" << s.label << "), " << std::lround(100.0 * r.progress()) << " %";
+     << r.steps().size() << " (" << s.label << "), " << std::lround(100.0 * run_->progress_shown)
+     << " %";
   notifier_.status(ss.str());
 }
 
@@ -1319,7 +1344,7 @@ Reply BenchDaemon::status() const {
     const RunStep& shown = r.displayedStep();
     s.run = run_->id;
     s.plan = run_->plan_name;
-    s.progress = r.progress();
+    s.progress = run_->shownProgress();
     s.eta_s = r.etaS();
     s.step = StatusStep{shown.index, shown.label, calib::segmentKindName(shown.kind),
                         static_cast<std::int64_t>(r.steps().size())};
@@ -1385,9 +1410,11 @@ std::optional<Reply> BenchDaemon::exportRun(const Request& request, ClientId cli
   const auto& args = std::get<ExportArgs>(request.args);
   if (run_ && run_->id == args.run) run_->writer->flush();  // the export sees what is recorded
   const std::string name = args.dir.empty() ? "run-" + std::to_string(args.run) : args.dir;
-  auto job = [this, client, db = db_path_, run = args.run, name,
-              id = request.id]() -> std::function<void()> {
-    Reply r = exportToStateDir(db, run, name, id);
+  const std::optional<NamedGroup> group =
+      fileGroup({bench_.control.command_group, bench_.control.read_group, ::geteuid()});
+  auto job = [this, client, db = db_path_, run = args.run, name, id = request.id,
+              group]() -> std::function<void()> {
+    Reply r = exportToStateDir(db, run, name, id, group);
     return [this, client, r] { server_->sendReply(client, r); };
   };
   auto failed = [this, client, id = request.id](const std::string& what) {

@@ -222,10 +222,21 @@ std::optional<NamedGroup> groupField(const toml::table& t, std::string_view key,
 
 // The control socket's connection policy (daemon/control_server.h) and rights
 // (daemon/control_rights.h).
-void parseControl(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
+void parseControl(const toml::table& root, const std::string& base_dir, BenchConfig& b,
+                  Diagnostics& diag) {
   const toml::table* t = subTable(root, "control", diag, false);
   if (t == nullptr) return;
-  checkKeys(*t, {"idle_timeout", "command_group", "read_group"}, "[control]", diag);
+  checkKeys(
+      *t, {"idle_timeout", "command_group", "read_group", "max_connections_per_uid", "stop_socket"},
+      "[control]", diag);
+  if (auto n = io::intField(*t, "max_connections_per_uid", diag, false, 0, kMaxConnectionsPerUid))
+    b.control.max_connections_per_uid = static_cast<std::size_t>(*n);
+  if (auto stop = strField(*t, "stop_socket", diag, false)) {
+    b.control.stop_socket = resolve(base_dir, *stop);
+    if (stop->empty() || b.control.stop_socket == b.control_socket)
+      diag.error(t->get("stop_socket")->source(),
+                 "stop_socket must be a path other than [bench] control_socket");
+  }
   b.control.command_group = groupField(*t, "command_group", diag);
   b.control.read_group = groupField(*t, "read_group", diag);
   if (b.control.read_group && !b.control.command_group && t->get("command_group") == nullptr)
@@ -292,7 +303,7 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
   parseChamber(*root, base_dir, b, diag);
   parseImu(*root, base_dir, b, diag);
   parseSafety(*root, b, diag);
-  parseControl(*root, b, diag);
+  parseControl(*root, base_dir, b, diag);
   parseAcceptance(*root, b, diag);
   if (!diag.ok()) return std::nullopt;
   return b;

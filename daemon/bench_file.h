@@ -52,7 +52,15 @@
 //                                    #   send the emergency stop (stop) and ping
 //   read_group = "imubench-view"     # optional, needs command_group: members (and the command
 //                                    #   group's) may read: status, watch, results, export,
-//                                    #   list_plans, validate_plan, queue_list
+//                                    #   list_plans, validate_plan, queue_list; exports and the
+//                                    #   database are made readable by this group
+//   max_connections_per_uid = 4      # optional: connections one uid may hold (root and the
+//                                    #   daemon's user excepted); a new one beyond it closes
+//                                    #   that uid's least recently active one; 0: no limit
+//   stop_socket = "/run/imubench/control.sock.stop"  # optional, default: control_socket +
+//                                    #   ".stop" (also under systemd): a socket that takes only
+//                                    #   stop, served before anything else; `imubench stop`
+//                                    #   uses it
 //   [acceptance]              # optional: the IMU's pass/fail limits, checked after a plan's
 //                             #   calibration (daemon/run_calibration.h): |estimate| <= limit
 //   "gyro.bias" = "0.01 deg/h"       # a parameter's flat name (interchange.md), or a group:
@@ -60,8 +68,10 @@
 //   "accel.misalignment.xy" = "30 arcsec"   # scales are judged as |scale - 1|; the unit is
 //                                    #   the parameter's display unit: ppm, ug, deg/h, arcsec
 //
-//   Without command_group anyone who can reach the socket may send every command: the socket
-//   file's mode (0660, group imubench) is the only gate, as before these keys. With a
+//   The control socket has 16 slots for every command and 2 reserved for stop, status and ping,
+//   given only to root, the daemon's user and command_group members (to everyone without a
+//   command_group). Without command_group anyone who can reach the socket may send every command:
+//   the socket file's mode (0660, group imubench) is the only gate, as before these keys. With a
 //   command_group and other users meant to read or stop, the socket must let them connect
 //   (SocketMode=0666 in systemd/imubenchd.socket, or a group they share). Group names are
 //   resolved when the bench file is loaded (an unknown group is an error at its key). Rules:
@@ -71,6 +81,8 @@
 // problems inside the referenced device files, and the bench is refused (nullopt).
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -105,6 +117,8 @@ struct BenchChamber {
 
 // Ten days: any longer is "never", which "0 s" says.
 inline constexpr double kMaxIdleTimeoutS = 864000.0;
+// [control] max_connections_per_uid at most (0: no limit).
+inline constexpr std::int64_t kMaxConnectionsPerUid = 1024;
 
 struct BenchControl {
   // ControlServerOptions::idle_timeout_s: leaked connections free their slots; ten minutes
@@ -114,6 +128,10 @@ struct BenchControl {
   // the socket may do everything (the socket's file mode is the gate).
   std::optional<NamedGroup> command_group;
   std::optional<NamedGroup> read_group;
+  // ControlServerOptions::max_connections_per_uid: one user cannot hold every slot.
+  std::size_t max_connections_per_uid = 4;
+  // The stop socket; empty: the control socket's path + ".stop".
+  std::string stop_socket;
 };
 
 struct BenchImu {

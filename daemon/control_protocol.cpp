@@ -48,8 +48,20 @@ constexpr std::size_t kMaxLabelBytes = 200;
 constexpr std::size_t kMaxPlanNameBytes = 4096;
 constexpr std::size_t kMaxExportNameBytes = 255;
 
+// Bytes of a client's text quoted in an error message: replies stay small whatever was sent.
+constexpr std::size_t kMaxQuotedBytes = 80;
+
 std::string quote(std::string_view s) {
-  return "\"" + std::string(s) + "\"";
+  if (s.size() <= kMaxQuotedBytes) return "\"" + std::string(s) + "\"";
+  return "\"" + std::string(s.substr(0, kMaxQuotedBytes)) + "\"... (" + std::to_string(s.size()) +
+         " bytes)";
+}
+
+// A JSON value as the client sent it, bounded like quote().
+std::string shown(const json& v) {
+  std::string text = v.dump(-1, ' ', false, json::error_handler_t::replace);
+  if (text.size() > kMaxQuotedBytes) text = text.substr(0, kMaxQuotedBytes) + "...";
+  return text;
 }
 
 std::string commandList() {
@@ -76,9 +88,11 @@ bool refuseUnknownFields(const json& obj, std::initializer_list<std::string_view
     if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
     std::string known;
     for (std::string_view a : allowed) known += (known.empty() ? "" : ", ") + std::string(a);
-    return fail(err, ErrorCode::kBadArgument,
-                joinPath(where, key) + ": unknown field of " + std::string(owner) +
-                    " (known: " + known + ")");
+    // The key is the client's: quoted and bounded like any text of theirs.
+    return fail(
+        err, ErrorCode::kBadArgument,
+        (key.size() > kMaxQuotedBytes ? joinPath(where, quote(key)) : joinPath(where, key)) +
+            ": unknown field of " + std::string(owner) + " (known: " + known + ")");
   }
   return true;
 }
@@ -142,8 +156,7 @@ bool readPositive(const json& obj, std::string_view key, bool required, std::str
   const std::string where(key);
   if (!it->is_number_integer())
     return fail(err, ErrorCode::kBadArgument,
-                where + ": must be an integer " + std::string(noun) + ", got " +
-                    it->dump(-1, ' ', false, json::error_handler_t::replace));
+                where + ": must be an integer " + std::string(noun) + ", got " + shown(*it));
   if (it->is_number_unsigned() &&
       it->get<std::uint64_t>() > std::uint64_t{std::numeric_limits<std::int64_t>::max()})
     return fail(err, ErrorCode::kBadArgument, where + ": out of range");
@@ -466,17 +479,79 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //   {"cmd":"export","run":1,"dir":"/tmp/x"} -> bad_argument "dir: must be a single name ..."
 //   {"cmd":"queue_move","entry":7}          -> bad_argument "position: missing"
 //   {"cmd":"queue_remove","entry":99}       -> not_found "queue entry 99 is not queued"
+//   {"cmd":"ping","id":1e400}    -> bad_json     "number out of range: number overflow parsing
+//                                   '1e400'" (no double holds it)
+//   [[[[... (over 32 levels)     -> bad_json     "request: arrays and objects nested more than 32
+//                                   deep"
 //   a line over the size limit   -> too_large (sent by the server; the line is discarded)
 //   {"cmd":"start",...} from a user outside the bench's command group (daemon/control_rights.h)
 //                                -> forbidden "start: forbidden for uid 1000: commanding the
 //                                   bench needs group imubench (gid 1001)" (stop, ping: never)
-ParseResult parseRequest(std::string_view line) {
+namespace {
+
+// Requests nest three levels deep ({"options":{...}}); anything much deeper is abuse. Bounded
+// before parsing, because copying or dumping a json value recurses once per level.
+constexpr int kMaxNesting = 32;
+// How deep line's arrays and objects nest (brackets inside strings do not count), stopping at
+// the first level beyond limit. A lexical scan: malformed JSON is left to the parser.
+int nestingDepth(std::string_view line, int limit) {
+  int depth = 0;
+  int deepest = 0;
+  bool in_string = false;
+  bool escaped = false;
+  for (const char ch : line) {
+    if (in_string) {
+      if (escaped)
+        escaped = false;
+      else if (ch == '\\')
+        escaped = true;
+      else if (ch == '"')
+        in_string = false;
+      continue;
+    }
+    if (ch == '"') {
+      in_string = true;
+    } else if (ch == '[' || ch == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > limit) return deepest;
+    } else if (ch == ']' || ch == '}') {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
+// Shortens a message that quotes the client's text (the reply stays small; invalid UTF-8 cut
+// here is replaced when the reply is serialized).
+std::string bounded(std::string message) {
+  constexpr std::size_t kMax = 2 * kMaxQuotedBytes + 200;
+  if (message.size() > kMax) message = message.substr(0, kMax) + "...";
+  return message;
+}
+
+// nlohmann's what() without its "[json.exception.out_of_range.406] " tag.
+std::string withoutTag(std::string_view what) {
+  if (what.rfind("[json.exception.", 0) == 0) {
+    if (const auto end = what.find("] "); end != std::string_view::npos)
+      what.remove_prefix(end + 2);
+  }
+  return std::string(what);
+}
+
+// The parse proper; every nlohmann exception (parse_error, out_of_range for a number like
+// 1e400, type_error) is caught by the caller.
+ParseResult parseChecked(std::string_view line) {
   ParseResult r;
   json doc;
   try {
     doc = json::parse(line.begin(), line.end());
   } catch (const json::parse_error& e) {
-    r.error = {ErrorCode::kBadJson, "byte " + std::to_string(e.byte) + ": " + parseErrorReason(e)};
+    r.error = {ErrorCode::kBadJson,
+               bounded("byte " + std::to_string(e.byte) + ": " + parseErrorReason(e))};
+    return r;
+  } catch (const json::out_of_range& e) {
+    // A number no double holds (1e400, a 400-digit integer): valid grammar, no value.
+    r.error = {ErrorCode::kBadJson, bounded("number out of range: " + withoutTag(e.what()))};
     return r;
   }
   if (!doc.is_object()) {
@@ -489,6 +564,26 @@ ParseResult parseRequest(std::string_view line) {
   if (!readCommandName(doc, &r.request.command, &r.error)) return r;
   r.ok = readArgs(doc, r.request.command, &r.request.args, &r.error);
   return r;
+}
+
+}  // namespace
+
+ParseResult parseRequest(std::string_view line) {
+  if (const int depth = nestingDepth(line, kMaxNesting); depth > kMaxNesting) {
+    ParseResult r;
+    r.error = {ErrorCode::kBadJson, "request: arrays and objects nested more than " +
+                                        std::to_string(kMaxNesting) + " deep"};
+    return r;
+  }
+  try {
+    return parseChecked(line);
+  } catch (const std::exception& e) {
+    // Nothing the client sends may throw out of here (the daemon's loop would die): whatever
+    // a reader missed is an error reply, not a crash.
+    ParseResult r;
+    r.error = {ErrorCode::kBadJson, bounded("request not readable: " + withoutTag(e.what()))};
+    return r;
+  }
 }
 
 Reply okReply(json id, json result) {

@@ -1,10 +1,15 @@
 #include "daemon/control_rights.h"
 
+#include <fcntl.h>
 #include <grp.h>
 #include <pwd.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <functional>
 
 #include "io/enum_names.h"
@@ -107,6 +112,40 @@ std::optional<std::string> refuseCommand(const ControlRights& rights, const Peer
 std::optional<std::string> checkCommandRights(const ControlRights& rights,
                                               const PeerCredentials& peer, Command command) {
   return decide(rights, peer, command, [&peer] { return peerGroups(peer); });
+}
+
+std::optional<NamedGroup> fileGroup(const ControlRights& rights) {
+  return rights.read_group ? rights.read_group : rights.command_group;
+}
+
+Status shareWithGroup(const std::string& path, const std::optional<NamedGroup>& group,
+                      mode_t mode) {
+  if (group && ::lchown(path.c_str(), static_cast<uid_t>(-1), group->gid) != 0) {
+    return Status::Error(path + ": cannot give it to group " + groupText(*group) + " (" +
+                         std::strerror(errno) +
+                         "; the daemon's user must be a member of that group, or root)");
+  }
+  if (::fchmodat(AT_FDCWD, path.c_str(), mode, 0) != 0 && errno != ENOENT) {
+    char octal[8];
+    std::snprintf(octal, sizeof octal, "%04o", static_cast<unsigned>(mode));
+    return Status::Error(path + ": chmod " + octal + ": " + std::strerror(errno));
+  }
+  return Status::Ok();
+}
+
+Status shareDirWithGroup(const std::string& dir, const std::optional<NamedGroup>& group) {
+  if (Status s = shareWithGroup(dir, group, 0750); !s.ok) return s;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+    if (!entry.is_regular_file(ec) || entry.is_symlink(ec)) continue;
+    if (Status s = shareWithGroup(entry.path().string(), group, 0640); !s.ok) return s;
+  }
+  if (ec) return Status::Error(dir + ": " + ec.message());
+  return Status::Ok();
+}
+
+bool mayCommand(const ControlRights& rights, const PeerCredentials& peer) {
+  return !checkCommandRights(rights, peer, Command::kAbort).has_value();
 }
 
 }  // namespace imubench::daemon

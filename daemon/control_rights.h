@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/status.h"
 #include "daemon/control_protocol.h"
 
 namespace imubench::daemon {
@@ -62,8 +63,23 @@ std::vector<gid_t> peerGroups(const PeerCredentials& peer);
 std::optional<std::string> refuseCommand(const ControlRights& rights, const PeerCredentials& peer,
                                          Command command, const std::vector<gid_t>& groups);
 
+// Whether the peer may command the bench (root, the daemon's uid, the command group; everyone
+// without a command group): who gets the control socket's reserved slots.
+bool mayCommand(const ControlRights& rights, const PeerCredentials& peer);
+
 // refuseCommand with the groups looked up only when the decision needs them.
 std::optional<std::string> checkCommandRights(const ControlRights& rights,
                                               const PeerCredentials& peer, Command command);
+
+// The group the daemon's files (database, exports) belong to, so readers can read them: the
+// read group, else the command group, else none (the files keep the daemon's group).
+std::optional<NamedGroup> fileGroup(const ControlRights& rights);
+
+// Gives path (not following a symlink) to `group` with `mode` (0640 files, 0750 directories):
+// what readers need. Without a group only the mode is set. An error names the path, the
+// group and why (a daemon not running as root must itself be a member of the group).
+Status shareWithGroup(const std::string& path, const std::optional<NamedGroup>& group, mode_t mode);
+// shareWithGroup on dir (0750) and every regular file directly in it (0640).
+Status shareDirWithGroup(const std::string& dir, const std::optional<NamedGroup>& group);
 
 }  // namespace imubench::daemon

@@ -27,8 +27,9 @@ struct ControlServer::Client {
   std::size_t out_sent = 0;
   std::uint32_t interest = EPOLLIN;  // the events registered with the loop
   std::bitset<kTopicCount> topics;
-  bool reserved = false;  // in a reserved slot: stop, status and ping only
-  PeerCredentials peer;   // SO_PEERCRED at accept
+  bool reserved = false;   // in a reserved slot: stop, status and ping only
+  bool stop_only = false;  // on the stop socket: stop only
+  PeerCredentials peer;    // SO_PEERCRED at accept
   // The last request received, or output written: what the idle timeout measures from.
   std::chrono::steady_clock::time_point last_active = std::chrono::steady_clock::now();
 };
@@ -109,6 +110,11 @@ bool ControlServerOptions::IsValid(std::string* why) const {
     return fail("idle_timeout_s: must be in [0, 1e6] s (0: no timeout)");
   if (max_output_bytes < max_line_bytes)
     return fail("max_output_bytes: must be >= max_line_bytes (a reply may quote a request)");
+  if (!stop_socket_path.empty() && stop_socket_path.size() >= sizeof addr.sun_path)
+    return fail("stop_socket_path: longer than the 107 bytes AF_UNIX allows");
+  if (!stop_socket_path.empty() && stop_socket_path == socket_path)
+    return fail("stop_socket_path: must differ from socket_path");
+  if (max_stop_clients < 1) return fail("max_stop_clients: must be >= 1");
   return true;
 }
 
@@ -120,20 +126,29 @@ ControlServer::~ControlServer() {
   while (!clients_.empty()) closeClient(clients_.begin()->first, "server shutting down");
   loop_->cancelTimer(accept_pause_timer_);
   loop_->cancelTimer(idle_timer_);
-  if (listen_fd_ >= 0) {
-    loop_->remove(listen_fd_);
-    ::close(listen_fd_);
+  for (const int fd : {listen_fd_, stop_listen_fd_}) {
+    if (fd < 0) continue;
+    loop_->remove(fd);
+    ::close(fd);
   }
   struct stat st {};
   if (bound_path_ && ::lstat(options_.socket_path.c_str(), &st) == 0 && st.st_ino == bound_inode_)
     ::unlink(options_.socket_path.c_str());
+  if (stop_listen_fd_ >= 0 && ::lstat(options_.stop_socket_path.c_str(), &st) == 0 &&
+      st.st_ino == stop_inode_)
+    ::unlink(options_.stop_socket_path.c_str());
 }
 
 Status ControlServer::start() {
   std::string why;
   if (!options_.IsValid(&why)) return Status::Error("control server options: " + why);
-  const Status s = options_.listen_fd >= 0 ? adoptListenFd() : listenOnPath();
+  const Status s =
+      options_.listen_fd >= 0
+          ? adoptListenFd()
+          : listenOnPath(options_.socket_path, options_.socket_mode, &listen_fd_, &bound_inode_);
   if (!s.ok) return s;
+  bound_path_ = options_.listen_fd < 0;
+  if (Status stop = startStopSocket(); !stop.ok) return stop;
   if (options_.idle_timeout_s > 0.0) {
     const double period =
         std::clamp(options_.idle_timeout_s / kIdleChecksPerTimeout, kMinIdleCheckS, kMaxIdleCheckS);
@@ -142,27 +157,47 @@ Status ControlServer::start() {
         ns, ns, [this] { closeIdleClients(); }, &idle_timer_);
     if (!t.ok) return t;
   }
-  return loop_->add(listen_fd_, EPOLLIN, [this](std::uint32_t) { onListenReadable(); });
+  return loop_->add(listen_fd_, EPOLLIN,
+                    [this](std::uint32_t) { onListenReadable(listen_fd_, false); });
 }
 
-Status ControlServer::listenOnPath() {
-  const std::string& path = options_.socket_path;
+// The stop socket: bound by path (also under socket activation), served first by the loop.
+// Its mode is the control socket's (under socket activation: the mode systemd gave that file,
+// e.g. SocketMode=0666 to let every local user stop).
+Status ControlServer::startStopSocket() {
+  if (options_.stop_socket_path.empty()) return Status::Ok();
+  mode_t mode = options_.socket_mode;
+  struct stat st {};
+  if (options_.listen_fd >= 0 && ::stat(options_.socket_path.c_str(), &st) == 0 &&
+      S_ISSOCK(st.st_mode))
+    mode = st.st_mode & 0777;
+  if (Status s = listenOnPath(options_.stop_socket_path, mode, &stop_listen_fd_, &stop_inode_);
+      !s.ok)
+    return Status::Error("stop socket: " + s.message);
+  return loop_->addFirst(stop_listen_fd_, EPOLLIN,
+                         [this](std::uint32_t) { onListenReadable(stop_listen_fd_, true); });
+}
+
+// *fd is set as soon as the socket exists (the destructor closes it whatever fails after);
+// *inode once it is bound (the destructor removes the file only when it is still ours).
+Status ControlServer::listenOnPath(const std::string& path, mode_t mode, int* fd, ino_t* inode) {
   sockaddr_un addr{};
   if (!fillAddress(path, &addr)) return Status::Error(path + ": not a usable socket path");
   Status s = clearStaleSocket(path, addr);
   if (!s.ok) return s;
-  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (listen_fd_ < 0) return errnoStatus("socket(AF_UNIX)");
-  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0)
+  *fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (*fd < 0) return errnoStatus("socket(AF_UNIX)");
+  if (::bind(*fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0)
     return errnoStatus(path + ": bind");
-  bound_path_ = true;
   struct stat st {};
-  if (::lstat(path.c_str(), &st) == 0) bound_inode_ = st.st_ino;
+  if (::lstat(path.c_str(), &st) == 0) *inode = st.st_ino;
   // chmod between bind and listen: until listen() nobody can connect, so there is no window
   // with the umask's looser mode (and no process-wide umask change).
-  if (::chmod(path.c_str(), options_.socket_mode) != 0) return errnoStatus(path + ": chmod");
-  if (::listen(listen_fd_, SOMAXCONN) != 0) return errnoStatus(path + ": listen");
-  log(LogLevel::kInfo, "control socket listening on " + path);
+  if (::chmod(path.c_str(), mode) != 0) return errnoStatus(path + ": chmod");
+  if (::listen(*fd, SOMAXCONN) != 0) return errnoStatus(path + ": listen");
+  log(LogLevel::kInfo,
+      (fd == &stop_listen_fd_ ? "stop socket listening on " : "control socket listening on ") +
+          path);
   return Status::Ok();
 }
 
@@ -185,11 +220,14 @@ Status ControlServer::adoptListenFd() {
   return Status::Ok();
 }
 
-void ControlServer::onListenReadable() {
+void ControlServer::onListenReadable(int listen_fd, bool stop) {
   for (int i = 0; i < kAcceptsPerTurn; ++i) {
-    const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    const int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd >= 0) {
-      acceptOne(fd);
+      if (stop)
+        acceptStop(fd);
+      else
+        acceptOne(fd);
       continue;
     }
     if (errno == EAGAIN || errno == EWOULDBLOCK) return;
@@ -202,35 +240,94 @@ void ControlServer::onListenReadable() {
 
 void ControlServer::pauseAccepting() {
   if (accept_pause_timer_ >= 0) return;
-  (void)loop_->modify(listen_fd_, 0);
+  const auto listen = [this](std::uint32_t events) {
+    for (const int fd : {listen_fd_, stop_listen_fd_})
+      if (fd >= 0) (void)loop_->modify(fd, events);
+  };
+  listen(0);
   const Status s = loop_->addTimer(
       kAcceptPause, std::chrono::nanoseconds(0),
-      [this] {
+      [this, listen] {
         loop_->cancelTimer(accept_pause_timer_);
         accept_pause_timer_ = -1;
-        (void)loop_->modify(listen_fd_, EPOLLIN);
+        listen(EPOLLIN);
       },
       &accept_pause_timer_);
-  if (!s.ok) (void)loop_->modify(listen_fd_, EPOLLIN);  // better spinning than deaf
+  if (!s.ok) listen(EPOLLIN);  // better spinning than deaf
 }
 
 void ControlServer::refuseBusy(int fd) {
   ++stats_.refused_busy;
-  const std::string line = serializeReply(errorReply(
-      nullptr, ErrorCode::kBusy,
-      "too many clients (max_clients " + std::to_string(options_.max_clients) + ", " +
-          std::to_string(options_.reserved_clients) + " reserved for stop/status/ping)"));
+  std::string message = "too many clients (max_clients " + std::to_string(options_.max_clients) +
+                        ", " + std::to_string(options_.reserved_clients) +
+                        " more reserved for stop/status/ping of root and the command group)";
+  if (!options_.stop_socket_path.empty())
+    message += "; the emergency stop has its own socket: " + options_.stop_socket_path;
+  const std::string line = serializeReply(errorReply(nullptr, ErrorCode::kBusy, message));
   // Best effort: a fresh socket's buffer takes one line; if not, the close says enough.
   [[maybe_unused]] const ssize_t n = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
   ::close(fd);
 }
 
+namespace {
+
+PeerCredentials peerOf(int fd) {
+  ucred cred{};
+  socklen_t len = sizeof cred;
+  if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0) return {};
+  return {true, cred.uid, cred.gid, cred.pid};
+}
+
+std::string peerText(const PeerCredentials& peer) {
+  if (!peer.known) return "";
+  return " (uid " + std::to_string(peer.uid) + ", pid " + std::to_string(peer.pid) + ")";
+}
+
+bool sameUid(const PeerCredentials& a, const PeerCredentials& b) {
+  return a.known == b.known && (!a.known || a.uid == b.uid);
+}
+
+}  // namespace
+
+ControlServer::PeerClass ControlServer::classOf(const PeerCredentials& peer) const {
+  if (peer_policy_) return peer_policy_(peer);
+  return {true, !peer.known || (peer.uid != 0 && peer.uid != ::geteuid())};
+}
+
+// A new connection of peer's uid is coming: if the uid already holds max_connections_per_uid,
+// its least recently active one is closed (unless the policy exempts the uid).
+void ControlServer::closeLeastActiveOfUid(const PeerCredentials& peer) {
+  if (options_.max_connections_per_uid == 0) return;
+  std::size_t held = 0;
+  const Client* oldest = nullptr;
+  for (const auto& [id, c] : clients_) {
+    if (c->stop_only || !sameUid(c->peer, peer)) continue;
+    ++held;
+    if (oldest == nullptr || c->last_active < oldest->last_active) oldest = c.get();
+  }
+  if (held < options_.max_connections_per_uid || oldest == nullptr) return;
+  ++stats_.uid_limit_closes;
+  closeClient(oldest->id, "its uid holds max_connections_per_uid (" +
+                              std::to_string(options_.max_connections_per_uid) +
+                              ") connections: closed, the least recently active, for a new one");
+}
+
 void ControlServer::acceptOne(int fd) {
+  const PeerCredentials peer = peerOf(fd);
+  const PeerClass peer_class = classOf(peer);
+  if (peer_class.uid_limited) closeLeastActiveOfUid(peer);
   std::size_t regular = 0;
-  for (const auto& [id, client] : clients_)
-    if (!client->reserved) ++regular;
+  std::size_t reserved_held = 0;
+  for (const auto& [id, client] : clients_) {
+    if (client->stop_only) continue;
+    ++(client->reserved ? reserved_held : regular);
+  }
   const bool reserved = regular >= options_.max_clients;
-  if (reserved && clients_.size() - regular >= options_.reserved_clients) {
+  const bool privileged = peer_class.reserved_slots;
+  if (reserved && (!privileged || reserved_held >= options_.reserved_clients)) {
+    if (!privileged)
+      log(LogLevel::kNotice, "control socket full; a connection" + peerText(peer) +
+                                 " refused (reserved slots: root and the command group only)");
     refuseBusy(fd);
     return;
   }
@@ -238,6 +335,7 @@ void ControlServer::acceptOne(int fd) {
   c->id = next_id_++;
   c->fd = fd;
   c->reserved = reserved;
+  c->peer = peer;
   const ClientId id = c->id;
   const Status s =
       loop_->add(fd, EPOLLIN, [this, id](std::uint32_t events) { onClientEvent(id, events); });
@@ -246,18 +344,40 @@ void ControlServer::acceptOne(int fd) {
     ::close(fd);
     return;
   }
-  ucred cred{};
-  socklen_t len = sizeof cred;
-  if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0)
-    c->peer = {true, cred.uid, cred.gid, cred.pid};
-  log(LogLevel::kInfo, "client " + std::to_string(id) + " connected" +
-                           (c->peer.known ? " (uid " + std::to_string(cred.uid) + ", pid " +
-                                                std::to_string(cred.pid) + ")"
-                                          : "") +
+  log(LogLevel::kInfo, "client " + std::to_string(id) + " connected" + peerText(peer) +
                            (reserved ? " into a reserved slot (stop, status, ping)" : ""));
   clients_.emplace(id, std::move(c));
   ++stats_.accepted;
   if (reserved) ++stats_.reserved_accepted;
+}
+
+// A connection to the stop socket: always taken (the oldest goes beyond max_stop_clients),
+// served first by the loop, and its line read now if it is already there.
+void ControlServer::acceptStop(int fd) {
+  std::size_t held = 0;
+  ClientId oldest = 0;
+  for (const auto& [id, c] : clients_) {
+    if (!c->stop_only) continue;
+    ++held;
+    if (oldest == 0) oldest = id;  // ids grow: the first is the oldest
+  }
+  if (held >= options_.max_stop_clients) closeClient(oldest, "stop socket full: oldest closed");
+  auto c = std::make_unique<Client>();
+  c->id = next_id_++;
+  c->fd = fd;
+  c->stop_only = true;
+  c->peer = peerOf(fd);
+  const ClientId id = c->id;
+  if (const Status s = loop_->addFirst(
+          fd, EPOLLIN, [this, id](std::uint32_t events) { onClientEvent(id, events); });
+      !s.ok) {
+    log(LogLevel::kWarning, "stop socket: " + s.message);
+    ::close(fd);
+    return;
+  }
+  clients_.emplace(id, std::move(c));
+  ++stats_.stop_accepted;
+  onClientEvent(id, EPOLLIN);
 }
 
 // Closes the clients idle for idle_timeout_s: no request that long, and either no topic or
@@ -276,7 +396,18 @@ void ControlServer::closeIdleClients() {
   }
 }
 
+// A client's input never takes the loop down: whatever throws while serving it (the parser
+// and the handler catch their own; this is for the rest, e.g. bad_alloc) closes that client.
 void ControlServer::onClientEvent(ClientId id, std::uint32_t events) {
+  try {
+    serveClient(id, events);
+  } catch (const std::exception& e) {
+    log(LogLevel::kError, "client " + std::to_string(id) + ": " + e.what() + "; closing it");
+    closeClient(id, "internal error");
+  }
+}
+
+void ControlServer::serveClient(ClientId id, std::uint32_t events) {
   auto it = clients_.find(id);
   if (it == clients_.end()) return;
   if ((events & EPOLLOUT) != 0 && !flush(*it->second)) {
@@ -372,6 +503,13 @@ void ControlServer::handleLine(ClientId id, std::string_view line) {
 }
 
 std::optional<Reply> ControlServer::answer(Client& c, const Request& request) {
+  if (c.stop_only && request.command != Command::kStop)
+    return errorReply(request.id, ErrorCode::kBadArgument,
+                      "the stop socket takes only {\"cmd\":\"stop\"} (everything else: the "
+                      "control socket " +
+                          options_.socket_path + ")");
+  if (c.stop_only)
+    log(LogLevel::kNotice, "emergency stop through the stop socket" + peerText(c.peer));
   if (c.reserved && !reservedCommand(request.command))
     return errorReply(request.id, ErrorCode::kBusy,
                       "all " + std::to_string(options_.max_clients) +

@@ -9,11 +9,20 @@
 // the loop never blocks on a client.
 //
 // Slots: max_clients connections take every command. Beyond them, reserved_clients more are
-// accepted for the emergency: they take only stop, status and ping (anything else: busy), so a
-// bench whose slots are all held can still be stopped. A connection is idle when it has sent no
-// request for idle_timeout_s and either listens to no topic or has had output waiting unread
-// that long; idle connections are closed. A subscribed watcher that keeps reading its events is
-// never idle, however long the bench is quiet.
+// accepted for the emergency, only from privileged peers (setReservedPolicy: root and the
+// command group in imubenchd): they take only stop, status and ping (anything else: busy). One
+// uid holds at most max_connections_per_uid connections (root and the daemon's own uid
+// excepted): a new one beyond it closes that uid's least recently active connection, so no
+// single user can fill the server. A connection is idle when it has sent no request for
+// idle_timeout_s and either listens to no topic or has had output waiting unread that long;
+// idle connections are closed. A subscribed watcher that keeps reading its events is never
+// idle, however long the bench is quiet.
+//
+// The stop socket (stop_socket_path): a second socket that takes only stop. Its fds are served
+// first on every turn of the loop (EventLoop::addFirst), before the IMU, the table and the
+// control socket's clients; a line already there when a connection is accepted is answered at
+// once. It has max_stop_clients connections, a new one closing the oldest: holding them never
+// locks the stop out. `imubench stop` sends its one line there.
 //
 // Rights: the server reads each connection's peer credentials (SO_PEERCRED) when it accepts it
 // and, before answering any request (ping and subscribe included), asks the access policy it
@@ -65,6 +74,14 @@ struct ControlServerOptions {
   // closed: leaked connections free their slots. Ten minutes outlasts an operator pausing at a
   // socat prompt; 0 disables the timeout.
   double idle_timeout_s = 600.0;
+  // Connections one peer uid may hold (root and the daemon's own uid excepted); beyond it the
+  // uid's least recently active connection is closed. 0: no limit.
+  std::size_t max_connections_per_uid = 4;
+  // The stop socket (the control socket's mode: socket_mode, or under socket activation the
+  // inherited socket file's); empty: none.
+  std::string stop_socket_path;
+  // Its connections at most; a new one beyond this closes the oldest.
+  std::size_t max_stop_clients = 8;
   // Replies and events queued for a client that does not read; past this it is disconnected,
   // so one stuck client costs bounded memory and never stalls the loop.
   std::size_t max_output_bytes = 1024 * 1024;
@@ -80,6 +97,8 @@ struct ControlServerStats {
   std::uint64_t requests = 0;              // lines answered (valid or not)
   std::uint64_t errors = 0;                // of which error replies
   std::uint64_t forbidden = 0;             // of which refused by the access policy
+  std::uint64_t uid_limit_closes = 0;      // closed for a newer connection of the same uid
+  std::uint64_t stop_accepted = 0;         // connections to the stop socket
 };
 
 class ControlServer {
@@ -102,6 +121,15 @@ class ControlServer {
   Status start();
   // Consulted for every request from now on (empty: allow all).
   void setAccessPolicy(AccessPolicy policy) { policy_ = std::move(policy); }
+  // What a connection's peer gets: reserved slots, and whether max_connections_per_uid
+  // counts it. Without a policy: every peer may take a reserved slot and every uid but root's
+  // and the daemon's own is limited.
+  struct PeerClass {
+    bool reserved_slots = true;
+    bool uid_limited = true;
+  };
+  using PeerPolicy = std::function<PeerClass(const PeerCredentials&)>;
+  void setPeerPolicy(PeerPolicy policy) { peer_policy_ = std::move(policy); }
 
   // Sends an event to every client subscribed to topic (serialized once).
   void broadcast(Topic topic, std::string_view name, const nlohmann::json& fields = nullptr);
@@ -123,14 +151,19 @@ class ControlServer {
 
  private:
   struct Client;
-  Status listenOnPath();
+  Status listenOnPath(const std::string& path, mode_t mode, int* fd, ino_t* inode);
   Status adoptListenFd();
-  void onListenReadable();
+  Status startStopSocket();
+  void onListenReadable(int listen_fd, bool stop);
   void pauseAccepting();
   void acceptOne(int fd);
+  void acceptStop(int fd);
+  PeerClass classOf(const PeerCredentials& peer) const;
+  void closeLeastActiveOfUid(const PeerCredentials& peer);
   void refuseBusy(int fd);
   void closeIdleClients();
   void onClientEvent(ClientId id, std::uint32_t events);
+  void serveClient(ClientId id, std::uint32_t events);
   void readFrom(ClientId id);
   void feed(ClientId id, std::string_view data);
   void handleLine(ClientId id, std::string_view line);
@@ -148,9 +181,12 @@ class ControlServer {
   Handler handler_;
   AccessPolicy policy_;
   const Logger* logger_;
+  PeerPolicy peer_policy_;
   int listen_fd_ = -1;
   bool bound_path_ = false;  // we created socket_path (and remove it at the end)
   ino_t bound_inode_ = 0;    // ...unless someone replaced it since
+  int stop_listen_fd_ = -1;  // the stop socket (stop_socket_path), always bound by us
+  ino_t stop_inode_ = 0;
   EventLoop::TimerId accept_pause_timer_ = -1;
   EventLoop::TimerId idle_timer_ = -1;
   ClientId next_id_ = 1;

@@ -34,6 +34,7 @@ std::uint64_t eventData(int fd, std::uint32_t generation) {
 EventLoop::~EventLoop() {
   for (const int tfd : timers_) ::close(tfd);  // timers are the loop's own fds
   if (wake_fd_ >= 0) ::close(wake_fd_);
+  if (first_fd_ >= 0) ::close(first_fd_);
   if (epoll_fd_ >= 0) ::close(epoll_fd_);
 }
 
@@ -46,13 +47,28 @@ Status EventLoop::open() {
 }
 
 Status EventLoop::add(int fd, std::uint32_t events, FdCallback callback) {
+  return addTo(epoll_fd_, fd, events, std::move(callback), false);
+}
+
+Status EventLoop::addFirst(int fd, std::uint32_t events, FdCallback callback) {
+  if (first_fd_ < 0) {
+    first_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
+    if (first_fd_ < 0) return errnoStatus("epoll_create1");
+    // Its readiness only wakes the loop: runOnce serves it first (serveFirst) every turn.
+    if (Status s = add(first_fd_, EPOLLIN, [](std::uint32_t) {}); !s.ok) return s;
+  }
+  return addTo(first_fd_, fd, events, std::move(callback), true);
+}
+
+Status EventLoop::addTo(int epoll_fd, int fd, std::uint32_t events, FdCallback callback,
+                        bool first) {
   const std::uint32_t generation = next_generation_++;
   epoll_event ev{};
   ev.events = events;
   ev.data.u64 = eventData(fd, generation);
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) != 0)
+  if (::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, fd, &ev) != 0)
     return errnoStatus("epoll_ctl(ADD, fd " + std::to_string(fd) + ")");
-  watches_[fd] = {generation, std::make_shared<FdCallback>(std::move(callback))};
+  watches_[fd] = {generation, std::make_shared<FdCallback>(std::move(callback)), first};
   return Status::Ok();
 }
 
@@ -62,14 +78,17 @@ Status EventLoop::modify(int fd, std::uint32_t events) {
   epoll_event ev{};
   ev.events = events;
   ev.data.u64 = eventData(fd, it->second.generation);
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_MOD, fd, &ev) != 0)
+  if (::epoll_ctl(it->second.first ? first_fd_ : epoll_fd_, EPOLL_CTL_MOD, fd, &ev) != 0)
     return errnoStatus("epoll_ctl(MOD, fd " + std::to_string(fd) + ")");
   return Status::Ok();
 }
 
 void EventLoop::remove(int fd) {
-  if (watches_.erase(fd) == 0) return;
-  ::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr);
+  const auto it = watches_.find(fd);
+  if (it == watches_.end()) return;
+  const int epoll_fd = it->second.first ? first_fd_ : epoll_fd_;
+  watches_.erase(it);
+  ::epoll_ctl(epoll_fd, EPOLL_CTL_DEL, fd, nullptr);
 }
 
 Status EventLoop::addTimer(std::chrono::nanoseconds first, std::chrono::nanoseconds interval,
@@ -135,19 +154,30 @@ void EventLoop::drainWake() {
   for (auto& fn : work) fn();
 }
 
+void EventLoop::dispatch(const epoll_event& event) {
+  const int fd = static_cast<int>(event.data.u64 & 0xffffffffu);
+  const auto generation = static_cast<std::uint32_t>(event.data.u64 >> 32);
+  const auto it = watches_.find(fd);
+  if (it == watches_.end() || it->second.generation != generation) return;
+  // Hold the callback: it may remove (destroy) its own watch while running.
+  const std::shared_ptr<FdCallback> callback = it->second.callback;
+  (*callback)(event.events);
+}
+
+// The addFirst fds that are ready now, without waiting.
+void EventLoop::serveFirst() {
+  if (first_fd_ < 0) return;
+  std::array<epoll_event, kMaxEventsPerTurn> events{};
+  const int n = ::epoll_wait(first_fd_, events.data(), kMaxEventsPerTurn, 0);
+  for (int i = 0; i < n; ++i) dispatch(events[i]);
+}
+
 Status EventLoop::runOnce(int timeout_ms) {
   std::array<epoll_event, kMaxEventsPerTurn> events{};
   const int n = ::epoll_wait(epoll_fd_, events.data(), kMaxEventsPerTurn, timeout_ms);
   if (n < 0) return errno == EINTR ? Status::Ok() : errnoStatus("epoll_wait");
-  for (int i = 0; i < n; ++i) {
-    const int fd = static_cast<int>(events[i].data.u64 & 0xffffffffu);
-    const auto generation = static_cast<std::uint32_t>(events[i].data.u64 >> 32);
-    const auto it = watches_.find(fd);
-    if (it == watches_.end() || it->second.generation != generation) continue;
-    // Hold the callback: it may remove (destroy) its own watch while running.
-    const std::shared_ptr<FdCallback> callback = it->second.callback;
-    (*callback)(events[i].events);
-  }
+  serveFirst();
+  for (int i = 0; i < n; ++i) dispatch(events[i]);
   return Status::Ok();
 }
 

@@ -37,6 +37,9 @@ class EventLoop {
   // Watches fd for events (EPOLLIN | EPOLLOUT ...). The loop does not own fd; remove() it
   // before closing it. A callback may add, modify or remove any fd, including its own.
   Status add(int fd, std::uint32_t events, FdCallback callback);
+  // The same for an fd served first: on every turn its events are taken and handled before
+  // any other fd's callback, however many others are ready (the emergency stop's socket).
+  Status addFirst(int fd, std::uint32_t events, FdCallback callback);
   Status modify(int fd, std::uint32_t events);
   void remove(int fd);
 
@@ -60,12 +63,19 @@ class EventLoop {
   struct Watch {
     std::uint32_t generation = 0;
     std::shared_ptr<FdCallback> callback;
+    bool first = false;  // in first_fd_'s set (addFirst)
   };
+  Status addTo(int epoll_fd, int fd, std::uint32_t events, FdCallback callback, bool first);
+  void dispatch(const epoll_event& event);
+  void serveFirst();
   void wake();
   void drainWake();
 
   int epoll_fd_ = -1;
   int wake_fd_ = -1;  // eventfd: post() and stop() from other threads
+  // An epoll instance of the addFirst fds, itself watched by epoll_fd_ (it wakes the loop);
+  // polled without waiting at the start of every turn's dispatch. -1 until the first addFirst.
+  int first_fd_ = -1;
   // Events carry (generation << 32 | fd), so an event of a removed fd whose number was reused
   // within the same epoll_wait batch is recognized as stale and dropped.
   std::unordered_map<int, Watch> watches_;

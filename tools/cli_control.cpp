@@ -10,7 +10,8 @@
 //   imubench queue remove ENTRY             take a plan out of the queue
 //   imubench queue resume                   start the queue's head now (after an abort, a
 //                                           fault or a daemon restart the queue holds)
-//   imubench pause | resume | abort | stop          (stop = emergency stop)
+//   imubench pause | resume | abort | stop          (stop = emergency stop: one line to the
+//                                           daemon's stop socket, SOCKET.stop)
 //   imubench resume RUN          run RUN, interrupted by a daemon crash, power loss, stop,
 //                                abort or fault, goes on from its last finished step
 //                                (appending to the run); inside a temperature point: from
@@ -86,8 +87,21 @@ void applyState(WatchState& s, const std::string& state, const std::optional<std
   if (exit) s.exit = *exit;
 }
 
+// Another run: what was shown of the previous one goes.
+void switchRun(WatchState& s, long long run) {
+  if (s.run && *s.run != run) s.progress.reset();
+  s.run = run;
+}
+
+// The bar never goes back within a run: a step re-run after a pause, or a step count figure
+// after a planned-time one, would otherwise show 61 % -> 60 %.
+void showProgress(WatchState& s, double p) {
+  p = std::clamp(p, 0.0, 1.0);
+  s.progress = s.progress ? std::max(*s.progress, p) : p;
+}
+
 void applyStep(WatchState& s, const daemon::StepRef& at) {
-  s.run = at.run;
+  switchRun(s, at.run);
   s.step = at.step;
   s.label = at.label;
 }
@@ -113,9 +127,9 @@ void applyStatus(WatchState& s, const json& result) {
   const auto st = daemon::fromJson<daemon::StatusReply>(result, nullptr);
   if (!st) return;  // not a status reply: nothing to fold
   applyState(s, st->state, std::nullopt);
-  if (st->run) s.run = *st->run;
+  if (st->run) switchRun(s, *st->run);
   if (st->plan) s.plan = *st->plan;
-  if (st->progress) s.progress = std::clamp(*st->progress, 0.0, 1.0);
+  if (st->progress) showProgress(s, *st->progress);
   if (st->eta_s) s.eta_s = std::max(*st->eta_s, 0.0);
   if (st->step) {
     s.step = st->step->index;
@@ -141,22 +155,21 @@ bool applyRunEvent(WatchState& s, const std::string& name, const json& event) {
       applyStep(s, e->at);
       // The steps done so far (indices are 0-based) until the next progress event.
       if (s.count && *s.count > 0) {
-        s.progress = std::clamp(static_cast<double>(e->at.step + 1) / static_cast<double>(*s.count),
-                                0.0, 1.0);
+        showProgress(s, static_cast<double>(e->at.step + 1) / static_cast<double>(*s.count));
       }
     }
   } else if (name == ProgressEvent::kEvent) {
     if (auto e = parseEvent<ProgressEvent>(event, nullptr)) {
-      s.run = e->run;
+      switchRun(s, e->run);
       applyState(s, e->state, std::nullopt);
-      s.progress = std::clamp(e->progress, 0.0, 1.0);
+      showProgress(s, e->progress);
       s.eta_s = std::max(e->eta_s, 0.0);
       s.step = e->step;
       s.label = e->label;
     }
   } else if (name == RunFinishedEvent::kEvent) {
     if (auto e = parseEvent<RunFinishedEvent>(event, nullptr)) {
-      s.run = e->run;
+      switchRun(s, e->run);
       applyState(s, e->state, e->exit);
     }
   } else {
@@ -550,7 +563,34 @@ void addQueueCommands(CLI::App& app, const std::string& group) {
   });
 }
 
-// ---- pause / resume / abort / stop ----
+// ---- stop: one line to the daemon's stop socket ----
+// The emergency stop goes to the stop socket (served before anything else the daemon does,
+// never full): one connect, one line, one reply. A daemon without one (older, or the path
+// does not exist) gets it on the control socket.
+void runStop(const ControlOptions& o, const std::string& stop_socket) {
+  const std::string path = stop_socket.empty() ? o.socket + ".stop" : stop_socket;
+  try {
+    ControlClient c;
+    try {
+      c.connect(path);
+    } catch (const ControlError& e) {
+      if (!stop_socket.empty()) throw;
+      c.connect(o.socket);  // no stop socket at the default path: the control socket
+    }
+    const json reply = c.request({{"cmd", "stop"}});
+    if (o.json) std::cout << dumpJson(reply) << "\n" << std::flush;
+    if (!reply["ok"].get<bool>()) {
+      const json& e = reply["error"];
+      throw CommandFailed("error (" + e.value("code", std::string("?")) +
+                          "): " + e.value("message", dumpJson(e)));
+    }
+  } catch (const ControlError& e) {
+    throw CommandFailed(e.what());
+  }
+  if (!o.json) std::cout << "emergency stop sent\n";
+}
+
+// ---- pause / resume / abort ----
 void runSimple(const ControlOptions& o, const std::string& cmd, const std::string& done) {
   withClient(o, [&](ControlClient& c) {
     const json r = exchange(o, c, {{"cmd", cmd}});
@@ -614,7 +654,6 @@ void addControlCommands(CLI::App& app) {
   for (const Simple& s :
        {Simple{"pause", "hold the run at the next safe point", "pause requested"},
         Simple{"abort", "stop the run in an orderly way", "abort requested"},
-        Simple{"stop", "EMERGENCY STOP: halt all motion now", "emergency stop sent"},
         Simple{"rearm",
                "close the table's interlock again after a controller restart (no run or a "
                "paused one; then resume)",
@@ -626,6 +665,21 @@ void addControlCommands(CLI::App& app) {
     const std::string cmd = s.name;
     const std::string done = s.done;
     sub->callback([o, cmd, done] { runSimple(*o, cmd, done); });
+  }
+  {
+    auto o = std::make_shared<ControlOptions>();
+    auto stop_socket = std::make_shared<std::string>();
+    CLI::App* sub = app.add_subcommand(
+        "stop",
+        "EMERGENCY STOP: halt all motion now (sent to the daemon's stop socket, which is never "
+        "full and is served before anything else)");
+    sub->group(group);
+    addControlOptions(*sub, o.get());
+    sub->add_option("--stop-socket", *stop_socket,
+                    "the daemon's stop socket (default: the control socket's path + \".stop\"; "
+                    "when that does not exist, the control socket; the bench file's [control] "
+                    "stop_socket when it names another)");
+    sub->callback([o, stop_socket] { runStop(*o, *stop_socket); });
   }
   {
     auto o = std::make_shared<ControlOptions>();

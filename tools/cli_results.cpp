@@ -6,12 +6,25 @@
 // not observe, and the missing-physics analysis (its accepted effects, residual RMS before and
 // after against the noise floor, unexplained windows). --truth compares the stored coefficients
 // with a known truth (a simulated bench) per parameter against 3 arcsec / 10 ppm / 2 sigma, the
-// truth put into the frame the method refers to (gyro-referenced for indirect and pipeline); exit 1
-// when a judged parameter is outside. --coefficients writes the stored coefficient file
+// truth put into the frame the method refers to (gyro-referenced for indirect and pipeline).
+// --coefficients writes the stored coefficient file
 // (interchange.md). --serial lists an IMU's history: every calibrated run with its temperature and
 // verdict, and every temperature point of its thermal runs (one direct calibration per point,
 // at the point's mean IMU temperature). The store is read through imubench-store
 // (tools/cli_store.h).
+//
+// Exit codes of `results RUN` (the verdict; scripts branch on them):
+//   0  PASS          the stored verdict passes (and with --truth every parameter is within
+//                    its target)
+//   4  FAIL          a parameter is outside its acceptance limit (or, with --truth, outside
+//                    its target)
+//   5  undetermined  no verdict: no [acceptance] limits, the calibration failed, a limited
+//                    parameter was not determined, or (--truth) a parameter was held or no
+//                    coefficients are stored; a thermal run's points alone carry no verdict
+//   1  error         no such run, no results stored (an interrupted run says where it
+//                    stopped), an unreadable store; 2: usage (as every command)
+// FAIL wins over undetermined, which wins over PASS. `results --serial` exits 0 (a listing).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -49,6 +62,28 @@ std::map<std::string, json> byKind(const std::vector<StoredResultRow>& rows) {
   std::map<std::string, json> out;
   for (const StoredResultRow& r : rows) out[r.kind] = json::parse(r.json, nullptr, false);
   return out;
+}
+
+constexpr int kExitFail = 4;
+constexpr int kExitUndetermined = 5;
+
+// The verdict of `results RUN`, worst first.
+enum class Outcome { kPass = 0, kUndetermined = 1, kFail = 2 };
+
+Outcome worse(Outcome a, Outcome b) {
+  return static_cast<int>(a) >= static_cast<int>(b) ? a : b;
+}
+
+// The stored acceptance verdict (daemon/run_calibration.h acceptanceVerdict): a row outside
+// its limit fails; rows not determined (or a failed calibration, or no limits) leave it open.
+Outcome verdictOutcome(const json& verdict) {
+  const json pass = verdict.value("pass", json());
+  if (!pass.is_boolean()) return Outcome::kUndetermined;
+  if (pass.get<bool>()) return Outcome::kPass;
+  const json rows = verdict.contains("rows") ? verdict["rows"] : json::array();
+  for (const json& row : rows)
+    if (row.is_object() && row.contains("value") && !row.value("pass", true)) return Outcome::kFail;
+  return Outcome::kUndetermined;
 }
 
 std::string verdictText(const json& verdict) {
@@ -170,8 +205,9 @@ calib::BenchTruth expectedTruth(const calib::BenchTruth& truth, const json& repo
   return gyroReferencedTruth(truth, g);
 }
 
-// --truth: per parameter against the targets; false when one is outside.
-bool compareTruth(const ResultsOptions& o, const json& coefficients, const json& report) {
+// --truth: per parameter against the targets: FAIL when one is outside, undetermined when
+// one was held (not determined by this calibration).
+Outcome compareTruth(const ResultsOptions& o, const json& coefficients, const json& report) {
   const std::string method = report.value("method", std::string());
   calib::CoefficientReport report_coefficients;
   std::string why;
@@ -185,7 +221,11 @@ bool compareTruth(const ResultsOptions& o, const json& coefficients, const json&
                                  : "truth mapped into the gyro-referenced platform frame");
   printComparisonRows(c);
   std::printf("  %d of %d judged parameters within target\n", c.judged - c.outside, c.judged);
-  return c.outside == 0;
+  const auto held = std::count_if(c.rows.begin(), c.rows.end(),
+                                  [](const calib::ComparisonRow& r) { return !r.observable; });
+  if (held > 0) std::printf("  %d parameter(s) not determined (held)\n", static_cast<int>(held));
+  if (c.outside > 0) return Outcome::kFail;
+  return held > 0 || c.judged == 0 ? Outcome::kUndetermined : Outcome::kPass;
 }
 
 // A thermal run's per-point results (kind "point_coefficients", daemon/thermal_points.h),
@@ -199,28 +239,78 @@ void printPoint(long long run, const StoredResultRow& r) {
                  : ("FAILED: " + (p.is_object() ? p.value("error", std::string()) : "")).c_str());
 }
 
-void runOne(const ResultsOptions& o, std::int64_t run) {
+// Why a run has no results: an interrupted (or still running, aborted, faulted) run says so
+// and where it stopped. Throws CommandFailed (exit 1).
+[[noreturn]] void noResults(const ResultsOptions& o, std::int64_t run) {
+  const std::string id = std::to_string(run);
+  const StoredRunState st = loadRunState(o.db, run);
+  std::string m =
+      "run " + id + " (plan " + (st.plan_name.empty() ? "?" : st.plan_name) + ") is " + st.state;
+  if (st.step) {
+    m += st.state == "running" ? ", in step " : ", stopped in step ";
+    m += std::to_string(*st.step + 1) + (st.step_label.empty() ? "" : " (" + st.step_label + ")");
+    m += st.last_finished_step >= 0
+             ? " after step " + std::to_string(st.last_finished_step + 1) + " finished"
+             : ", no step finished";
+  }
+  if (!st.exit_reason.empty()) m += ": " + st.exit_reason;
+  if (st.state == "interrupted" || st.state == "aborted" || st.state == "faulted")
+    m += "; `imubench resume " + id + "` goes on from its last finished step";
+  throw CommandFailed(m + "; no results stored");
+}
+
+// A thermal run's per-point results, printed here. true when that was all there is to print
+// (only_points: the run has no whole-run results).
+bool printPoints(const ResultsOptions& o, std::int64_t run,
+                 const std::vector<StoredResultRow>& point_rows, bool only_points) {
+  if (point_rows.empty() || (!only_points && o.json)) return false;
+  if (o.json) {
+    json list = json::array();
+    for (const StoredResultRow& r : point_rows) list.push_back(json::parse(r.json, nullptr, false));
+    std::cout << json({{"run", run}, {"results", {{kPointKind, list}}}}).dump(2) << "\n";
+    return true;
+  }
+  std::printf("%6s  %10s  %-9s  %s\n", "run", "temp degC", "method", "point");
+  for (const StoredResultRow& r : point_rows) printPoint(static_cast<long long>(run), r);
+  return only_points;
+}
+
+// The human report of one run's results (not its points); returns the verdict.
+Outcome printRun(const ResultsOptions& o, std::int64_t run, const StoredResultRow& last,
+                 std::map<std::string, json>& k) {
+  const json report = k.count("report") ? k["report"] : json::object();
+  const std::string method = report.value("method", std::string("?"));
+  std::printf("run %lld: IMU %s at %.1f degC, %s calibration%s\n", static_cast<long long>(run),
+              last.imu_serial.c_str(), last.temperature_c, method.c_str(),
+              report.value("ok", false) ? "" : " FAILED");
+  if (report.contains("error")) std::cout << "  " << report["error"].get<std::string>() << "\n";
+  if (report.contains("estimate")) printEstimate(report["estimate"]);
+  if (k.count("verdict")) printVerdict(k["verdict"]);
+  if (k.count("explain")) printExplain(k["explain"]);
+  if (!o.coefficients.empty()) std::cout << "coefficients written to " << o.coefficients << "\n";
+  Outcome out = k.count("verdict") ? verdictOutcome(k["verdict"]) : Outcome::kUndetermined;
+  if (!o.truth.empty()) {
+    if (k.count("coefficients")) {
+      out = worse(out, compareTruth(o, k["coefficients"], report));
+    } else {
+      std::cout << "--truth: no coefficients stored: nothing to compare (undetermined)\n";
+      out = worse(out, Outcome::kUndetermined);
+    }
+  }
+  return out;
+}
+
+Outcome runOne(const ResultsOptions& o, std::int64_t run) {
   std::vector<StoredResultRow> rows = loadStoredResults(o.db, run, std::nullopt);
-  if (rows.empty()) throw CommandFailed("run " + std::to_string(run) + ": no results stored");
+  if (rows.empty()) noResults(o, run);
   std::vector<StoredResultRow> point_rows;
   std::erase_if(rows, [&](const StoredResultRow& r) {
     if (r.kind != kPointKind) return false;
     point_rows.push_back(r);
     return true;
   });
-  if (!point_rows.empty() && (rows.empty() || !o.json)) {
-    // A thermal run: its temperature points (and its whole-run results, if any, below).
-    if (o.json && rows.empty()) {
-      json list = json::array();
-      for (const StoredResultRow& r : point_rows)
-        list.push_back(json::parse(r.json, nullptr, false));
-      std::cout << json({{"run", run}, {"results", {{kPointKind, list}}}}).dump(2) << "\n";
-      return;
-    }
-    std::printf("%6s  %10s  %-9s  %s\n", "run", "temp degC", "method", "point");
-    for (const StoredResultRow& r : point_rows) printPoint(static_cast<long long>(run), r);
-    if (rows.empty()) return;
-  }
+  // A thermal run: its temperature points (and its whole-run results, if any, below).
+  if (printPoints(o, run, point_rows, rows.empty())) return Outcome::kUndetermined;
   std::map<std::string, json> k = byKind(rows);
   if (!o.coefficients.empty()) {
     if (!k.count("coefficients"))
@@ -232,24 +322,9 @@ void runOne(const ResultsOptions& o, std::int64_t run) {
     json all = json::object();
     for (const auto& [kind, j] : k) all[kind] = j;
     std::cout << json({{"run", run}, {"results", all}}).dump(2) << "\n";
-    return;
+    return k.count("verdict") ? verdictOutcome(k["verdict"]) : Outcome::kUndetermined;
   }
-  const StoredResultRow& last = rows.back();
-  const json report = k.count("report") ? k["report"] : json::object();
-  const std::string method = report.value("method", std::string("?"));
-  std::printf("run %lld: IMU %s at %.1f degC, %s calibration%s\n", static_cast<long long>(run),
-              last.imu_serial.c_str(), last.temperature_c, method.c_str(),
-              report.value("ok", false) ? "" : " FAILED");
-  if (report.contains("error")) std::cout << "  " << report["error"].get<std::string>() << "\n";
-  if (report.contains("estimate")) printEstimate(report["estimate"]);
-  if (k.count("verdict")) printVerdict(k["verdict"]);
-  if (k.count("explain")) printExplain(k["explain"]);
-  if (!o.coefficients.empty()) std::cout << "coefficients written to " << o.coefficients << "\n";
-  if (!o.truth.empty()) {
-    if (!k.count("coefficients")) throw CommandFailed("--truth: no coefficients stored");
-    if (!compareTruth(o, k["coefficients"], report))
-      throw CommandFailed("run " + std::to_string(run) + ": parameters outside the targets");
-  }
+  return printRun(o, run, rows.back(), k);
 }
 
 void runHistory(const ResultsOptions& o) {
@@ -307,7 +382,17 @@ void runResults(const ResultsOptions& o) {
   }
   const std::optional<std::int64_t> id = parseRunId(*o.run);
   if (!id) throw CommandFailed("'" + *o.run + "' is not a run id (N or run:N)", 2);
-  runOne(o, *id);
+  const std::string which = "run " + std::to_string(*id) + ": ";
+  switch (runOne(o, *id)) {
+    case Outcome::kPass:
+      return;
+    case Outcome::kFail:
+      throw CommandFailed(which + "FAIL (exit " + std::to_string(kExitFail) + ")", kExitFail);
+    case Outcome::kUndetermined:
+      throw CommandFailed(which + "no PASS/FAIL verdict: undetermined (exit " +
+                              std::to_string(kExitUndetermined) + ")",
+                          kExitUndetermined);
+  }
 }
 
 }  // namespace
@@ -317,13 +402,15 @@ void addResultsCommand(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "results",
       "a run's stored calibration results (verdict, coefficients, missing physics), or an "
-      "IMU's history");
+      "IMU's history. Exit codes of RUN: 0 PASS, 4 FAIL, 5 undetermined (no acceptance limits, "
+      "calibration failed, a parameter not determined), 1 error (no such run; no results: an "
+      "interrupted run says where it stopped), 2 usage");
   sub->add_option("RUN", o->run, "run id (N or run:N)");
   sub->add_option("--serial", o->serial, "list the results of this IMU serial");
   sub->add_flag("--json", o->json, "print the stored results as JSON");
   sub->add_option("--truth", o->truth,
                   "RUN: compare the stored coefficients with this truth file (3 arcsec, 10 ppm, "
-                  "biases 2 sigma); exit 1 when one is outside");
+                  "biases 2 sigma); one outside: FAIL (exit 4), one held: undetermined (exit 5)");
   sub->add_option("--coefficients", o->coefficients,
                   "RUN: write the stored coefficient file (interchange JSON) here");
   addStoreOption(*sub, &o->db);

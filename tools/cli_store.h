@@ -88,6 +88,18 @@ std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
                                                std::optional<std::int64_t> run_id,
                                                std::optional<std::string> imu_serial);
 
+// A run's state as stored, and where it stopped (its step events): what `results RUN` says
+// when a run has no results, e.g. after a crash.
+struct StoredRunState {
+  std::string plan_name;
+  std::string state;        // daemon/store.h runStateName: running, interrupted, ...
+  std::string exit_reason;  // empty while running
+  std::optional<int> step;  // the last step started (0-based); absent: none started
+  std::string step_label;
+  int last_finished_step = -1;  // -1: none finished
+};
+StoredRunState loadRunState(const std::string& db_path, std::int64_t run_id);
+
 // The store subcommands' work (registered by addStoreCommands in cli_runs.cpp).
 struct RunsOptions {
   std::string db;

@@ -45,6 +45,10 @@ std::vector<StoredResultRow> loadStoredResults(const std::string& /*db_path*/,
   throw NeedsRunStore();
 }
 
+StoredRunState loadRunState(const std::string& /*db_path*/, std::int64_t /*run_id*/) {
+  throw NeedsRunStore();
+}
+
 void runRuns(const RunsOptions& /*o*/) {
   throw NeedsRunStore();
 }

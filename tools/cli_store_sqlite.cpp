@@ -195,4 +195,30 @@ std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
   return out;
 }
 
+StoredRunState loadRunState(const std::string& db_path, std::int64_t run_id) {
+  auto store = openStoreOrFail(db_path, StoreAccess::kExisting);
+  const daemon::RunInfoResult info = store->runInfo(run_id);
+  if (!info.status.ok) throw CommandFailed(info.status.message);
+  StoredRunState out;
+  out.plan_name = info.value.start.plan_name;
+  out.state = daemon::runStateName(info.value.state);
+  out.exit_reason = info.value.exit_reason;
+  const daemon::EventListResult events = store->events(run_id);
+  if (!events.status.ok) throw CommandFailed(events.status.message);
+  for (const daemon::RunEvent& e : events.value) {
+    if (e.kind != "step_started" && e.kind != "step_finished") continue;
+    const nlohmann::json j = nlohmann::json::parse(e.json, nullptr, false);
+    if (!j.is_object() || !j.contains("step") || !j["step"].is_number_integer()) continue;
+    const int step = j["step"].get<int>();
+    if (e.kind == "step_finished") {
+      out.last_finished_step = step;
+    } else {
+      out.step = step;
+      const auto label = j.find("label");
+      out.step_label = label != j.end() && label->is_string() ? label->get<std::string>() : "";
+    }
+  }
+  return out;
+}
+
 }  // namespace imubench::tools

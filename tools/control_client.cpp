@@ -1,15 +1,20 @@
 #include "tools/control_client.h"
 
+#include <grp.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <utility>
+#include <vector>
 
 namespace imubench::tools {
 
@@ -59,6 +64,31 @@ std::string errnoText(int err) {
   return std::strerror(err);
 }
 
+// A group's name, or its number when the group database has none.
+std::string groupName(gid_t gid) {
+  std::vector<char> buf(64 * 1024);
+  group gr{};
+  group* found = nullptr;
+  if (::getgrgid_r(gid, &gr, buf.data(), buf.size(), &found) == 0 && found != nullptr)
+    return gr.gr_name;
+  return std::to_string(gid);
+}
+
+// Why a connect was refused for lack of rights: the group that owns the socket (or the first
+// directory on its way that this user cannot pass), as the bench's installation set it.
+std::string permissionHint(const std::string& path) {
+  struct stat st {};
+  std::filesystem::path p(path);
+  while (::stat(p.c_str(), &st) != 0 && p.has_parent_path() && p != p.parent_path())
+    p = p.parent_path();
+  if (::stat(p.c_str(), &st) != 0) return "may you use the bench? ";
+  char mode[8];
+  std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+  const std::string group = groupName(st.st_gid);
+  return "may you use the bench? " + p.string() + " is mode " + mode + ", group " + group +
+         " (are you in group " + group + "?); ";
+}
+
 }  // namespace
 
 std::string defaultControlSocket() {
@@ -101,7 +131,7 @@ void ControlClient::connect(const std::string& path) {
     const int err = errno;
     ::close(fd);
     std::string hint = "is imubenchd running? ";
-    if (err == EACCES || err == EPERM) hint = "may you use the bench (group imubench)? ";
+    if (err == EACCES || err == EPERM) hint = permissionHint(path);
     throw ControlError(ControlError::Kind::kConnect,
                        hint + "socket " + path + ": " + errnoText(err));
   }

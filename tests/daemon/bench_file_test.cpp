@@ -105,6 +105,27 @@ TEST(BenchFile, ControlIdleTimeout) {
   EXPECT_NE(typo.str().find("unknown key \"idle\" in [control]"), std::string::npos) << typo.str();
 }
 
+// Issue 28: connections per uid and the stop socket.
+TEST(BenchFile, ControlConnectionsPerUidAndStopSocket) {
+  io::Diagnostics diag("bench.toml");
+  auto b = parse(kGood, diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_EQ(b->control.max_connections_per_uid, 4u);
+  EXPECT_EQ(b->control.stop_socket, "");  // the daemon uses control_socket + ".stop"
+  b = parse(kGood + "\n[control]\nmax_connections_per_uid = 0\nstop_socket = \"/run/x/stop\"\n",
+            diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_EQ(b->control.max_connections_per_uid, 0u);
+  EXPECT_EQ(b->control.stop_socket, "/run/x/stop");
+  for (const char* bad : {"max_connections_per_uid = -1", "max_connections_per_uid = 1.5",
+                          "max_connections_per_uid = 100000", "stop_socket = \"\"",
+                          "stop_socket = \"/run/imubench/control.sock\"", "stop_socket = 3"}) {
+    io::Diagnostics d("bench.toml");
+    EXPECT_FALSE(parse(kGood + "\n[control]\n" + bad + "\n", d).has_value()) << bad;
+    EXPECT_NE(d.str().find("bench.toml:"), std::string::npos) << d.str();
+  }
+}
+
 TEST(BenchFile, ControlGroupsResolvedAtLoad) {
   io::Diagnostics diag("bench.toml");
   auto b = parse(kGood, diag);

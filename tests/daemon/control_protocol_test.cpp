@@ -296,6 +296,231 @@ TEST(ControlProtocol, RandomAndMutatedLinesNeverThrow) {
   EXPECT_GT(accepted, 0);  // some mutations stay valid (e.g. inside a string)
 }
 
+// ---- hostile input (issue 28 item 1): every class is an error reply, nothing throws ----
+
+// Numbers no double holds: `{"cmd":"ping","id":1e400}` killed imubenchd (nlohmann's
+// out_of_range.406 escaped the parser). Each is bad_json naming the number, wherever it is.
+TEST(ControlProtocolHostile, NumbersOutOfRangeAreErrors) {
+  const std::string huge_integer(400, '9');
+  for (const std::string& number : {std::string("1e400"), std::string("-1e400"),
+                                    std::string("1E+999"), huge_integer, "-" + huge_integer}) {
+    for (const std::string& line :
+         {R"({"cmd":"ping","id":)" + number + "}", R"({"cmd":"results","run":)" + number + "}",
+          R"({"cmd":"queue_move","entry":1,"position":)" + number + "}",
+          R"({"cmd":"ping","x":[)" + number + "]}", number}) {
+      ParseResult r;
+      ASSERT_NO_THROW(r = parseRequest(line)) << line;
+      EXPECT_FALSE(r.ok) << line;
+      EXPECT_EQ(errorCodeName(r.error.code), "bad_json") << line << " -> " << r.error.message;
+      EXPECT_NE(r.error.message.find("number out of range"), std::string::npos) << r.error.message;
+      EXPECT_LT(r.error.message.size(), 600u) << "the message quotes a bounded part of the line";
+    }
+  }
+  // In range but not integers, or beyond int64: refused as arguments, not as JSON.
+  parseErr(R"({"cmd":"ping","id":1e300})", ErrorCode::kBadArgument);
+  parseErr(R"({"cmd":"results","run":18446744073709551615})", ErrorCode::kBadArgument);
+  parseErr(R"({"cmd":"results","run":18446744073709551616})", ErrorCode::kBadArgument);
+  parseErr(R"({"cmd":"results","run":-9223372036854775808})", ErrorCode::kBadArgument);
+  parseErr(R"({"cmd":"queue_move","entry":1,"position":4294967296})", ErrorCode::kBadArgument);
+  // Underflow is 0.0: a number, but not an integer id.
+  parseErr(R"({"cmd":"ping","id":1e-400})", ErrorCode::kBadArgument);
+}
+
+// Deep nesting: refused before nlohmann builds (and would recurse through) the value.
+TEST(ControlProtocolHostile, DeepNestingIsRefused) {
+  for (const std::size_t depth : {33u, 1000u, 60000u}) {
+    for (const auto& [open, close] : {std::pair{'[', ']'}, std::pair{'{', '}'}}) {
+      std::string deep;
+      if (open == '{') {
+        for (std::size_t i = 0; i < depth; ++i) deep += "{\"a\":";
+        deep += "1" + std::string(depth, close);
+      } else {
+        deep = std::string(depth, open) + std::string(depth, close);
+      }
+      for (const std::string& line :
+           {deep, R"({"cmd":"results","run":)" + deep + "}", R"({"cmd":"ping","id":)" + deep + "}",
+            std::string(depth, open)}) {
+        const ProtocolError e = parseErr(line, ErrorCode::kBadJson);
+        EXPECT_NE(e.message.find("nested more than 32 deep"), std::string::npos) << e.message;
+      }
+    }
+  }
+  // Brackets inside strings are text, and 32 levels are still JSON (refused for other reasons).
+  EXPECT_EQ(
+      parseOk(R"({"cmd":"start","plan":{"toml":")" + std::string(100, '[') + R"("}})").command,
+      Command::kStart);
+  const std::string levels32 = std::string(31, '[') + std::string(31, ']');
+  parseErr(R"({"cmd":"ping","x":)" + levels32 + "}", ErrorCode::kBadArgument);
+}
+
+// Every field of every command with every JSON type it does not take.
+TEST(ControlProtocolHostile, OddTypesForEveryFieldAreBadArguments) {
+  const std::string odd[] = {"null",  "true", "0",   "-1", "1.5",
+                             "\"x\"", "[]",   "[1]", "{}", R"({"a":[1,{"b":null}]})"};
+  // field -> the values it takes (the rest must be refused).
+  const std::pair<std::string, std::string> fields[] = {
+      {R"({"cmd":"ping","id":@})", "0 -1 \"x\""},
+      {R"({"cmd":@})", ""},
+      {R"({"cmd":"results","run":@})", ""},
+      {R"({"cmd":"export","run":@})", ""},
+      {R"({"cmd":"export","run":1,"dir":@})", "\"x\""},
+      {R"({"cmd":"resume","run":@})", ""},
+      {R"({"cmd":"queue_remove","entry":@})", ""},
+      {R"({"cmd":"queue_move","entry":1,"position":@})", ""},
+      {R"({"cmd":"subscribe","topics":@})", ""},
+      {R"({"cmd":"subscribe","topics":[@]})", ""},
+      {R"({"cmd":"start","plan":@})", ""},
+      {R"({"cmd":"start","plan":{"toml":@}})", "\"x\""},
+      {R"({"cmd":"start","plan":{"path":@}})", ""},
+      {R"({"cmd":"start","plan":{"toml":"x","name":@}})", "\"x\""},
+      {R"({"cmd":"start","plan":{"toml":"x"},"options":@})", "{}"},
+      {R"({"cmd":"start","plan":{"toml":"x"},"options":{"dry_run":@}})", "true"},
+      {R"({"cmd":"start","plan":{"toml":"x"},"options":{"queue":@}})", "true"},
+      {R"({"cmd":"start","plan":{"toml":"x"},"options":{"label":@}})", "\"x\""},
+      {R"({"cmd":"start","plan":{"toml":"x"},"options":{"out_dir":@}})", ""},
+      {R"({"cmd":"validate_plan","plan":@})", ""},
+  };
+  for (const auto& [pattern, takes] : fields) {
+    for (const std::string& v : odd) {
+      std::string line = pattern;
+      line.replace(line.find('@'), 1, v);
+      ParseResult r;
+      ASSERT_NO_THROW(r = parseRequest(line)) << line;
+      const bool taken = (" " + takes + " ").find(" " + v + " ") != std::string::npos;
+      EXPECT_EQ(r.ok, taken) << line << " -> " << r.error.message;
+      if (!r.ok) {
+        EXPECT_NE(r.error.code, ErrorCode::kBadJson) << line;
+        EXPECT_NE(r.error.code, ErrorCode::kInternal) << line;
+      }
+    }
+  }
+}
+
+// Big strings, invalid UTF-8, NUL bytes (raw and escaped), control characters: errors whose
+// messages stay small and serialize to one valid JSON line.
+TEST(ControlProtocolHostile, StringsOfEveryShapeAreAnsweredSmall) {
+  const std::string big(60000, 'x');
+  const std::string lines[] = {
+      R"({"cmd":")" + big + R"("})",
+      R"({"cmd":"ping",")" + big + R"(":1})",
+      R"({"cmd":"export","run":1,"dir":")" + big + R"("})",
+      R"({"cmd":"start","plan":{"path":"/)" + big + R"("}})",
+      R"({"cmd":"start","plan":{"toml":"x"},"options":{"label":")" + big + R"("}})",
+      R"({"cmd":"results","run":")" + big + R"("})",
+      std::string("{\"cmd\":\"pi\xff\xfeng\"}"),
+      std::string("{\"cmd\":\"ping\",\"id\":\"\xc3\x28\"}"),
+      std::string("{\"cmd\":\"ping\",\"id\":\"\xed\xa0\x80\"}"),  // a UTF-16 surrogate
+      std::string("{\"cmd\":\"ping\"\0}", 16),
+      std::string("{\"cmd\":\"pi\0ng\"}", 15),
+      R"({"cmd":"ping\u0000"})",
+      R"({"cmd":"start","plan":{"toml":"a\u0000b"}})",
+      R"({"cmd":"ping","id":"\ud800"})",
+      "{\"cmd\":\"ping\",\"id\":\"a\tb\"}",
+      std::string(1, '\0'),
+      "\xef\xbb\xbf{\"cmd\":\"ping\"}",  // a byte-order mark
+      "",
+      "   ",
+  };
+  for (const std::string& line : lines) {
+    ParseResult r;
+    ASSERT_NO_THROW(r = parseRequest(line)) << line.substr(0, 40);
+    if (r.ok) continue;  // (the BOM is accepted by nlohmann)
+    EXPECT_LT(r.error.message.size(), 600u) << r.error.message.substr(0, 200);
+    const std::string reply = serializeReply(errorReply(r.id, r.error.code, r.error.message));
+    EXPECT_TRUE(json::accept(reply.substr(0, reply.size() - 1))) << reply.substr(0, 200);
+    EXPECT_EQ(reply.find('\n'), reply.size() - 1);
+  }
+}
+
+// A generated corpus (deterministic seed) of 10,000 lines through the real parser: mutations
+// of valid requests, random bytes, deep nesting, numbers out of every range, odd types spliced
+// into every field. Each line is a valid request or an error with a message whose reply is one
+// JSON line; none throws.
+std::string fuzzLine(std::mt19937_64& rng, int i);
+
+TEST(ControlProtocolHostile, FuzzCorpusOfTenThousandLines) {
+  std::mt19937_64 rng(0x1e400);
+  int accepted = 0;
+  int out_of_range = 0;
+  int too_deep = 0;
+  for (int i = 0; i < 10000; ++i) {
+    const std::string line = fuzzLine(rng, i);
+    ParseResult r;
+    ASSERT_NO_THROW(r = parseRequest(line)) << "line " << i << ": " << line.substr(0, 200);
+    if (r.ok) {
+      ++accepted;
+      continue;
+    }
+    ASSERT_FALSE(r.error.message.empty()) << line.substr(0, 200);
+    out_of_range += r.error.message.find("number out of range") != std::string::npos;
+    too_deep += r.error.message.find("nested more than") != std::string::npos;
+    const std::string reply = serializeReply(errorReply(r.id, r.error.code, r.error.message));
+    ASSERT_TRUE(json::accept(reply.substr(0, reply.size() - 1))) << reply.substr(0, 200);
+    ASSERT_EQ(reply.find('\n'), reply.size() - 1);
+  }
+  EXPECT_GT(accepted, 20);  // mutations that stay valid (e.g. inside a string)
+  EXPECT_GT(out_of_range, 500);
+  EXPECT_GT(too_deep, 500);
+}
+
+std::string fuzzLine(std::mt19937_64& rng, int i) {
+  static const std::string kValid[] = {
+      R"({"id":1,"cmd":"start","plan":{"toml":"[plan]"},"options":{"dry_run":true,"label":"l"}})",
+      R"({"id":"q","cmd":"subscribe","topics":["run","status"]})",
+      R"({"cmd":"export","run":3,"dir":"e"})",
+      R"({"cmd":"results","run":1})",
+      R"({"id":7,"cmd":"queue_move","entry":2,"position":1})",
+      R"({"cmd":"resume","run":42})",
+      R"({"cmd":"stop"})",
+      R"({"cmd":"ping","id":9})"};
+  static const std::string kNumbers[] = {"1e400",    "-1e400",
+                                         "1e309",    "2e-400",
+                                         "1.7e308",  "-0",
+                                         "0.0",      "18446744073709551616",
+                                         "1E+99999", "123456789012345678901234567890e300"};
+  auto pick = [&rng](std::size_t n) { return static_cast<std::size_t>(rng() % n); };
+  std::string line = kValid[pick(std::size(kValid))];
+  switch (i % 5) {
+    case 0: {  // random bytes
+      line.resize(pick(200));
+      for (char& ch : line) ch = static_cast<char>(rng());
+      break;
+    }
+    case 1:  // byte mutations of a valid request
+      for (std::size_t m = 0, n = 1 + pick(6); m < n; ++m)
+        line[pick(line.size())] = static_cast<char>(rng());
+      break;
+    case 2: {  // a value (often an out-of-range number) replacing one of the request's values
+      std::string value = kNumbers[pick(std::size(kNumbers))];
+      if (rng() % 4 == 0) value = "[" + value + "," + value + "]";
+      const std::size_t colon = line.find(':', pick(line.size()));
+      if (colon == std::string::npos) return "{\"cmd\":\"ping\",\"id\":" + value + "}";
+      const std::size_t end = line.find_first_of(",}", colon + 1);
+      line.replace(colon + 1, end - colon - 1, value);
+      break;
+    }
+    case 3: {  // deep nesting, balanced or not, inside a request or alone
+      const std::size_t depth = 33 + pick(20000);
+      const char open = rng() % 2 ? '[' : '{';
+      std::string deep(depth, open);
+      if (open == '[' && rng() % 2) deep += std::string(depth, ']');
+      line = rng() % 2 ? deep : R"({"cmd":"results","run":)" + deep + "}";
+      break;
+    }
+    default: {  // a valid request with a few bytes inserted or deleted
+      for (std::size_t m = 0, n = 1 + pick(3); m < n && !line.empty(); ++m) {
+        const std::size_t at = pick(line.size());
+        if (rng() % 2)
+          line.insert(at, 1, "{}[]\",:\\0e-+"[pick(12)]);
+        else
+          line.erase(at, 1);
+      }
+      break;
+    }
+  }
+  return line;
+}
+
 // ---- replies and events: build -> serialize -> parse -> equal, for every type ----
 
 // A reply's result through the wire: okReply -> serializeReply -> JSON line -> fromJson.

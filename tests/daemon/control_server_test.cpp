@@ -236,6 +236,112 @@ TEST_F(ControlServerTest, ReservedSlotTakesStopStatusAndPing) {
   EXPECT_EQ(st.refused_busy, 1u);
 }
 
+// Issue 28: reserved slots go only to peers the policy calls privileged (root and the command
+// group in imubenchd); others are told busy and where the stop socket is.
+TEST_F(ControlServerTest, ReservedSlotsOnlyForPrivilegedPeers) {
+  ControlServerOptions o = optionsAt(path_);
+  o.max_clients = 1;
+  o.reserved_clients = 1;
+  o.stop_socket_path = path_ + ".stop";
+  ServerThread s(o, testHandler);
+  ASSERT_TRUE(s.startStatus().ok);
+  bool privileged = false;
+  s.onLoop([&] {
+    s.server().setPeerPolicy([&privileged](const PeerCredentials& p) {
+      EXPECT_TRUE(p.known);
+      return ControlServer::PeerClass{privileged, false};
+    });
+    return 0;
+  });
+  Conn a(path_);
+  ASSERT_TRUE(a.send("{\"cmd\":\"ping\"}\n"));
+  ASSERT_TRUE(readJson(a)["ok"]);
+  Conn stranger(path_);
+  const json busy = readJson(stranger);
+  EXPECT_EQ(busy["error"]["code"], "busy");
+  EXPECT_NE(busy["error"]["message"].get<std::string>().find(o.stop_socket_path), std::string::npos)
+      << busy;
+  EXPECT_TRUE(stranger.waitClosed());
+  s.onLoop([&] { return privileged = true; });
+  Conn root(path_);
+  ASSERT_TRUE(root.send("{\"id\":1,\"cmd\":\"stop\"}\n"));
+  EXPECT_EQ(readJson(root)["result"]["cmd"], "stop");
+  EXPECT_EQ(s.stats().reserved_accepted, 1u);
+}
+
+// Issue 28: one uid holds at most max_connections_per_uid connections; a new one closes that
+// uid's least recently active connection (here: the oldest idle ones), not a busy refusal.
+TEST_F(ControlServerTest, ConnectionsPerUidAreBounded) {
+  ControlServerOptions o = optionsAt(path_);
+  o.max_connections_per_uid = 3;
+  ServerThread s(o, testHandler);
+  ASSERT_TRUE(s.startStatus().ok);
+  s.onLoop([&] {
+    s.server().setPeerPolicy([](const PeerCredentials&) { return ControlServer::PeerClass{}; });
+    return 0;
+  });
+  std::vector<std::unique_ptr<Conn>> conns;
+  for (int i = 0; i < 3; ++i) {
+    conns.push_back(std::make_unique<Conn>(path_));
+    ASSERT_TRUE(conns.back()->send("{\"cmd\":\"ping\"}\n"));
+    ASSERT_TRUE(readJson(*conns.back())["ok"]);
+  }
+  // The first is active again: the second is now the least recently active.
+  ASSERT_TRUE(conns[0]->send("{\"cmd\":\"ping\"}\n"));
+  ASSERT_TRUE(readJson(*conns[0])["ok"]);
+  for (int i = 0; i < 2; ++i) {
+    conns.push_back(std::make_unique<Conn>(path_));
+    ASSERT_TRUE(conns.back()->send("{\"cmd\":\"ping\"}\n"));
+    ASSERT_TRUE(readJson(*conns.back())["ok"]) << "the new connection is served";
+  }
+  EXPECT_TRUE(conns[1]->waitClosed());
+  EXPECT_TRUE(conns[2]->waitClosed());
+  for (const std::size_t i : {0u, 3u, 4u}) {
+    ASSERT_TRUE(conns[i]->send("{\"cmd\":\"ping\"}\n"));
+    EXPECT_TRUE(readJson(*conns[i])["ok"]) << i;
+  }
+  EXPECT_EQ(s.stats().uid_limit_closes, 2u);
+  EXPECT_EQ(s.stats().refused_busy, 0u);
+}
+
+// Issue 28: the stop socket takes a stop whatever holds the control socket, only a stop, and
+// never fills (a new connection closes the oldest); its file goes with the server.
+TEST_F(ControlServerTest, StopSocketTakesOnlyStopAndNeverFills) {
+  ControlServerOptions o = optionsAt(path_);
+  o.max_clients = 2;
+  o.reserved_clients = 0;
+  o.max_stop_clients = 3;
+  o.stop_socket_path = path_ + ".stop";
+  {
+    ServerThread s(o, testHandler);
+    ASSERT_TRUE(s.startStatus().ok);
+    struct stat st {};
+    ASSERT_EQ(::lstat(o.stop_socket_path.c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777, 0660u);
+    Conn a(path_), b(path_);
+    for (Conn* c : {&a, &b}) {
+      ASSERT_TRUE(c->send("{\"cmd\":\"ping\"}\n"));
+      ASSERT_TRUE(readJson(*c)["ok"]);
+    }
+    Conn full(path_);
+    EXPECT_EQ(readJson(full)["error"]["code"], "busy");
+    std::vector<std::unique_ptr<Conn>> held;
+    for (int i = 0; i < 3; ++i) held.push_back(std::make_unique<Conn>(o.stop_socket_path));
+    Conn stopper(o.stop_socket_path);
+    ASSERT_TRUE(stopper.send("{\"id\":7,\"cmd\":\"stop\"}\n{\"id\":8,\"cmd\":\"status\"}\n"));
+    EXPECT_EQ(readJson(stopper),
+              json({{"id", 7}, {"ok", true}, {"result", {{"cmd", "stop"}, {"client", 6}}}}));
+    const json refused = readJson(stopper);
+    EXPECT_EQ(refused["id"], 8);
+    EXPECT_EQ(refused["error"]["code"], "bad_argument");
+    EXPECT_NE(refused["error"]["message"].get<std::string>().find("takes only"), std::string::npos);
+    EXPECT_TRUE(held[0]->waitClosed()) << "the oldest stop connection made room";
+    EXPECT_EQ(s.stats().stop_accepted, 4u);
+  }
+  struct stat st {};
+  EXPECT_NE(::lstat(o.stop_socket_path.c_str(), &st), 0) << "stop socket left behind";
+}
+
 // Issue 15: the access policy sees every request (the server's own ping and subscribe too) with
 // the peer's SO_PEERCRED credentials; a refusal is "forbidden" and the connection stays.
 TEST_F(ControlServerTest, AccessPolicyRefusesWithForbidden) {
@@ -523,6 +629,25 @@ void floodClient(const std::string& path, int client, int requests, int* answere
     ++next_reply;
   }
   *answered = next_reply;
+}
+
+// Issue 28 item 1: the line that killed imubenchd (an out-of-range number escaped the parser
+// and the event loop) and deep nesting are error replies on the same connection; the loop
+// goes on.
+TEST_F(ControlServerTest, OutOfRangeNumbersAndDeepNestingAreErrorReplies) {
+  ServerThread s(optionsAt(path_), testHandler);
+  ASSERT_TRUE(s.startStatus().ok);
+  Conn c(path_);
+  ASSERT_TRUE(c.send("{\"cmd\":\"ping\",\"id\":1e400}\n"));
+  json j = readJson(c);
+  EXPECT_EQ(j["error"]["code"], "bad_json") << j;
+  EXPECT_NE(j["error"]["message"].get<std::string>().find("1e400"), std::string::npos) << j;
+  ASSERT_TRUE(c.send("{\"cmd\":\"results\",\"run\":" + std::string(400, '9') + "}\n" +
+                     std::string(50000, '[') + "\n{\"id\":2,\"cmd\":\"ping\"}\n"));
+  EXPECT_EQ(readJson(c)["error"]["code"], "bad_json");
+  EXPECT_EQ(readJson(c)["error"]["code"], "bad_json");
+  EXPECT_EQ(readJson(c)["result"]["pong"], true);
+  expectPromptPong(path_, 3);
 }
 
 TEST_F(ControlServerTest, FuzzAndFloodLeaveTheServerResponsive) {

@@ -6,7 +6,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <thread>
+#include <vector>
 
 namespace imubench::daemon {
 namespace {
@@ -29,6 +31,47 @@ TEST(EventLoop, FdCallbackAndRemoveInsideCallback) {
   ASSERT_TRUE(loop.runOnce(0).ok);  // removed: not called again though still readable
   EXPECT_EQ(calls, 1);
   EXPECT_FALSE(loop.modify(sv[0], EPOLLIN).ok);
+  ::close(sv[0]);
+  ::close(sv[1]);
+}
+
+// An addFirst fd is served before every other ready fd of the turn, even when more fds are
+// ready than one epoll_wait returns (issue 28: the emergency stop's socket comes first).
+TEST(EventLoop, FirstFdIsServedBeforeAnyOther) {
+  EventLoop loop;
+  ASSERT_TRUE(loop.open().ok);
+  std::vector<std::array<int, 2>> pairs(200);
+  std::vector<int> order;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    ASSERT_EQ(::socketpair(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK, 0, pairs[i].data()), 0);
+    ASSERT_EQ(::write(pairs[i][1], "x", 1), 1);
+    const int fd = pairs[i][0];
+    const int tag = static_cast<int>(i);
+    const auto cb = [&order, &loop, fd, tag](std::uint32_t) {
+      order.push_back(tag);
+      loop.remove(fd);
+    };
+    ASSERT_TRUE((i == 150 ? loop.addFirst(fd, EPOLLIN, cb) : loop.add(fd, EPOLLIN, cb)).ok);
+  }
+  ASSERT_TRUE(loop.runOnce(1000).ok);
+  ASSERT_FALSE(order.empty());
+  EXPECT_EQ(order.front(), 150) << "the first fd was served after " << order.front();
+  // modify and remove reach the first fd's own set.
+  int sv[2];
+  ASSERT_EQ(::socketpair(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK, 0, sv), 0);
+  int calls = 0;
+  ASSERT_TRUE(loop.addFirst(sv[0], 0, [&calls](std::uint32_t) { ++calls; }).ok);
+  ASSERT_EQ(::write(sv[1], "x", 1), 1);
+  while (order.size() < pairs.size()) ASSERT_TRUE(loop.runOnce(0).ok);
+  EXPECT_EQ(calls, 0);
+  ASSERT_TRUE(loop.modify(sv[0], EPOLLIN).ok);
+  ASSERT_TRUE(loop.runOnce(1000).ok);
+  EXPECT_EQ(calls, 1);
+  loop.remove(sv[0]);
+  ASSERT_TRUE(loop.runOnce(0).ok);
+  EXPECT_EQ(calls, 1);
+  for (auto& p : pairs) ::close(p[1]);
+  for (auto& p : pairs) ::close(p[0]);
   ::close(sv[0]);
   ::close(sv[1]);
 }

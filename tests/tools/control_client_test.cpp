@@ -408,6 +408,30 @@ TEST(WatchState, FoldsStatusAndEvents) {
   EXPECT_EQ(formatEndLine(s), "run 12 faulted");
 }
 
+// Issue 28: the bar never goes back within a run (61 % -> 60 % when a step count figure or a
+// re-run step followed a planned-time figure); another run starts afresh.
+TEST(WatchState, ProgressNeverGoesBackWithinARun) {
+  WatchState s;
+  applyStatus(s, runningStatus(26, 45, "run14", 0.61, 300.0));
+  ASSERT_TRUE(s.progress.has_value());
+  applyEvent(s, eventLine(serializeEvent(daemon::StepFinishedEvent{{12, 26, "run14"}})), nullptr);
+  EXPECT_DOUBLE_EQ(*s.progress, 0.61) << "27/45 = 0.60 after 0.61";
+  applyEvent(
+      s, eventLine(serializeEvent(daemon::ProgressEvent{12, "running", 0.605, 290.0, 27, "run15"})),
+      nullptr);
+  EXPECT_DOUBLE_EQ(*s.progress, 0.61);
+  applyStatus(s, runningStatus(27, 45, "run15", 0.6, 280.0));
+  EXPECT_DOUBLE_EQ(*s.progress, 0.61);
+  applyEvent(
+      s, eventLine(serializeEvent(daemon::ProgressEvent{12, "running", 0.62, 270.0, 27, "run15"})),
+      nullptr);
+  EXPECT_DOUBLE_EQ(*s.progress, 0.62);
+  applyEvent(s,
+             eventLine(serializeEvent(daemon::ProgressEvent{13, "running", 0.05, 900.0, 1, "h1"})),
+             nullptr);
+  EXPECT_DOUBLE_EQ(*s.progress, 0.05) << "a new run starts afresh";
+}
+
 // Replies and events that are not the protocol's leave the fold as it was (no guessing).
 TEST(WatchState, IgnoresWhatIsNotTheProtocols) {
   WatchState s;
