@@ -514,8 +514,15 @@ void BenchDaemon::reportImuProblems() {
   server_->broadcast(event);
 }
 
+// The table is polled whenever the daemon runs: the status shows the controller as it is
+// (a stop, a front panel, a restart) within a poll, and every poll feeds the controller's
+// host watchdog (drivers::TableDriver::read writes the heartbeat).
 void BenchDaemon::onPoll() {
-  if (!run_) return;
+  if (!run_) {
+    const BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
+    if (obs.table_ok) table_answered_s_ = wallNow();
+    return;
+  }
   // Frames already in the socket count before the IMU's silence is judged (the loop may have
   // been held up, and the poll timer may be served before the socket in one wake).
   onImuReadable();
@@ -524,6 +531,7 @@ void BenchDaemon::onPoll() {
   BenchObservation obs = port_->observe(wallNow(), imu_last_wall_s_);
   obs.plan_time_s = imu_last_t_;
   obs.imu_temp_c = imu_last_temp_c_;
+  if (obs.table_ok) table_answered_s_ = wallNow();
   if (obs.table_ok) {
     // a reading no sample has stamped yet is superseded
     run_->pending_table = run_->reading(obs, 0.5 * (run_->poll_unix_s + unixNow()));
@@ -1292,6 +1300,7 @@ Reply BenchDaemon::rearm(const Request& request) {
     log_.warning(who + "re-arm refused: " + st.message);
     return errorReply(request.id, ErrorCode::kBadState, "re-arm refused: " + st.message);
   }
+  table_answered_s_ = wallNow();  // prepare() read the table
   log_.info(who + "bench re-armed by the operator (interlock closed)");
   if (run_) {
     RunEvent stored;
@@ -1314,6 +1323,7 @@ TableStatus BenchDaemon::tableStatus() const {
   TableStatus t{interlock,    r.estop,      r.fault,     drivers::deviceStateName(table_->state()),
                 std::nullopt, std::nullopt, std::nullopt};
   if (!port_->lastTableError().empty()) t.error = port_->lastTableError();
+  if (table_answered_s_) t.age_s = wallNow() - *table_answered_s_;
   if (!r.axes.empty()) {  // the last read's axes (none after a read that got no answer)
     std::vector<double> angles;
     bool moving = false;

@@ -3,7 +3,9 @@
 // run's writer. Everything happens on the loop's thread:
 //
 //   IMU socket readable  -> decode -> the run's IMU samples (RunWriter, committed twice a second)
-//   table poll timer     -> read table -> runner.tick -> commands, events, segments
+//   table poll timer     -> read table (with or without a run; each read writes the
+//                           controller's host-watchdog heartbeat) -> runner.tick -> commands,
+//                           events, segments
 //   chamber poll timer   -> read chamber (its own, slower period) -> the run's chamber samples
 //   runner events        -> store events, control-socket broadcast (topic "run"), syslog
 //   status timer         -> topic "status" (progress, ETA, step), sd_notify STATUS, watchdog
@@ -165,6 +167,7 @@ class BenchDaemon {
   std::optional<double> imu_last_temp_c_;  // its temperature, when the frames carry one
   std::uint64_t imu_lost_reported_ = 0;    // lost-sample count already logged
   std::uint64_t imu_restarts_reported_ = 0;
+  std::optional<double> table_answered_s_;  // wallNow() of the last poll the table answered
   std::chrono::steady_clock::time_point t0_ = std::chrono::steady_clock::now();
 };
 

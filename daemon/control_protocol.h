@@ -641,6 +641,9 @@ struct TableStatus {
   // no answer).
   std::optional<std::vector<double>> angles_deg;
   std::optional<bool> moving;
+  // Seconds since the table last answered a poll (it is polled whenever the daemon runs);
+  // absent before the first answer.
+  std::optional<double> age_s = std::nullopt;
   bool operator==(const TableStatus&) const = default;
   template <class V>
   void fields(V& v) {
@@ -651,6 +654,7 @@ struct TableStatus {
     v("error", error);
     v("angles_deg", angles_deg);
     v("moving", moving);
+    v("age_s", age_s);
   }
 };
 

@@ -291,7 +291,8 @@ void parseTableRegisters(const toml::table& root, TableDeviceSpec& s, Diagnostic
                                    std::to_string(arr->size()) + " [[registers.axis]] entries");
   }
   std::vector<Claimed> claimed = {{"status", &s.registers.status},
-                                  {"control", &s.registers.control}};
+                                  {"control", &s.registers.control},
+                                  {"host_watchdog.heartbeat", &s.watchdog.heartbeat}};
   s.registers.axes.resize(arr->size());
   for (size_t i = 0; i < arr->size(); ++i) {
     const toml::table* a = (*arr)[i].as_table();
@@ -333,6 +334,36 @@ void parseTableRegisters(const toml::table& root, TableDeviceSpec& s, Diagnostic
     }
   }
   checkOverlaps(claimed, *r, diag);
+}
+
+// [host_watchdog]: the controller's heartbeat register and its timeout. Modbus only: a
+// serial command set would need a heartbeat command, which the ones we speak do not have.
+void parseHostWatchdog(const toml::table& root, TableDeviceSpec& s, Diagnostics& diag) {
+  const toml::node* n = root.get("host_watchdog");
+  if (!n) return;
+  if (s.transport.kind == TransportKind::kSerialScpi) {
+    diag.error(n->source(),
+               "[host_watchdog] needs a Modbus heartbeat register: a serial-scpi command set has "
+               "no heartbeat command (docs/devices.md, \"Host watchdog\")");
+    return;
+  }
+  const toml::table* t = subTable(root, "host_watchdog", diag, true);
+  if (!t) return;
+  checkKeys(*t, {"heartbeat", "timeout"}, "[host_watchdog]", diag);
+  RegisterField& hb = s.watchdog.heartbeat;
+  parseRegister(*t, {"heartbeat", false, Dimension::kAngle}, hb, true, diag);
+  if (hb.present && hb.bank != RegisterBank::kHolding) {
+    diag.error(t->get("heartbeat")->source(),
+               "register \"heartbeat\" must be a holding register (the host writes it)");
+    hb.present = false;
+  }
+  if (auto v = io::quantityField(*t, "timeout", Dimension::kTime, diag, false)) {
+    if (!(*v > 0.0 && *v <= 60.0)) {
+      diag.error(t->get("timeout")->source(), "\"timeout\" must be in (0, 60] s");
+    } else {
+      s.watchdog.timeout_s = *v;
+    }
+  }
 }
 
 void parseCommand(const toml::table& t, std::string_view key, SerialCommand& c, Diagnostics& diag,
@@ -547,7 +578,8 @@ std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, Diagnosti
   TableDeviceSpec s;
   s.file = diag.file();
   checkKeys(*root,
-            {"device", "transport", "limits", "registers", "commands", "codes", "status_bits"},
+            {"device", "transport", "limits", "registers", "commands", "codes", "status_bits",
+             "host_watchdog"},
             "the device file", diag);
   parseDeviceHeader(*root, "table", s.vendor, s.model, diag);
   if (const toml::table* d = root->get_as<toml::table>("device")) {
@@ -584,6 +616,7 @@ std::optional<TableDeviceSpec> parseTableDevice(std::string_view text, Diagnosti
   }
   parseTableCodes(*root, s.codes, diag);
   parseStatusBits(*root, s.bits, diag);
+  parseHostWatchdog(*root, s, diag);
   if (diag.ok()) {
     if (s.transport.kind == TransportKind::kSerialScpi) {
       if (root->get("registers")) {

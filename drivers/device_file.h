@@ -139,6 +139,17 @@ struct TableLimits {
   double position_min = 0.0, position_max = 0.0;  // rad, when limited_travel
 };
 
+// The controller's host watchdog (communication-loss timeout): the host writes a changing
+// value to the heartbeat register at every poll; when it has not changed for longer than
+// timeout_s while armed (armed by the first change), the controller brakes every axis to
+// rest and opens its interlock (docs/devices.md "Host watchdog"). Modbus only: the serial
+// command sets we speak have no heartbeat command.
+struct HostWatchdog {
+  RegisterField heartbeat;  // holding register, u16 or u32: a counter, one up per poll
+  double timeout_s = 0.5;   // s, wall clock at the controller
+  bool declared() const { return heartbeat.present; }
+};
+
 struct TableDeviceSpec {
   std::string file;
   std::string vendor, model;
@@ -149,6 +160,7 @@ struct TableDeviceSpec {
   TableStatusBits bits;
   TableRegisterMap registers;  // Modbus transports
   TableCommandSet commands;    // serial transport
+  HostWatchdog watchdog;       // not declared: the controller keeps going when the host dies
   int axisCount() const { return calib::axisCount(kind); }
   std::string name() const { return vendor + " " + model; }
   // The device file says how to set each axis' rate and acceleration profile (else the

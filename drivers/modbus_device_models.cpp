@@ -53,6 +53,7 @@ VirtualTableRegisters::VirtualTableRegisters(VirtualWorld& world, const TableDev
   const auto& r = spec_.registers;
   grow(r.status, &holding_, &input_);
   grow(r.control, &holding_, &input_);
+  grow(spec_.watchdog.heartbeat, &holding_, &input_);
   for (const auto& a : r.axes) {
     for (const RegisterField* f :
          {&a.mode, &a.position_demand, &a.rate_demand, &a.rotate_by, &a.command, &a.position,
@@ -62,10 +63,21 @@ VirtualTableRegisters::VirtualTableRegisters(VirtualWorld& world, const TableDev
   }
 }
 
+void VirtualTableRegisters::reportWatchdog(const VirtualTable& table) {
+  if (table.watchdogExpiries() == watchdog_reported_) return;
+  watchdog_reported_ = table.watchdogExpiries();
+  if (sink_) {
+    sink_("virtual table: host watchdog: no heartbeat for more than " +
+          std::to_string(spec_.watchdog.timeout_s) +
+          " s: every axis braked to rest, interlock opened (re-arm to go on)");
+  }
+}
+
 void VirtualTableRegisters::refresh(modbus_mapping_t* m) {
   const auto& r = spec_.registers;
   world_.withTable([&](VirtualTable& table, double t) {
     putBits(m, r.status, table.statusWord(t));
+    reportWatchdog(table);
     for (int i = 0; i < static_cast<int>(r.axes.size()); ++i) {
       const auto& a = r.axes[static_cast<size_t>(i)];
       const VirtualAxisStatus s = table.axis(t, i);
@@ -86,6 +98,11 @@ void VirtualTableRegisters::written(modbus_mapping_t* m, int address, int count)
     why.clear();
   };
   world_.withTable([&](VirtualTable& table, double t) {
+    const RegisterField& hb = spec_.watchdog.heartbeat;
+    if (hit(hb, address, count)) {
+      table.heartbeat(t, static_cast<uint32_t>(static_cast<int64_t>(get(m, hb, r.word_order))));
+      reportWatchdog(table);
+    }
     if (hit(r.control, address, count)) {
       const int k = code(m, r.control);
       if (k == c.ctl_estop) {

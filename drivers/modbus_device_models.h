@@ -31,6 +31,11 @@ class VirtualTableRegisters final : public VirtualRegisters<TableDeviceSpec> {
   VirtualTableRegisters(VirtualWorld& world, const TableDeviceSpec& spec, EventSink sink);
   void refresh(_modbus_mapping_t* m) override;
   void written(_modbus_mapping_t* m, int address, int count) override;
+
+ private:
+  // Reports an expiry of the table's host watchdog not yet reported (under the world's lock).
+  void reportWatchdog(const VirtualTable& table);
+  int watchdog_reported_ = 0;
 };
 
 class VirtualChamberRegisters final : public VirtualRegisters<ChamberDeviceSpec> {

@@ -68,6 +68,10 @@ class TableDriver {
   virtual Status interlock(InterlockCommand c) = 0;
   // Reads angles, rates and status bits. An open/tripped interlock or a controller fault
   // puts the driver in kFault and returns an error naming the reason (the reading is filled).
+  // With a host watchdog in the device file (TableDeviceSpec::watchdog) every read first
+  // writes the next heartbeat: whoever polls the table keeps the controller's watchdog fed
+  // (and arms it with the first read after connecting or re-arming); a failed heartbeat
+  // write fails the read.
   virtual Status read(TableReading* out) = 0;
   virtual DeviceState state() const = 0;
   virtual const TableDeviceSpec& spec() const = 0;

@@ -99,6 +99,14 @@ Status ModbusTable::interlock(InterlockCommand c) {
 }
 
 Status ModbusTable::read(TableReading* out) {
+  if (spec_.watchdog.declared()) {
+    heartbeat_ = (heartbeat_ + 1) % kHeartbeatModulo;
+    if (Status s = link_.write(spec_.watchdog.heartbeat, "write heartbeat",
+                               static_cast<double>(heartbeat_));
+        !s.ok) {
+      return s;
+    }
+  }
   TableReading r;
   uint32_t raw = 0;
   if (Status s = link_.readBits(spec_.registers.status, "read status", &raw); !s.ok) return s;

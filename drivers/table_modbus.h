@@ -1,6 +1,8 @@
 // Turntable over Modbus TCP or RTU: the device file's register map, scaling and word order.
 #pragma once
 
+#include <cstdint>
+
 #include "drivers/modbus_link.h"
 #include "drivers/table.h"
 
@@ -38,6 +40,9 @@ class ModbusTable final : public TableDriver {
   EventSink sink_;
   ModbusLink link_;
   bool status_fault_ = false;
+  // The host watchdog's heartbeat: one up per read, within every integer register type.
+  static constexpr std::uint32_t kHeartbeatModulo = 32768;
+  std::uint32_t heartbeat_ = 0;
 };
 
 }  // namespace imubench::drivers

@@ -18,7 +18,8 @@ double wrapPi(double a) {
 }
 }  // namespace
 
-VirtualTable::VirtualTable(const TableDeviceSpec& spec, double t0) : spec_(spec) {
+VirtualTable::VirtualTable(const TableDeviceSpec& spec, double t0)
+    : spec_(spec), wd_timeout_(spec.watchdog.timeout_s) {
   motion_.kind = spec.kind;
   motion_.axes.resize(static_cast<size_t>(spec.axisCount()));
   axes_.resize(static_cast<size_t>(spec.axisCount()));
@@ -26,6 +27,7 @@ VirtualTable::VirtualTable(const TableDeviceSpec& spec, double t0) : spec_(spec)
 }
 
 void VirtualTable::commit(double t) {
+  checkWatchdog(t);
   for (size_t i = 0; i < axes_.size(); ++i) {
     auto& p = axes_[i].pending;
     size_t n = 0;
@@ -117,7 +119,8 @@ bool VirtualTable::setMode(double t, int i, AxisMode mode, std::string* why) {
   return true;
 }
 
-VirtualTable::Axis* VirtualTable::commandable(int i, AxisMode mode, std::string* why) {
+VirtualTable::Axis* VirtualTable::commandable(double t, int i, AxisMode mode, std::string* why) {
+  commit(t);  // an expired watchdog has opened the interlock first
   if (!motionAllowed(why)) return nullptr;
   if (i < 0 || i >= spec_.axisCount()) {
     *why = "no axis " + std::to_string(i);
@@ -139,7 +142,7 @@ void VirtualTable::goTo(double t, int i, double x1) {
 }
 
 bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
-  if (commandable(i, AxisMode::kPosition, why) == nullptr) return false;
+  if (commandable(t, i, AxisMode::kPosition, why) == nullptr) return false;
   const calib::AxisState s = stateAt(t, i);
   double x1 = angle;
   if (!spec_.limits.limited_travel) {
@@ -153,7 +156,7 @@ bool VirtualTable::moveTo(double t, int i, double angle, std::string* why) {
 }
 
 bool VirtualTable::rotateBy(double t, int i, double delta, std::string* why) {
-  const Axis* ax = commandable(i, AxisMode::kPosition, why);
+  const Axis* ax = commandable(t, i, AxisMode::kPosition, why);
   if (ax == nullptr) return false;
   const double base = ax->has_target ? ax->target : stateAt(t, i).angle;
   const double x1 = base + delta;
@@ -167,7 +170,7 @@ bool VirtualTable::rotateBy(double t, int i, double delta, std::string* why) {
 }
 
 bool VirtualTable::setRate(double t, int i, double rate, std::string* why) {
-  if (commandable(i, AxisMode::kRate, why) == nullptr) return false;
+  if (commandable(t, i, AxisMode::kRate, why) == nullptr) return false;
   if (std::abs(rate) > spec_.limits.max_rate * (1 + 1e-9)) {
     *why = "rate above the limit";
     return false;
@@ -230,6 +233,24 @@ void VirtualTable::restart(double t) {
   tripped_ = false;
   estop_ = false;
   trip_reason_.clear();
+}
+
+void VirtualTable::heartbeat(double t, uint32_t value) {
+  commit(t);  // a timeout that ran out before this heartbeat has fired
+  if (wd_value_ == value) return;
+  wd_value_ = value;
+  ++wd_beats_;
+  wd_armed_ = true;
+  wd_last_t_ = t;
+}
+
+void VirtualTable::checkWatchdog(double t) {
+  if (!wd_armed_ || t <= wd_last_t_ + wd_timeout_) return;
+  const double at = wd_last_t_ + wd_timeout_;
+  wd_armed_ = false;  // before braking: brakeAll commits at `at` and comes back here
+  ++wd_expiries_;
+  interlock_closed_ = false;
+  brakeAll(at);
 }
 
 VirtualAxisStatus VirtualTable::axis(double t, int i) {

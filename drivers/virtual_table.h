@@ -7,10 +7,14 @@
 //
 // Controller behaviour modelled on common rate tables: modes off/position/rate; position mode
 // takes the shortest way (a 180-degree reversal needs a rotation with explicit direction);
-// motion needs a closed interlock; opening or tripping it brakes every axis to rest.
+// motion needs a closed interlock; opening or tripping it brakes every axis to rest. The
+// host watchdog of a device file that declares one (TableDeviceSpec::watchdog): once armed
+// by a heartbeat, a heartbeat that has not changed for longer than the timeout brakes every
+// axis to rest and opens the interlock, as a controller does when its host dies.
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,6 +57,22 @@ class VirtualTable {
   // modes go off, the interlock comes up open and the trip/emergency-stop latches are gone;
   // the angles stay (absolute encoders). Motion needs the interlock closed again (re-arm).
   void restart(double t);
+  // The host watchdog: the heartbeat register written with `value` at time t. A value that
+  // differs from the last one arms the watchdog and restarts its timer (the same value again
+  // is no sign of life). Armed and unchanged for longer than watchdogTimeout(): from the
+  // instant the timeout ran out, every axis brakes to rest at the device's max_accel (as an
+  // opened interlock or an emergency stop brakes) and the interlock opens (no trip, no
+  // emergency stop latched: the host's re-arm closes it again); the watchdog disarms until
+  // the next changed heartbeat. Judged at every call that takes a time, so a table nobody
+  // talks to any more stops at the right instant, as read later.
+  void heartbeat(double t, uint32_t value);
+  // The timeout in this model's time: the device file's timeout (wall seconds at the
+  // controller) times the time scale of a world that runs faster than the wall clock.
+  void setWatchdogTimeout(double model_s) { wd_timeout_ = model_s; }
+  double watchdogTimeout() const { return wd_timeout_; }
+  bool watchdogArmed() const { return wd_armed_; }
+  int watchdogExpiries() const { return wd_expiries_; }   // times the watchdog ran out
+  std::uint64_t heartbeats() const { return wd_beats_; }  // changed heartbeats received
 
   VirtualAxisStatus axis(double t, int i);
   uint32_t statusWord(double t);  // global bits per spec().bits
@@ -98,7 +118,9 @@ class VirtualTable {
   bool motionAllowed(std::string* why) const;
   // Axis i when it may take a command of `mode` now (motion allowed, the axis in that mode);
   // nullptr and *why otherwise.
-  Axis* commandable(int i, AxisMode mode, std::string* why);
+  Axis* commandable(double t, int i, AxisMode mode, std::string* why);
+  // An armed watchdog whose timeout ran out before t fires at that instant.
+  void checkWatchdog(double t);
   // Position target x1 (continuous angle) set and the move there planned.
   void goTo(double t, int i, double x1);
   void brakeAll(double t);
@@ -110,6 +132,13 @@ class VirtualTable {
   bool tripped_ = false;
   bool estop_ = false;
   std::string trip_reason_;
+  // Host watchdog.
+  bool wd_armed_ = false;
+  double wd_last_t_ = 0.0;  // when the heartbeat last changed
+  std::optional<uint32_t> wd_value_;
+  double wd_timeout_ = 0.0;
+  int wd_expiries_ = 0;
+  std::uint64_t wd_beats_ = 0;
 };
 
 }  // namespace imubench::drivers

@@ -32,10 +32,14 @@ class VirtualClock {
 
 class VirtualWorld {
  public:
-  // imu_tau_s: the IMU's thermal lag behind the chamber air (VirtualChamber).
+  // imu_tau_s: the IMU's thermal lag behind the chamber air (VirtualChamber). The table's
+  // host watchdog times the host's heartbeats on the wall clock, as a controller does: its
+  // timeout in simulated time is the device file's times the time scale.
   VirtualWorld(const TableDeviceSpec& table, const ChamberDeviceSpec& chamber, double time_scale,
                double ambient_c = 20.0, double imu_tau_s = 0.0)
-      : clock_(time_scale), table_(table, 0.0), chamber_(chamber, ambient_c, 0.0, imu_tau_s) {}
+      : clock_(time_scale), table_(table, 0.0), chamber_(chamber, ambient_c, 0.0, imu_tau_s) {
+    table_.setWatchdogTimeout(table.watchdog.timeout_s * time_scale);
+  }
 
   double now() const { return clock_.now(); }
   const VirtualClock& clock() const { return clock_; }

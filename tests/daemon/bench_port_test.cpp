@@ -194,6 +194,8 @@ TEST_F(RunnerOverModbus, TableControllerGoneStopsThePlanWithAnAlarm) {
 // about one reply timeout (a polling read makes one attempt; after kSilentReads unanswered
 // reads the table's commands too, and it is read only once per kSilentRetryPeriodS); the run
 // pauses with an alarm, and once the replies are on time the table is read every poll again.
+// Heartbeats 0.6 s apart let the controller's host watchdog (0.5 s) open its interlock: the
+// operator re-arms (prepare) before resuming.
 TEST_F(RunnerOverModbus, LateRepliesBlockEachCallForOneReplyTimeoutAtMost) {
   ASSERT_TRUE(runner_->start(wallNow()).ok);
   ASSERT_TRUE(pollUntil([&] { return runner_->currentStep() >= 1; }, 60.0));
@@ -217,6 +219,9 @@ TEST_F(RunnerOverModbus, LateRepliesBlockEachCallForOneReplyTimeoutAtMost) {
   EXPECT_GT(reads_skipped, 10) << "a silent table is not read on every poll";
   EXPECT_FALSE(runner_->resume(wallNow()).ok);
   faults_.reply_delay_s = 0.0;
+  EXPECT_GE(
+      world_->withTable([](drivers::VirtualTable& t, double) { return t.watchdogExpiries(); }), 1);
+  ASSERT_TRUE(pollUntil([&] { return port_->prepare().ok; }, 30.0)) << log_.all();
   ASSERT_TRUE(pollUntil([&] { return runner_->resume(wallNow()).ok; }, 30.0)) << alarms();
   ASSERT_TRUE(pollUntil([&] { return runner_->state() == RunnerState::kFinished; }, 120.0))
       << alarms();

@@ -238,6 +238,52 @@ TEST(DeviceFiles, MotionProfileRegistersAreBothOrNeither) {
   }
 }
 
+// [host_watchdog]: a holding register for the heartbeat and a timeout (default 0.5 s);
+// refused with line and reason where it cannot work.
+TEST(DeviceFiles, HostWatchdogIsDeclaredInModbusFilesOnly) {
+  const auto ref = testing::tableSpec("imubench-ref-2axis-tcp.toml");
+  ASSERT_TRUE(ref.watchdog.declared());
+  EXPECT_EQ(ref.watchdog.heartbeat.address, 2);
+  EXPECT_EQ(ref.watchdog.heartbeat.bank, RegisterBank::kHolding);
+  EXPECT_NEAR(ref.watchdog.timeout_s, 0.5, 1e-12);
+  EXPECT_FALSE(testing::tableSpec("scpi-2axis-serial.toml").watchdog.declared());
+  const std::string path = deviceDir() + "/tables/imubench-ref-2axis-tcp.toml";
+  std::string text;
+  {
+    std::ifstream in(path);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+  }
+  const std::string hb = "heartbeat = { address = 2, type = \"u16\" }";
+  {  // the timeout left out: 0.5 s
+    io::Diagnostics diag("default.toml");
+    const auto s = parseTableDevice(replaceLine(text, "timeout = \"500 ms\"\n", ""), diag);
+    ASSERT_TRUE(s.has_value()) << diag.str();
+    EXPECT_NEAR(s->watchdog.timeout_s, 0.5, 1e-12);
+  }
+  const BrokenCase cases[] = {
+      {hb.c_str(), "heartbeat = { address = 2, type = \"u16\", bank = \"input\" }",
+       "must be a holding register"},
+      {hb.c_str(), "heartbeat = { address = 2, type = \"f32\", unit = \"deg\" }", "no unit/lsb"},
+      {hb.c_str(), "heartbeat = { address = 1, type = \"u16\" }", "overlap"},
+      {"timeout = \"500 ms\"\n", "timeout = \"0 s\"\n", "must be in (0, 60] s"},
+      {hb.c_str(), "heartbeet = 2", "unknown key \"heartbeet\""},
+  };
+  for (const auto& c : cases) {
+    io::Diagnostics diag("broken-watchdog.toml");
+    EXPECT_FALSE(parseTableDevice(replaceLine(text, c.from, c.to), diag).has_value()) << c.to;
+    EXPECT_NE(diag.str().find(c.reason), std::string::npos) << c.to << " -> " << diag.str();
+    EXPECT_NE(diag.str().find("broken-watchdog.toml:"), std::string::npos) << diag.str();
+  }
+  // A serial command set has no heartbeat command: refused at the section's line.
+  const std::string serial = std::string(kGood) + "[host_watchdog]\ntimeout = \"1 s\"\n";
+  io::Diagnostics diag("serial.toml");
+  EXPECT_FALSE(parseTableDevice(serial, diag).has_value());
+  EXPECT_NE(diag.str().find("serial-scpi command set has no heartbeat"), std::string::npos)
+      << diag.str();
+}
+
 TEST(DeviceFiles, BrokenRegisterMapsAreRefused) {
   const std::string base = R"(
 [device]

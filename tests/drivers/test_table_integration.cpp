@@ -117,6 +117,45 @@ TEST_F(TableOverProtocols, ModbusTcpSeveralClients) {
   expectReadInstants(*drv);
 }
 
+// The host watchdog over Modbus TCP: every read (the daemon's poll) first writes a new
+// heartbeat, which the controller sees change; once the reads stop, the controller opens its
+// interlock after the device file's timeout (wall clock), and the next read re-arms it.
+TEST_F(TableOverProtocols, EveryReadWritesTheHeartbeat) {
+  auto spec = testing::tableSpec("imubench-ref-2axis-tcp.toml");
+  ASSERT_TRUE(spec.watchdog.declared());
+  VirtualWorld world(spec, testing::chamberSpec("generic-float-chamber.toml"),
+                     testing::kTestTimeScale);
+  VirtualTableRegisters regs(world, spec, log_.sink());
+  ModbusServer server(regs, faults_, log_.sink());
+  ASSERT_TRUE(server.startTcp("127.0.0.1", 0).ok);
+  spec.transport.port = server.port();
+  auto drv = makeTableDriver(spec, log_.sink());
+  ASSERT_TRUE(drv->connect().ok);
+  ASSERT_TRUE(drv->interlock(InterlockCommand::kClose).ok);
+  auto beats = [&] {
+    return world.withTable([](VirtualTable& t, double) { return t.heartbeats(); });
+  };
+  EXPECT_EQ(beats(), 0u);
+  TableReading r;
+  for (std::uint64_t k = 1; k <= 10; ++k) {
+    ASSERT_TRUE(drv->read(&r).ok);
+    EXPECT_EQ(beats(), k) << "read " << k << " wrote no new heartbeat";
+    EXPECT_TRUE(r.interlock_closed);
+  }
+  EXPECT_TRUE(world.withTable([](VirtualTable& t, double) { return t.watchdogArmed(); }));
+  // No more reads: the interlock opens once the timeout has passed.
+  EXPECT_TRUE(waitUntil([&] {
+    return world.withTable([](VirtualTable& t, double now) {
+      return (t.statusWord(now) & (1u << t.spec().bits.interlock_closed)) == 0;
+    });
+  }));
+  ASSERT_TRUE(drv->read(&r).ok);
+  EXPECT_FALSE(r.interlock_closed);
+  EXPECT_EQ(world.withTable([](VirtualTable& t, double) { return t.watchdogExpiries(); }), 1);
+  EXPECT_TRUE(world.withTable([](VirtualTable& t, double) { return t.watchdogArmed(); }));
+  EXPECT_TRUE(log_.contains("host watchdog")) << log_.all();
+}
+
 TEST_F(TableOverProtocols, ModbusRtuOnPseudoTerminal) {
   auto spec = testing::tableSpec("generic-3axis-rtu.toml");
   VirtualWorld world(spec, testing::chamberSpec("generic-float-chamber.toml"),

@@ -161,6 +161,80 @@ TEST_F(VirtualTableTest, RateModeAndInterlockTrip) {
   EXPECT_TRUE(table_.setRate(12.0, 1, 10 * kDegToRad, &why)) << why;
 }
 
+// The host watchdog (reference file: 0.5 s). Heartbeats every 0.1 s up to t = 5 s while the
+// outer axis runs 20 turns at 300 deg/s (reached at t = 3 s): from t = 5.5 s exactly it brakes
+// at the device's 100 deg/s^2 to rest 3 s later, and the interlock is open from then on.
+// Time injected.
+TEST_F(VirtualTableTest, WatchdogBrakesAndOpensTheInterlockWhenTheHeartbeatStops) {
+  std::string why;
+  ASSERT_NEAR(table_.watchdogTimeout(), 0.5, 1e-12);
+  ASSERT_TRUE(table_.rotateBy(0.0, 0, 40 * kPi, &why)) << why;
+  for (int k = 0; k <= 50; ++k) table_.heartbeat(0.1 * k, static_cast<uint32_t>(k));
+  EXPECT_TRUE(table_.watchdogArmed());
+  EXPECT_EQ(table_.heartbeats(), 51u);
+  const double rate = 300 * kDegToRad, accel = 100 * kDegToRad;
+  const double t_out = 0.1 * 50 + 0.5;
+  // Still running at full rate just before the timeout runs out, read after it (lazily).
+  EXPECT_NEAR(table_.axis(t_out - 1e-9, 0).rate, rate, 1e-6);
+  EXPECT_TRUE(table_.interlockClosed());
+  EXPECT_NEAR(table_.axis(t_out + 1.0, 0).rate, rate - accel * 1.0, 1e-9);
+  EXPECT_FALSE(table_.interlockClosed());
+  EXPECT_EQ(table_.watchdogExpiries(), 1);
+  EXPECT_FALSE(table_.watchdogArmed());
+  const double t_rest = t_out + rate / accel;
+  EXPECT_TRUE(table_.axis(t_rest - 0.01, 0).moving);
+  const VirtualAxisStatus rest = table_.axis(t_rest + 1e-6, 0);
+  EXPECT_EQ(rest.rate, 0.0);
+  EXPECT_FALSE(rest.moving);
+  const uint32_t st = table_.statusWord(t_rest + 1.0);
+  EXPECT_FALSE(st & (1u << spec_.bits.interlock_closed));
+  EXPECT_FALSE(st & (1u << spec_.bits.interlock_tripped));  // no trip, no estop: re-arm works
+  EXPECT_FALSE(st & (1u << spec_.bits.estop));
+  EXPECT_EQ(table_.watchdogExpiries(), 1);  // disarmed: once
+}
+
+// A command that arrives after the timeout ran out finds the interlock open, though nothing
+// read the table in between.
+TEST_F(VirtualTableTest, WatchdogExpiredBeforeACommandRefusesIt) {
+  std::string why;
+  table_.heartbeat(1.0, 1);
+  EXPECT_FALSE(table_.rotateBy(1.6, 0, kPi, &why));
+  EXPECT_NE(why.find("interlock open"), std::string::npos) << why;
+  EXPECT_EQ(table_.watchdogExpiries(), 1);
+}
+
+// Writing the same value again is no sign of life; a table never given a heartbeat never
+// arms; re-armed (interlock closed) and fed again, it moves again.
+TEST_F(VirtualTableTest, WatchdogNeedsAChangingHeartbeatAndRearms) {
+  std::string why;
+  EXPECT_TRUE(table_.rotateBy(0.0, 0, kPi, &why)) << why;
+  EXPECT_TRUE(table_.interlockClosed());
+  table_.statusWord(100.0);
+  EXPECT_TRUE(table_.interlockClosed()) << "never armed: never fires";
+  table_.heartbeat(100.0, 7);
+  table_.heartbeat(100.3, 7);
+  table_.heartbeat(100.6, 7);  // past 100.5: the first 7 was the last sign of life
+  EXPECT_FALSE(table_.interlockClosed());
+  EXPECT_EQ(table_.watchdogExpiries(), 1);
+  table_.interlockClose(101.0, &why);
+  ASSERT_TRUE(why.empty()) << why;
+  table_.heartbeat(101.0, 8);
+  table_.heartbeat(101.4, 9);
+  EXPECT_TRUE(table_.rotateBy(101.8, 0, kPi, &why)) << why;
+  EXPECT_TRUE(table_.axis(101.85, 0).moving);
+  EXPECT_TRUE(table_.interlockClosed());
+  EXPECT_EQ(table_.watchdogExpiries(), 1);
+}
+
+// The world times the heartbeats on the wall clock: at time scale 20 the timeout is 10 s of
+// simulated time.
+TEST(VirtualWorldWatchdog, TimeoutFollowsTheTimeScale) {
+  VirtualWorld world(testing::tableSpec("imubench-ref-2axis-tcp.toml"),
+                     testing::chamberSpec("generic-float-chamber.toml"), 20.0);
+  EXPECT_NEAR(world.withTable([](VirtualTable& t, double) { return t.watchdogTimeout(); }), 10.0,
+              1e-12);
+}
+
 TEST(VirtualChamber, FirstOrderResponseToAStep) {
   auto spec = testing::chamberSpec("generic-float-chamber.toml");  // tau = 90 s
   VirtualChamber ch(spec, 20.0, 0.0);

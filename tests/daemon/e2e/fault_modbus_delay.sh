@@ -5,7 +5,8 @@
 # reads make one attempt, a silent device is tried once a second: no call blocks the loop
 # longer than one reply timeout), keeps recording the IMU, stops motion and pauses with an alarm on the
 # socket and in the log; `resume` is refused while the table does not answer and continues the
-# plan once the replies are on time again.
+# plan once the replies are on time again (after `rearm`: the late heartbeats let the
+# controller's host watchdog open the interlock meanwhile, issue 28).
 # Usage: fault_modbus_delay.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
@@ -40,6 +41,15 @@ check(st["state"] == "paused" and st["imu_time_s"] > t0 + 10.0,
 resume_refused(c, "not answering")
 os.kill(vpid, signal.SIGRTMIN + 2)
 motion_stopped(c, limit=30)
+# The heartbeats came late too: the controller's host watchdog (0.5 s) opened the interlock.
+# The operator re-arms once the table answers again (refused while it does not).
+end = time.monotonic() + 30
+while True:
+    r = c.reply({"cmd": "rearm"})
+    if r["ok"] or time.monotonic() > end:
+        break
+    time.sleep(0.2)
+check(r["ok"], "re-armed once the table answers on time again: %s" % r)
 resume_when_back(c, limit=30)
 recording_intact(work, cli, c.run, ["h1", "r1", "h2"])
 PY
