@@ -183,6 +183,7 @@ struct BenchDaemon::ActiveRun {
   std::optional<OnlineSetup> calibration;  // the plan names a calibration
   std::unique_ptr<OnlineEngine> engine;    // with it
   std::optional<double> segment_t0;        // IMU time the current step's command went out
+  int last_stored_step = -1;               // the step of the newest stored segment
   // The progress shown (status, progress events): never below what was shown before in this
   // run, though the runner's planned-time figure drops when a step re-runs after a pause.
   double progress_shown = 0.0;
@@ -617,6 +618,7 @@ void BenchDaemon::closeStep(std::optional<double> t1) {
       log_.error("store: " + st.message);
     } else {
       stored_segment = seg;
+      run_->last_stored_step = c.step;
       if (auto fl = run_->writer->flush(); !fl.ok) log_.error("store: " + fl.message);
     }
   } else {
@@ -688,6 +690,7 @@ void BenchDaemon::discardPoint(const RunnerEvent& e) {
   const CountResult r =
       store_->discardSegmentsFrom(run_->id, steps[static_cast<std::size_t>(e.step)].label);
   if (!r.status.ok) log_.error("store: " + r.status.message);
+  run_->last_stored_step = e.step - 1;
 }
 
 // The chamber on its own timer: its reading for the runner's next ticks, and a chamber
@@ -952,15 +955,14 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   std::optional<OnlineSetup> calibration = calibrationSetup(*loaded, &why);
   if (!why.empty()) return errorReply(id, ErrorCode::kBadState, which + ": " + why);
   auto runner = makeRunner(*loaded);
-  // An interrupted temperature point restarts at its chamber step (plan_runner.h resumeStep);
-  // its steps that had finished are forgotten, so the calibration sees each step once.
-  const int next = resumeStep(runner->steps(), point.last_finished_step);
+  // An interrupted temperature point restarts at its chamber step; elsewhere no rotation may
+  // touch the gap the interruption left (plan_runner.h resumeAfterGap): the void segments go.
+  const GapRestart restart = resumeAfterGap(runner->steps(), point.last_finished_step);
+  const int next = restart.step;
   const bool done = next >= static_cast<int>(runner->steps().size());
-  if (!done && next <= point.last_finished_step) {
-    const CountResult dropped = store_->discardSegmentsFrom(run_id, runner->steps()[next].label);
-    if (!dropped.status.ok) return errorReply(id, ErrorCode::kInternal, dropped.status.message);
-    point = store_->resumePoint(run_id);
-    if (!point.status.ok) return errorReply(id, ErrorCode::kInternal, point.status.message);
+  if (!done && restart.first_void <= point.last_finished_step) {
+    if (auto st = discardBeforeResume(run_id, runner->steps(), restart, &point); !st.ok)
+      return errorReply(id, ErrorCode::kInternal, st.message);
   }
   if (!done) {
     if (const Status started = runner->startAt(wallNow(), next); !started.ok) {
@@ -969,6 +971,10 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   }
   if (auto st = store_->resumeRun(run_id); !st.ok) {
     return errorReply(id, ErrorCode::kInternal, st.message);
+  }
+  if (!done && point.last_imu_t) {
+    recordGap(run_id, *point.last_imu_t, *imu_last_t_, "the daemon was down (resume)",
+              runner->steps(), restart);
   }
   if (done) {  // every step had finished; only the closing was cut off
     if (auto st = store_->finishRun(run_id, RunState::kFinished, "completed"); !st.ok)
@@ -987,6 +993,7 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   active->writer = std::make_unique<RunWriter>(*store_, run_id, point);
   active->last_table_t = point.last_table_t;
   active->last_chamber_t = point.last_chamber_t;
+  active->last_stored_step = restart.first_void - 1;
   // The plan's calibration goes on too: the final one reads every stored sample (before and
   // after the interruption); the online estimates start again from the resumed step.
   if (calibration) attachCalibration(*active, std::move(*calibration));
@@ -999,6 +1006,64 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
                       {"state", runnerStateName(run_->runner->state())},
                       {"from_step", next},
                       {"steps", run_->runner->steps().size()}});
+}
+
+// The stored segments a gap made void (plan_runner.h GapRestart) are discarded: a temperature
+// point's from its chamber step on; a rotation's that lost its hold after only while it is
+// still the newest stored (a second resume finds it gone already).
+Status BenchDaemon::discardVoidSegments(std::int64_t run_id, const std::vector<RunStep>& steps,
+                                        const GapRestart& restart, int last_kept,
+                                        bool point_restart) {
+  const auto& first = steps[static_cast<std::size_t>(restart.first_void)];
+  if (point_restart) {
+    return store_->discardSegmentsFrom(run_id, first.label).status;
+  }
+  std::vector<std::string> labels;
+  for (int k = restart.first_void; k <= last_kept; ++k)
+    labels.push_back(steps[static_cast<std::size_t>(k)].label);
+  return store_->discardTrailingSegments(run_id, labels).status;
+}
+
+// A resume's void segments go (resumeAfterGap); point is read again after.
+Status BenchDaemon::discardBeforeResume(std::int64_t run_id, const std::vector<RunStep>& steps,
+                                        const GapRestart& restart, ResumePoint* point) {
+  const int last = point->last_finished_step;
+  const bool point_restart = resumeStep(steps, last) <= last;
+  if (auto st = discardVoidSegments(run_id, steps, restart, last, point_restart); !st.ok) return st;
+  *point = store_->resumePoint(run_id);
+  return point->status;
+}
+
+// A gap in the run's recording (IMU time from_t to to_t): event "recording_gap" in the run's
+// event log, to subscribers and the log, naming where the run goes on and what runs again.
+void BenchDaemon::recordGap(std::int64_t run_id, double from_t, double to_t,
+                            const std::string& cause, const std::vector<RunStep>& steps,
+                            const GapRestart& restart) {
+  json fields = {{"run", run_id}, {"from_t", from_t}, {"to_t", to_t}, {"cause", cause}};
+  const int n = static_cast<int>(steps.size());
+  if (restart.step < n) {
+    fields["step"] = restart.step;
+    fields["label"] = steps[static_cast<std::size_t>(restart.step)].label;
+  }
+  // Steps that run again although their segments stored before the gap stay (gapRestart).
+  fields["rerun_kept"] = json::array();
+  for (int k = restart.step; k < restart.first_void && k < n; ++k)
+    fields["rerun_kept"].push_back(steps[static_cast<std::size_t>(k)].label);
+  std::ostringstream msg;
+  msg << "recording gap from t = " << from_t << " s to t = " << to_t << " s (" << cause
+      << "): no segment spans it";
+  if (restart.step < n)
+    msg << "; the run goes on at step '" << fields["label"].get<std::string>() << "'";
+  fields["message"] = msg.str();
+  RunEvent stored;
+  stored.run_id = run_id;
+  stored.wall_unix_s = unixNow();
+  stored.severity = EventSeverity::kWarning;
+  stored.kind = "recording_gap";
+  stored.json = fields.dump();
+  if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
+  server_->broadcast(Topic::kRun, "recording_gap", fields);
+  log_.warning("run " + std::to_string(run_id) + ": " + msg.str());
 }
 
 // ---- calibration (daemon/online_engine.h) ---------------------------------------------------

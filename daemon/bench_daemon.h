@@ -112,6 +112,12 @@ class BenchDaemon {
   void startPointCalibrations(std::int64_t run_id);
   // A temperature point restarted by the runner: its stored segments are discarded.
   void discardPoint(const RunnerEvent& e);
+  Status discardVoidSegments(std::int64_t run_id, const std::vector<RunStep>& steps,
+                             const GapRestart& restart, int last_kept, bool point_restart);
+  Status discardBeforeResume(std::int64_t run_id, const std::vector<RunStep>& steps,
+                             const GapRestart& restart, ResumePoint* point);
+  void recordGap(std::int64_t run_id, double from_t, double to_t, const std::string& cause,
+                 const std::vector<RunStep>& steps, const GapRestart& restart);
   void storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f);
   Reply enqueue(const Request& request, const std::string& name, const LoadedPlan& loaded);
   Reply startQueued(const nlohmann::json& id);

@@ -1,8 +1,11 @@
 #include "daemon/online_engine.h"
 
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <utility>
 
+#include "calib/static_detection.h"
 #include "daemon/run_explain.h"
 #include "daemon/store.h"
 #include "nav/rotation.h"
@@ -31,7 +34,41 @@ io::Recording recordingOf(
   for (const auto& c : imu) rec.imu.insert(rec.imu.end(), c->begin(), c->end());
   for (const auto& c : table) rec.table.insert(rec.table.end(), c->begin(), c->end());
   rec.segments = segments;
-  return rec;
+  return completeSegmentsOnly(std::move(rec), nullptr);
+}
+
+std::string timeSpan(double t0, double t1) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(3) << t0 << "-" << t1 << " s";
+  return s.str();
+}
+
+// Removes the first segment gap (t_a, t_b) harms (as calib's checkIncrements judges it); false
+// when it harms none.
+bool leaveOutOne(std::vector<calib::Segment>* segments, double t_a, double t_b,
+                 std::vector<std::string>* notes) {
+  std::optional<std::size_t> before, after, inside;
+  for (std::size_t k = 0; k < segments->size(); ++k) {
+    const calib::Segment& s = (*segments)[k];
+    if (s.t0 < t_b && s.t1 > t_a) inside = k;
+    if (s.t1 <= t_a && (!before || s.t1 > (*segments)[*before].t1)) before = k;
+    if (s.t0 >= t_b && (!after || s.t0 < (*segments)[*after].t0)) after = k;
+  }
+  const bool rotate_before = before && (*segments)[*before].kind == calib::SegmentKind::kRotate;
+  const bool rotate_after = after && (*segments)[*after].kind == calib::SegmentKind::kRotate;
+  const std::optional<std::size_t> out = inside          ? inside
+                                         : rotate_before ? before
+                                         : rotate_after  ? after
+                                                         : std::nullopt;
+  if (!out) return false;
+  const calib::Segment& s = (*segments)[*out];
+  if (notes) {
+    notes->push_back("segment '" + s.label + "' (" + timeSpan(s.t0, s.t1) +
+                     ") left out: " + (inside ? "it spans" : "a rotation next to") +
+                     " the gap in the IMU data " + timeSpan(t_a, t_b));
+  }
+  segments->erase(segments->begin() + static_cast<std::ptrdiff_t>(*out));
+  return true;
 }
 
 // One line for people: how much the estimate determines.
@@ -208,6 +245,19 @@ void OnlineEngine::onEstimate(const RunCalibration& c, int step, const std::stri
   if (pending_) startEstimate();
 }
 
+io::Recording completeSegmentsOnly(io::Recording rec, std::vector<std::string>* notes) {
+  if (rec.imu.size() < 2) return rec;
+  const double max_gap =
+      calib::IncrementCheckOptions{}.max_gap_factor * calib::medianSampleStep(rec.imu);
+  for (std::size_t i = 1; i < rec.imu.size(); ++i) {
+    const double t_a = rec.imu[i - 1].t, t_b = rec.imu[i].t;
+    if (!(t_b - t_a > max_gap)) continue;
+    while (leaveOutOne(&rec.segments, t_a, t_b, notes)) {
+    }
+  }
+  return rec;
+}
+
 FinalCalibration finalCalibration(const OnlineSetup& setup) {
   FinalCalibration out;
   auto opened = Store::open(setup.db_path, StoreOptions{});
@@ -220,6 +270,9 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
     out.status = run.status;
     return out;
   }
+  // Complete segments only: a gap (a daemon restart, an IMU restart) is left between them.
+  std::vector<std::string> left_out;
+  run.value = completeSegmentsOnly(std::move(run.value), &left_out);
   std::optional<io::Recording> direct;
   if (setup.direct_run) {
     auto d = opened.value->loadRecording(*setup.direct_run);
@@ -228,7 +281,7 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
                                  d.status.message);
       return out;
     }
-    direct = std::move(d.value);
+    direct = completeSegmentsOnly(std::move(d.value), &left_out);
   }
   const auto temperature = runTemperature(run.value);
   if (!temperature) {
@@ -247,6 +300,7 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
   if (!c.status.ok) out.report["error"] = c.status.message;
   out.report["estimate"] = estimateJson(c);
   if (setup.direct_run) out.report["direct_run"] = *setup.direct_run;
+  if (!left_out.empty()) out.report["segments_left_out"] = left_out;
   out.report["temperature_c"] = *temperature;
   out.report["table_kind"] =
       run.value.table_kind == calib::TableKind::kTwoAxis ? "two-axis" : "three-axis";

@@ -130,6 +130,16 @@ class OnlineEngine {
   std::shared_ptr<bool> alive_;  // false once destroyed: late results are dropped
 };
 
+// The recording as the calibrations and the analysis see it: every stored sample, and the
+// segments no gap in the IMU stream touches (calib/static_detection.h checkIncrements refuses
+// a gap, longer than its max_gap_factor median steps, inside a segment or with a rotation as
+// its nearest segment on either side). A segment spanning a gap and a rotation next to one are
+// left out, each named in `notes` (when not null); the gap itself and the samples around it
+// stay. The daemon stores no such segment (it re-runs steps after a gap: plan_runner.h
+// gapRestart); this keeps a run stored otherwise (before that rule, a soak spanning an IMU
+// restart) calibratable from its complete segments. Pure.
+io::Recording completeSegmentsOnly(io::Recording rec, std::vector<std::string>* notes);
+
 // The full calibration of a completed run from the store (runs on a worker thread): loads the
 // run (and the pipeline's direct run) on its own connection, calibrates, judges. Its result:
 // the results to store ("coefficients": interchange coefficient JSON; "report"; "verdict";

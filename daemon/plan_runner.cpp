@@ -134,6 +134,28 @@ int resumeStep(const std::vector<RunStep>& steps, int last_finished) {
   return temperaturePointStart(steps, next);
 }
 
+GapRestart gapRestart(const std::vector<RunStep>& steps, int last_kept) {
+  const int n = static_cast<int>(steps.size());
+  auto kind = [&](int k) { return steps[static_cast<std::size_t>(k)].kind; };
+  int first_void = std::clamp(last_kept + 1, 0, n);
+  while (first_void > 0 && kind(first_void - 1) == calib::SegmentKind::kRotate) --first_void;
+  int step = first_void;
+  if (step > 0 && step < n && kind(step) == calib::SegmentKind::kRotate &&
+      (kind(step - 1) == calib::SegmentKind::kStatic ||
+       kind(step - 1) == calib::SegmentKind::kMove)) {
+    --step;
+  }
+  return {step, first_void};
+}
+
+GapRestart resumeAfterGap(const std::vector<RunStep>& steps, int last_finished) {
+  const int n = static_cast<int>(steps.size());
+  const int next = resumeStep(steps, last_finished);
+  if (next >= n) return {n, n};
+  if (next <= last_finished) return {next, next};  // a temperature point restarts
+  return gapRestart(steps, last_finished);
+}
+
 std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps) {
   std::vector<drivers::MotionLimits> out;
   for (const RunStep& s : steps) {
@@ -411,7 +433,10 @@ bool PlanRunner::arrived(const BenchObservation& obs, const std::vector<double>&
 
 void PlanRunner::beginStep(const BenchObservation& obs) {
   const RunStep& s = steps_[step_];
-  const bool moves = s.kind == calib::SegmentKind::kRotate || s.kind == calib::SegmentKind::kMove;
+  // A hold that runs again (a resume, a gap: gapRestart) may find the table where an
+  // interrupted motion left it: it goes back to its position like a motion.
+  const bool moves = s.kind == calib::SegmentKind::kRotate || s.kind == calib::SegmentKind::kMove ||
+                     (s.kind == calib::SegmentKind::kStatic && step_interrupted_);
   // After a pause or an alarm the table may still be braking: command nothing until it rests
   // (a controller may refuse a new demand while moving, and the start angle must be exact).
   if (moves && (obs.moving || !obs.table_ok)) return;

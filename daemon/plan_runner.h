@@ -91,6 +91,29 @@ int temperaturePointStart(const std::vector<RunStep>& steps, int step);
 // (resumeInterrupted) discards the re-run steps' stored segments (Store::discardSegmentsFrom).
 int resumeStep(const std::vector<RunStep>& steps, int last_finished);
 
+// Where a run goes on after a gap in its recording (the daemon was down, the IMU restarted or
+// went silent) that came after the stored segment of step `last_kept` (-1: none stored yet).
+// No rotation may touch a gap: the calibrators integrate a rotation from inside the hold before
+// it to inside the hold after it (calib/indirect_calibration.h run_pad_s, adjacency_tolerance_s;
+// calib/static_detection.h checkIncrements refuses a gap next to a rotation). So
+//   - a rotation stored right before the gap is void (its hold after is lost): it runs again,
+//     and every step after it; first_void is the first step whose stored segment is discarded
+//     (last_kept + 1 when none is);
+//   - a rotation that runs again after the gap runs with the hold (or move) before it: `step`
+//     is that step, whose segment stored before the gap is kept (it closes the rotation before
+//     it); both are stored, one on each side of the gap.
+// The interrupted step's partial samples stay stored and belong to no segment. Pure.
+struct GapRestart {
+  int step = 0;        // the step the run goes on at (steps.size(): none left)
+  int first_void = 0;  // the first step whose stored segment is void
+};
+GapRestart gapRestart(const std::vector<RunStep>& steps, int last_kept);
+
+// The crash-resume rule (BenchDaemon::resumeInterrupted): resumeStep's temperature point rule
+// (a point restarts at its chamber step, its finished steps void), else gapRestart; nothing to
+// run when every step had finished. Pure.
+GapRestart resumeAfterGap(const std::vector<RunStep>& steps, int last_finished);
+
 // Per axis, the largest rate and acceleration of any step (zero for an axis that never moves).
 std::vector<drivers::MotionLimits> planLimits(const std::vector<RunStep>& steps);
 

@@ -942,6 +942,43 @@ CountResult Store::discardSegmentsFrom(std::int64_t run_id, const std::string& l
   return r;
 }
 
+CountResult Store::discardTrailingSegments(std::int64_t run_id,
+                                           const std::vector<std::string>& labels) {
+  CountResult r;
+  r.value = 0;
+  r.status = impl_->transaction("cannot discard segments of " + runLabel(run_id), [&]() {
+    Status st;
+    std::vector<std::string> gone;
+    for (auto label = labels.rbegin(); label != labels.rend(); ++label) {
+      std::int64_t idx = 0;
+      {
+        Bound q = impl_->use(
+            "SELECT idx, label FROM segments WHERE run_id = ?1 ORDER BY idx DESC LIMIT 1", &st);
+        if (!q) return st;
+        q.bind(1, run_id);
+        const int rc = q.step();
+        if (rc == SQLITE_DONE) break;
+        if (rc != SQLITE_ROW) return impl_->sqlError("cannot read " + runLabel(run_id));
+        if (q.text(1) != *label) break;
+        idx = q.integer(0);
+      }
+      Bound del = impl_->use("DELETE FROM segments WHERE run_id = ?1 AND idx = ?2", &st);
+      if (!del) return st;
+      del.bind(1, run_id);
+      del.bind(2, idx);
+      if (del.step() != SQLITE_DONE) return impl_->sqlError("cannot discard segments");
+      gone.push_back(*label);
+    }
+    r.value = static_cast<int>(gone.size());
+    if (gone.empty()) return Status::Ok();
+    const nlohmann::json details = {{"labels", gone}, {"segments", r.value}};
+    return impl_->insertEvent(
+        {run_id, nowUnixS(), EventSeverity::kInfo, "segments_discarded", details.dump()});
+  });
+  if (!r.status.ok) r.value = 0;
+  return r;
+}
+
 RunListResult Store::listRuns() {
   RunListResult r;
   Bound q = impl_->use(kSelectRunsSql, &r.status);

@@ -197,6 +197,14 @@ class Store {
   // "segments_discarded" event. Every sample row stays. Returns how many segments went; 0
   // when none is labelled `label` (the step never finished). Call before resumePoint.
   CountResult discardSegmentsFrom(std::int64_t run_id, const std::string& label);
+  // A rotation stored right before a gap in the recording lost its hold after
+  // (daemon/plan_runner.h gapRestart): the run's newest segments are discarded while they carry
+  // `labels` from the last backwards (labels in step order: the newest segment must be
+  // labels.back(), the one before it the label before, ...); the first that does not match
+  // stops it (a segment discarded already is never matched against an older one of the same
+  // label). With a "segments_discarded" event when any went; every sample row stays. Returns
+  // how many went.
+  CountResult discardTrailingSegments(std::int64_t run_id, const std::vector<std::string>& labels);
   RunListResult listRuns();
   RunInfoResult runInfo(std::int64_t run_id);
 

@@ -70,6 +70,47 @@ std::vector<AcceptanceLimit> limits() {
           {"accel.scale", 300e-6, "300 ppm"}};
 }
 
+// Issue 28 item 4: the calibration sees complete segments only. A gap between holds (a
+// resume's) keeps every segment; a rotation next to a gap and a segment spanning one are left
+// out, named; every sample stays.
+TEST(CompleteSegments, GapsNextToRotationsOrInsideSegmentsLeaveThoseSegmentsOut) {
+  io::Recording rec;
+  for (int i = 1; i <= 1000; ++i) {  // 100 Hz, a 30 s gap after t = 5 s
+    const double t = 0.01 * i + (i > 500 ? 30.0 : 0.0);
+    rec.imu.push_back(sample(t, Eigen::Vector3d(0, 0, 9.8), Eigen::Vector3d::Zero(), 0.01));
+  }
+  auto seg = [](double t0, double t1, calib::SegmentKind kind, const char* label) {
+    calib::Segment s;
+    s.t0 = t0, s.t1 = t1, s.kind = kind, s.label = label;
+    return s;
+  };
+  using K = calib::SegmentKind;
+  rec.segments = {seg(0.5, 2.0, K::kStatic, "h1"), seg(2.0, 4.0, K::kRotate, "r1"),
+                  seg(4.0, 4.5, K::kStatic, "h2"), seg(36.0, 38.0, K::kStatic, "h2"),
+                  seg(38.0, 39.0, K::kRotate, "r2")};
+  std::vector<std::string> notes;
+  io::Recording kept = completeSegmentsOnly(rec, &notes);
+  EXPECT_EQ(kept.segments.size(), 5u) << "holds on both sides of the gap: nothing touches it";
+  EXPECT_TRUE(notes.empty());
+  EXPECT_EQ(kept.imu.size(), 1000u);
+
+  rec.segments.erase(rec.segments.begin() + 2);  // the old rule: r1 stored right before it
+  rec.segments.push_back(seg(39.0, 40.0, K::kStatic, "h3"));
+  rec.segments[2] = seg(36.0, 37.0, K::kRotate, "r_after_gap");
+  rec.segments.insert(rec.segments.begin(), seg(0.1, 0.4, K::kStatic, "h0"));
+  rec.segments.push_back(seg(4.9, 36.5, K::kStatic, "spanning"));
+  kept = completeSegmentsOnly(rec, &notes);
+  std::vector<std::string> labels;
+  for (const auto& s : kept.segments) labels.push_back(s.label);
+  // spanning, then r1 (nearest before), r_after_gap and r2 (nearest after, one by one)
+  EXPECT_EQ(labels, (std::vector<std::string>{"h0", "h1", "h3"}));
+  ASSERT_EQ(notes.size(), 4u);
+  EXPECT_NE(notes[0].find("segment 'spanning'"), std::string::npos) << notes[0];
+  EXPECT_NE(notes[0].find("spans the gap in the IMU data 5.000-35.010 s"), std::string::npos)
+      << notes[0];
+  EXPECT_EQ(kept.imu.size(), 1000u);
+}
+
 TEST(AcceptanceVerdict, PassWhenEveryLimitedParameterIsWithin) {
   const nlohmann::json v = acceptanceVerdict(calibrated(2e-8, true), limits());
   EXPECT_EQ(v["pass"], true) << v.dump(2);

@@ -660,6 +660,65 @@ TEST(PlanRunnerSoak, RampCommandGoesOutWithTheStepWithoutWaiting) {
   EXPECT_NEAR(now, 2.0, 0.11);
 }
 
+int stepIndex(const std::vector<RunStep>& steps, const std::string& label) {
+  for (const RunStep& s : steps) {
+    if (s.label == label) return s.index;
+  }
+  ADD_FAILURE() << "no step " << label;
+  return -1;
+}
+
+// Issue 28 item 4: no rotation may touch a gap in the recording. Killed inside a rate run
+// (its hold before finished) or inside the hold after it (the rate run finished): the run goes
+// on at the hold before the rate run, whose segment stays; the finished rate run's segment is
+// void. A kill between two holds changes nothing.
+TEST(GapRestart, ARotationNeverTouchesTheGap) {
+  const auto direct = testing::libraryPlanSteps("direct_two_axis.toml");
+  const int before = stepIndex(direct, "rate_z_up_before");
+  const int rate = stepIndex(direct, "rate_z_up_pos");
+  ASSERT_EQ(rate, before + 1);
+  ASSERT_EQ(stepIndex(direct, "rate_z_up_pos_after"), rate + 1);
+  GapRestart in_rate = resumeAfterGap(direct, before);  // killed inside rate_z_up_pos
+  EXPECT_EQ(in_rate.step, before);
+  EXPECT_EQ(in_rate.first_void, rate) << "nothing stored is void";
+  GapRestart in_hold_after = resumeAfterGap(direct, rate);  // killed in rate_z_up_pos_after
+  EXPECT_EQ(in_hold_after.step, before);
+  EXPECT_EQ(in_hold_after.first_void, rate) << "the rate run lost its hold after";
+  const int pos01 = stepIndex(direct, "pos01_z_up");
+  GapRestart in_move = resumeAfterGap(direct, pos01);  // killed in to_pos02_y_up
+  EXPECT_EQ(in_move.step, pos01 + 1);
+  EXPECT_EQ(in_move.first_void, pos01 + 1);
+
+  const auto nav = twelveRunSteps();
+  const int run02 = stepIndex(nav, "run02_x_p1");
+  GapRestart in_reversal = resumeAfterGap(nav, run02 - 1);  // killed inside run02_x_p1
+  EXPECT_EQ(nav[static_cast<std::size_t>(run02 - 1)].label, "run02_x_p1_before");
+  EXPECT_EQ(in_reversal.step, run02 - 1);
+  EXPECT_EQ(in_reversal.first_void, run02);
+  // Every step done: nothing runs again, even after a final rotation.
+  std::vector<RunStep> ends_turning(nav.begin(), nav.begin() + run02 + 1);
+  const GapRestart done = resumeAfterGap(ends_turning, run02);
+  EXPECT_EQ(done.step, run02 + 1);
+  // In the run (an IMU gap): a rotation right at the start has no step before it to repeat.
+  EXPECT_EQ(gapRestart(nav, -1).step, 0);
+}
+
+// A resume at a hold (resumeAfterGap) with the table where a killed rotation left it: the hold
+// starts only once the table is back at its position.
+TEST(PlanRunner, ResumedHoldReturnsToItsPositionFirst) {
+  Harness h;
+  const int run02 = stepIndex(h.steps, "run02_x_p1");
+  const RunStep& hold = h.steps[static_cast<std::size_t>(run02 - 1)];
+  ASSERT_TRUE(h.runner.startAt(h.now, run02 - 1).ok);
+  h.tick();
+  EXPECT_EQ(h.count(RunnerEvent::Kind::kStepStarted, run02 - 1), 0) << "not at its position";
+  ASSERT_TRUE(h.until([&] { return h.count(RunnerEvent::Kind::kStepStarted) > 0; }, 60));
+  for (std::size_t a = 0; a < hold.start_angles.size(); ++a) {
+    EXPECT_NEAR(std::remainder(h.bench.angle(static_cast<int>(a)) - hold.start_angles[a], 2 * kPi),
+                0.0, 1e-3);
+  }
+}
+
 TEST(PlanRunner, OptionsAreChecked) {
   RunnerOptions o;
   std::string why;

@@ -295,6 +295,49 @@ TEST(Store, InterruptedRunResumesAfterItsLastFinishedStep) {
   EXPECT_TRUE(saw_resumed);
 }
 
+// Issue 28 item 4: a rotation stored right before a gap is discarded while it is the newest
+// segment; a second resume (it is gone already) never reaches an older segment of that label.
+TEST(Store, TrailingSegmentsAreDiscardedOnlyWhileNewest) {
+  ScratchDir dir("store");
+  std::int64_t run = 0;
+  auto store = storeWithRun(dir, "SN-G", &run);
+  ASSERT_TRUE(store);
+  {
+    RunWriter w(*store, run);
+    ASSERT_TRUE(w.appendImu(samplesEvery(10, 0.1)).ok);
+    double t = 0.1;
+    for (const char* label : {"r", "h1", "r"}) {
+      calib::Segment seg;
+      seg.t0 = t;
+      seg.t1 = t + 0.2;
+      seg.label = label;
+      seg.kind =
+          std::string(label) == "r" ? calib::SegmentKind::kRotate : calib::SegmentKind::kStatic;
+      t += 0.3;
+      ASSERT_TRUE(w.appendSegment(seg).ok);
+    }
+    ASSERT_TRUE(w.flush().ok);
+  }
+  auto labels = [&] {
+    std::vector<std::string> out;
+    for (const auto& s : store->loadRecording(run).value.segments) out.push_back(s.label);
+    return out;
+  };
+  const CountResult first = store->discardTrailingSegments(run, {"r"});
+  ASSERT_TRUE(first.status.ok) << first.status.message;
+  EXPECT_EQ(first.value, 1);
+  EXPECT_EQ(labels(), (std::vector<std::string>{"r", "h1"}));
+  const CountResult again = store->discardTrailingSegments(run, {"r"});
+  ASSERT_TRUE(again.status.ok);
+  EXPECT_EQ(again.value, 0) << "the newest is h1 now: the older 'r' stays";
+  EXPECT_EQ(labels(), (std::vector<std::string>{"r", "h1"}));
+  int discarded_events = 0;
+  for (const RunEvent& e : store->events(run).value)
+    discarded_events += e.kind == "segments_discarded" ? 1 : 0;
+  EXPECT_EQ(discarded_events, 1);
+  EXPECT_EQ(store->loadRecording(run).value.imu.size(), 10u) << "every sample stays";
+}
+
 TEST(Store, UnknownRunIsAnError) {
   ScratchDir dir("store");
   auto store = openOrFail(dir.file("bench.db"));

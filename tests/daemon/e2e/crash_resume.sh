@@ -5,11 +5,14 @@
 #     time) is lost: the last stored sample vs the IMU time when the kill landed;
 #   - restarted on the same database, the daemon marks the run `interrupted` with the time of
 #     its last stored sample;
-#   - `imubench resume RUN` continues it from the step after the last finished one (the
-#     interrupted rotation re-runs whole, from its start) and the plan completes;
-#   - no finished step repeated: every step once in the stored segments, each step_finished
-#     once; the samples stored before the kill are kept; the run's data is one time axis
-#     (strictly increasing) and every stored step is gap-free.
+#   - `imubench resume RUN` continues it at the hold before the interrupted rotation (no
+#     rotation next to the gap the kill left: plan_runner.h gapRestart; the hold's segment from
+#     before the kill stays, it closes the rotation before it), the interrupted rotation re-runs
+#     whole, from its start, and the plan completes;
+#   - no other finished step repeated: every other step once in the stored segments, the hold
+#     before the rotation once on each side of the gap (a recording_gap event names it); the
+#     samples stored before the kill are kept; the run's data is one time axis (strictly
+#     increasing) and every stored step is gap-free.
 # Then a SIGTERM during a paused run closes it as `interrupted` (not faulted), resumable too.
 # Usage: crash_resume.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
@@ -88,7 +91,7 @@ check(r["state"] == "interrupted", "run 1 marked interrupted at start-up")
 check(("last stored sample at t = %.6f s" % k["last_t"]) in r["exit"],
       "with the time of its last stored sample: " + r["exit"])
 p = subprocess.run([cli, "resume", "1"], capture_output=True, text=True, timeout=30)
-check(p.returncode == 0 and "run 1 resumed at step 4" in p.stdout,
+check(p.returncode == 0 and "run 1 resumed at step 3" in p.stdout,
       "imubench resume 1: %s%s" % (p.stdout, p.stderr))
 again = subprocess.run([cli, "resume", "1"], capture_output=True, text=True, timeout=30)
 check(again.returncode != 0 and "error (bad_state)" in again.stderr,
@@ -96,8 +99,11 @@ check(again.returncode != 0 and "error (bad_state)" in again.stderr,
 fin = c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == 1, "run end", 150)
 check(fin["state"] == "finished" and fin["exit"] == "completed", "run 1 completed: %s" % fin)
 starts = [e["label"] for e in c.events if e["event"] == "step_started"]
-check(starts[:1] == ["r2"] and "h1" not in starts and "r1" not in starts and "h2" not in starts,
-      "after the resume only r2 (whole) and h3 run: %s" % starts)
+check(starts == ["h2", "r2", "h3"],
+      "after the resume h2 (the hold before r2), r2 (whole) and h3 run: %s" % starts)
+gaps = [e for e in c.events if e["event"] == "recording_gap"]
+check(len(gaps) == 1 and gaps[0]["label"] == "h2" and gaps[0]["from_t"] <= k["last_t"],
+      "the gap is an event: %s" % gaps)
 PY
 
 "$CLI" export 1 --csv "$W/export" --db "$W/imubench.db" >/dev/null || fail "export"
@@ -108,14 +114,16 @@ work = sys.argv[1]
 k = json.load(open(work + "/kill.json"))
 segs = read_csv(work + "/export/segments.csv")
 labels = [s["label"] for s in segs]
-check(labels == ["h1", "r1", "h2", "r2", "h3"], "every step stored once, in order: %s" % labels)
-r2 = float(segs[3]["t1"]) - float(segs[3]["t0"])
+check(labels == ["h1", "r1", "h2", "h2", "r2", "h3"],
+      "every step stored once, h2 once on each side of the gap, in order: %s" % labels)
+check(float(segs[2]["t1"]) <= k["last_t"] < float(segs[3]["t0"]), "the gap lies between the h2s")
+r2 = float(segs[4]["t1"]) - float(segs[4]["t0"])
 check(19.0 < r2 < 25.0, "the interrupted half turn re-ran whole: %.2f s of the planned 20 s" % r2)
-check(float(segs[3]["t0"]) > k["kill_t"], "r2's stored segment is the re-run, after the kill")
+check(float(segs[4]["t0"]) > k["kill_t"], "r2's stored segment is the re-run, after the kill")
 db = sqlite3.connect(work + "/imubench.db")
 finished = [json.loads(j)["step"] for (j,) in db.execute(
     "SELECT json FROM events WHERE run_id = 1 AND kind = 'step_finished' ORDER BY id")]
-check(finished == [0, 1, 2, 3, 4], "each step finished once: %s" % finished)
+check(finished == [0, 1, 2, 2, 3, 4], "each step finished once, h2 again: %s" % finished)
 kept = db.execute("SELECT count(*) FROM imu_samples WHERE run_id = 1 AND t <= ?",
                   (k["last_t"],)).fetchone()[0]
 check(kept == k["n"], "the %d samples stored before the kill are kept" % k["n"])
