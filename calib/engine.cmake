@@ -9,6 +9,7 @@ target_sources(imubench_calib PRIVATE
   segment_check.cpp
   fit_quality.cpp
   thermal_fit.cpp
+  thermal_fit_joint.cpp
 )
 # Navigation-based (indirect) calibration, validation experiment, shared result type.
 target_sources(imubench_calib PRIVATE
