@@ -53,10 +53,13 @@ bool observe(const ThermalRun& run, const ThermalJointFitOptions& o, const Table
   return obs->status.ok;
 }
 
-// Sets every row's input (and its derivative by each of d->params) of run r with the table at
-// `table`, through the chain of directObservations; false + why.
+// Sets every row's input of run r with the table at `table`, through the chain of
+// directObservations, and (derivatives) its derivative by each of d->params; false + why. The
+// derivatives change with the table errors only at second order (their products, ~1e-4 of
+// themselves): taken once, they leave the outer iterations' convergence fast and the inputs,
+// recomputed every time, exact.
 bool refreshInputs(const ThermalRun& run, std::size_t r, const ThermalJointFitOptions& o,
-                   const BenchTruth& table, JointData* d, std::string* why) {
+                   const BenchTruth& table, bool derivatives, JointData* d, std::string* why) {
   DirectObservations base;
   if (!observe(run, o, table.table, &base, why)) return false;
   const auto& order = d->order[r];
@@ -67,9 +70,9 @@ bool refreshInputs(const ThermalRun& run, std::size_t r, const ThermalJointFitOp
   for (std::size_t k = 0; k < order.size(); ++k) {
     JointRow& row = order[k].first ? d->accel[order[k].second] : d->gyro[order[k].second];
     row.input = base.rows[k].input;
-    row.dinput.assign(d->params.size(), Vec3::Zero());
+    if (derivatives) row.dinput.assign(d->params.size(), Vec3::Zero());
   }
-  for (std::size_t p = 0; p < d->params.size(); ++p) {
+  for (std::size_t p = 0; p < d->params.size() && derivatives; ++p) {
     BenchTruth moved = table;
     const double v = flatValue(table, d->params[p]).value_or(0.0);
     setFlatValue(&moved, d->params[p], v + kTableStep, why);
@@ -132,7 +135,7 @@ bool jointRows(const ThermalRun& run, const ThermalJointFitOptions& o, const Ben
     rows.push_back(std::move(r));
     d->temps.push_back(T);
   }
-  return refreshInputs(run, d->order.size() - 1, o, table, d, why);
+  return refreshInputs(run, d->order.size() - 1, o, table, true, d, why);
 }
 
 // The model's reading of a row with the triad at the row's temperature and rate.
@@ -678,7 +681,7 @@ bool iterateTable(const std::vector<ThermalRun>& runs, const ThermalJointFitOpti
   *converged = d->params.empty();
   for (int it = 0; it < o.max_table_iterations; ++it) {
     for (std::size_t k = 0; k < runs.size() && it > 0; ++k) {
-      if (!refreshInputs(runs[k], k, o, *table, d, why)) return false;
+      if (!refreshInputs(runs[k], k, o, *table, false, d, why)) return false;
     }
     r->fit.fits.clear();
     if (!fitTriadJoint(d->accel, ctx, o, "accel", &c.accel, &r->fit.fits, &sweeps_a, it > 0, why) ||
