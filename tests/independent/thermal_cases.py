@@ -3,14 +3,14 @@
 two-axis table with 20-60 arcsec on every geometric term, cubic biases, linear scales, bias
 hysteresis), judged against the writer's truth:
   - the continuous ramp (10 -> 40 -> 10 degC) and the soak points (-40..+60 degC, 30 degC held
-    out) fitted with exit 0;
+    out) fitted with exit 0; soak points on a three-axis table too (-40..+60 degC);
   - temperature coefficients within 5 %: every coefficient's change over the fitted range
     (c(T) - c(t_ref), the largest error over the range against the largest true change) for
     each bias and scale; the bias dT/dt terms (ramp); the soak set also per polynomial term
     (bias c1, c2, c3, scale c1);
-  - table errors within 3 arcsec (those the motion determines: base tilt, with the outer
-    encoder zero in its x component, and the nonorthogonality); mounting and the encoder zeros
-    reported held (observable false);
+  - table errors within 3 arcsec (those the motion determines: base tilt, with the two-axis
+    outer encoder zero in its x component, and the nonorthogonality, with the three-axis middle
+    encoder zero in middle_x); mounting and the encoder zeros reported held (observable false);
   - soak: at the held-out temperature the static holds' residual against the fit (its
     coefficients at the hold's temperature, its table errors through the chain) <= 1.2 x the
     noise floor (each hold's standard error from its own sample scatter), per triad;
@@ -81,15 +81,22 @@ def check_terms(fit, truth, terms):
                          100 * err))
 
 
-def check_table(fit):
-    """Observable table errors within 3 arcsec (x tilt holds the outer encoder zero)."""
-    e = wt.table_errors()
+def check_table(fit, kind):
+    """Observable table errors within 3 arcsec: two-axis base tilt (x holds the outer encoder
+    zero) and nonorthogonality; three-axis base tilt and nonorthogonality (middle_x holds the
+    middle encoder zero)."""
+    e = wt.table_errors(kind)
     check("table" in fit, "the thermal file carries the fitted table errors")
     tab = fit.get("table")
     if tab is None:
         return
-    expect = {("base_tilt", 0): e["theta"][0] + e["zero"][0], ("base_tilt", 1): e["theta"][1],
-              ("nonorthogonality", 0): e["nu"][0]}
+    if kind == "two-axis":
+        expect = {("base_tilt", 0): e["theta"][0] + e["zero"][0], ("base_tilt", 1): e["theta"][1],
+                  ("nonorthogonality", 0): e["nu"][0]}
+    else:
+        expect = {("base_tilt", 0): e["theta"][0], ("base_tilt", 1): e["theta"][1],
+                  ("nonorthogonality", 0): e["nu"][0] + e["zero"][1],
+                  ("nonorthogonality", 1): e["nu"][1], ("nonorthogonality", 2): e["nu"][2]}
     for (key, i), t in expect.items():
         got = tab[key][i]
         check(abs(got - t) <= 3 * ARCSEC, "table.%s[%d]: %.2f arcsec vs %.2f (sigma %.2f)"
@@ -105,7 +112,7 @@ def run(args, what):
     return p
 
 
-def fit_and_judge(bin_, work, name, dirs, truth, lo, hi, terms):
+def fit_and_judge(bin_, work, name, dirs, truth, lo, hi, terms, kind="two-axis"):
     out = os.path.join(work, name + "_comp.json")
     p = run([bin_, "thermal", "fit", *dirs, "--out", out], name)
     check(p.returncode == 0, "%s: thermal fit exit 0 (got %d)%s" % (
@@ -116,11 +123,12 @@ def fit_and_judge(bin_, work, name, dirs, truth, lo, hi, terms):
     fit = json.load(open(out))
     check_changes(fit, truth, lo, hi)
     check_terms(fit, truth, terms)
-    check_table(fit)
+    check_table(fit, kind)
     # forced to zero: refused
-    zero = os.path.join(work, "zero_table.json")
-    json.dump({"table": {"base_tilt": [0, 0], "nonorthogonality": [0], "mounting": [0, 0],
-                         "encoder_zero": [0, 0]}}, open(zero, "w"))
+    zero = os.path.join(work, "zero_table_%s.json" % kind)
+    n = 1 if kind == "two-axis" else 3
+    json.dump({"table": {"base_tilt": [0, 0], "nonorthogonality": [0] * n, "mounting": [0, 0],
+                         "encoder_zero": [0] * (2 if n == 1 else 3)}}, open(zero, "w"))
     out0 = os.path.join(work, name + "_zero_comp.json")
     p = run([bin_, "thermal", "fit", *dirs, "--table-errors", zero, "--out", out0], name)
     check(p.returncode == 3, "%s, table forced to zero: exit 3 (got %d)" % (name, p.returncode))
@@ -209,6 +217,14 @@ def main():
                         [("scale", 1), ("bias", 1), ("bias", 2), ("bias", 3)])
     if fit is not None and "table" in fit:
         check_held_out(fit, os.path.join(a.work, "heldout_%g" % wt.HELD_OUT))
+    # A three-axis table: soak points, every geometric term 20-60 arcsec.
+    three = []
+    for k, sp in enumerate([-40.0, -20.0, 20.0, 40.0, 60.0]):
+        three.append(os.path.join(a.work, "three_soak_%g" % sp))
+        wt.write_thermal_case(three[-1], "three", wt.soak_temperature(sp), 1.0, truth,
+                              seed=61 + k, kind="three-axis")
+    fit_and_judge(a.imubench, a.work, "three", three, truth, -40.0, 60.0,
+                  [("scale", 1), ("bias", 1)], kind="three-axis")
     print("%d check(s) failed" % len(FAILS) if FAILS else "thermal cases as expected")
     return 1 if FAILS else 0
 

@@ -39,9 +39,12 @@ SOAK_POINTS = [-40.0, -20.0, 0.0, 20.0, 40.0, 60.0]
 HELD_OUT = 30.0
 
 
-def table_errors():
-    """20-60 arcsec on every geometric term of a two-axis table."""
+def table_errors(kind="two-axis"):
+    """20-60 arcsec on every geometric term of a two- or three-axis table."""
     a = wr.ARCSEC
+    if kind == "three-axis":
+        return {"theta": (35 * a, -48 * a), "nu": (24 * a, -47 * a, 31 * a),
+                "mu": (-41 * a, 24 * a), "zero": (21 * a, 55 * a, -29 * a)}
     return {"theta": (35 * a, -48 * a), "nu": (52 * a,), "mu": (-41 * a, 24 * a),
             "zero": (27 * a, -33 * a, 0.0)}
 
@@ -88,22 +91,23 @@ def triad_at(tr, dT, Tdot):
     return scale, bias, M
 
 
-def body(sched, dur):
+def body(sched, dur, kind="two-axis"):
     """The calibration body repeated until at least dur seconds are scheduled."""
-    wr.two_axis_combined(sched, {"hold_s": 14.0})
+    make = wr.two_axis_combined if kind == "two-axis" else wr.three_axis_combined
+    make(sched, {"hold_s": 14.0})
     while sched.t - sched.steps[0][0] < dur:
-        wr.two_axis_combined(sched, {"hold_s": 14.0})
+        make(sched, {"hold_s": 14.0})
 
 
-def write_thermal_case(out, name, temp_fn, dur, truth, seed, rate=25.0):
+def write_thermal_case(out, name, temp_fn, dur, truth, seed, rate=25.0, kind="two-axis"):
     """One recording: temp_fn(t) -> (T, Tdot) of the IMU; the body for >= dur seconds."""
     rng = np.random.default_rng(seed)
     lat, hgt = 48.1, 520.0
     g = wr.normal_gravity(lat * wr.DEG, hgt)
     w_ie_L = wr.EARTH_RATE * np.array([0.0, np.cos(lat * wr.DEG), np.sin(lat * wr.DEG)])
-    table = wr.Table("two-axis", 90.0, **table_errors())
-    sched = wr.Schedule(2, 1000.0)
-    body(sched, dur)
+    table = wr.Table(kind, 90.0, **table_errors(kind))
+    sched = wr.Schedule(table.naxes, 1000.0)
+    body(sched, dur, kind)
     dt = 1.0 / rate
     n = int((sched.t - sched.steps[0][0]) * rate)
     t_end = sched.steps[0][0] + dt * np.arange(1, n + 1)
@@ -120,7 +124,9 @@ def write_thermal_case(out, name, temp_fn, dur, truth, seed, rate=25.0):
     os.makedirs(out, exist_ok=True)
     meta = {"format": "imubench-csv/1", "site": {"latitude_deg": lat, "height_m": hgt},
             "imu": {"serial": truth["imu"]["serial"], "rate_hz": rate},
-            "table": {"kind": "two-axis", "outer_axis_heading_deg": 90.0}}
+            "table": {"kind": kind}}
+    if kind == "two-axis":
+        meta["table"]["outer_axis_heading_deg"] = 90.0
     with open(os.path.join(out, "meta.json"), "w") as f:
         json.dump(meta, f, indent=1)
     temp = np.round(T, 3)  # a 1 mK temperature sensor
@@ -130,11 +136,13 @@ def write_thermal_case(out, name, temp_fn, dur, truth, seed, rate=25.0):
     tt = np.arange(sched.steps[0][0] + 0.0037, sched.t, 0.1)  # encoders at 10 Hz
     q, _ = sched.state(tt)
     np.savetxt(os.path.join(out, "table.csv"), np.column_stack([tt, q / wr.DEG]),
-               fmt=["%.6f", "%.10f", "%.10f"], delimiter=",", header="t,outer,inner", comments="")
+               fmt=["%.6f"] + ["%.10f"] * table.naxes, delimiter=",",
+               header="t,outer,inner" if kind == "two-axis" else "t,outer,middle,inner",
+               comments="")
     wr.write_segments(out, sched, {"segments": "settle+hold"})
-    e = table_errors()
+    e = table_errors(kind)
     tab = {"base_tilt": list(e["theta"]), "nonorthogonality": list(e["nu"]),
-           "mounting": list(e["mu"]), "encoder_zero": list(e["zero"][:2])}
+           "mounting": list(e["mu"]), "encoder_zero": list(e["zero"][:table.naxes])}
     with open(os.path.join(out, "truth.json"), "w") as f:
         json.dump({"table": tab}, f, indent=1)
     with open(os.path.join(out, "thermal_truth.json"), "w") as f:
