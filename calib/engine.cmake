@@ -10,6 +10,7 @@ target_sources(imubench_calib PRIVATE
   fit_quality.cpp
   calibration_service.cpp
   thermal_fit.cpp
+  thermal_fit_joint.cpp
 )
 # Navigation-based (indirect) calibration, validation experiment, shared result type.
 target_sources(imubench_calib PRIVATE

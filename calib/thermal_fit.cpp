@@ -7,18 +7,16 @@
 #include <string>
 #include <utility>
 
+#include "calib/thermal_fit_detail.h"
 #include "calib/thermal_model.h"
 
 namespace imubench::calib {
 namespace {
-
 constexpr const char* kAxes[3] = {"x", "y", "z"};
+}  // namespace
 
-// Weighted data of one coefficient: value_i = gain_i c(T_i, Tdot_i) + e_i (gain empty: 1; the
-// joint fit's rows see a coefficient through the sensor equation's derivative).
-struct CoefficientData {
-  std::vector<double> dT, rate, value, sigma, gain;
-};
+namespace thermal_detail {
+namespace {
 
 // One candidate model's solution: coefficients in physical units and their covariance.
 struct Candidate {
@@ -79,6 +77,8 @@ bool significant(const Candidate& c, int n, double k) {
   return !c.hysteresis || strong(p - 1);
 }
 
+}  // namespace
+
 // Distinct temperatures among sorted values (closer than `same` count as one).
 int distinctTemperatures(std::vector<double> t, double same) {
   std::sort(t.begin(), t.end());
@@ -92,13 +92,6 @@ int distinctTemperatures(std::vector<double> t, double same) {
   }
   return n;
 }
-
-struct FitContext {
-  const ThermalFitOptions* options;
-  double scale = 1.0;       // largest |T - t_ref|
-  double rate_scale = 1.0;  // largest |Tdot|
-  bool hysteresis = false;  // a dT/dt term may be tried
-};
 
 // Chooses and fits the model of one coefficient; false (why) when it cannot be fitted.
 bool fitCoefficient(const CoefficientData& d, const FitContext& ctx, model::ThermalCoefficient* out,
@@ -152,7 +145,12 @@ bool fitCoefficient(const CoefficientData& d, const FitContext& ctx, model::Ther
   return true;
 }
 
-}  // namespace
+}  // namespace thermal_detail
+
+using thermal_detail::CoefficientData;
+using thermal_detail::distinctTemperatures;
+using thermal_detail::fitCoefficient;
+using thermal_detail::FitContext;
 
 std::string thermalCoefficientName(const std::string& triad, int index) {
   if (index < model::kBias) return triad + ".scale." + kAxes[index - model::kScale];
@@ -486,214 +484,6 @@ ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
     previous.t_max_c += options.points.max_point_span_c;
   }
   r.status = r.fit.status;
-  return r;
-}
-
-}  // namespace imubench::calib
-
-namespace imubench::calib {
-namespace {
-
-// One row of the joint fit: the direct calibration's row at its temperature.
-struct JointRow {
-  Vec3 input, reading, se;
-  double dT = 0.0, rate = 0.0;  // T - t_ref, degC; Tdot, degC/s
-};
-
-struct JointData {
-  std::vector<JointRow> accel, gyro;
-  std::vector<double> temps;  // every row's T
-};
-
-// Rows of one run with their mean IMU temperature and rate; false + why.
-bool jointRows(const ThermalRun& run, const ThermalJointFitOptions& o, JointData* d,
-               std::string* why) {
-  const nav::ImuSamples& imu = run.input.imu;
-  if (std::none_of(imu.begin(), imu.end(),
-                   [](const nav::ImuSample& s) { return std::isfinite(s.temp_c); })) {
-    *why = run.source + ": the recording has no IMU temperatures (imu.csv temp column empty)";
-    return false;
-  }
-  const DirectObservations obs = directObservations(run.input, o.direct);
-  if (!obs.status.ok) {
-    *why = run.source + ": " + obs.status.message;
-    return false;
-  }
-  const std::vector<double> rates = temperatureRates(imu, o.rate);
-  for (const DirectObservation& ob : obs.rows) {
-    auto it = std::lower_bound(imu.begin(), imu.end(), ob.t0,
-                               [](const nav::ImuSample& a, double t) { return a.t < t; });
-    double sum = 0.0, sum_rate = 0.0;
-    std::size_t n = 0;
-    for (; it != imu.end() && it->t <= ob.t1; ++it, ++n) {
-      sum += it->temp_c;
-      sum_rate += rates[static_cast<std::size_t>(it - imu.begin())];
-    }
-    if (n == 0 || !std::isfinite(sum)) {
-      *why = run.source + ": segment '" + ob.label +
-             "' has samples without temperature (imu.csv temp empty)";
-      return false;
-    }
-    const double T = sum / static_cast<double>(n);
-    JointRow r{ob.input, ob.reading, ob.reading_se, T - o.fit.t_ref_c,
-               sum_rate / static_cast<double>(n)};
-    (ob.accel ? d->accel : d->gyro).push_back(r);
-    d->temps.push_back(T);
-  }
-  return true;
-}
-
-// The model's reading of a row with the triad at the row's temperature and rate.
-Vec3 modelReading(const model::ThermalTriad& t, const JointRow& r) {
-  std::array<double, model::kTriadSize> b{};
-  for (int i = 0; i < model::kTriadSize; ++i) {
-    b[static_cast<std::size_t>(i)] =
-        model::thermalValue(t[static_cast<std::size_t>(i)], r.dT, r.rate);
-  }
-  return model::reading(b.data(), r.input);
-}
-
-// d reading / d block[j] of a row (eq. 1 is linear in each entry alone: a unit difference is
-// exact).
-Vec3 entryGain(const model::ThermalTriad& t, const JointRow& r, int j) {
-  model::ThermalTriad moved = t;
-  moved[static_cast<std::size_t>(j)].poly[0] += 1.0;
-  return modelReading(moved, r) - modelReading(t, r);
-}
-
-// Largest move of a coefficient's terms in its sigmas (infinite when its model changed).
-double movement(const model::ThermalCoefficient& a, const model::ThermalCoefficient& b) {
-  if (a.order != b.order || a.hysteresis != b.hysteresis)
-    return std::numeric_limits<double>::infinity();
-  double m = 0.0;
-  for (int k = 0; k <= b.order; ++k) {
-    const std::size_t u = static_cast<std::size_t>(k);
-    if (b.sigma_poly[u] > 0.0) m = std::max(m, std::abs(a.poly[u] - b.poly[u]) / b.sigma_poly[u]);
-  }
-  if (b.hysteresis && b.sigma_dTdt > 0.0) m = std::max(m, std::abs(a.dTdt - b.dTdt) / b.sigma_dTdt);
-  return m;
-}
-
-// Entry j's data with the other entries held at t: the residual of its axis plus its own
-// current contribution, and its gain.
-CoefficientData entryData(const model::ThermalTriad& t, const std::vector<JointRow>& rows, int j,
-                          double sigma_floor) {
-  std::vector<Vec3> gains;
-  Vec3 total = Vec3::Zero();
-  for (const JointRow& r : rows) {
-    gains.push_back(entryGain(t, r, j));
-    total += gains.back().cwiseAbs();
-  }
-  int axis = 0;
-  total.maxCoeff(&axis);
-  CoefficientData d;
-  const model::ThermalCoefficient& c = t[static_cast<std::size_t>(j)];
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const JointRow& r = rows[i];
-    const double g = gains[i][axis];
-    d.dT.push_back(r.dT);
-    d.rate.push_back(r.rate);
-    d.gain.push_back(g);
-    d.value.push_back(r.reading[axis] - modelReading(t, r)[axis] +
-                      g * model::thermalValue(c, r.dT, r.rate));
-    d.sigma.push_back(std::max(r.se[axis], sigma_floor));
-  }
-  return d;
-}
-
-// Block Gauss-Seidel over the entries of one triad; false + why.
-bool fitTriadJoint(const std::vector<JointRow>& rows, const FitContext& ctx,
-                   const ThermalJointFitOptions& o, const std::string& name, model::ThermalTriad* t,
-                   std::vector<ThermalCoefficientFit>* fits, int* sweeps, std::string* why) {
-  for (int j = 0; j < model::kTriadSize; ++j) {
-    (*t)[static_cast<std::size_t>(j)] = {};
-    (*t)[static_cast<std::size_t>(j)].poly[0] = j < model::kBias ? 1.0 : 0.0;
-  }
-  std::vector<ThermalCoefficientFit> f(model::kTriadSize);
-  // Smallest sigma of a row's mean: the direct calibration's (below it a residual is
-  // round-off; noise-free recordings would otherwise get infinite weights).
-  const double floor =
-      name == "accel" ? o.direct.accel_residual_floor : o.direct.gyro_residual_floor;
-  for (*sweeps = 1; *sweeps <= o.max_sweeps; ++*sweeps) {
-    double moved = 0.0;
-    for (int j = 0; j < model::kTriadSize; ++j) {
-      const std::size_t u = static_cast<std::size_t>(j);
-      const CoefficientData d = entryData(*t, rows, j, floor);
-      model::ThermalCoefficient next;
-      f[u] = {};
-      f[u].name = thermalCoefficientName(name, j);
-      if (!fitCoefficient(d, ctx, &next, &f[u], why)) return false;
-      moved = std::max(moved, movement((*t)[u], next));
-      (*t)[u] = next;
-    }
-    if (moved <= o.tolerance) break;
-  }
-  *sweeps = std::min(*sweeps, o.max_sweeps);
-  fits->insert(fits->end(), f.begin(), f.end());
-  return true;
-}
-
-}  // namespace
-
-bool ThermalJointFitOptions::IsValid(std::string* why) const {
-  if (!fit.IsValid(why) || !direct.IsValid(why) || !rate.IsValid(why)) return false;
-  if (max_sweeps < 1 || !(tolerance > 0.0)) {
-    if (why) *why = "max_sweeps must be >= 1 and tolerance > 0";
-    return false;
-  }
-  return true;
-}
-
-ThermalRunsFitResult fitThermalJoint(const std::vector<ThermalRun>& runs,
-                                     const ThermalJointFitOptions& options) {
-  ThermalRunsFitResult r;
-  std::string why;
-  if (!options.IsValid(&why)) {
-    r.status = FitStatus::Failed(std::move(why));
-    return r;
-  }
-  JointData d;
-  for (const ThermalRun& run : runs) {
-    if (!jointRows(run, options, &d, &why)) {
-      r.status = FitStatus::Failed(std::move(why));
-      return r;
-    }
-  }
-  ThermalFitResult& fit = r.fit;
-  fit.distinct_temperatures = distinctTemperatures(d.temps, options.fit.same_temperature_c);
-  if (fit.distinct_temperatures < 2) {
-    fit.status = FitStatus::Failed("a single temperature point (all rows within " +
-                                   std::to_string(options.fit.same_temperature_c) +
-                                   " degC): a thermal model needs at least two temperatures");
-    r.status = fit.status;
-    return r;
-  }
-  FitContext ctx{&options.fit};
-  bool heating = false, cooling = false;
-  ctx.rate_scale = options.fit.min_hysteresis_rate;
-  for (const auto* rows : {&d.accel, &d.gyro}) {
-    for (const JointRow& row : *rows) {
-      ctx.scale = std::max(ctx.scale, std::abs(row.dT));
-      ctx.rate_scale = std::max(ctx.rate_scale, std::abs(row.rate));
-      heating = heating || row.rate > options.fit.min_hysteresis_rate;
-      cooling = cooling || row.rate < -options.fit.min_hysteresis_rate;
-    }
-  }
-  fit.hysteresis_candidate = ctx.hysteresis = heating && cooling;
-  model::ThermalCoefficients& c = fit.coefficients;
-  c.t_ref_c = options.fit.t_ref_c;
-  c.t_min_c = *std::min_element(d.temps.begin(), d.temps.end());
-  c.t_max_c = *std::max_element(d.temps.begin(), d.temps.end());
-  int sweeps_a = 0, sweeps_g = 0;
-  if (!fitTriadJoint(d.accel, ctx, options, "accel", &c.accel, &fit.fits, &sweeps_a, &why) ||
-      !fitTriadJoint(d.gyro, ctx, options, "gyro", &c.gyro, &fit.fits, &sweeps_g, &why)) {
-    // A coefficient the rows do not determine: the fit's failure, not a run's.
-    fit.status = FitStatus::Failed(std::move(why));
-    r.status = fit.status;
-    return r;
-  }
-  r.passes = std::max(sweeps_a, sweeps_g);
-  fit.status = r.status = FitStatus();
   return r;
 }
 

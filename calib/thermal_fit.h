@@ -1,5 +1,6 @@
 // The thermal model fit: every coefficient of both triads (scales, biases, misalignments; the
-// table's errors stay temperature-independent and are not fitted) as a polynomial in
+// table's errors are temperature-independent: fitThermalJoint estimates them beside the
+// polynomials, the per-point fit takes them as given) as a polynomial in
 // T - t_ref of an order chosen per coefficient by BIC (0..4), plus a dT/dt term where
 // heating and cooling differ (also by BIC), fitted jointly over all temperature points. The
 // data are per-point calibrations with their sigmas: the direct calibration at each soak
@@ -163,11 +164,21 @@ struct ThermalRunsFitOptions {
 };
 
 struct ThermalRunsFitResult {
-  // kFailed naming the run or point at fault, or the fit's own status (fit.status).
+  // kFailed naming the run or point at fault, or the fit's own status (fit.status). The joint
+  // fit: kUnusable (with the findings and the largest residuals) when the gate refuses it.
   FitStatus status = FitStatus::Failed("not fitted");
   ThermalFitResult fit;
   std::vector<ThermalFitPoint> points;  // of the last pass
   int passes = 0;
+  // The joint fit's table errors: values.table (table_kind set) and, by flat name
+  // ("table.base_tilt.x", ...), the sigma of each estimated error or observable false for each
+  // held one. The per-point fit: the table as taken, every error held.
+  CoefficientReport table;
+  std::vector<std::string> notes;  // plain language: held table errors and why, skipped rows
+  // Normalised residual RMS of each triad's rows (residual / standard error; ~1 at the noise
+  // floor). Joint fit only (0 otherwise).
+  double accel_normalised_rms = 0.0, gyro_normalised_rms = 0.0;
+  int table_iterations = 0;  // outer iterations of the table errors (joint fit)
 };
 
 // Points of every run, fitted jointly; then `refinements` passes re-making the points
@@ -191,9 +202,35 @@ ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
 // derivative (exact: eq. 1 is linear in each entry alone), choosing its order by BIC exactly as
 // fitThermal does; sweeps repeat until no coefficient moves by more than `tolerance` of its
 // sigma. Each entry enters one axis' reading, and a calibration plan's statics and rate runs
-// nearly decouple the entries of one axis, so a few sweeps converge. Sigmas are each
-// coefficient's with the others held. The table is taken as nominal (the joint least squares
-// of the direct calibration: table errors leak into the coefficients).
+// nearly decouple the entries of one axis, so a few sweeps converge.
+//
+// The table's geometric errors (calib/table_model.h TableErrors: base tilt, nonorthogonality,
+// mounting, encoder zeros) are constant over temperature. With estimate_table (default) every
+// one the motion makes observable is an extra unknown: each row's input comes from the one
+// chain (directObservations with DirectCalibrationOptions::known_table_errors at the current
+// estimate, its derivative by a difference through the same chain), and a Gauss-Newton step
+// over all polynomial terms and those table errors at once follows each Gauss-Seidel fit of
+// the coefficients, until the table errors move by less than table_tolerance of their sigma.
+// Observable: the errors' effect on the rows, with the coefficients' constant and linear terms
+// and the table errors already taken projected out (base tilt, nonorthogonality, encoder
+// zeros, mounting, in that order), keeps more than min_table_information of its norm and
+// determines the error to max_table_sigma_rad. The others are held at
+// direct.known_table_errors (zero by default) with the reason in notes and observable false:
+// mounting and the inner encoder zero turn both triads together (their misalignments absorb
+// them: the coefficients refer to the platform), the two-axis outer encoder zero is a tilt
+// about the outer axis (in base_tilt), the three-axis middle zero is nu1_x's rotation (in
+// nonorthogonality.middle_x), the three-axis outer zero is seen by the Earth rate alone.
+// Without estimate_table the table is held at direct.known_table_errors (a certificate,
+// `thermal fit --table-errors`).
+//
+// Sigmas: each coefficient's with the others held (Gauss-Seidel) or, when larger, its marginal
+// sigma of the joint step with the table errors (scaled by the fit's Birge factor).
+//
+// The gate (calib/fit_quality.h, direct.quality): unusable when a triad's normalised residual
+// RMS (row residual / its standard error, over every static and rate run) exceeds
+// max_normalised_rms, a coefficient is not determined or implausible (judgeCoefficients on the
+// values and sigmas at t_ref), or an estimated table error has a sigma above
+// max_table_sigma_rad.
 struct ThermalJointFitOptions {
   ThermalFitOptions fit;
   DirectCalibrationOptions direct;  // how the rows are built (trims, shortest rotation)
@@ -205,6 +242,19 @@ struct ThermalJointFitOptions {
   // Converged when no polynomial or dT/dt term moved by more than this many of its sigmas in
   // a sweep: far below the noise.
   double tolerance = 1e-3;
+  // Estimate the observable table errors (see above); false: hold direct.known_table_errors.
+  bool estimate_table = true;
+  // Fraction of a table error's row signature that must remain once the coefficients' constant
+  // and linear terms and the table errors already taken are projected out (below: the
+  // coefficients or another table error absorb it).
+  double min_table_information = 1e-4;
+  // Largest sigma (rad, ~2 arcsec) of a table error estimated; above it the motion does not
+  // determine it (held), or, after the fit, the result is unusable.
+  double max_table_sigma_rad = 1e-5;
+  // Outer iterations (rows rebuilt through the chain at the current table estimate) at most,
+  // and the convergence test: every table error moved by less than this many of its sigmas.
+  int max_table_iterations = 8;
+  double table_tolerance = 1e-2;
 
   bool IsValid(std::string* why) const;
 };

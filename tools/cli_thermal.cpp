@@ -13,8 +13,17 @@
 //     then re-made through that fit --refinements times (calib::fitThermalRuns).
 // Both write an imubench-thermal/1 file; --report DIR also DIR/report.html (io/thermal_report.h):
 // a plot per coefficient against temperature and the calibrated range flagged.
+// Table errors (constant over temperature): joint estimates every one the motion makes
+//   observable beside the polynomials (the others held at zero, the reason printed);
+//   --table-errors FILE holds them at the "table" section of a coefficient/truth file (as
+//   `calibrate --table-errors`; a file of zeros: the table taken as perfect). The joint fit
+//   prints them with sigmas and adds a "table" section (coefficient-file shape, with "sigma" and
+//   "observable") to the imubench-thermal/1 file; --method points takes them as given.
 // Refusals (exit 1, naming the file): a recording without temperatures, a single temperature
-// point, recordings of different IMU serials.
+// point, recordings of different IMU serials. The gate (exit 3, nothing written, the findings
+// and the `imubench explain` hint): the joint fit unusable (calib/thermal_fit.h: a triad's
+// normalised residual far above the noise floor, a coefficient or table error not determined,
+// implausible values).
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -29,6 +38,7 @@
 #include "io/sim_recording.h"
 #include "io/thermal_file.h"
 #include "io/thermal_report.h"
+#include "io/truth_file.h"
 #include "tools/cli_common.h"
 #include "tools/cli_store.h"
 
@@ -46,7 +56,11 @@ struct ThermalFitCliOptions {
   double max_span_c = calib::ThermalPointOptions{}.max_point_span_c;
   int refinements = calib::ThermalRunsFitOptions{}.refinements;
   std::string method = "joint";
+  std::string table_errors;  // coefficient/truth file whose "table" is held; empty: estimate
 };
+
+// Exit code of a fit the gate refuses (the same as `imubench calibrate`'s).
+constexpr int kExitUnusable = 3;
 
 // A recording directory or a run of the store (tools/cli_store.h RUN_OR_DIR).
 io::Recording readRunOrFail(const std::string& arg, const std::string& db) {
@@ -101,6 +115,53 @@ void writeReport(const ThermalFitCliOptions& o, const std::vector<calib::Thermal
   }
 }
 
+constexpr double kArcsec = kPi / (180.0 * 3600.0);
+
+// The table errors of the fit: value and sigma in arcsec, or held and why (the notes).
+void printTable(const calib::ThermalRunsFitResult& fit) {
+  std::cout << "table errors (constant over temperature):\n";
+  const calib::CoefficientReport& t = fit.table;
+  for (const std::string& n : calib::flatNames(t.values)) {
+    if (n.rfind("table.", 0) != 0) continue;
+    const double v = calib::flatValue(t.values, n).value_or(0.0) / kArcsec;
+    const auto it = t.uncertainty.find(n);
+    std::cout << "  " << std::left << std::setw(34) << n << std::right << std::fixed
+              << std::setprecision(2) << std::setw(9) << v << " arcsec";
+    if (it != t.uncertainty.end() && it->second.observable && it->second.sigma) {
+      std::cout << "  sigma " << *it->second.sigma / kArcsec << " arcsec\n";
+    } else {
+      std::cout << "  held\n";
+    }
+    std::cout.unsetf(std::ios::fixed);
+  }
+  for (const std::string& n : fit.notes) std::cout << "note: " << n << "\n";
+  std::cout << std::setprecision(3) << "normalised residual RMS: accel " << fit.accel_normalised_rms
+            << ", gyro " << fit.gyro_normalised_rms << " (1 = the noise floor)\n";
+}
+
+// Throws CommandFailed(kExitUnusable) with the findings when the gate refuses the fit.
+void refuseIfUnusable(const calib::FitStatus& s, const ThermalFitCliOptions& o) {
+  if (s.code != calib::FitStatusCode::kUnusable) return;
+  std::string dirs;
+  for (const auto& d : o.runs) dirs += (dirs.empty() ? "" : " ") + d;
+  std::string m = "thermal fit of " + dirs + ": " + s.message;
+  for (const std::string& r : s.reasons) m += "\n  finding: " + r;
+  for (const std::string& r : s.largest_residuals) m += "\n  large residual: " + r;
+  m += "\n  nothing written; `imubench explain " + o.runs.front() +
+       "` names the effect the model lacks (result unusable, exit 3)";
+  throw CommandFailed(m, kExitUnusable);
+}
+
+// The imubench-thermal/1 file with the fit's table errors as an extra "table" section (the
+// coefficient file's shape; readers of the thermal form ignore it).
+void writeThermalWithTable(const std::string& path, const io::ThermalFile& file,
+                           const calib::ThermalRunsFitResult& fit) {
+  nlohmann::json j = io::toJson(file);
+  const nlohmann::json t = calib::toJson(fit.table);
+  if (t.contains("table")) j["table"] = t["table"];
+  if (auto st = io::writeJsonFile(path, j); !st.ok) throw CommandFailed(st.message);
+}
+
 void runThermalFit(const ThermalFitCliOptions& o) {
   std::error_code ec;
   if (!o.report.empty() && std::filesystem::exists(o.report, ec) &&
@@ -132,6 +193,11 @@ void runThermalFit(const ThermalFitCliOptions& o) {
   }
   calib::ThermalJointFitOptions jo;
   jo.fit = fo.fit;
+  if (!o.table_errors.empty()) {
+    jo.estimate_table = false;
+    jo.direct.known_table_errors = loadTruthOrFail(o.table_errors).table;
+    fo.points.direct.known_table_errors = jo.direct.known_table_errors;
+  }
   const bool joint = o.method == "joint";
   const calib::ThermalRunsFitResult fit =
       joint ? calib::fitThermalJoint(runs, jo) : calib::fitThermalRuns(runs, fo);
@@ -149,8 +215,19 @@ void runThermalFit(const ThermalFitCliOptions& o) {
   }
   const calib::ThermalFitResult& r = fit.fit;
   printFit(r);
+  if (joint) {
+    printTable(fit);
+  } else {
+    std::cout << "note: --method points does not estimate table errors: taken "
+              << (o.table_errors.empty() ? "as nominal" : "from " + o.table_errors) << "\n";
+  }
+  refuseIfUnusable(fit.status, o);
   const io::ThermalFile file{serial, r.coefficients};
-  if (auto st = io::writeThermalFile(o.out, file); !st.ok) throw CommandFailed(st.message);
+  if (joint) {
+    writeThermalWithTable(o.out, file, fit);
+  } else if (auto st = io::writeThermalFile(o.out, file); !st.ok) {
+    throw CommandFailed(st.message);
+  }
   if (!o.csv.empty()) {
     if (auto st = io::writeThermalCsv(o.csv, file); !st.ok) throw CommandFailed(st.message);
   }
@@ -194,6 +271,9 @@ void addThermalCommand(CLI::App& app) {
                   "(continuous ramps)")
       ->capture_default_str()
       ->check(CLI::Range(0, 10));
+  fit->add_option("--table-errors", opt->table_errors,
+                  "hold the table errors at the \"table\" section of this coefficient/truth file "
+                  "(zeros: a perfect table) instead of estimating the observable ones");
   addStoreOption(*fit, &opt->db);
   fit->callback([opt] { runThermalFit(*opt); });
 }

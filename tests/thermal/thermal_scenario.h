@@ -227,16 +227,16 @@ inline RampSchedule rampSchedule(const Motion& body, const ThermalScheduleOption
   return out;
 }
 
-// The motion simulated with the thermal truth (null: the ideal sensor); the run as the direct
-// calibrator's input. *error set when the simulator refuses.
-inline DirectCalibrationInput simulateThermalRun(Motion motion,
-                                                 const model::ThermalCoefficients* truth,
-                                                 const NoiseModel& noise, double rate_hz,
-                                                 std::uint64_t seed, double end_s,
-                                                 std::string* error) {
+// The motion simulated with the thermal truth (null: the ideal sensor) on a table with the
+// given geometric errors (default: perfect); the run as the direct calibrator's input. *error set
+// when the simulator refuses.
+inline DirectCalibrationInput simulateThermalRun(
+    Motion motion, const model::ThermalCoefficients* truth, const NoiseModel& noise, double rate_hz,
+    std::uint64_t seed, double end_s, std::string* error, const TableErrors& table = {}) {
   SimulatorInput si;
   si.world.site = thermalSite();
   si.world.truth.table_kind = motion.kind;
+  si.world.truth.table = table;
   if (truth) si.world.thermal = *truth;
   si.world.noise = noise;
   si.motion = std::move(motion);

@@ -19,10 +19,11 @@ namespace imubench::calib::testing {
 inline DirectCalibrationInput simulateThermal(Motion motion,
                                               const model::ThermalCoefficients* truth,
                                               const NoiseModel& noise, double rate_hz,
-                                              std::uint64_t seed, double end_s = 0.0) {
+                                              std::uint64_t seed, double end_s = 0.0,
+                                              const TableErrors& table = {}) {
   std::string error;
   DirectCalibrationInput in =
-      simulateThermalRun(std::move(motion), truth, noise, rate_hz, seed, end_s, &error);
+      simulateThermalRun(std::move(motion), truth, noise, rate_hz, seed, end_s, &error, table);
   EXPECT_TRUE(error.empty()) << error;
   return in;
 }
