@@ -8,6 +8,7 @@ target_sources(imubench_calib PRIVATE
   direct_calibration.cpp
   segment_check.cpp
   fit_quality.cpp
+  recording_checks.cpp
   thermal_fit.cpp
 )
 # Navigation-based (indirect) calibration, validation experiment, shared result type.
