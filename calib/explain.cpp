@@ -1260,7 +1260,7 @@ ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) 
     res.status = Status::Error(std::move(why));
     return res;
   }
-  if (in.baseline_method != "given") {
+  if (in.baseline_method != "given" && in.baseline_from_this_recording) {
     // A baseline calibrated from a recording whose motion cannot determine it is noise fitted
     // to noise: refused before any analysis.
     if (std::string why = explainMotionRefusal(in.recording()); !why.empty()) {

@@ -63,6 +63,10 @@ struct ExplainInput : RecordingView {
   CoefficientReport baseline;
   std::string baseline_method = "given";
   std::vector<std::string> baseline_table_params;
+  // The baseline was calibrated from this recording alone (method "direct" or "indirect"): a
+  // recording whose motion cannot determine it is refused. False when other recordings took
+  // part (the pipeline over a direct recording) or the coefficients were given.
+  bool baseline_from_this_recording = true;
 };
 
 struct ExplainOptions {

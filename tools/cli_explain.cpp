@@ -179,6 +179,7 @@ void baselineFromPipeline(const ExplainCliOptions& o, const ResolvedRecording& s
     throw CommandFailed(src.label + " + " + d.label + ": baseline: " + r.status.message);
   p->input.baseline = r.refined.coefficients;
   p->input.baseline_method = "indirect";
+  p->input.baseline_from_this_recording = false;  // the direct recording took part
   calib::BenchTruth t = r.refined.coefficients.values;
   t.table_kind = src.recording.table_kind;
   for (const std::string& n : calib::flatNames(t)) {
@@ -369,16 +370,14 @@ void runExplainTable(const ExplainCliOptions& o) {
   refuseInconsistentTime(src.label, p.input.recording());
   if (!o.coeffs.empty()) {
     baselineFromFile(o, &p);
+  } else if (!o.direct.empty()) {
+    baselineFromPipeline(o, src, &p);
   } else {
     // Refused before any calibration: a baseline the motion cannot determine is noise.
     if (const std::string why = calib::explainMotionRefusal(p.input.recording()); !why.empty()) {
       throw CommandFailed(src.label + ": " + why + " (result unusable, exit 3)", kExitUnusable);
     }
-    if (!o.direct.empty()) {
-      baselineFromPipeline(o, src, &p);
-    } else {
-      baselineFromRecording(src, &p);
-    }
+    baselineFromRecording(src, &p);
   }
   const calib::ExplainResult r = calib::explainRecording(p.input, eo);
   if (!r.status.ok) {
