@@ -10,6 +10,7 @@
 
 #include "calib/explain_fit.h"
 #include "calib/indirect_calibration.h"
+#include "calib/recording_checks.h"
 
 namespace imubench::calib {
 namespace {
@@ -590,6 +591,59 @@ std::string givenMismatch(const ExplainProblem& p, const ExplainOptions& o, cons
 
 }  // namespace
 
+double explainChannelLimit(double bins, double fitted) {
+  const double n = std::max(1.0, bins - fitted);
+  // Wilson-Hilferty: chi^2_n quantile ~ n (1 - 2/(9n) + z sqrt(2/(9n)))^3, z(99.9 %) = 3.09.
+  const double a = 2.0 / (9.0 * n);
+  const double q = std::pow(1.0 - a + 3.09 * std::sqrt(a), 3);
+  return std::max(1.2, std::sqrt(q));
+}
+
+std::vector<int> channelsAboveFloor(const ExplainResult& r) {
+  std::vector<int> out;
+  for (int c = 0; c < 6; ++c) {
+    const std::size_t k = static_cast<std::size_t>(c);
+    if (r.channel_normalised_rms[k] > r.channel_limit[k]) out.push_back(c);
+  }
+  return out;
+}
+
+std::string explainVerdict(const ExplainResult& r) {
+  if (r.noise.anyResolutionLimited()) {
+    std::string chans;
+    for (int c = 0; c < 6; ++c) {
+      if (r.noise.resolution_limited[static_cast<std::size_t>(c)]) {
+        chans += std::string(chans.empty() ? "" : ", ") + explainChannelName(c);
+      }
+    }
+    return "not judged: the static readings of " + chans +
+           " show no noise (noise-free or quantisation-limited data: at most " +
+           std::to_string(kMaxResolutionValues) +
+           " distinct values per hold), so there is no noise floor to judge the residual "
+           "against; figures in noise-floor units are not meaningful";
+  }
+  const std::vector<int> above = channelsAboveFloor(r);
+  std::string chans;
+  for (int c : above) {
+    char buf[80];
+    std::snprintf(buf, sizeof(buf), "%s%s %.2fx (limit %.2fx)", chans.empty() ? "" : ", ",
+                  explainChannelName(c), r.channel_normalised_rms[static_cast<std::size_t>(c)],
+                  r.channel_limit[static_cast<std::size_t>(c)]);
+    chans += buf;
+  }
+  if (!r.unexplained.empty()) {
+    return std::to_string(r.unexplained.size()) +
+           " window(s) beyond the noise floor that nothing in the library accounts for" +
+           (above.empty() ? std::string() : "; channels above the noise floor: " + chans);
+  }
+  if (!above.empty()) {
+    return "none stands out as a window, but the residual after the refit is above the noise floor "
+           "on " +
+           chans + ": structure spread over the recording that no library effect explains";
+  }
+  return "none: after the refit the residual of every channel is within the noise floor";
+}
+
 const char* explainChannelName(int channel) {
   return kChannelNames[static_cast<std::size_t>(std::clamp(channel, 0, 5))];
 }
@@ -827,6 +881,26 @@ std::size_t leastConstant(const Linearised& L, const std::vector<ExplainBin>& bi
   return worst;
 }
 
+// Per channel: the normalised RMS after the refit and its chance limit (the fit's parameters
+// shared evenly among the channels' degrees of freedom).
+void channelNormalised(const std::vector<double>& after, const std::vector<double>& sigma, int rank,
+                       ExplainResult* res) {
+  const std::size_t bins = after.size() / 6;
+  for (int c = 0; c < 6; ++c) {
+    double chi2 = 0.0;
+    for (std::size_t b = 0; b < bins; ++b) {
+      chi2 += std::pow(
+          after[b * 6 + static_cast<std::size_t>(c)] / sigma[b * 6 + static_cast<std::size_t>(c)],
+          2);
+    }
+    const double fitted = static_cast<double>(rank) / 6.0;
+    const double dof = std::max(1.0, static_cast<double>(bins) - fitted);
+    res->channel_normalised_rms[static_cast<std::size_t>(c)] = std::sqrt(chi2 / dof);
+    res->channel_limit[static_cast<std::size_t>(c)] =
+        explainChannelLimit(static_cast<double>(bins), fitted);
+  }
+}
+
 // Residuals before and after, RMS, located windows, coefficients, bins.
 void finish(const ExplainProblem& p, const ExplainOptions& o, const Linearised& L,
             ExplainEvaluator* eval, const RefitResult& fit, const std::vector<std::string>& names,
@@ -838,6 +912,7 @@ void finish(const ExplainProblem& p, const ExplainOptions& o, const Linearised& 
   double chi2_after = 0.0;
   for (std::size_t i = 0; i < n; ++i) chi2_after += std::pow(after[i] / eval->sigma()[i], 2);
   res->after_normalised_rms = std::sqrt(chi2_after / std::max(1, eval->rows() - fit.rank));
+  channelNormalised(after, eval->sigma(), fit.rank, res);
   res->rms_before = channelRms(before);
   res->rms_after = channelRms(after);
   res->noise_rms = channelRms(eval->sigma());
@@ -1076,6 +1151,7 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
     if (id && !accepted && !p.start.model.extra.has(*id))
       res.coefficients.values.extra.disable(*id);
   }
+  if (p.noise.anyResolutionLimited()) res.notes.insert(res.notes.begin(), explainVerdict(res));
   res.status = Status::Ok();
   return res;
 }
@@ -1168,12 +1244,30 @@ void listHarmonicVariants(const ExplainData& data, const ExplainOptions& o, Expl
 
 }  // namespace
 
+std::string explainMotionRefusal(const RecordingView& recording) {
+  const MotionSupport m = motionSupport(recording);
+  if (m.determinesTriads()) return "";
+  return "the motion cannot determine a calibration of this recording (" + m.describe() +
+         "): " + m.missing() +
+         "; record holds with each axis up and down and rotations about each axis (e.g. the "
+         "bundled direct_two_axis plan), or give the coefficients (--coeffs)";
+}
+
 ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
   ExplainResult res;
   const std::vector<HoldReadings> holds = staticHolds(in, o);
   if (std::string why = checkInput(in, o, holds); !why.empty()) {
     res.status = Status::Error(std::move(why));
     return res;
+  }
+  if (in.baseline_method != "given" && in.baseline_from_this_recording) {
+    // A baseline calibrated from a recording whose motion cannot determine it is noise fitted
+    // to noise: refused before any analysis.
+    if (std::string why = explainMotionRefusal(in.recording()); !why.empty()) {
+      res.status = Status::Error(std::move(why));
+      res.unusable = true;
+      return res;
+    }
   }
   ExplainProblem p;
   p.noise = noiseFloor(holds, o.noise);

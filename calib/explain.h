@@ -63,6 +63,10 @@ struct ExplainInput : RecordingView {
   CoefficientReport baseline;
   std::string baseline_method = "given";
   std::vector<std::string> baseline_table_params;
+  // The baseline was calibrated from this recording alone (method "direct" or "indirect"): a
+  // recording whose motion cannot determine it is refused. False when other recordings took
+  // part (the pipeline over a direct recording) or the coefficients were given.
+  bool baseline_from_this_recording = true;
 };
 
 struct ExplainOptions {
@@ -185,9 +189,17 @@ struct ExplainRunResidual {
 
 struct ExplainResult {
   Status status = Status::Error("not analysed");  // why not (bad input, too little data)
+  // With a failed status: the input was readable but the recording cannot support the analysis
+  // (its motion cannot determine the baseline, its static poses are too few or too short):
+  // "result unusable", the same refusal `imubench calibrate` exits 3 for.
+  bool unusable = false;
   std::string baseline_method;
   double baseline_normalised_rms = 0.0;  // whitened residual RMS of the baseline fit
   double after_normalised_rms = 0.0;
+  // Per channel after the refit: sqrt(mean (residual / sigma)^2) over the bins, and the limit
+  // above which the channel is above the noise floor (explainChannelLimit: chi-square based).
+  std::array<double, 6> channel_normalised_rms{};
+  std::array<double, 6> channel_limit{};
   NoiseFloor noise;
   // Residual RMS per channel over the bins (mean readings over ExplainModelOptions::bin_s),
   // reading units; noise_rms is what the noise floor alone gives over the same bins.
@@ -209,6 +221,23 @@ struct ExplainResult {
   std::vector<Segment> segments;
   std::vector<std::string> notes;
 };
+
+// Channels whose residual after the refit is above the noise floor (channel_normalised_rms >
+// channel_limit), and the sentence the front ends print for the residual after the refit:
+// "within the noise floor" only when no window is unexplained, every channel is within its
+// limit and the floor was measured (not noise-free data).
+std::vector<int> channelsAboveFloor(const ExplainResult& result);
+std::string explainVerdict(const ExplainResult& result);
+// The normalised RMS a channel of `bins` bins (fit taking `fitted` of its degrees of freedom)
+// stays below by chance: the 99.9 % quantile of sqrt(chi^2_n / n), n = bins - fitted (Wilson-
+// Hilferty), and at least 1.2 (the noise floor itself, from a few hundred Allan cluster pairs,
+// is uncertain by several percent, and a residual 20 % above the noise is what matters).
+double explainChannelLimit(double bins, double fitted);
+
+// Why the recording's motion cannot determine a baseline calibration (calib/recording_checks.h
+// motionSupport: distinct attitudes and rotations per body axis), or "" when it can. The
+// analysis refuses such a recording (unusable) unless its baseline is given.
+std::string explainMotionRefusal(const RecordingView& recording);
 
 // A table recording (imubench-csv/1, or a stored run): bins along the encoder spline, the
 // library forward model, the table groups the baseline did not estimate as candidates.

@@ -1,5 +1,6 @@
 // The interchange form of an ExplainResult (interchange.md "Explain report").
 #include <cmath>
+#include <limits>
 
 #include "calib/explain.h"
 
@@ -12,6 +13,11 @@ nlohmann::json numberOrNull(double v) {
 
 nlohmann::json triads(const std::array<double, 6>& v) {
   return {{"accel", {v[0], v[1], v[2]}}, {"gyro", {v[3], v[4], v[5]}}};
+}
+
+nlohmann::json triadsOrNull(const std::array<double, 6>& v) {
+  return {{"accel", {numberOrNull(v[0]), numberOrNull(v[1]), numberOrNull(v[2])}},
+          {"gyro", {numberOrNull(v[3]), numberOrNull(v[4]), numberOrNull(v[5])}}};
 }
 
 // Values of consecutive flat parameters in the shape of a ParamSpec.
@@ -79,15 +85,33 @@ nlohmann::json windowsJson(const std::vector<ExplainWindow>& ws) {
 nlohmann::json toJson(const ExplainResult& r) {
   nlohmann::json j;
   j["format"] = "imubench-explain/1";
-  j["baseline"] = {{"method", r.baseline_method}, {"normalised_rms", r.baseline_normalised_rms}};
+  j["baseline"] = {{"method", r.baseline_method}};
   j["noise_floor"] = {{"accel", {r.noise.white[0], r.noise.white[1], r.noise.white[2]}},
                       {"gyro", {r.noise.white[3], r.noise.white[4], r.noise.white[5]}},
                       {"bias_instability", triads(r.noise.bias_instability)},
                       {"bias_instability_tau_s", triads(r.noise.bias_instability_tau_s)}};
+  std::array<bool, 6> limited = r.noise.resolution_limited;
+  j["noise_floor"]["resolution_limited"] = {{"accel", {limited[0], limited[1], limited[2]}},
+                                            {"gyro", {limited[3], limited[4], limited[5]}}};
+  j["noise_floor"]["distinct_values"] =
+      triads({1.0 * r.noise.distinct_values[0], 1.0 * r.noise.distinct_values[1],
+              1.0 * r.noise.distinct_values[2], 1.0 * r.noise.distinct_values[3],
+              1.0 * r.noise.distinct_values[4], 1.0 * r.noise.distinct_values[5]});
+  // Figures in noise-floor units only where the floor was measured.
+  const bool judged = !r.noise.anyResolutionLimited();
+  const auto normalised = [judged](double v) { return judged ? numberOrNull(v) : nullptr; };
+  std::array<double, 6> channel = r.channel_normalised_rms;
+  if (!judged) channel.fill(std::numeric_limits<double>::quiet_NaN());
+  j["channel_normalised_rms_after"] = triadsOrNull(channel);
+  j["channel_limit"] = triads(r.channel_limit);
+  j["channels_above_floor"] = nlohmann::json::array();
+  for (int c : channelsAboveFloor(r)) j["channels_above_floor"].push_back(explainChannelName(c));
+  j["verdict"] = explainVerdict(r);
   j["rms_before"] = triads(r.rms_before);
   j["rms_after"] = triads(r.rms_after);
   j["noise_rms"] = triads(r.noise_rms);
-  j["normalised_rms_after"] = r.after_normalised_rms;
+  j["baseline"]["normalised_rms"] = normalised(r.baseline_normalised_rms);
+  j["normalised_rms_after"] = normalised(r.after_normalised_rms);
   j["test_scale"] = r.scale;
   j["residual_correlation"] = r.correlation;  // effective-n factor within test_scale
   j["accepted"] = nlohmann::json::array();

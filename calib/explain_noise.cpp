@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calib/recording_checks.h"
+
 namespace imubench::calib {
 namespace {
 
@@ -39,11 +41,40 @@ AllanPoint clusterPoint(std::span<const HoldReadings> holds, std::size_t m, doub
   return p;
 }
 
+// Distinct readings of channel c in hold h: values closer than 1e-9 of the triad's largest
+// magnitude are one (rounding of increments divided by their interval).
+int distinctValues(const HoldReadings& h, int c) {
+  std::vector<double> v;
+  double mag = 0.0;
+  v.reserve(h.accel.size());
+  for (std::size_t i = 0; i < h.accel.size(); ++i) {
+    v.push_back(channelValue(h, i, c));
+    mag = std::max(mag, (c < 3 ? h.accel[i] : h.gyro[i]).norm());
+  }
+  return countDistinct(std::move(v), 1e-9 * mag + 1e-300);
+}
+
+void resolution(std::span<const HoldReadings> holds, NoiseFloor* nf) {
+  for (int c = 0; c < kExplainChannels; ++c) {
+    std::vector<int> n;
+    for (const HoldReadings& h : holds) n.push_back(distinctValues(h, c));
+    std::nth_element(n.begin(), n.begin() + static_cast<std::ptrdiff_t>(n.size() / 2), n.end());
+    nf->distinct_values[c] = n[n.size() / 2];
+    nf->resolution_limited[c] = nf->distinct_values[c] <= kMaxResolutionValues;
+  }
+}
+
 }  // namespace
+
+bool NoiseFloor::anyResolutionLimited() const {
+  return std::any_of(resolution_limited.begin(), resolution_limited.end(),
+                     [](bool b) { return b; });
+}
 
 NoiseFloor noiseFloor(std::span<const HoldReadings> holds, const NoiseFloorOptions& options) {
   NoiseFloor nf;
   if (holds.empty()) return nf;
+  resolution(holds, &nf);
   const double dt = holds.front().dt;
   std::size_t longest = 0;
   for (const HoldReadings& h : holds) {

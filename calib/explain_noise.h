@@ -56,6 +56,15 @@ struct NoiseFloor {
   std::array<double, kExplainChannels> bias_instability{};
   std::array<double, kExplainChannels> bias_instability_tau_s{};
   double total_static_s = 0.0;
+  // Per channel, the median over holds of the number of distinct readings (values closer than
+  // 1e-9 of the triad's magnitude are one) and whether the channel is resolution-limited: at
+  // most kMaxResolutionValues distinct values, i.e. no noise (a noise-free simulation: one
+  // value) or noise below the quantisation step (quantised data: two). Its Allan deviation is
+  // then the options' floor or the quantisation, not the sensor's noise, and every figure in
+  // noise-floor units (sigmas, normalised RMS) is meaningless.
+  std::array<int, kExplainChannels> distinct_values{};
+  std::array<bool, kExplainChannels> resolution_limited{};
+  bool anyResolutionLimited() const;
 
   // Standard deviation of the mean of channel c over an averaging time tau (s): the curve
   // interpolated log-log; below its first point white scaling, beyond its last point held

@@ -1,6 +1,8 @@
 #include "calib/explain_scalar.h"
 
+#include <cctype>
 #include <cmath>
+#include <string>
 
 #include "calib/model/sensor_equation.h"
 #include "calib/simulator.h"
@@ -155,6 +157,40 @@ std::vector<double> scalarRowSigmas(const std::vector<ExplainBin>& bins, const N
   return s;
 }
 
+// What nuisance parameter k of the poses' model is, for people: the attitude angles of a pose,
+// or the vertical Earth rate (after the poses' angles).
+std::string nuisanceMeaning(std::size_t k, std::size_t poses) {
+  if (k >= 2 * poses) return "the vertical Earth rate";
+  return "the attitude of pose " + std::to_string(k / 2 + 1) + " (tilt angle " +
+         std::to_string(k % 2 + 1) + ")";
+}
+
+// Replaces every "nuisance.N" in s by its meaning.
+std::string readable(std::string s, std::size_t poses) {
+  static const std::string kPrefix = "nuisance.";
+  for (std::size_t at = s.find(kPrefix); at != std::string::npos; at = s.find(kPrefix, at)) {
+    std::size_t end = at + kPrefix.size();
+    while (end < s.size() && std::isdigit(static_cast<unsigned char>(s[end]))) ++end;
+    if (end == at + kPrefix.size()) {
+      at = end;
+      continue;
+    }
+    const std::string m = nuisanceMeaning(
+        std::stoul(s.substr(at + kPrefix.size(), end - at - kPrefix.size())), poses);
+    s.replace(at, end - at, m);
+    at += m.size();
+  }
+  return s;
+}
+
+// The result's messages with the nuisance parameters' internal names replaced by their meaning.
+void readableNuisanceNames(std::size_t poses, ExplainResult* res) {
+  res->status.message = readable(res->status.message, poses);
+  for (ExplainRejected& x : res->rejected) x.reason = readable(x.reason, poses);
+  for (ExplainUnseparable& u : res->unseparable) u.reason = readable(u.reason, poses);
+  for (std::string& n : res->notes) n = readable(n, poses);
+}
+
 }  // namespace
 
 ExplainResult explainScalar(const RawImuData& data, const ScalarCalibrationOptions& scalar,
@@ -168,6 +204,10 @@ ExplainResult explainScalar(const RawImuData& data, const ScalarCalibrationOptio
   const ScalarCalibrationResult cal = scalarCalibrate(data, scalar, accel_unit_is_si);
   if (!cal.status.ok) {
     res.status = Status::Error("scalar calibration (the baseline): " + cal.status.message);
+    // Too few or too short static poses: the recording cannot support the analysis (what
+    // `imubench calibrate` refuses as unusable too).
+    res.unusable = cal.status.code == RecordingStatusCode::kTooFewStatics ||
+                   cal.status.code == RecordingStatusCode::kTooShortStatic;
     return res;
   }
   PoseBins pb;
@@ -203,6 +243,7 @@ ExplainResult explainScalar(const RawImuData& data, const ScalarCalibrationOptio
   p.segments = pb.segments;
   p.baseline_method = "scalar";
   res = analyseProblem(p, options);
+  readableNuisanceNames(u0.size(), &res);
   if (res.status.ok) {
     res.notes.insert(res.notes.begin(),
                      std::to_string(u0.size()) + " static poses of the scalar calibration; " +

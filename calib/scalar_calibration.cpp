@@ -11,6 +11,7 @@
 #include "calib/model/sensor_equation.h"
 #include "calib/observability.h"
 #include "calib/option_check.h"
+#include "calib/recording_checks.h"
 #include "nav/earth.h"
 
 namespace imubench::calib {
@@ -39,6 +40,9 @@ bool ScalarCalibrationOptions::IsValid(std::string* why) const {
     if (so->max_iterations < 1 || !(so->function_tolerance > 0.0) ||
         !(so->parameter_tolerance > 0.0))
       return invalidOption(why, "solver settings: iterations >= 1 and tolerances > 0");
+  if ((gyro_range_radps && !(*gyro_range_radps > 0.0)) ||
+      (accel_range_mps2 && !(*accel_range_mps2 > 0.0)))
+    return invalidOption(why, "the IMU's ranges must be > 0");
   return detection.IsValid(why) && checks.IsValid(why);
 }
 
@@ -589,6 +593,16 @@ void earthRateNote(const Poses& p, const ScalarCalibrationOptions& o,
 
 }  // namespace
 
+namespace {
+
+// The range refusal in the IMU's terms ("--gyro-range").
+RecordingCheck fromRangeCheck(RecordingCheck c) {
+  if (!c.ok) c.message += " (the IMU's range as given: --gyro-range/--accel-range)";
+  return c;
+}
+
+}  // namespace
+
 ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCalibrationOptions& o,
                                         bool accel_unit_is_si) {
   ScalarCalibrationResult res;
@@ -598,9 +612,16 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   res.spans = p.spans;
   res.status = fitAccel(data, p, o, accel_unit_is_si, &res);
   if (!res.status.ok) return res;
+  RangeCheckOptions accel_range;
+  accel_range.accel_range_mps2 = o.accel_range_mps2;
+  res.status = fromRangeCheck(checkCalibratedRanges(data, res.accel(), res.gyro(), accel_range));
+  if (!res.status.ok) return res;
   const std::vector<Rotation> rots = rotationsBetweenPoses(data, p, res.accel(), o);
   res.rotations_used = static_cast<int>(rots.size());
   if (rots.size() < 3) {
+    if (o.gyro_range_radps) {
+      res.notes.push_back("the gyro range was not checked: the gyro scale is not estimated");
+    }
     std::ostringstream s;
     s << "only " << rots.size()
       << " rotations change the gravity direction by > 5 deg: gyro scale and misalignment "
@@ -614,6 +635,10 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   res.status = fitGyroGains(rots, o, &res);
   if (!res.status.ok) return res;
   gyroBias(data, p, o, &res);
+  RangeCheckOptions gyro_range;
+  gyro_range.gyro_range_radps = o.gyro_range_radps;
+  res.status = fromRangeCheck(checkCalibratedRanges(data, res.accel(), res.gyro(), gyro_range));
+  if (!res.status.ok) return res;
   earthRateNote(p, o, &res);
   return res;
 }

@@ -72,6 +72,11 @@ struct ScalarCalibrationOptions {
   double span_trim_s = 0.1;
   StaticDetectionOptions detection;
   RecordingCheckOptions checks;
+  // The IMU's symmetric ranges (datasheet), SI: a sample whose calibrated rate or specific
+  // force reaches them on any axis is clipped and the recording refused (kSaturated), whatever
+  // the reading unit (checked after the fit, on the calibrated inputs). Unset: not checked.
+  std::optional<double> gyro_range_radps;
+  std::optional<double> accel_range_mps2;
 
   // Solver settings of the two least-squares fits (Ceres).
   struct Solver {

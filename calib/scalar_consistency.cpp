@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
+
+#include "calib/recording_checks.h"
 
 namespace imubench::calib {
 namespace {
@@ -84,12 +87,40 @@ void compareHalves(const ScalarCalibrationResult& a, const ScalarCalibrationResu
   if (!out->rows.empty()) out->rms_z = std::sqrt(sum_z2 / static_cast<double>(out->rows.size()));
 }
 
+// Median over the poses of the fewest distinct accelerometer readings on any axis.
+int typicalDistinctReadings(const RawImuData& data, const std::vector<StaticSpan>& spans) {
+  std::vector<int> per_pose;
+  for (const StaticSpan& sp : spans) {
+    double mag = 0.0;
+    for (std::size_t i = sp.begin; i < sp.end; ++i) mag = std::max(mag, data.accel[i].norm());
+    int fewest = std::numeric_limits<int>::max();
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> v;
+      for (std::size_t i = sp.begin; i < sp.end; ++i) v.push_back(data.accel[i](k));
+      fewest = std::min(fewest, countDistinct(std::move(v), 1e-9 * mag + 1e-300));
+    }
+    per_pose.push_back(fewest);
+  }
+  if (per_pose.empty()) return 0;
+  std::sort(per_pose.begin(), per_pose.end());
+  return per_pose[per_pose.size() / 2];
+}
+
 }  // namespace
 
 ScalarConsistency scalarConsistency(const RawImuData& data, const ScalarCalibrationResult& full,
                                     const ScalarCalibrationOptions& options,
                                     bool accel_unit_is_si) {
   ScalarConsistency out;
+  if (typicalDistinctReadings(data, full.spans) <= kMaxResolutionValues) {
+    out.resolution_limited = true;
+    out.accel_normalised_rms = std::numeric_limits<double>::quiet_NaN();
+    out.halves_why =
+        "noise-free data: the static poses' readings take at most " +
+        std::to_string(kMaxResolutionValues) +
+        " distinct values on some axis, so there is no noise to judge residuals or sigmas by";
+    return out;
+  }
   accelNormalisedRms(data, full, options, &out);
   if (full.spans.size() < 4) {
     out.halves_why = "fewer than 4 static poses: nothing to split";
@@ -128,6 +159,10 @@ ScalarConsistency scalarConsistency(const RawImuData& data, const ScalarCalibrat
 std::string describe(const ScalarConsistency& c) {
   std::ostringstream o;
   o.precision(3);
+  if (c.resolution_limited) {
+    o << "accel normalised residual RMS: not meaningful (" << c.halves_why << ")\n";
+    return o.str();
+  }
   o << "accel normalised residual RMS (|f| - g per pose against its white-noise sigma): "
     << c.accel_normalised_rms << " over " << c.accel_dof << " degrees of freedom\n";
   if (!c.halves_ok) {

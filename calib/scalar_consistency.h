@@ -27,6 +27,11 @@ struct ScalarConsistencyRow {
 };
 
 struct ScalarConsistency {
+  // The static poses' accelerometer readings show no noise (noise-free or quantisation-
+  // limited data: at most kMaxResolutionValues distinct values per pose on some axis, median
+  // over poses): there is no white-noise sigma to normalise by, so accel_normalised_rms is
+  // NaN and the halves are not compared (their sigmas are not meaningful either).
+  bool resolution_limited = false;
   // Normalised residual RMS of the accelerometer fit over the full recording's poses.
   double accel_normalised_rms = 0.0;
   int accel_dof = 0;

@@ -1,5 +1,6 @@
 #include "calib/truth_comparison.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace imubench::calib {
@@ -22,6 +23,54 @@ DisplayUnit displayUnit(const std::string& n) {
   if (startsWith(n, "gyro.bias")) return {kDegPerHourToRadPerSec, "deg/h"};
   return {kArcsecToRad, "arcsec"};
 }
+
+namespace {
+
+bool discrete(const std::string& name) {
+  return name.ends_with(".axis") || name.ends_with(".order");
+}
+
+// Rows of the extra effects: the estimate's (judged when it carries a sigma) and the truth's
+// that the estimate does not model.
+void compareExtra(const CoefficientReport& estimate, const BenchTruth& expected,
+                  TruthComparison* c) {
+  std::vector<std::string> names;
+  for (const BenchTruth* b : {&estimate.values, &expected}) {
+    for (const std::string& n : flatNames(*b)) {
+      if (startsWith(n, "extra.") && !discrete(n) &&
+          std::find(names.begin(), names.end(), n) == names.end()) {
+        names.push_back(n);
+      }
+    }
+  }
+  for (const std::string& name : names) {
+    const std::optional<double> e = flatValue(estimate.values, name);
+    const std::optional<double> t = flatValue(expected, name);
+    const auto u = estimate.uncertainty.find(name);
+    const bool estimated = e && u != estimate.uncertainty.end();
+    if (!estimated && (!t || *t == 0.0)) continue;  // neither estimated nor in the truth
+    ComparisonRow r;
+    r.name = name;
+    r.estimate = e.value_or(0.0);
+    r.expected = t.value_or(0.0);
+    r.error = r.estimate - r.expected;
+    r.unit = "SI";
+    r.error_in_unit = r.error;
+    r.modelled = estimated;
+    r.observable = estimated && u->second.observable && u->second.sigma.has_value();
+    r.sigma = estimated ? u->second.sigma.value_or(0.0) : 0.0;
+    r.limit_in_unit = kBiasLimitSigma * r.sigma;
+    r.within = std::abs(r.error) <= r.limit_in_unit;
+    if (r.observable) {
+      ++c->judged;
+      if (!r.within) ++c->outside;
+    }
+    if (!r.modelled) ++c->unmodelled;
+    c->rows.push_back(r);
+  }
+}
+
+}  // namespace
 
 TruthComparison compareWithTruth(const CoefficientReport& estimate, const BenchTruth& expected) {
   TruthComparison c;
@@ -59,6 +108,7 @@ TruthComparison compareWithTruth(const CoefficientReport& estimate, const BenchT
     }
     c.rows.push_back(r);
   }
+  compareExtra(estimate, expected, &c);
   return c;
 }
 

@@ -34,17 +34,24 @@ struct ComparisonRow {
   double limit_in_unit = 0.0;  // the target in `unit` (biases: 2 sigma)
   bool within = true;          // |error| <= limit
   bool observable = true;      // false: held at the start value, not judged
+  // false: an effect of the truth's "extra" section the estimate's model does not carry (its
+  // value would be absorbed by the coefficients or left in the residual): shown, not judged.
+  bool modelled = true;
 };
 
 struct TruthComparison {
   std::vector<ComparisonRow> rows;
-  int judged = 0;   // rows with a target that were observable
-  int outside = 0;  // of those, outside the target
+  int judged = 0;      // rows with a target that were observable
+  int outside = 0;     // of those, outside the target
+  int unmodelled = 0;  // rows of truth effects the estimate does not model
 };
 
 // Compares every parameter the estimate carries an uncertainty entry for (sigma or an
 // "observable": false flag): what the method estimated or deliberately held. Parameters without
 // one (mounting and encoder zeros; the table under direct calibration) are not estimates.
+// Extra effects (interchange.md "extra"): every real parameter of an effect in the truth or in
+// the estimate; estimated ones (with a sigma) judged within 2 sigma (unit "SI"), the truth's
+// effects the estimate does not model listed with modelled = false.
 TruthComparison compareWithTruth(const CoefficientReport& estimate, const BenchTruth& expected);
 
 }  // namespace imubench::calib

@@ -270,12 +270,15 @@ void runCalibrateReal(const CalibrateOptions& o) {
   ro.gravity = o.gravity;
   ro.latitude_deg = o.latitude_deg;
   ro.height_m = o.height_m;
+  ro.gyro_range_dps = o.gyro_range_dps;
+  ro.accel_range_g = o.accel_range_g;
   const RealRecording real = readRealRecording(ro);
   const io::RealImport& in = real.import;
   const calib::ScalarCalibrationOptions& so = real.scalar;
   const bool accel_si = real.accel_si;
   const calib::ScalarCalibrationResult r = calib::scalarCalibrate(in.data, so, accel_si);
   if (!r.status.ok) throw scalarRefusal(o.dir, r.status);
+  refuseInconsistentRate(ro, real, r.gyro());
   std::ostream& info = o.json ? std::cerr : std::cout;
   info << "scalar calibration of " << o.dir << " (" << in.data.size() << " samples, accel in "
        << in.accel_unit << ", gyro in " << in.gyro_unit << ", g = " << so.gravity_mps2

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "calib/indirect_calibration.h"
+#include "calib/recording_checks.h"
 #include "io/truth_file.h"
 
 namespace imubench::tools {
@@ -116,6 +117,7 @@ calib::BenchTruth gyroReferencedTruth(const calib::BenchTruth& truth,
   e.table.base_tilt = m.base_tilt;
   e.table.nonorthogonality = m.nonorthogonality;
   e.table_kind = g.kind;
+  e.extra = truth.extra;  // extra effects do not depend on the frame: compared as written
   return e;
 }
 
@@ -152,9 +154,26 @@ RealRecording readRealRecording(const RealRecordingOptions& o) {
   } else if (o.latitude_deg) {
     so.gravity_mps2 = nav::normalGravity(*o.latitude_deg * kDegToRad, o.height_m);
   }
+  if (o.gyro_range_dps) so.gyro_range_radps = *o.gyro_range_dps * kDegToRad;
+  if (o.accel_range_g) so.accel_range_mps2 = *o.accel_range_g * 9.80665;
   std::string why;
   if (!so.IsValid(&why)) throw CommandFailed("options: " + why, 2);
   return r;
+}
+
+void refuseInconsistentRate(const RealRecordingOptions& o, const RealRecording& real,
+                            const calib::TriadModel& gyro) {
+  const std::optional<double> nominal = calib::gyroReadingsPerRadps(real.import.gyro_unit);
+  const std::vector<double>& t = real.import.data.t;
+  if (!nominal || t.size() < 2) return;
+  char rate[80];
+  std::snprintf(rate, sizeof(rate), o.rate_hz ? "--rate %g Hz" : "the default rate %g Hz",
+                static_cast<double>(t.size() - 1) / (t.back() - t.front()));
+  const calib::RateConsistency c = calib::checkRateConsistency(gyro, *nominal, rate);
+  if (!c.status.ok) {
+    throw CommandFailed(o.path + ": " + c.status.message + " (result unusable, exit 3)",
+                        kExitResultUnusable);
+  }
 }
 
 }  // namespace imubench::tools

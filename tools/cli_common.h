@@ -115,6 +115,10 @@ struct RealRecordingOptions {
   std::optional<double> gravity;  // m/s^2
   std::optional<double> latitude_deg;
   double height_m = 0.0;
+  // --gyro-range DPS / --accel-range G: the IMU's ranges, checked on the calibrated readings
+  // (ScalarCalibrationOptions::gyro_range_radps) whatever the format's reading unit.
+  std::optional<double> gyro_range_dps;
+  std::optional<double> accel_range_g;
 };
 struct RealRecording {
   io::RealImport import;
@@ -123,5 +127,13 @@ struct RealRecording {
 };
 // Throws CommandFailed: the reader's error (exit 1), a missing --gyro or invalid options (2).
 RealRecording readRealRecording(const RealRecordingOptions& o);
+
+// Exit code of a refusal whose result would be unusable (calibrate and explain alike).
+inline constexpr int kExitResultUnusable = 3;
+// The scalar calibration's gyro scales against the reading unit's nominal (deg/s, rad/s):
+// a factor off means the time axis (--rate, or the format's default rate) is not the
+// recording's. Throws CommandFailed(kExitResultUnusable) naming the rate; nothing for counts.
+void refuseInconsistentRate(const RealRecordingOptions& o, const RealRecording& real,
+                            const calib::TriadModel& gyro);
 
 }  // namespace imubench::tools

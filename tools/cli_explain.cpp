@@ -24,8 +24,14 @@
 //                    (calib/explain_baseline.h), said on the first lines.
 // --format imutk|imucal|mikov: a recording without table angles (static poses of unknown attitude):
 // the scalar model (calib/explain_scalar.h) on its static poses.
-// Exit codes: 0 the analysis ran (whether or not it found anything); 1 bad input, or the
-// recording does not support the analysis (the reason is printed); 2 usage.
+// --gyro-range DPS / --accel-range G (every --format): samples whose calibrated rate or
+// specific force reaches the IMU's range are clipped: refused (exit 1, the sample named).
+// Exit codes (the same as `imubench calibrate`): 0 the analysis ran (whether or not it found
+// anything); 1 bad input (unreadable, NaN, gaps, clipped samples, coefficients of another
+// IMU); 2 usage; 3 result unusable: the recording cannot support the analysis (its motion
+// cannot determine the baseline, too few or too short static poses) or its data contradict the
+// time axis (a --rate that is not the recording's: gyro scales or integrated rotation a factor
+// off); the reason is printed.
 // Output: a summary on stdout; --json FILE the interchange report (imubench-explain/1);
 // --report DIR a self-contained DIR/report.html (io/explain_report.h).
 #include <algorithm>
@@ -40,6 +46,7 @@
 #include "calib/explain.h"
 #include "calib/explain_baseline.h"
 #include "calib/explain_scalar.h"
+#include "calib/recording_checks.h"
 #include "io/explain_report.h"
 #include "io/import_real.h"
 #include "io/recording.h"
@@ -64,7 +71,12 @@ struct ExplainCliOptions {
   // --format recordings: --gyro, --rate, --gravity, --latitude, --height (format and path
   // are `format` and `input`).
   RealRecordingOptions real;
+  std::optional<double> gyro_range_dps;  // IMU ranges: samples at them are refused
+  std::optional<double> accel_range_g;
 };
+
+// "Result unusable" (the recording cannot support the analysis): calibrate's exit code.
+constexpr int kExitUnusable = kExitResultUnusable;
 
 // Display units of the six channels: SI recordings in ug and deg/h; third-party recordings in
 // their own reading units (the analysis runs on readings, not on calibrated quantities).
@@ -155,6 +167,7 @@ void baselineFromPipeline(const ExplainCliOptions& o, const ResolvedRecording& s
   p->input.baseline = b.coefficients;
   p->input.baseline_method = b.method;
   p->input.baseline_table_params = b.table_params;
+  p->input.baseline_from_this_recording = false;  // the direct recording took part
   p->said.push_back("baseline: the production pipeline (direct calibration of " + d.label +
                     ", navigation-based refinement over both recordings, " +
                     std::to_string(b.passes) + " pass(es))");
@@ -174,17 +187,30 @@ void baselineFromRecording(const ResolvedRecording& src, Prepared* p) {
 // ---- The summary on stdout ----
 
 void printRms(const ChannelUnits& units, const calib::ExplainResult& r) {
-  std::printf("residual RMS over %zu bins (before -> after; noise alone):\n", r.bins.size());
+  const bool judged = !r.noise.anyResolutionLimited();
+  std::printf("residual RMS over %zu bins (before -> after; noise alone; %s):\n", r.bins.size(),
+              judged ? "normalised after the refit, limit" : "no noise floor: noise-free data");
   for (int c = 0; c < 6; ++c) {
-    const double u = units.per[static_cast<std::size_t>(c)];
-    std::printf("  %-8s %10.4g -> %10.4g %-8s  (noise %.4g; %.2fx -> %.2fx)\n",
-                calib::explainChannelName(c), r.rms_before[c] / u, r.rms_after[c] / u,
-                units.name[static_cast<std::size_t>(c)].c_str(), r.noise_rms[c] / u,
-                r.noise_rms[c] > 0 ? r.rms_before[c] / r.noise_rms[c] : 0.0,
-                r.noise_rms[c] > 0 ? r.rms_after[c] / r.noise_rms[c] : 0.0);
+    const std::size_t k = static_cast<std::size_t>(c);
+    const double u = units.per[k];
+    std::printf("  %-8s %10.4g -> %10.4g %-8s", calib::explainChannelName(c), r.rms_before[k] / u,
+                r.rms_after[k] / u, units.name[k].c_str());
+    if (!judged) {
+      std::printf("  (noise not measurable: %d distinct reading(s) per hold)\n",
+                  r.noise.distinct_values[k]);
+      continue;
+    }
+    std::printf("  (noise %.4g; %.2fx -> %.2fx; limit %.2fx%s)\n", r.noise_rms[k] / u,
+                r.noise_rms[k] > 0 ? r.rms_before[k] / r.noise_rms[k] : 0.0,
+                r.channel_normalised_rms[k], r.channel_limit[k],
+                r.channel_normalised_rms[k] > r.channel_limit[k] ? ", ABOVE the floor" : "");
   }
-  std::printf("normalised residual RMS %.3f -> %.3f (1 = the noise floor)\n",
-              r.baseline_normalised_rms, r.after_normalised_rms);
+  if (judged) {
+    std::printf("normalised residual RMS %.3f -> %.3f (1 = the noise floor)\n",
+                r.baseline_normalised_rms, r.after_normalised_rms);
+  } else {
+    std::printf("normalised residual RMS: not meaningful (no noise floor)\n");
+  }
 }
 
 void printWindows(const ChannelUnits& units, const char* what,
@@ -219,6 +245,9 @@ void printEffects(const calib::ExplainResult& r) {
                  n.compare(n.size() - 6, 6, ".order") == 0) {
         std::printf("    %-36s %d  (held: the order that fits best)\n", n.c_str(),
                     static_cast<int>(a.values[k]));
+      } else if (!std::isfinite(a.sigmas[k])) {
+        std::printf("    %-36s %+.6g  (SI; sigma not determined: held in the refit)\n", n.c_str(),
+                    a.values[k]);
       } else {
         std::printf("    %-36s %+.6g  sigma %.3g (SI)\n", n.c_str(), a.values[k], a.sigmas[k]);
       }
@@ -260,11 +289,10 @@ void printSummary(const Prepared& p, const calib::ExplainResult& r) {
   printWindows(p.units, "located (baseline residual beyond the noise floor)", r.located);
   printRunResiduals(r);
   printEffects(r);
-  if (r.unexplained.empty()) {
-    std::printf("unexplained: none: after the refit the residual is within the noise floor\n");
-  } else {
+  if (!r.unexplained.empty()) {
     printWindows(p.units, "UNEXPLAINED (nothing in the library accounts for these)", r.unexplained);
   }
+  std::printf("unexplained: %s\n", calib::explainVerdict(r).c_str());
   for (const std::string& n : r.notes) std::printf("note: %s\n", n.c_str());
 }
 
@@ -282,8 +310,20 @@ void writeOutputs(const ExplainCliOptions& o, const std::string& label,
   }
 }
 
+// The data against the time axis (calib/recording_checks.h): the gyro's integrated rotation
+// against the table's, or the static gyro norm against the Earth rate.
+void refuseInconsistentTime(const std::string& label, const calib::RecordingView& view) {
+  const calib::RateConsistency c = calib::checkRateConsistency(view);
+  if (!c.status.ok) {
+    throw CommandFailed(label + ": " + c.status.message + " (result unusable, exit 3)",
+                        kExitUnusable);
+  }
+}
+
 calib::ExplainOptions analysisOptions(const ExplainCliOptions& o) {
   calib::ExplainOptions eo;
+  if (o.gyro_range_dps) eo.checks.gyro_range_radps = *o.gyro_range_dps * kDegToRad;
+  if (o.accel_range_g) eo.checks.accel_range_mps2 = *o.accel_range_g * 9.80665;
   if (!o.effects.empty()) eo.candidates = checkedEffects(o.effects);
   if (o.bin_s) eo.model.bin_s = *o.bin_s;
   std::string why;
@@ -302,15 +342,23 @@ void runExplainTable(const ExplainCliOptions& o) {
   p.input.recording() = view.view();
   p.said.push_back("explain " + src.label + ": " + std::to_string(src.recording.imu.size()) +
                    " IMU samples, " + std::to_string(src.recording.segments.size()) + " segments");
+  refuseInconsistentTime(src.label, p.input.recording());
   if (!o.coeffs.empty()) {
     baselineFromFile(o, &p);
   } else if (!o.direct.empty()) {
     baselineFromPipeline(o, src, &p);
   } else {
+    // Refused before any calibration: a baseline the motion cannot determine is noise.
+    if (const std::string why = calib::explainMotionRefusal(p.input.recording()); !why.empty()) {
+      throw CommandFailed(src.label + ": " + why + " (result unusable, exit 3)", kExitUnusable);
+    }
     baselineFromRecording(src, &p);
   }
   const calib::ExplainResult r = calib::explainRecording(p.input, eo);
-  if (!r.status.ok) throw CommandFailed(src.label + ": explain: " + r.status.message);
+  if (!r.status.ok) {
+    throw CommandFailed(src.label + ": explain: " + r.status.message,
+                        r.unusable ? kExitUnusable : 1);
+  }
   printSummary(p, r);
   writeOutputs(o, src.label, r);
 }
@@ -326,12 +374,17 @@ void runExplainScalar(const ExplainCliOptions& o) {
   RealRecordingOptions ro = o.real;
   ro.format = o.format;
   ro.path = o.input;
+  ro.gyro_range_dps = o.gyro_range_dps;
+  ro.accel_range_g = o.accel_range_g;
   const RealRecording real = readRealRecording(ro);
   const io::RealImport& in = real.import;
   const calib::ScalarCalibrationOptions& so = real.scalar;
   const bool accel_si = real.accel_si;
   const calib::ExplainResult r = calib::explainScalar(in.data, so, accel_si, eo);
-  if (!r.status.ok) throw CommandFailed(o.input + ": explain: " + r.status.message);
+  if (!r.status.ok) {
+    throw CommandFailed(o.input + ": explain: " + r.status.message, r.unusable ? kExitUnusable : 1);
+  }
+  refuseInconsistentRate(ro, real, r.coefficients.values.sensors.gyro);
   Prepared p;
   for (std::size_t c = 0; c < 6; ++c) {
     if (c >= 3 || !accel_si) {
@@ -377,6 +430,13 @@ void addExplainCommand(CLI::App& app) {
   sub->add_option("--gravity", opt->real.gravity, "local gravity, m/s^2");
   sub->add_option("--latitude", opt->real.latitude_deg, "latitude, deg (gravity and Earth rate)");
   sub->add_option("--height", opt->real.height_m, "height, m");
+  sub->add_option("--gyro-range", opt->gyro_range_dps,
+                  "IMU gyro range, deg/s: samples at it are clipped and the recording is refused")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--accel-range", opt->accel_range_g,
+                  "IMU accelerometer range, g: samples at it are clipped and the recording is "
+                  "refused")
+      ->check(CLI::PositiveNumber);
   sub->callback([opt] {
     if (opt->format == "imubench") {
       runExplainTable(*opt);
