@@ -184,6 +184,8 @@ struct BenchDaemon::ActiveRun {
   std::unique_ptr<OnlineEngine> engine;    // with it
   std::optional<double> segment_t0;        // IMU time the current step's command went out
   int last_stored_step = -1;               // the step of the newest stored segment
+  std::optional<double> last_sample_t;     // the newest stored IMU sample (gaps: onImuGap)
+  bool imu_restarted = false;              // the decoder saw a restart since the last batch
   // The progress shown (status, progress events): never below what was shown before in this
   // run, though the runner's planned-time figure drops when a step re-runs after a pause.
   double progress_shown = 0.0;
@@ -471,6 +473,7 @@ void BenchDaemon::onImuReadable() {
     const bool burst_end =
         i + 1 == decoded_.size() ||
         decoded_[i + 1].rx_time_s - decoded_[i].rx_time_s > ActiveRun::kBurstGapS;
+    checkImuGap(i);
     stampPendingTable(decoded_[i], burst_end);
     run_->trackStillness(decoded_[i].sample);
     if (!run_->closing) continue;
@@ -485,6 +488,73 @@ void BenchDaemon::onImuReadable() {
     closeStep(decoded_[i].sample.t);
   }
   if (run_->engine) run_->engine->addImu(std::span(samples_).subspan(first));
+}
+
+// A gap in the IMU stream before decoded_[i] (a step longer than kGapPeriods sample periods, or
+// the largest step of the batch in which the decoder saw a restart) voids the segments it
+// touches: onImuGap.
+void BenchDaemon::checkImuGap(std::size_t i) {
+  ActiveRun& run = *run_;
+  const double t = decoded_[i].sample.t;
+  const std::optional<double> prev = run.last_sample_t;
+  run.last_sample_t = t;
+  if (!prev) return;
+  const double period = bench_.imu.layout.sample_period_s;
+  bool gap = t - *prev > kGapPeriods * period;
+  std::string cause = "IMU samples missing";
+  if (run.imu_restarted) {
+    double largest = t - *prev;
+    for (std::size_t k = i + 1; k < decoded_.size(); ++k)
+      largest = std::max(largest, decoded_[k].sample.t - decoded_[k - 1].sample.t);
+    if (t - *prev >= largest) {  // the restart's step
+      run.imu_restarted = false;
+      gap = true;
+      cause = "the IMU restarted";
+    }
+  }
+  if (gap) onImuGap(*prev, t, cause);
+}
+
+// The IMU stream has a gap from t_a to t_b inside the run: a step whose segment would span it
+// runs again (its segment void), and so do the steps gapRestart names (no rotation next to a
+// gap); an alarm says so. A soak is not repeated (its segment stays; the calibration leaves it
+// out: online_engine.h completeSegmentsOnly). Nothing re-runs once the run is ending.
+void BenchDaemon::onImuGap(double t_a, double t_b, const std::string& cause) {
+  ActiveRun& run = *run_;
+  PlanRunner& r = *run.runner;
+  const auto& steps = r.steps();
+  if (r.state() != RunnerState::kRunning && r.state() != RunnerState::kPaused) return;
+  const int open_step = run.closing ? run.closing->step : r.currentStep();
+  const bool open = run.closing || run.segment_t0;
+  if (open_step >= 0 && open_step < static_cast<int>(steps.size()) &&
+      steps[static_cast<std::size_t>(open_step)].kind == calib::SegmentKind::kSoak) {
+    recordGap(run.id, t_a, t_b,
+              cause + "; inside soak '" + steps[static_cast<std::size_t>(open_step)].label +
+                  "', which goes on",
+              steps, GapRestart{r.currentStep(), r.currentStep()});
+    return;
+  }
+  run.closing.reset();  // its segment would end after the gap: void, and so is its checkpoint
+  run.segment_t0.reset();
+  const GapRestart g = gapRestart(steps, run.last_stored_step);
+  if (!open && g.step >= r.currentStep()) {  // nothing recorded across it, no rotation next to it
+    recordGap(run.id, t_a, t_b, cause, steps, GapRestart{r.currentStep(), r.currentStep()});
+    return;
+  }
+  if (auto fl = run.writer->flush(); !fl.ok) log_.error("store: " + fl.message);
+  if (g.first_void <= run.last_stored_step) {
+    if (auto st = discardVoidSegments(run.id, steps, g, run.last_stored_step, false); !st.ok)
+      log_.error("store: " + st.message);
+    run.last_stored_step = g.first_void - 1;
+  }
+  recordGap(run.id, t_a, t_b, cause, steps, g);
+  const std::string label = steps[static_cast<std::size_t>(g.step)].label;
+  std::ostringstream why;
+  why << "IMU data gap of " << (t_b - t_a) << " s at t = " << t_a << " s (" << cause
+      << ") inside the run: the steps from '" << label << "' run again";
+  if (auto st = r.repeatFrom(g.step, wallNow(), why.str()); !st.ok)
+    log_.error("run " + std::to_string(run.id) + ": " + st.message);
+  publish(r.takeEvents());
 }
 
 // Lost samples go to the log; a restart also to the run's event log and the socket.
@@ -502,6 +572,7 @@ void BenchDaemon::reportImuProblems() {
   imu_restarts_reported_ = counters.restarts;
   limited_.report("IMU restart", LogLevel::kWarning, decoder.lastRestart(), wallNow());
   ImuRestartEvent event{counters.restarts, decoder.lastRestart(), std::nullopt};
+  if (run_) run_->imu_restarted = true;
   if (run_) {
     event.run = run_->id;
     RunEvent stored;

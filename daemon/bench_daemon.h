@@ -140,6 +140,11 @@ class BenchDaemon {
   void storeTableSample(const io::TableSample& ts);
   void onChamberPoll();
   void reportImuProblems();
+  // A step of the IMU time longer than this many sample periods is a gap (below calib's
+  // refusal threshold, calib::IncrementCheckOptions::max_gap_factor = 5 median steps).
+  static constexpr double kGapPeriods = 4.0;
+  void checkImuGap(std::size_t i);
+  void onImuGap(double t_a, double t_b, const std::string& cause);
   void onStatusTimer();
   void publish(const std::vector<RunnerEvent>& events);
   void beginStep(int step, std::optional<double> t0);

@@ -352,6 +352,23 @@ Status PlanRunner::abort(double now_s) {
   return {};
 }
 
+Status PlanRunner::repeatFrom(int step, double now_s, const std::string& why) {
+  if (state_ != RunnerState::kRunning && state_ != RunnerState::kPaused) {
+    return {false, std::string("nothing to repeat: the runner is ") + runnerStateName(state_)};
+  }
+  if (step < 0 || step > step_ || step >= static_cast<int>(steps_.size())) {
+    return {false, "step " + std::to_string(step) + " is not before the current step " +
+                       std::to_string(step_)};
+  }
+  emit(RunnerEvent::Kind::kAlarm, now_s, why);
+  if (state_ == RunnerState::kRunning) port_.stopAll();  // best effort: the alarm says why
+  step_ = step;
+  step_interrupted_ = true;
+  phase_ = Phase::kBegin;
+  step_elapsed_s_ = 0.0;
+  return {};
+}
+
 void PlanRunner::emergencyStop(double now_s, const std::string& who) {
   const Status st = port_.emergencyStop();
   exit_ = RunExit::kEmergencyStop;

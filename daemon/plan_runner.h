@@ -237,6 +237,11 @@ class PlanRunner {
   // restarts the interrupted temperature point at its chamber step (resumeStep's rule).
   Status resume(double now_s);
   Status abort(double now_s);
+  // A gap in the recording (the IMU restarted or went silent) voided the segments of the steps
+  // from `step` (<= the current one; gapRestart) on: an alarm (why), motion stopped and the
+  // run goes on at `step` from its start (the table returns to its start angles first). A
+  // paused run stays paused and resumes there.
+  Status repeatFrom(int step, double now_s, const std::string& why);
   void emergencyStop(double now_s, const std::string& who);  // works in every state
 
   void tick(const BenchObservation& obs);

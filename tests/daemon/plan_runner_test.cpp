@@ -703,6 +703,35 @@ TEST(GapRestart, ARotationNeverTouchesTheGap) {
   EXPECT_EQ(gapRestart(nav, -1).step, 0);
 }
 
+// Item 5: a gap voids the rotation under way; the runner goes back to the hold before it: the
+// table returns to the hold's position (not recorded where the rotation stopped), then the
+// hold and the whole rotation run again.
+TEST(PlanRunner, RepeatFromGoesBackToTheHoldsPositionAndRerunsTheRotation) {
+  Harness h;
+  ASSERT_TRUE(h.runner.start(h.now).ok);
+  const int k = h.midRotation();
+  ASSERT_GE(k, 1);
+  const RunStep& hold = h.steps[static_cast<std::size_t>(k - 1)];
+  ASSERT_EQ(hold.kind, calib::SegmentKind::kStatic);
+  EXPECT_FALSE(h.runner.repeatFrom(k + 1, h.now, "later step").ok);
+  const int stops = h.bench.stops;
+  ASSERT_TRUE(h.runner.repeatFrom(k - 1, h.now, "IMU data gap").ok);
+  EXPECT_EQ(h.bench.stops, stops + 1);
+  EXPECT_EQ(h.runner.state(), RunnerState::kRunning);
+  ASSERT_TRUE(h.until([&] { return h.count(RunnerEvent::Kind::kStepStarted, k - 1) == 2; }, 60));
+  EXPECT_EQ(h.lastAlarm(), "IMU data gap");
+  for (std::size_t a = 0; a < hold.start_angles.size(); ++a) {
+    EXPECT_NEAR(std::remainder(h.bench.angle(static_cast<int>(a)) - hold.start_angles[a], 2 * kPi),
+                0.0, 1e-3)
+        << "the hold runs again at its own position, axis " << a;
+  }
+  ASSERT_TRUE(h.until([&] { return h.runner.currentStep() > k; }, 600.0));
+  EXPECT_EQ(h.count(RunnerEvent::Kind::kStepStarted, k), 2);
+  EXPECT_EQ(h.count(RunnerEvent::Kind::kStepFinished, k), 1);
+  ASSERT_TRUE(h.until([&] { return h.finished(); }, 3.0 * h.runner.plannedTotalS()));
+  EXPECT_EQ(h.runner.exit(), RunExit::kCompleted);
+}
+
 // A resume at a hold (resumeAfterGap) with the table where a killed rotation left it: the hold
 // starts only once the table is back at its position.
 TEST(PlanRunner, ResumedHoldReturnsToItsPositionFirst) {
