@@ -53,6 +53,62 @@ bool observe(const ThermalRun& run, const ThermalJointFitOptions& o, const Table
   return obs->status.ok;
 }
 
+// The recording with every k consecutive increments summed into one (t: the last one's): the
+// table samples, segments and the rows' inputs stay (a static row's input is the chain at its
+// mean encoder angles), at 1/k of the cost of building the rows.
+DirectCalibrationInput decimated(const DirectCalibrationInput& in, std::size_t k) {
+  DirectCalibrationInput out = in;
+  out.imu.clear();
+  for (std::size_t i = 0; i + k <= in.imu.size(); i += k) {
+    nav::ImuSample s = in.imu[i + k - 1];
+    for (std::size_t j = i; j + 1 < i + k; ++j) {
+      s.dtheta += in.imu[j].dtheta;
+      s.dvel += in.imu[j].dvel;
+    }
+    out.imu.push_back(s);
+  }
+  return out;
+}
+
+// d input / d table error of every row of `run` (rows in d->order[r]) by a difference through
+// the chain; at about 5 Hz (decimated) when the rows stay the same there: the derivatives only
+// steer the Gauss-Newton steps and the observability check, the inputs themselves are exact.
+bool inputDerivatives(const ThermalRun& run, std::size_t r, const ThermalJointFitOptions& o,
+                      const BenchTruth& table, JointData* d, std::string* why) {
+  const auto& order = d->order[r];
+  const nav::ImuSamples& imu = run.input.imu;
+  const double rate = imu.size() > 1 ? (imu.size() - 1) / (imu.back().t - imu.front().t) : 0.0;
+  const std::size_t k =
+      std::isfinite(rate) && rate > 10.0 ? static_cast<std::size_t>(rate / 5.0) : 1;
+  ThermalRun coarse{k > 1 ? decimated(run.input, k) : run.input, run.source};
+  DirectObservations base;
+  if (!observe(coarse, o, table.table, &base, why)) return false;
+  if (base.rows.size() != order.size()) {
+    if (k == 1) {
+      *why = run.source + ": the rows changed with the table errors";
+      return false;
+    }
+    coarse.input = run.input;
+    if (!observe(coarse, o, table.table, &base, why)) return false;
+  }
+  for (std::size_t p = 0; p < d->params.size(); ++p) {
+    BenchTruth moved = table;
+    const double v = flatValue(table, d->params[p]).value_or(0.0);
+    setFlatValue(&moved, d->params[p], v + kTableStep, why);
+    DirectObservations obs;
+    if (!observe(coarse, o, moved.table, &obs, why)) return false;
+    if (obs.rows.size() != order.size()) {
+      *why = run.source + ": the rows changed with " + d->params[p];
+      return false;
+    }
+    for (std::size_t q = 0; q < order.size(); ++q) {
+      JointRow& row = order[q].first ? d->accel[order[q].second] : d->gyro[order[q].second];
+      row.dinput[p] = (obs.rows[q].input - base.rows[q].input) / kTableStep;
+    }
+  }
+  return true;
+}
+
 // Sets every row's input of run r with the table at `table`, through the chain of
 // directObservations, and (derivatives) its derivative by each of d->params; false + why. The
 // derivatives change with the table errors only at second order (their products, ~1e-4 of
@@ -72,22 +128,7 @@ bool refreshInputs(const ThermalRun& run, std::size_t r, const ThermalJointFitOp
     row.input = base.rows[k].input;
     if (derivatives) row.dinput.assign(d->params.size(), Vec3::Zero());
   }
-  for (std::size_t p = 0; p < d->params.size() && derivatives; ++p) {
-    BenchTruth moved = table;
-    const double v = flatValue(table, d->params[p]).value_or(0.0);
-    setFlatValue(&moved, d->params[p], v + kTableStep, why);
-    DirectObservations obs;
-    if (!observe(run, o, moved.table, &obs, why)) return false;
-    if (obs.rows.size() != order.size()) {
-      *why = run.source + ": the rows changed with " + d->params[p];
-      return false;
-    }
-    for (std::size_t k = 0; k < order.size(); ++k) {
-      JointRow& row = order[k].first ? d->accel[order[k].second] : d->gyro[order[k].second];
-      row.dinput[p] = (obs.rows[k].input - base.rows[k].input) / kTableStep;
-    }
-  }
-  return true;
+  return !derivatives || d->params.empty() || inputDerivatives(run, r, o, table, d, why);
 }
 
 // Rows of one run with their mean IMU temperature and rate (inputs set by refreshInputs);
