@@ -55,6 +55,9 @@ Status DriverBenchPort::prepare() {
   r = drivers::TableReading{};
   const Status st = table_.read(&r);
   table_error_ = st.ok ? std::string() : st.message;
+  // It answered: read at every poll again from now on (a silent table read once a second
+  // would feed the controller's host watchdog too seldom and open the interlock just closed).
+  if (st.ok) table_silence_ = Silence{};
   if (r.estop || r.interlock_tripped || r.fault) {
     return Status::Error("the table reports " + (st.ok ? std::string("a fault") : st.message) +
                          ": clear it at the controller before starting");

@@ -133,7 +133,16 @@ void ModbusServer::answer(_modbus* ctx, const uint8_t* query, int rc) {
          std::to_string(static_cast<int>(delay * 1000)) + " ms");
     if (!waitWall(delay)) return;
   }
+  // The link's latency: half on the request's way (the registers are read after it), half
+  // on the reply's. A write acts when its reply leaves (modbus_reply stores it), half a round
+  // trip later than at a real controller; reads, which stamp the table, are exact.
+  const double jitter = faults_.jitter_s;
+  double latency = faults_.latency_s;
+  if (jitter > 0.0) latency += std::uniform_real_distribution<double>(-jitter, jitter)(rng_);
+  latency = std::max(0.0, latency);
+  if (latency > 0.0 && !waitWall(0.5 * latency)) return;
   model_.refresh(mapping_);
+  if (latency > 0.0 && !waitWall(0.5 * latency)) return;
   // modbus_reply stores a write in the mapping before it sends the reply: a controller acts
   // on a command it received even when its late reply finds the client gone.
   if (modbus_reply(ctx, query, rc, mapping_) == -1) {

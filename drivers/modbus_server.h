@@ -7,6 +7,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <mutex>
+#include <random>
 #include <string>
 #include <thread>
 
@@ -73,6 +74,7 @@ class ModbusServer {
   std::atomic<bool> stopping_{false};
   std::atomic<bool> drop_{false};
   std::atomic<int> clients_{0};
+  std::mt19937 rng_{1};  // latency jitter (server thread only)
   std::mutex wait_mu_;
   std::condition_variable wait_cv_;
 };

@@ -15,6 +15,8 @@
 // dropped, axes braked, modes off, interlock open; see VirtualTable::restart), SIGRTMIN+1
 // restarts the IMU (silent, then its counter and time stamp from 0), SIGRTMIN+2 toggles a
 // delay of every Modbus reply (--fault-signal-reply-delay-ms; table and chamber),
+// --modbus-latency-ms/--modbus-jitter-ms give every Modbus round trip a latency (half each way),
+// --host-watchdog-timeout sets the table controller's host watchdog (docs/devices.md).
 // SIGRTMIN+3 toggles the IMU's silence (no frames; its clock runs on), SIGRTMIN+4 sends the
 // chamber towards --fault-chamber-runaway (a setpoint changed behind the controller's back,
 // as a front panel or a controller fault would). Announcements go to stdout (one line each,
@@ -83,7 +85,13 @@ struct Args {
   double imu_restart_silence_s = 0.2;
   double imu_wrap_at_s = -1.0;
   double signal_reply_delay_ms = 2000.0;  // SIGRTMIN+2 toggles this delay
-  double chamber_runaway_c = 120.0;       // SIGRTMIN+4: where the chamber heads
+  // The table controller's host-watchdog timeout, s, as configured at the controller (0: the
+  // device file's).
+  double host_watchdog_timeout_s = 0.0;
+  // Modbus link latency: each round trip takes latency +- jitter, half before the controller
+  // reads or acts (the request's way), half after (the reply's), ms.
+  double modbus_latency_ms = 0.0, modbus_jitter_ms = 0.0;
+  double chamber_runaway_c = 120.0;  // SIGRTMIN+4: where the chamber heads
 };
 
 void announce(const std::string& line) {
@@ -371,12 +379,23 @@ int run(const Args& a) {
     return 1;
   };
   std::string why;
-  const std::optional<Devices> dev = loadDevices(a, &why);
+  std::optional<Devices> dev = loadDevices(a, &why);
   if (!dev) return fail(why);
+  if (a.host_watchdog_timeout_s > 0.0) {
+    if (!dev->table.watchdog.declared()) {
+      return fail("--host-watchdog-timeout: the table's device file declares no [host_watchdog]");
+    }
+    dev->table.watchdog.timeout_s = a.host_watchdog_timeout_s;
+  }
+  if (a.modbus_jitter_ms > a.modbus_latency_ms) {
+    return fail("--modbus-jitter-ms must not exceed --modbus-latency-ms");
+  }
   VirtualWorld world(dev->table, dev->chamber, a.time_scale, a.ambient_c, a.imu_thermal_tau_s);
   LinkFaults faults;
   faults.reply_delay_s = a.reply_delay_ms / 1000.0;
   faults.drop_replies = a.drop_replies;
+  faults.latency_s = a.modbus_latency_ms / 1000.0;
+  faults.jitter_s = a.modbus_jitter_ms / 1000.0;
   EventSink sink = [&log](const std::string& m) { log.warning(m); };
 
   VirtualTableRegisters table_regs(world, dev->table, sink);
@@ -468,6 +487,16 @@ int main(int argc, char** argv) {
   app.add_option("--fault-signal-reply-delay-ms", a.signal_reply_delay_ms,
                  "the reply delay SIGRTMIN+2 switches on and off, ms (default 2000)")
       ->check(CLI::PositiveNumber);
+  app.add_option("--host-watchdog-timeout", a.host_watchdog_timeout_s,
+                 "the table controller's host-watchdog timeout, s (default: the device file's)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--modbus-latency-ms", a.modbus_latency_ms,
+                 "every Modbus round trip takes this long, half before the controller reads "
+                 "or acts, half after, ms")
+      ->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--modbus-jitter-ms", a.modbus_jitter_ms,
+                 "each round trip's latency varies uniformly by +- this, ms")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--fault-chamber-runaway", a.chamber_runaway_c,
                  "where SIGRTMIN+4 sends the chamber, degC (default 120)");
   app.add_option("--fault-trip-after", a.trip_after_s,

@@ -37,6 +37,9 @@ class RunnerOverModbus : public ::testing::Test {
     table_spec_ = dt::tableSpec("imubench-ref-2axis-tcp.toml");
     chamber_spec_ = dt::chamberSpec("watlow-f4-style.toml");
     world_ = std::make_unique<drivers::VirtualWorld>(table_spec_, chamber_spec_, kScale);
+    // A stalled test machine must not open the interlock through the host watchdog in a test
+    // about something else (LateReplies... sets the device file's 0.5 s again).
+    setWatchdogTimeout(5.0);
     table_regs_ =
         std::make_unique<drivers::VirtualTableRegisters>(*world_, table_spec_, log_.sink());
     chamber_regs_ =
@@ -58,6 +61,13 @@ class RunnerOverModbus : public ::testing::Test {
     runner_ = std::make_unique<PlanRunner>(steps_, o, *port_);
   }
 
+  // The controller's host-watchdog timeout, wall seconds.
+  void setWatchdogTimeout(double wall_s) {
+    world_->withTable([wall_s](drivers::VirtualTable& t, double) {
+      t.setWatchdogTimeout(wall_s * kScale);
+      return 0;
+    });
+  }
   // One daemon poll: observe, tick, collect events.
   void poll() {
     const double now = wallNow();
@@ -197,6 +207,7 @@ TEST_F(RunnerOverModbus, TableControllerGoneStopsThePlanWithAnAlarm) {
 // Heartbeats 0.6 s apart let the controller's host watchdog (0.5 s) open its interlock: the
 // operator re-arms (prepare) before resuming.
 TEST_F(RunnerOverModbus, LateRepliesBlockEachCallForOneReplyTimeoutAtMost) {
+  setWatchdogTimeout(table_spec_.watchdog.timeout_s);
   ASSERT_TRUE(runner_->start(wallNow()).ok);
   ASSERT_TRUE(pollUntil([&] { return runner_->currentStep() >= 1; }, 60.0));
   faults_.reply_delay_s = 0.6;

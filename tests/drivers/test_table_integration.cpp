@@ -3,8 +3,10 @@
 // pseudo-terminal; the chamber over Modbus TCP and RTU.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
+#include <vector>
 
 #include "drivers/chamber.h"
 #include "drivers/table.h"
@@ -154,6 +156,43 @@ TEST_F(TableOverProtocols, EveryReadWritesTheHeartbeat) {
   EXPECT_EQ(world.withTable([](VirtualTable& t, double) { return t.watchdogExpiries(); }), 1);
   EXPECT_TRUE(world.withTable([](VirtualTable& t, double) { return t.watchdogArmed(); }));
   EXPECT_TRUE(log_.contains("host watchdog")) << log_.all();
+}
+
+// Modbus latency of 20 +- 5 ms per round trip, half each way (the virtual bench's
+// --modbus-latency-ms/--modbus-jitter-ms): each axis' angle is stamped with the midpoint of
+// its request and reply, the instant the controller read it, so a turning axis' reading is
+// the world's angle at its stamp to the server's scheduling (ms); a stamp at the request or
+// at the reply would be a half round trip, 10 ms, off (1 deg at 100 deg/s).
+TEST_F(TableOverProtocols, ReadStampIsTheInstantTheControllerReadUnderLatency) {
+  auto spec = testing::tableSpec("imubench-ref-2axis-tcp.toml");
+  VirtualWorld world(spec, testing::chamberSpec("generic-float-chamber.toml"), 1.0);
+  VirtualTableRegisters regs(world, spec, log_.sink());
+  ModbusServer server(regs, faults_, log_.sink());
+  ASSERT_TRUE(server.startTcp("127.0.0.1", 0).ok);
+  spec.transport.port = server.port();
+  auto drv = makeTableDriver(spec, log_.sink());
+  ASSERT_TRUE(drv->connect().ok);
+  ASSERT_TRUE(drv->interlock(InterlockCommand::kClose).ok);
+  const double rate = 100 * kDegToRad;
+  ASSERT_TRUE(drv->setRate(0, rate).ok);
+  const double at_rate = world.now() + 1.2;  // 1 s ramp at 100 deg/s^2
+  TableReading r;
+  ASSERT_TRUE(waitUntil([&] { return drv->read(&r).ok && world.now() > at_rate; }));
+  faults_.latency_s = 0.020;
+  faults_.jitter_s = 0.005;
+  // The world's clock against the stamps' CLOCK_REALTIME (time scale 1).
+  const double w0 = world.now(), u0 = unixTimeS();
+  std::vector<double> errors;
+  for (int k = 0; k < 15; ++k) {
+    ASSERT_TRUE(drv->read(&r).ok);
+    const calib::Motion m = world.motionSnapshot();
+    const double t = w0 + (r.axes[0].read_unix_s - u0);
+    errors.push_back(std::abs(std::remainder(r.axes[0].angle - m.axes[0].at(t).angle, 2 * kPi)));
+  }
+  std::sort(errors.begin(), errors.end());
+  const double median_s = errors[errors.size() / 2] / rate;
+  EXPECT_LT(median_s, 0.003) << "the stamp is " << median_s * 1e3 << " ms off the read";
+  EXPECT_LT(errors.front() / rate, 0.003);
 }
 
 TEST_F(TableOverProtocols, ModbusRtuOnPseudoTerminal) {

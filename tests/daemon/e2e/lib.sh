@@ -18,6 +18,9 @@
 #   e2e_rotate LABEL AXIS ANGLE DIR    # prints a rotate step at 10 deg/s, 5 deg/s^2
 #   $E2E_SLOW_IMU                      # bench-file lines (e2e_bench_file "$E2E_SLOW_IMU"): a
 #                                      #   2 s imu_timeout for a test about another fault
+#   $E2E_WATCHDOG_TIMEOUT              # the virtual table's host-watchdog timeout, s (default
+#                                      #   2: a stalled machine must not open the interlock in a
+#                                      #   test about something else; host_watchdog.sh: 0.5)
 #   e2e_stop_daemon                    # SIGTERM, checks the exit status
 #   e2e_py SCRIPT [ARGS...]            # python3 with tests/daemon/e2e on the path (e2e_client)
 #   fail MESSAGE                       # prints the tails of the logs and exits 1
@@ -95,8 +98,11 @@ e2e_start_vb() {
   : "${E2E_CHAMBER_DEVICE:=$DEV/chambers/watlow-f4-style.toml}"
   : "${E2E_IMU_LAYOUT:=$DEV/imus/navgrade_fd.toml}"
   : >"$W/vb.out"
+  local wd=()
+  grep -q '^\[host_watchdog\]' "$E2E_TABLE_DEVICE" &&
+    wd=(--host-watchdog-timeout "${E2E_WATCHDOG_TIMEOUT:-2}")
   "$VB" --table "$E2E_TABLE_DEVICE" --chamber "$E2E_CHAMBER_DEVICE" --imu "$E2E_IMU_LAYOUT" \
-    --can vcan0 "$@" >>"$W/vb.out" 2>&1 &
+    --can vcan0 "${wd[@]}" "$@" >>"$W/vb.out" 2>&1 &
   VPID=$!
   local _
   for _ in $(seq 300); do grep -q '^ready' "$W/vb.out" && return 0; sleep 0.1; done
