@@ -131,8 +131,12 @@ json estimateJson(const RunCalibration& c) {
 json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimit>& limits) {
   json rows = json::array();
   if (limits.empty()) return {{"pass", nullptr}, {"rows", rows}, {"why", "no acceptance limits"}};
+  // The verdict judges the values against the limits; whether the fit itself is usable
+  // (residuals at the noise) is reported beside it. A direct plan on a table with errors is
+  // unusable by that gate (the seed's leak of the table errors) while its values may be well
+  // inside coarse production limits.
   const bool usable = c.status.ok && c.fit.IsSolutionUsable();
-  bool pass = usable;
+  bool pass = c.status.ok;
   for (const AcceptanceLimit& lim : limits) {
     for (const std::string& name : calib::flatNames(calib::BenchTruth{})) {
       if (name != lim.parameter && name.rfind(lim.parameter + ".", 0) != 0) continue;
@@ -143,11 +147,10 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
                   {"limit_text", lim.text}};
       const auto u = c.coefficients.uncertainty.find(name);
       const bool determined =
-          usable && u != c.coefficients.uncertainty.end() && u->second.observable;
+          c.status.ok && u != c.coefficients.uncertainty.end() && u->second.observable;
       if (!determined) {
         row["pass"] = false;
-        row["why"] = usable ? "not determined by this calibration"
-                            : "not determined: the calibration is unusable";
+        row["why"] = "not determined by this calibration";
         pass = false;
         rows.push_back(row);
         continue;
@@ -164,10 +167,11 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
     }
   }
   json out = {{"pass", pass}, {"rows", rows}};
+  out["usable"] = usable;
   if (!c.status.ok) {
     out["why"] = "calibration failed: " + c.status.message;
   } else if (!usable) {
-    out["why"] = "calibration unusable: " + c.fit.message;
+    out["findings"] = c.fit.reasons;
   }
   return out;
 }

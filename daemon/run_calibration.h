@@ -24,7 +24,8 @@ struct RunCalibration {
   // Not ok: why not (too little data so far, a refused recording, ...). ok: coefficients were
   // computed; whether they can be used is `fit` (the online estimates show partial ones).
   Status status = Status::Error("not calibrated");
-  // The calibration service's gate (calib/fit_quality.h): unusable results never pass.
+  // The calibration service's gate (calib/fit_quality.h), reported with the estimate and the
+  // verdict ("usable", "findings").
   calib::FitStatus fit = calib::FitStatus::Failed("not calibrated");
   calib::CoefficientReport coefficients;  // valid when status.ok
   // The table parameters the method estimated (flat names) and the baseline method name of
@@ -49,9 +50,9 @@ nlohmann::json estimateJson(const RunCalibration& c);
 
 // Pass/fail of the coefficients against the limits: {"pass": bool|null, "rows": [{parameter,
 // value, sigma, limit, unit, pass, why}]}. A limited parameter the calibration did not
-// determine fails ("not determined"), and so does every parameter of an unusable calibration
-// (residuals far above the noise: the model misses the data): the verdict never passes what
-// was not measured. No limits: "pass": null (no verdict).
+// determine fails ("not determined"): the verdict never passes what was not measured.
+// "usable" says whether the fit itself passed the calibration service's gate (residuals at the
+// noise), with its "findings" when not. No limits: "pass": null (no verdict).
 nlohmann::json acceptanceVerdict(const RunCalibration& c,
                                  const std::vector<AcceptanceLimit>& limits);
 
