@@ -79,6 +79,7 @@ python3 - "$work/results.json" "$work/coef_dir.json" "$work/rec/meta.json" "$run
 import json, sys
 results = json.load(open(sys.argv[1]))
 coef = json.load(open(sys.argv[2]))
+coef.pop("calibration", None)  # --json adds the method's report beside the coefficients
 meta = json.load(open(sys.argv[3]))
 assert len(results) == 1, results
 r = results[0]
