@@ -433,6 +433,16 @@ std::vector<std::string> flatNames(const BenchTruth& truth_in) {
   return names;
 }
 
+std::vector<std::string> tableFlatNames(TableKind kind) {
+  BenchTruth t;
+  t.table_kind = kind;
+  std::vector<std::string> out;
+  for (const std::string& n : flatNames(t)) {
+    if (n.rfind("table.", 0) == 0) out.push_back(n);
+  }
+  return out;
+}
+
 std::vector<double> flatValues(const BenchTruth& truth_in) {
   BenchTruth truth = truth_in;
   std::vector<double> values;

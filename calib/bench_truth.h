@@ -59,6 +59,9 @@ bool fromJson(const nlohmann::json& j, BenchTruth* truth, std::string* why);
 // xy, encoder_zero per kind), then extra effects in kAllEffects order (enabled ones only).
 std::vector<std::string> flatNames(const BenchTruth& truth);
 std::vector<double> flatValues(const BenchTruth& truth);  // same order as flatNames
+// The table parameters of a table kind by flat name, in flatNames' order ("table.base_tilt.x",
+// ..., the encoder zeros last).
+std::vector<std::string> tableFlatNames(TableKind kind);
 // Sets one scalar by flat name; false (why set) on an unknown name. An "extra.<id>.*" name
 // enables that effect.
 bool setFlatValue(BenchTruth* truth, const std::string& name, double value, std::string* why);

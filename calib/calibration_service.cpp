@@ -30,17 +30,6 @@ bool fullyDetermined(const CoefficientReport& r) {
   return true;
 }
 
-// The table parameters of the kind, by flat name, in the group order of calib/bench_truth.h.
-std::vector<std::string> tableParamNames(TableKind kind) {
-  BenchTruth t;
-  t.table_kind = kind;
-  std::vector<std::string> out;
-  for (const std::string& n : flatNames(t)) {
-    if (n.rfind("table.", 0) == 0) out.push_back(n);
-  }
-  return out;
-}
-
 bool inGroup(const std::string& name, const char* group) {
   return name.rfind(std::string("table.") + group + ".", 0) == 0;
 }
@@ -51,7 +40,7 @@ std::vector<TableParamDecision> tableDecisions(TableKind kind, ServiceMethod met
                                                const IndirectOptions& io) {
   std::vector<TableParamDecision> out;
   const bool known = rq.known_table_errors.has_value();
-  for (const std::string& n : tableParamNames(kind)) {
+  for (const std::string& n : tableFlatNames(kind)) {
     TableParamDecision d{n, false, ""};
     if (known) {
       d.reason = method == ServiceMethod::kNavigation

@@ -43,6 +43,7 @@
 #include "calib/fit_quality.h"
 #include "calib/indirect_calibration.h"
 #include "calib/recording_view.h"
+#include "calib/thermal_fit.h"
 
 namespace imubench::calib {
 
@@ -129,6 +130,60 @@ struct CalibrationOutcome {
 
 CalibrationOutcome calibrateRecording(const CalibrationRequest& request,
                                       const ServiceOptions& options = {});
+
+// ---- Thermal: one IMU's coefficients over temperature -------------------------------------
+//
+// The same policy for a set of recordings of one IMU at several temperatures (a continuous
+// ramp, soak points; `imubench thermal fit`):
+//   1. Method: the joint fit of every static and rate run at its own temperature
+//      (calib/thermal_fit.h fitThermalJoint, the default), or per-point direct calibrations
+//      with polynomials through the points (fitThermalRuns, asked for).
+//   2. Table errors: constant over temperature. Known ones (certification data) are held by
+//      both methods. Otherwise the joint fit estimates every one the motion makes observable
+//      and holds the rest at zero with the reason; the per-point method takes the table as
+//      nominal (each point's direct calibration cannot separate it).
+//   3. Gate: the method's status (calib/fit_quality.h): kUnusable with the findings when the
+//      result must not be used (a triad's residual far above the noise floor, a coefficient
+//      or an estimated table error not determined).
+
+enum class ThermalMethod {
+  kJoint,   // every row at its own temperature, table errors jointly (the default)
+  kPoints,  // a direct calibration per temperature point, polynomials through the points
+};
+
+const char* thermalMethodName(ThermalMethod m);
+
+struct ThermalCalibrationRequest {
+  std::vector<ThermalRun> runs;  // one IMU (the caller checks the serials), one table kind
+  ThermalMethod method = ThermalMethod::kJoint;
+  // The table's errors known beforehand (certification data; zeros: a perfect table):
+  // held by both methods. Empty: none known (policy 2).
+  std::optional<TableErrors> known_table_errors;
+};
+
+struct ThermalServiceOptions {
+  // Polynomial orders and reference temperature: both methods (this replaces theirs).
+  ThermalFitOptions fit;
+  // The joint fit's options with their documented defaults; its table policy (estimate_table,
+  // direct.known_table_errors) is set from the request.
+  ThermalJointFitOptions joint;
+  // The per-point method's options (point span, refinement passes); its table is set from the
+  // request.
+  ThermalRunsFitOptions points;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct ThermalCalibrationOutcome {
+  // kFailed (message names the run or point at fault), kUnusable with the findings, or usable.
+  FitStatus status = FitStatus::Failed("not calibrated");
+  ThermalMethod method = ThermalMethod::kJoint;
+  ThermalRunsFitResult fit;               // the method's result (coefficients, points, table)
+  std::vector<TableParamDecision> table;  // every table parameter of the kind
+};
+
+ThermalCalibrationOutcome calibrateThermal(const ThermalCalibrationRequest& request,
+                                           const ThermalServiceOptions& options = {});
 
 // The coefficients' frame: the navigation-based method refers every misalignment to the
 // gyro-referenced platform frame (calib/indirect_calibration.h), the direct one to the body

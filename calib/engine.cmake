@@ -9,6 +9,7 @@ target_sources(imubench_calib PRIVATE
   segment_check.cpp
   fit_quality.cpp
   calibration_service.cpp
+  thermal_service.cpp
   recording_checks.cpp
   thermal_fit.cpp
   thermal_fit_joint.cpp

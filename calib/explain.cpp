@@ -656,11 +656,11 @@ bool ExplainOptions::IsValid(std::string* why) const {
   }
   if (!(baseline_collinear > 0.0 && baseline_collinear < 1.0 && unseparable_cos > 0.0 &&
         unseparable_cos < 1.0 && unexplained_sigma > 0.0 && fd_step > 0.0 &&
-        refit_iterations >= 1 && passes >= 1 && consistency_parts >= 1 && consistency_p > 0.0 &&
+        passes >= 1 && consistency_parts >= 1 && consistency_p > 0.0 &&
         consistency_p < 1.0 && correlation_window_s >= 0.0 && correlation_sigmas >= 0.0)) {
     *why =
         "baseline_collinear and unseparable_cos in (0, 1), unexplained_sigma, fd_step > 0, "
-        "refit_iterations >= 1, passes >= 1, consistency_parts >= 1, consistency_p in (0, 1), "
+        "passes >= 1, consistency_parts >= 1, consistency_p in (0, 1), "
         "correlation_window_s >= 0, correlation_sigmas >= 0 required";
     return false;
   }
@@ -668,6 +668,7 @@ bool ExplainOptions::IsValid(std::string* why) const {
     *why = "harmonic_max_order >= 1 and harmonic_min_turn_rad > 0 required";
     return false;
   }
+  if (!refit.IsValid(why)) return false;
   for (const std::string& c : candidates) {
     const bool table = std::find(kTableGroups.begin(), kTableGroups.end(), c) != kTableGroups.end();
     if (!table && !effectFromName(c)) {
@@ -1077,7 +1078,7 @@ Pass selectAndRefit(ExplainProblem* problem, const ExplainOptions& o, ExplainEva
       setStateValue(&start, n, stateValue(at, n), &why);  // enables the effect in the state
     }
   }
-  q.fit = refitJointly(eval, start, q.names, o.refit_iterations);
+  q.fit = refitJointly(eval, start, q.names, o.refit);
   return q;
 }
 
@@ -1131,6 +1132,15 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   res.unseparable = q.gate.unseparable;
   res.rejected = q.gate.rejected;
   res.notes = q.gate.notes;
+  res.refit = {q.fit.iterations, q.fit.converged, q.fit.last_step_sigma};
+  if (!q.fit.converged) {
+    char buf[240];
+    std::snprintf(buf, sizeof(buf),
+                  "the joint refit did not converge in %d iterations (its last step moved a "
+                  "coefficient by %.3g sigma): the values may lie off the best fit",
+                  q.fit.iterations, q.fit.last_step_sigma);
+    res.notes.push_back(buf);
+  }
   if (q.correlation > 1.0) {
     char buf[240];
     std::snprintf(buf, sizeof(buf),

@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/explain_fit.h"
 #include "calib/explain_model.h"
 #include "calib/explain_noise.h"
 #include "calib/recording_view.h"
@@ -116,9 +117,9 @@ struct ExplainOptions {
   double harmonic_min_turn_rad = 1.5;  // ~90 deg: a harmonic needs angles across the period
   // Longest window for locating residual structure, s (segments longer are cut).
   double window_s = 30.0;
-  // Gauss-Newton iterations of the joint refit: the model is nearly linear in its
-  // coefficients, two or three iterations converge to far below the sigmas.
-  int refit_iterations = 3;
+  // The joint refit's Gauss-Newton (calib/explain_fit.h: iterations at most, convergence in
+  // sigmas); its termination is reported (ExplainResult::refit).
+  RefitOptions refit;
   // Linearisations of the selection: a pass that accepts effects is repeated about the
   // refitted baseline coefficients (candidates at zero), up to this many passes. Two: the
   // second linearisation is about coefficients within their sigmas of the truth, where the
@@ -214,6 +215,13 @@ struct ExplainResult {
   std::vector<ExplainWindow> located;      // before the refit
   std::vector<ExplainWindow> unexplained;  // after it
   CoefficientReport coefficients;          // after the joint refit; accepted effects in extra
+  // How the joint refit ended: steps, converged or stopped at the limit, the last step's
+  // largest move in sigmas. Not converged: a note says the values may lie off the optimum.
+  struct RefitTermination {
+    int iterations = 0;
+    bool converged = false;
+    double last_step_sigma = 0.0;
+  } refit;
   std::vector<ExplainBinResidual> bins;
   // Every rotate run between two holds, at the baseline and at the refitted sensor and table
   // coefficients (the extra effects are not in the navigation model); empty without such runs.

@@ -73,59 +73,93 @@ Eigen::MatrixXd columnBasis(const Eigen::MatrixXd& A, double rel_tol) {
   return svd.matrixU().leftCols(r);
 }
 
+bool RefitOptions::IsValid(std::string* why) const {
+  if (max_iterations >= 1 && tolerance_sigma > 0.0) return true;
+  *why = "refit: max_iterations >= 1 and tolerance_sigma > 0";
+  return false;
+}
+
+namespace {
+
+// One linearisation of the refit: the Jacobian's columns normalised (norms d), its SVD, the
+// Gauss-Newton step in normalised units and each coefficient's unscaled variance there.
+struct Linearisation {
+  Eigen::VectorXd d, step, var;
+  int rank = 0;
+};
+
+Linearisation linearise(ExplainEvaluator* eval, const ExplainState& state,
+                        const std::vector<std::string>& names, Eigen::VectorXd* r) {
+  const int n = static_cast<int>(names.size());
+  *r = eval->residual(state);
+  Eigen::MatrixXd J = eval->jacobian(state, names);
+  Linearisation L;
+  L.d.resize(n);
+  for (int j = 0; j < n; ++j) {
+    L.d(j) = J.col(j).norm();
+    if (L.d(j) > 0.0) J.col(j) /= L.d(j);
+  }
+  Eigen::BDCSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  Eigen::VectorXd sinv = Eigen::VectorXd::Zero(s.size());
+  for (int k = 0; k < s.size(); ++k) {
+    if (s(k) > kRankTolerance * s(0)) {
+      sinv(k) = 1.0 / s(k);
+      ++L.rank;
+    }
+  }
+  const Eigen::MatrixXd& V = svd.matrixV();
+  L.step = V * (sinv.asDiagonal() * (svd.matrixU().transpose() * *r));
+  L.var = (V * sinv.asDiagonal()).rowwise().squaredNorm();
+  return L;
+}
+
+// The largest move of the step, in sigmas of the coefficient it moves.
+double stepInSigmas(const Linearisation& L) {
+  double m = 0.0;
+  for (int j = 0; j < L.step.size(); ++j) {
+    if (L.d(j) > 0.0 && L.var(j) > 0.0) m = std::max(m, std::abs(L.step(j)) / std::sqrt(L.var(j)));
+  }
+  return m;
+}
+
+}  // namespace
+
 RefitResult refitJointly(ExplainEvaluator* eval, const ExplainState& start,
-                         const std::vector<std::string>& names, int iterations) {
+                         const std::vector<std::string>& names, const RefitOptions& options) {
   RefitResult out;
   out.state = start;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    out.status = Status::Error(why);
+    return out;
+  }
   const int n = static_cast<int>(names.size());
-  Eigen::MatrixXd J;
   Eigen::VectorXd r;
-  Eigen::VectorXd d(n);
-  Eigen::BDCSVD<Eigen::MatrixXd> svd;
-  for (int it = 0; it <= iterations; ++it) {
-    r = eval->residual(out.state);
-    J = eval->jacobian(out.state, names);
+  Linearisation L;
+  for (;;) {
+    L = linearise(eval, out.state, names, &r);
+    out.last_step_sigma = stepInSigmas(L);
+    out.converged = out.last_step_sigma <= options.tolerance_sigma;
+    if (out.converged || out.iterations == options.max_iterations) break;
     for (int j = 0; j < n; ++j) {
-      d(j) = J.col(j).norm();
-      if (d(j) > 0.0) J.col(j) /= d(j);
-    }
-    svd.compute(J, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    const Eigen::VectorXd& s = svd.singularValues();
-    Eigen::VectorXd sinv = Eigen::VectorXd::Zero(s.size());
-    out.rank = 0;
-    for (int k = 0; k < s.size(); ++k) {
-      if (s(k) > kRankTolerance * s(0)) {
-        sinv(k) = 1.0 / s(k);
-        ++out.rank;
-      }
-    }
-    if (it == iterations) break;
-    const Eigen::VectorXd step =
-        svd.matrixV() * (sinv.asDiagonal() * (svd.matrixU().transpose() * r));
-    for (int j = 0; j < n; ++j) {
-      if (d(j) <= 0.0) continue;
-      const double v = stateValue(out.state, names[j]) + step(j) / d(j);
-      std::string why;
+      if (L.d(j) <= 0.0) continue;
+      const double v = stateValue(out.state, names[j]) + L.step(j) / L.d(j);
       if (!std::isfinite(v) || !setStateValue(&out.state, names[j], v, &why)) {
         out.status = Status::Error("refit of " + names[j] +
                                    " failed: " + (why.empty() ? "not finite" : why));
         return out;
       }
     }
+    ++out.iterations;
   }
+  out.rank = L.rank;
   out.chi2 = r.squaredNorm();
   const double dof = std::max(1, eval->rows() - out.rank);
   const double scale = std::max(1.0, out.chi2 / dof);
-  const Eigen::MatrixXd V = svd.matrixV();
-  const Eigen::VectorXd& s = svd.singularValues();
   out.sigma.assign(names.size(), std::numeric_limits<double>::quiet_NaN());
   for (int j = 0; j < n; ++j) {
-    if (d(j) <= 0.0) continue;
-    double var = 0.0;
-    for (int k = 0; k < s.size(); ++k) {
-      if (s(k) > kRankTolerance * s(0)) var += V(j, k) * V(j, k) / (s(k) * s(k));
-    }
-    out.sigma[static_cast<std::size_t>(j)] = std::sqrt(var * scale) / d(j);
+    if (L.d(j) > 0.0) out.sigma[static_cast<std::size_t>(j)] = std::sqrt(L.var(j) * scale) / L.d(j);
   }
   out.status = Status::Ok();
   return out;

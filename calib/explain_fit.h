@@ -48,19 +48,38 @@ inline Eigen::MatrixXd projectOff(const Eigen::MatrixXd& U, const Eigen::MatrixX
   return x - U * (U.transpose() * x);
 }
 
+struct RefitOptions {
+  // Gauss-Newton iterations at most. The model is nearly linear in its coefficients: two or
+  // three converge to far below the sigmas, so reaching this means it is not converging (the
+  // result says so).
+  int max_iterations = 10;
+  // Converged when the next step would move no coefficient by more than this many of its
+  // sigmas: far below the noise, a further iteration changes nothing a reader can see.
+  double tolerance_sigma = 1e-3;
+
+  bool IsValid(std::string* why) const;
+};
+
 struct RefitResult {
   Status status = Status::Error("not refitted");  // why not (a refitted value invalid), when !ok
   ExplainState state;
   std::vector<double> sigma;  // per name, 1-sigma (NaN where the data cannot see it)
   double chi2 = 0.0;
   int rank = 0;
+  // Termination: steps taken; converged (the next step below tolerance_sigma) or stopped at
+  // max_iterations; the largest move of the step not taken (converged) or of the last step,
+  // in sigmas of the coefficient it moves.
+  int iterations = 0;
+  bool converged = false;
+  double last_step_sigma = 0.0;
 };
 
 // Gauss-Newton on the named coefficients from start (truncated SVD step on normalised
-// columns: directions the data cannot see stay at their start values). Sigmas from the
-// inverse information times max(1, chi^2 / dof).
+// columns: directions the data cannot see stay at their start values), until converged or
+// max_iterations; the converged step is not taken (it is below tolerance). Sigmas from the
+// inverse information at the final state times max(1, chi^2 / dof).
 RefitResult refitJointly(ExplainEvaluator* eval, const ExplainState& start,
-                         const std::vector<std::string>& names, int iterations);
+                         const std::vector<std::string>& names, const RefitOptions& options);
 
 // Chi-square survival function P(X > x) for k degrees of freedom.
 double chiSquareSurvival(double x, int k);

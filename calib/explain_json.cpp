@@ -114,6 +114,10 @@ nlohmann::json toJson(const ExplainResult& r) {
   j["normalised_rms_after"] = normalised(r.after_normalised_rms);
   j["test_scale"] = r.scale;
   j["residual_correlation"] = r.correlation;  // effective-n factor within test_scale
+  j["refit"] = {{"solver", "Gauss-Newton, truncated SVD step, central differences"},
+                {"iterations", r.refit.iterations},
+                {"converged", r.refit.converged},
+                {"last_step_sigma", r.refit.last_step_sigma}};
   j["accepted"] = nlohmann::json::array();
   for (const ExplainAccepted& a : r.accepted) {
     nlohmann::json values, sigmas;

@@ -277,18 +277,6 @@ bool fitTriadJoint(const std::vector<JointRow>& rows, const FitContext& ctx,
 
 // ---- Which table errors the rows determine ------------------------------------------------
 
-// Flat names of the table errors of a table kind, in the order they are taken: base tilt,
-// nonorthogonality, mounting, encoder zeros (flatNames' order).
-std::vector<std::string> tableNames(TableKind kind) {
-  BenchTruth t;
-  t.table_kind = kind;
-  std::vector<std::string> out;
-  for (const std::string& n : flatNames(t)) {
-    if (n.rfind("table.", 0) == 0) out.push_back(n);
-  }
-  return out;
-}
-
 double floorOf(const ThermalJointFitOptions& o, bool accel) {
   return accel ? o.direct.accel_residual_floor : o.direct.gyro_residual_floor;
 }
@@ -629,7 +617,7 @@ CoefficientReport tableReport(const BenchTruth& table, const JointData& d, const
   CoefficientReport rep;
   rep.values.table = table.table;
   rep.values.table_kind = table.table_kind;
-  for (const std::string& n : tableNames(table.table_kind)) {
+  for (const std::string& n : tableFlatNames(table.table_kind)) {
     const auto it = std::find(d.params.begin(), d.params.end(), n);
     if (it == d.params.end()) {
       rep.setUnobservable(n);
@@ -759,7 +747,7 @@ ThermalRunsFitResult fitThermalJoint(const std::vector<ThermalRun>& runs,
   }
   table.table = options.direct.known_table_errors;
   JointData d;
-  if (options.estimate_table) d.params = tableNames(table.table_kind);
+  if (options.estimate_table) d.params = tableFlatNames(table.table_kind);
   double t_scale = 1.0;
   for (const ThermalRun& run : runs) {
     for (const nav::ImuSample& s : run.input.imu) {

@@ -42,9 +42,12 @@ json indirectReport(const calib::CalibrationResult& r) {
           {"warnings", r.warnings}};
 }
 
-// The plan's method as the calibration service's request (calib/calibration_service.h).
+// The plan's method as the calibration service's request (calib/calibration_service.h). A
+// direct plan gets the service's choice (kAuto, as `imubench calibrate DIR`): the direct
+// calibration when it is usable, else the navigation-based one over the same holds and rate
+// runs, which estimates the table errors the direct calibration takes as nominal.
 calib::ServiceMethod serviceMethod(plans::CalibrationMethod method) {
-  return method == plans::CalibrationMethod::kDirect ? calib::ServiceMethod::kDirect
+  return method == plans::CalibrationMethod::kDirect ? calib::ServiceMethod::kAuto
                                                      : calib::ServiceMethod::kNavigation;
 }
 
@@ -131,12 +134,11 @@ json estimateJson(const RunCalibration& c) {
 json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimit>& limits) {
   json rows = json::array();
   if (limits.empty()) return {{"pass", nullptr}, {"rows", rows}, {"why", "no acceptance limits"}};
-  // The verdict judges the values against the limits; whether the fit itself is usable
-  // (residuals at the noise) is reported beside it. A direct plan on a table with errors is
-  // unusable by that gate (the seed's leak of the table errors) while its values may be well
-  // inside coarse production limits.
+  // The verdict judges the values against the limits, and only a usable fit (residuals at the
+  // noise, every coefficient determined) can pass: values inside the limits from a fit the gate
+  // refuses would be a confident wrong answer.
   const bool usable = c.status.ok && c.fit.IsSolutionUsable();
-  bool pass = c.status.ok;
+  bool pass = usable;
   for (const AcceptanceLimit& lim : limits) {
     for (const std::string& name : calib::flatNames(calib::BenchTruth{})) {
       if (name != lim.parameter && name.rfind(lim.parameter + ".", 0) != 0) continue;
@@ -171,6 +173,7 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
   if (!c.status.ok) {
     out["why"] = "calibration failed: " + c.status.message;
   } else if (!usable) {
+    out["why"] = "the fit is unusable (" + c.fit.message + "): no limit can pass";
     out["findings"] = c.fit.reasons;
   }
   return out;

@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "calib/direct_calibration.h"
 #include "calib/recording_view.h"
 #include "calib/simulator.h"
 #include "io/recording.h"
@@ -34,6 +35,11 @@ class CalibrationView {
     return {geometryOf(*rec_), rec_->site(), rec_->imu, table_, rec_->segments};
   }
   const std::vector<calib::TableSample>& table() const { return table_; }
+  // An owning copy, for a consumer that keeps the data beyond the recording (the thermal fits
+  // keep and decimate their runs).
+  calib::DirectCalibrationInput owned() const {
+    return {geometryOf(*rec_), rec_->site(), rec_->imu, table_, rec_->segments};
+  }
 
  private:
   const Recording* rec_;

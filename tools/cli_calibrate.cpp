@@ -133,7 +133,7 @@ void storeResult(const CalibrateOptions& o, const ResolvedRecording& src,
 }
 
 // Exit code of a calibration that ran but whose result must not be used.
-constexpr int kExitUnusable = 3;
+constexpr int kExitUnusable = kExitResultUnusable;
 
 // A scalar calibration that did not give a result: the data cannot determine the coefficients
 // (too few or too similar poses, readings that contradict gravity) is "result unusable" (exit
@@ -143,17 +143,6 @@ CommandFailed scalarRefusal(const std::string& label, const calib::RecordingChec
                         status.code == calib::RecordingStatusCode::kTooShortStatic;
   return CommandFailed(label + ": scalar calibration: " + status.message,
                        unusable ? kExitUnusable : 1);
-}
-
-// Throws CommandFailed(kExitUnusable) with the findings when the result is unusable.
-void refuseIfUnusable(const calib::FitStatus& s, const std::string& what, const std::string& dir) {
-  if (s.code != calib::FitStatusCode::kUnusable) return;
-  std::string m = what + ": " + s.message;
-  for (const std::string& r : s.reasons) m += "\n  finding: " + r;
-  for (const std::string& r : s.largest_residuals) m += "\n  large residual: " + r;
-  m += "\n  nothing written; `imubench explain " + dir +
-       "` names the effect the model lacks (result unusable, exit 3)";
-  throw CommandFailed(m, kExitUnusable);
 }
 
 // --table-errors: the table section of a coefficient/truth file (zero when not given).
@@ -413,6 +402,8 @@ void runService(const CalibrateOptions& o, const ResolvedRecording& src,
          << " (every method takes them; the navigation-based calibration holds the "
             "nonorthogonality)\n";
   }
+  refuseInconsistentTime(src.label, rq.recording);
+  if (rq.direct) refuseInconsistentTime(direct->label, *rq.direct);
   calib::ServiceOptions so;
   so.checks = checksOf(o);
   const calib::CalibrationOutcome c = calib::calibrateRecording(rq, so);

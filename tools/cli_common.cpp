@@ -176,4 +176,23 @@ void refuseInconsistentRate(const RealRecordingOptions& o, const RealRecording& 
   }
 }
 
+void refuseInconsistentTime(const std::string& label, const calib::RecordingView& view) {
+  const calib::RateConsistency c = calib::checkRateConsistency(view);
+  if (!c.status.ok) {
+    throw CommandFailed(label + ": " + c.status.message + " (result unusable, exit 3)",
+                        kExitResultUnusable);
+  }
+}
+
+void refuseIfUnusable(const calib::FitStatus& status, const std::string& what,
+                      const std::string& explain_target) {
+  if (status.code != calib::FitStatusCode::kUnusable) return;
+  std::string m = what + ": " + status.message;
+  for (const std::string& r : status.reasons) m += "\n  finding: " + r;
+  for (const std::string& r : status.largest_residuals) m += "\n  large residual: " + r;
+  m += "\n  nothing written; `imubench explain " + explain_target +
+       "` names the effect the model lacks (result unusable, exit 3)";
+  throw CommandFailed(m, kExitResultUnusable);
+}
+
 }  // namespace imubench::tools

@@ -20,7 +20,9 @@
 #include <string>
 
 #include "calib/bench_truth.h"
+#include "calib/fit_quality.h"
 #include "calib/noise.h"
+#include "calib/recording_view.h"
 #include "calib/scalar_calibration.h"
 #include "calib/table_model.h"
 #include "calib/truth_comparison.h"
@@ -135,5 +137,14 @@ inline constexpr int kExitResultUnusable = 3;
 // recording's. Throws CommandFailed(kExitResultUnusable) naming the rate; nothing for counts.
 void refuseInconsistentRate(const RealRecordingOptions& o, const RealRecording& real,
                             const calib::TriadModel& gyro);
+// The data of a table recording against its time axis (calib/recording_checks.h): the gyro's
+// integrated rotation against the table's, or the static gyro norm against the Earth rate.
+// Throws CommandFailed(kExitResultUnusable) with label and why.
+void refuseInconsistentTime(const std::string& label, const calib::RecordingView& view);
+// A fit the gate refuses (calib/fit_quality.h kUnusable): throws
+// CommandFailed(kExitResultUnusable) with what, the findings, the largest residuals, that
+// nothing was written and the `imubench explain EXPLAIN_TARGET` hint. Otherwise nothing.
+void refuseIfUnusable(const calib::FitStatus& status, const std::string& what,
+                      const std::string& explain_target);
 
 }  // namespace imubench::tools

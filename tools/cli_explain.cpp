@@ -139,8 +139,7 @@ std::vector<std::string> givenTableParams(const calib::CoefficientReport& r,
   calib::BenchTruth t = r.values;
   t.table_kind = kind;
   std::vector<std::string> out;
-  for (const std::string& n : calib::flatNames(t)) {
-    if (n.rfind("table.", 0) != 0) continue;
+  for (const std::string& n : calib::tableFlatNames(kind)) {
     if (calib::flatValue(t, n).value_or(0.0) != 0.0 || r.uncertainty.count(n) != 0) {
       out.push_back(n);
     }
@@ -211,6 +210,9 @@ void printRms(const ChannelUnits& units, const calib::ExplainResult& r) {
   } else {
     std::printf("normalised residual RMS: not meaningful (no noise floor)\n");
   }
+  std::printf("joint refit: Gauss-Newton, %d step(s), %s (last step %.2g sigma)\n",
+              r.refit.iterations, r.refit.converged ? "converged" : "NOT converged",
+              r.refit.last_step_sigma);
 }
 
 void printWindows(const ChannelUnits& units, const char* what,
@@ -307,16 +309,6 @@ void writeOutputs(const ExplainCliOptions& o, const std::string& label,
     const Status s = io::writeExplainReport(o.report_dir, r, label);
     if (!s.ok) throw CommandFailed(s.message);
     std::printf("report written to %s/report.html\n", o.report_dir.c_str());
-  }
-}
-
-// The data against the time axis (calib/recording_checks.h): the gyro's integrated rotation
-// against the table's, or the static gyro norm against the Earth rate.
-void refuseInconsistentTime(const std::string& label, const calib::RecordingView& view) {
-  const calib::RateConsistency c = calib::checkRateConsistency(view);
-  if (!c.status.ok) {
-    throw CommandFailed(label + ": " + c.status.message + " (result unusable, exit 3)",
-                        kExitUnusable);
   }
 }
 

@@ -94,6 +94,12 @@ std::string verdictText(const json& verdict) {
 
 void printVerdict(const json& verdict) {
   std::cout << "verdict: " << verdictText(verdict) << "\n";
+  if (verdict.value("pass", json()).is_boolean() && verdict.contains("why")) {
+    std::cout << "  why: " << verdict.value("why", std::string()) << "\n";
+    for (const json& f : verdict.value("findings", json::array())) {
+      if (f.is_string()) std::cout << "  finding: " << f.get<std::string>() << "\n";
+    }
+  }
   const json rows = verdict.contains("rows") ? verdict["rows"] : json(json::value_t::array);
   for (const json& row : rows) {
     char buf[200];

@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/calibration_service.h"
 #include "calib/thermal_fit.h"
 #include "io/recording.h"
 #include "io/sim_recording.h"
@@ -58,9 +59,6 @@ struct ThermalFitCliOptions {
   std::string method = "joint";
   std::string table_errors;  // coefficient/truth file whose "table" is held; empty: estimate
 };
-
-// Exit code of a fit the gate refuses (the same as `imubench calibrate`'s).
-constexpr int kExitUnusable = 3;
 
 // A recording directory or a run of the store (tools/cli_store.h RUN_OR_DIR).
 io::Recording readRunOrFail(const std::string& arg, const std::string& db) {
@@ -118,38 +116,30 @@ void writeReport(const ThermalFitCliOptions& o, const std::vector<calib::Thermal
 constexpr double kArcsec = kPi / (180.0 * 3600.0);
 
 // The table errors of the fit: value and sigma in arcsec, or held and why (the notes).
-void printTable(const calib::ThermalRunsFitResult& fit) {
+void printTable(const calib::ThermalRunsFitResult& fit,
+                const std::vector<calib::TableParamDecision>& table) {
   std::cout << "table errors (constant over temperature):\n";
   const calib::CoefficientReport& t = fit.table;
-  for (const std::string& n : calib::flatNames(t.values)) {
-    if (n.rfind("table.", 0) != 0) continue;
-    const double v = calib::flatValue(t.values, n).value_or(0.0) / kArcsec;
-    const auto it = t.uncertainty.find(n);
-    std::cout << "  " << std::left << std::setw(34) << n << std::right << std::fixed
+  for (const calib::TableParamDecision& d : table) {
+    const double v = calib::flatValue(t.values, d.name).value_or(0.0) / kArcsec;
+    const auto it = t.uncertainty.find(d.name);
+    std::cout << "  " << std::left << std::setw(34) << d.name << std::right << std::fixed
               << std::setprecision(2) << std::setw(9) << v << " arcsec";
-    if (it != t.uncertainty.end() && it->second.observable && it->second.sigma) {
+    if (d.estimated && it != t.uncertainty.end() && it->second.sigma) {
       std::cout << "  sigma " << *it->second.sigma / kArcsec << " arcsec\n";
     } else {
-      std::cout << "  held\n";
+      std::cout << "  held: " << d.reason << "\n";
     }
     std::cout.unsetf(std::ios::fixed);
   }
-  for (const std::string& n : fit.notes) std::cout << "note: " << n << "\n";
-  std::cout << std::setprecision(3) << "normalised residual RMS: accel " << fit.accel_normalised_rms
-            << ", gyro " << fit.gyro_normalised_rms << " (1 = the noise floor)\n";
-}
-
-// Throws CommandFailed(kExitUnusable) with the findings when the gate refuses the fit.
-void refuseIfUnusable(const calib::FitStatus& s, const ThermalFitCliOptions& o) {
-  if (s.code != calib::FitStatusCode::kUnusable) return;
-  std::string dirs;
-  for (const auto& d : o.runs) dirs += (dirs.empty() ? "" : " ") + d;
-  std::string m = "thermal fit of " + dirs + ": " + s.message;
-  for (const std::string& r : s.reasons) m += "\n  finding: " + r;
-  for (const std::string& r : s.largest_residuals) m += "\n  large residual: " + r;
-  m += "\n  nothing written; `imubench explain " + o.runs.front() +
-       "` names the effect the model lacks (result unusable, exit 3)";
-  throw CommandFailed(m, kExitUnusable);
+  for (const std::string& n : fit.notes) {
+    if (n.rfind("table.", 0) != 0) std::cout << "note: " << n << "\n";
+  }
+  if (fit.accel_normalised_rms > 0.0 || fit.gyro_normalised_rms > 0.0) {
+    std::cout << std::setprecision(3) << "normalised residual RMS: accel "
+              << fit.accel_normalised_rms << ", gyro " << fit.gyro_normalised_rms
+              << " (1 = the noise floor)\n";
+  }
 }
 
 // The imubench-thermal/1 file with the fit's table errors as an extra "table" section (the
@@ -168,13 +158,14 @@ void runThermalFit(const ThermalFitCliOptions& o) {
       !std::filesystem::is_directory(o.report, ec)) {
     throw CommandFailed("--report " + o.report + ": exists and is not a directory");
   }
-  calib::ThermalRunsFitOptions fo;
-  fo.fit.order = parseOrder(o.order);
-  fo.fit.t_ref_c = o.t_ref_c;
-  fo.points.max_point_span_c = o.max_span_c;
-  fo.refinements = o.refinements;
+  calib::ThermalServiceOptions so;
+  so.fit.order = parseOrder(o.order);
+  so.fit.t_ref_c = o.t_ref_c;
+  so.points.points.max_point_span_c = o.max_span_c;
+  so.points.refinements = o.refinements;
+  calib::ThermalCalibrationRequest rq;
+  rq.method = o.method == "joint" ? calib::ThermalMethod::kJoint : calib::ThermalMethod::kPoints;
   std::string serial, serial_dir;
-  std::vector<calib::ThermalRun> runs;
   for (const std::string& dir : o.runs) {
     const io::Recording rec = readRunOrFail(dir, o.db);
     if (!serial_dir.empty() && rec.imu_serial != serial) {
@@ -183,30 +174,18 @@ void runThermalFit(const ThermalFitCliOptions& o) {
     }
     serial = rec.imu_serial;
     serial_dir = dir;
-    calib::DirectCalibrationInput in;
-    in.geometry = io::geometryOf(rec);
-    in.site = rec.site();
-    in.imu = rec.imu;
-    in.table = io::tableSamples(rec);
-    in.segments = rec.segments;
-    runs.push_back({std::move(in), dir});
+    rq.runs.push_back({io::CalibrationView(rec).owned(), dir});
   }
-  calib::ThermalJointFitOptions jo;
-  jo.fit = fo.fit;
-  if (!o.table_errors.empty()) {
-    jo.estimate_table = false;
-    jo.direct.known_table_errors = loadTruthOrFail(o.table_errors).table;
-    fo.points.direct.known_table_errors = jo.direct.known_table_errors;
-  }
-  const bool joint = o.method == "joint";
-  const calib::ThermalRunsFitResult fit =
-      joint ? calib::fitThermalJoint(runs, jo) : calib::fitThermalRuns(runs, fo);
-  if (!fit.status.HasResult()) {
+  if (!o.table_errors.empty()) rq.known_table_errors = loadTruthOrFail(o.table_errors).table;
+  const calib::ThermalCalibrationOutcome c = calib::calibrateThermal(rq, so);
+  const calib::ThermalRunsFitResult& fit = c.fit;
+  const bool joint = c.method == calib::ThermalMethod::kJoint;
+  if (!c.status.HasResult()) {
     std::string files;
     for (const auto& d : o.runs) files += (files.empty() ? "" : ", ") + d;
     // A run's error names its recording; a fit's (e.g. a single temperature) names all.
-    throw CommandFailed(fit.fit.status.HasResult() ? fit.status.message
-                                                   : files + ": " + fit.status.message);
+    throw CommandFailed(fit.fit.status.HasResult() ? c.status.message
+                                                   : files + ": " + c.status.message);
   }
   if (joint) std::cout << "joint fit of every static and rate run: " << fit.passes << " sweeps\n";
   for (const auto& pt : fit.points) {
@@ -215,13 +194,10 @@ void runThermalFit(const ThermalFitCliOptions& o) {
   }
   const calib::ThermalFitResult& r = fit.fit;
   printFit(r);
-  if (joint) {
-    printTable(fit);
-  } else {
-    std::cout << "note: --method points does not estimate table errors: taken "
-              << (o.table_errors.empty() ? "as nominal" : "from " + o.table_errors) << "\n";
-  }
-  refuseIfUnusable(fit.status, o);
+  printTable(fit, c.table);
+  std::string dirs;
+  for (const auto& d : o.runs) dirs += (dirs.empty() ? "" : " ") + d;
+  refuseIfUnusable(c.status, "thermal fit of " + dirs, o.runs.front());
   const io::ThermalFile file{serial, r.coefficients};
   if (joint) {
     writeThermalWithTable(o.out, file, fit);
@@ -231,7 +207,7 @@ void runThermalFit(const ThermalFitCliOptions& o) {
   if (!o.csv.empty()) {
     if (auto st = io::writeThermalCsv(o.csv, file); !st.ok) throw CommandFailed(st.message);
   }
-  if (!o.report.empty()) writeReport(o, runs, fit);
+  if (!o.report.empty()) writeReport(o, rq.runs, fit);
   std::cout << "wrote " << o.out << (o.csv.empty() ? "" : " and " + o.csv)
             << (o.report.empty() ? "" : " and " + o.report + "/report.html") << "\n";
 }
