@@ -655,9 +655,9 @@ bool ExplainOptions::IsValid(std::string* why) const {
     return false;
   }
   if (!(baseline_collinear > 0.0 && baseline_collinear < 1.0 && unseparable_cos > 0.0 &&
-        unseparable_cos < 1.0 && unexplained_sigma > 0.0 && fd_step > 0.0 &&
-        passes >= 1 && consistency_parts >= 1 && consistency_p > 0.0 &&
-        consistency_p < 1.0 && correlation_window_s >= 0.0 && correlation_sigmas >= 0.0)) {
+        unseparable_cos < 1.0 && unexplained_sigma > 0.0 && fd_step > 0.0 && passes >= 1 &&
+        consistency_parts >= 1 && consistency_p > 0.0 && consistency_p < 1.0 &&
+        correlation_window_s >= 0.0 && correlation_sigmas >= 0.0)) {
     *why =
         "baseline_collinear and unseparable_cos in (0, 1), unexplained_sigma, fd_step > 0, "
         "passes >= 1, consistency_parts >= 1, consistency_p in (0, 1), "

@@ -31,8 +31,7 @@ std::vector<TableParamDecision> thermalTableDecisions(const ThermalCalibrationRe
       d.reason =
           "held at zero: the per-point method takes the table as nominal (the error leaks "
           "into the coefficients; the joint method estimates it)";
-    } else if (it != fit.table.uncertainty.end() && it->second.observable &&
-               it->second.sigma) {
+    } else if (it != fit.table.uncertainty.end() && it->second.observable && it->second.sigma) {
       d.estimated = true;
       d.reason = "estimated (constant over temperature)";
     } else {
