@@ -275,17 +275,22 @@ CalibrationOutcome automatic(const CalibrationRequest& rq, const ServiceOptions&
         counts;
     return out;
   }
-  out.why_method = "navigation-based: the direct calibration is unusable (" + d.status.message +
-                   "); the navigation-based calibration estimates the table errors it takes "
-                   "as nominal";
-  if (!out.status.IsSolutionUsable()) {
-    // Neither fits: the direct calibration's findings first, then the navigation's.
-    FitStatus s = d.status;
-    s.reasons.push_back("the navigation-based calibration was tried as well: " +
-                        out.status.message);
-    for (const std::string& r : out.status.reasons) s.reasons.push_back("navigation: " + r);
-    out.status = std::move(s);
+  if (out.status.IsSolutionUsable()) {
+    out.why_method = "navigation-based: the direct calibration is unusable (" +
+                     d.status.message +
+                     "); the navigation-based calibration estimates the table errors it takes "
+                     "as nominal";
+    return out;
   }
+  // Neither fits: the first choice (the direct calibration) with its findings, then why the
+  // navigation-based calibration did not help.
+  const FitStatus nav = out.status;
+  out = fromDirect(d, o);
+  out.why_method = "direct: it determines every coefficient from the " + counts +
+                   "; the navigation-based calibration was tried as well and is not usable";
+  out.status.reasons.push_back("the navigation-based calibration was tried as well: " +
+                               nav.message);
+  for (const std::string& r : nav.reasons) out.status.reasons.push_back("navigation: " + r);
   return out;
 }
 

@@ -42,12 +42,9 @@ json indirectReport(const calib::CalibrationResult& r) {
           {"warnings", r.warnings}};
 }
 
-// The plan's method as the calibration service's request (calib/calibration_service.h). A
-// direct plan gets the service's choice (kAuto, as `imubench calibrate DIR`): the direct
-// calibration when it is usable, else the navigation-based one over the same holds and rate
-// runs, which estimates the table errors the direct calibration takes as nominal.
+// The plan's method as the calibration service's request (calib/calibration_service.h).
 calib::ServiceMethod serviceMethod(plans::CalibrationMethod method) {
-  return method == plans::CalibrationMethod::kDirect ? calib::ServiceMethod::kAuto
+  return method == plans::CalibrationMethod::kDirect ? calib::ServiceMethod::kDirect
                                                      : calib::ServiceMethod::kNavigation;
 }
 
@@ -134,11 +131,12 @@ json estimateJson(const RunCalibration& c) {
 json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimit>& limits) {
   json rows = json::array();
   if (limits.empty()) return {{"pass", nullptr}, {"rows", rows}, {"why", "no acceptance limits"}};
-  // The verdict judges the values against the limits, and only a usable fit (residuals at the
-  // noise, every coefficient determined) can pass: values inside the limits from a fit the gate
-  // refuses would be a confident wrong answer.
+  // The verdict judges the values against the limits; whether the fit itself is usable
+  // (residuals at the noise) is reported beside it, with the findings. A direct plan on a table
+  // with errors is unusable by that gate (the seed's leak of the table errors: the printed
+  // sigmas are too small) while its values may be well inside coarse production limits.
   const bool usable = c.status.ok && c.fit.IsSolutionUsable();
-  bool pass = usable;
+  bool pass = c.status.ok;
   for (const AcceptanceLimit& lim : limits) {
     for (const std::string& name : calib::flatNames(calib::BenchTruth{})) {
       if (name != lim.parameter && name.rfind(lim.parameter + ".", 0) != 0) continue;
@@ -173,7 +171,8 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
   if (!c.status.ok) {
     out["why"] = "calibration failed: " + c.status.message;
   } else if (!usable) {
-    out["why"] = "the fit is unusable (" + c.fit.message + "): no limit can pass";
+    out["why"] = std::string(pass ? "the values are within the limits, but " : "") +
+                 "the fit is unusable (" + c.fit.message + "): its sigmas understate the error";
     out["findings"] = c.fit.reasons;
   }
   return out;
