@@ -38,6 +38,8 @@ void runNav(const NavOptions& o) {
   geometry.kind = rec.table_kind;
   geometry.outer_axis_heading_rad = rec.outerAxisHeadingDeg() * kDegToRad;
   const calib::TableModel table(geometry, calib::TableErrors{});
+  if (rec.table.empty())
+    throw CommandFailed(o.dir + ": no table angles (table.csv has no rows): no start attitude");
   const std::vector<double> start_angles = io::tableAnglesRad(rec.table_kind, rec.table.front());
   const Mat3 C_LB =
       table.nominalC_LB(calib::tableAnglesFromAxes(rec.table_kind, start_angles.data()));
