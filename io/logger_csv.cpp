@@ -372,23 +372,43 @@ std::vector<std::pair<std::size_t, std::size_t>> pairRows(
 
 // ---- checks, timing, increments ---------------------------------------------------------
 
-// Rates (per s) of a row for the static check: increments divided by the interval.
+// Implausible static specific force: a row inside a still, steady window (every gyro rate
+// below static_rate_radps, |f| varying by less than 0.1 g over about 0.2 s around it) whose
+// mean |f| differs from gravity by more than static_force_tolerance g. A shock or a turn is
+// not static and is never judged; a unit error flags every still window.
 void staticCheck(const std::vector<TimedRow>& rows, const std::vector<double>& dt,
                  const LoggerImportOptions& o, std::vector<bool>* keep, std::vector<BadRow>* bad) {
-  if (!(o.static_force_tolerance > 0.0)) return;
+  if (!(o.static_force_tolerance > 0.0) || rows.size() < 3) return;
   const double g = o.gravity_mps2.value_or(kStandardGravity);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const double wn = rows[i].w.norm() / (o.gyro_unit.increment ? dt[i] : 1.0);
-    const double fn = rows[i].a.norm() / (o.accel_unit.increment ? dt[i] : 1.0);
-    if (wn < o.static_rate_radps && std::abs(fn - g) > o.static_force_tolerance * g) {
-      char buf[200];
-      std::snprintf(buf, sizeof buf,
-                    "implausible static specific force: |f| = %.4g m/s^2 (%.3g g) while the gyro "
-                    "reads %.3g rad/s; check the accelerometer unit (--units a=...)",
-                    fn, fn / g, wn);
-      bad->push_back({o.path, rows[i].line, buf});
-      (*keep)[i] = false;
+  const std::size_t n = rows.size();
+  std::vector<double> wn(n), fn(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    wn[i] = rows[i].w.norm() / (o.gyro_unit.increment ? dt[i] : 1.0);
+    fn[i] = rows[i].a.norm() / (o.accel_unit.increment ? dt[i] : 1.0);
+  }
+  std::vector<double> sorted(dt);
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(n / 2), sorted.end());
+  const std::size_t half = std::max<std::size_t>(2, static_cast<std::size_t>(0.1 / sorted[n / 2]));
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t a = i > half ? i - half : 0, b = std::min(n, i + half + 1);
+    double wmax = 0.0, flo = fn[a], fhi = fn[a], fsum = 0.0;
+    for (std::size_t k = a; k < b; ++k) {
+      wmax = std::max(wmax, wn[k]);
+      flo = std::min(flo, fn[k]);
+      fhi = std::max(fhi, fn[k]);
+      fsum += fn[k];
     }
+    const double fmean = fsum / static_cast<double>(b - a);
+    if (wmax >= o.static_rate_radps || fhi - flo > 0.1 * g * std::max(1.0, fmean / g) ||
+        std::abs(fmean - g) <= o.static_force_tolerance * g)
+      continue;
+    char buf[220];
+    std::snprintf(buf, sizeof buf,
+                  "implausible static specific force: |f| = %.4g m/s^2 (%.3g g) while the IMU is "
+                  "still (gyro below %.3g rad/s); check the accelerometer unit (--units a=...)",
+                  fn[i], fn[i] / g, o.static_rate_radps);
+    bad->push_back({o.path, rows[i].line, buf});
+    (*keep)[i] = false;
   }
 }
 
@@ -497,7 +517,7 @@ Status wantedColumns(const LoggerImportOptions& o, Wanted* wa, Wanted* wg) {
   }
   if (!o.rate_hz) {
     if (!add(wa, "t", "t", true)) return Status::Error("--columns needs t=COL (or give --rate HZ)");
-    if (two && !add(wg, "gt", "t", false)) add(wg, "t", "t", true);
+    if (two) add(wg, columnOf(o, "gt").empty() ? "t" : "gt", "t", true);
   } else if (!columnOf(o, "t").empty()) {
     return Status::Error("give either a time column (t=...) or --rate, not both");
   }

@@ -60,10 +60,11 @@ struct LoggerImportOptions {
   // the median interval (loggers stamp both streams from one clock; a quarter interval
   // tolerates rounding of printed stamps and rejects the neighbouring sample).
   double match_fraction = 0.25;
-  // Implausible static specific force: a row whose gyro rate is below static_rate_radps (the
-  // IMU about still; 0.2 rad/s is far above a MEMS gyro bias) must have |f| within
-  // static_force_tolerance of gravity (0.5: a unit error is x9.8 or /9.8, counts are far off;
-  // handling accelerations of a hand-held or vehicle stay well inside). 0 turns it off.
+  // Implausible static specific force: a row in a still, steady window (~0.2 s around it:
+  // every gyro rate below static_rate_radps, far above a MEMS gyro bias; |f| varying by less
+  // than 0.1 g) whose mean |f| is off gravity by more than static_force_tolerance g (0.5: a
+  // unit error is x9.8 or /9.8, counts are far off; a shock or a turn is not steady and is not
+  // judged). 0 turns it off.
   double static_rate_radps = 0.2;
   double static_force_tolerance = 0.5;
   bool skip_bad_rows = false;  // leave bad rows out (each listed) instead of refusing
