@@ -19,7 +19,9 @@ std::string num(double v) {
   return b;
 }
 
-std::string vec(const Vec3& v) { return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]"; }
+std::string vec(const Vec3& v) {
+  return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]";
+}
 
 // ---- matrix factorisations: A = T Q, T triangular with a positive diagonal, Q a rotation --
 
@@ -47,9 +49,13 @@ void upperRotation(const Mat3& A, Mat3* U, Mat3* Q) {
 }
 
 // Reading-side matrix of a triad: reading = A u - s.b, A = diag(s) M.
-Mat3 readingMatrix(const TriadModel& t) { return t.scale.asDiagonal() * t.M(); }
+Mat3 readingMatrix(const TriadModel& t) {
+  return t.scale.asDiagonal() * t.M();
+}
 // The bias term of the compensation, u = G reading + h: h = M^-1 b.
-Vec3 compensationBias(const TriadModel& t) { return t.M().inverse() * t.bias; }
+Vec3 compensationBias(const TriadModel& t) {
+  return t.M().inverse() * t.bias;
+}
 
 std::string yamlMatrix(const std::string& key, const Mat3& m) {
   std::string s = "  " + key + ":\n";
@@ -92,9 +98,12 @@ ExportResult chainYaml(const ExportInput& in, bool kalibr) {
     upperRotation(Ag * Q.transpose(), &Tw, &R_IMUtoGYRO);
   }
   const Mat3 Tg = in.gyro_g_sens ? Mat3(Ag * *in.gyro_g_sens * Q.transpose()) : Mat3(Mat3::Zero());
-  const Vec3 hg = Q * compensationBias(in.sensors.gyro), ha = Q * compensationBias(in.sensors.accel);
-  r.dropped.push_back("gyro bias (the chain file has no bias; the filter estimates it from zero): "
-                      "residual " + vec(hg) + " rad/s in the IMU frame until estimated");
+  const Vec3 hg = Q * compensationBias(in.sensors.gyro),
+             ha = Q * compensationBias(in.sensors.accel);
+  r.dropped.push_back(
+      "gyro bias (the chain file has no bias; the filter estimates it from zero): "
+      "residual " +
+      vec(hg) + " rad/s in the IMU frame until estimated");
   r.dropped.push_back("accelerometer bias: residual " + vec(ha) + " m/s^2 in the IMU frame");
   if (in.thermal)
     r.dropped.push_back("the thermal model (--thermal): the chain file has constant intrinsics");
@@ -109,12 +118,14 @@ ExportResult chainYaml(const ExportInput& in, bool kalibr) {
   std::ostringstream s;
   s << "%YAML:1.0\n# imubench export-coeffs --to " << (kalibr ? "kalibr" : "openvins") << " from "
     << in.source << "\n"
-    << "# Measurement model (OpenVINS propagation_analytical, model \"" << (kalibr ? "kalibr" : "rpng")
+    << "# Measurement model (OpenVINS propagation_analytical, model \""
+    << (kalibr ? "kalibr" : "rpng")
     << "\"): w_m = Tw R_IMUtoGYRO w_I + Tg a_I + b_g, a_m = Ta R_IMUtoACC a_I + b_a;\n"
     << "# compensation: a_I = R_IMUtoACC^T Da (a_m - b_a), w_I = R_IMUtoGYRO^T Dw (w_m - Tg a_I - "
        "b_g), Dw = Tw^-1, Da = Ta^-1.\n"
-    << "# " << (kalibr ? "Tw, Ta lower triangular, IMU frame = gyro frame (R_IMUtoGYRO = I)"
-                       : "Tw, Ta upper triangular, IMU frame = accel frame (R_IMUtoACC = I)")
+    << "# "
+    << (kalibr ? "Tw, Ta lower triangular, IMU frame = gyro frame (R_IMUtoGYRO = I)"
+               : "Tw, Ta upper triangular, IMU frame = accel frame (R_IMUtoACC = I)")
     << ". The IMU frame I = imubench_R_BtoIMU * B (B: imubench's instrument frame).\n";
   for (const std::string& d : r.dropped) s << "# DROPPED: " << d << "\n";
   s << "imu0:\n  T_i_b:\n    - [1.0, 0.0, 0.0, 0.0]\n    - [0.0, 1.0, 0.0, 0.0]\n"
@@ -138,8 +149,7 @@ struct AxisFit {
 
 // The zero-input reading r0(T) = -s(T) b(T) of one axis over [tmin, tmax], fitted by a cubic
 // in T - x_ref (least squares on 201 points).
-AxisFit fitOffset(const ThermalFile& tf, const model::ThermalTriad& triad, int axis,
-                  double x_ref) {
+AxisFit fitOffset(const ThermalFile& tf, const model::ThermalTriad& triad, int axis, double x_ref) {
   const auto& c = tf.coefficients;
   const int n = 201;
   Eigen::MatrixXd A(n, 4);
@@ -168,9 +178,9 @@ void thermalDropped(const ThermalFile& tf, const char* name, const model::Therma
   for (int a = 0; a < 3; ++a) {
     const double s_ref = model::thermalValue(triad[model::kScale + a], ref_c - c.t_ref_c, 0.0);
     for (double T : {c.t_min_c, c.t_max_c})
-      ds = std::max(ds, std::abs(model::thermalValue(triad[model::kScale + a], T - c.t_ref_c, 0.0) /
-                                     s_ref -
-                                 1.0));
+      ds = std::max(
+          ds, std::abs(model::thermalValue(triad[model::kScale + a], T - c.t_ref_c, 0.0) / s_ref -
+                       1.0));
     fit = std::max(fit, fits[a].fit_residual);
   }
   for (int k = 0; k < model::kTriadSize; ++k) {
@@ -180,9 +190,10 @@ void thermalDropped(const ThermalFile& tf, const char* name, const model::Therma
       for (double T : {c.t_min_c, c.t_max_c})
         mis = std::max(mis, std::abs(model::thermalValue(p, T - c.t_ref_c, 0.0)));
   }
-  dropped->push_back(std::string(name) + (has_scale ? " scale change over the range (the scale is "
-                                                       "constant): up to "
-                                                     : " scale (not carried at all): up to ") +
+  dropped->push_back(std::string(name) +
+                     (has_scale ? " scale change over the range (the scale is "
+                                  "constant): up to "
+                                : " scale (not carried at all): up to ") +
                      num(has_scale ? ds : ds) + " of the input (relative) at the range edges");
   dropped->push_back(std::string(name) + " misalignments: up to " + num(mis) +
                      " rad, residual up to that fraction of the input on the other axes");
@@ -200,7 +211,8 @@ void constantDropped(const calib::SensorModel& s, bool gyro_scale,
   };
   dropped->push_back("accelerometer misalignments (max " + num(misMax(s.accel)) +
                      " rad): residual up to that times the specific force on the other axes "
-                     "(at 1 g: " + num(misMax(s.accel) * 9.81) + " m/s^2)");
+                     "(at 1 g: " +
+                     num(misMax(s.accel) * 9.81) + " m/s^2)");
   dropped->push_back("gyro misalignments (max " + num(misMax(s.gyro)) +
                      " rad): residual up to that times the rate on the other axes");
   if (!gyro_scale)
@@ -349,9 +361,11 @@ ExportResult csv(const ExportInput& in) {
   std::ostringstream s;
   s << "triad,coefficient,axis,value\n";
   const char* mis[] = {"xy", "xz", "yx", "yz", "zx", "zy"};
-  for (const auto& [name, t] : {std::pair<const char*, const TriadModel*>{"accel", &in.sensors.accel},
-                                {"gyro", &in.sensors.gyro}}) {
-    for (int a = 0; a < 3; ++a) s << name << ",scale," << kAxes[a] << "," << num(t->scale[a]) << "\n";
+  for (const auto& [name, t] :
+       {std::pair<const char*, const TriadModel*>{"accel", &in.sensors.accel},
+        {"gyro", &in.sensors.gyro}}) {
+    for (int a = 0; a < 3; ++a)
+      s << name << ",scale," << kAxes[a] << "," << num(t->scale[a]) << "\n";
     for (int a = 0; a < 3; ++a) s << name << ",bias," << kAxes[a] << "," << num(t->bias[a]) << "\n";
     const double m[] = {t->mis.xy, t->mis.xz, t->mis.yx, t->mis.yz, t->mis.zx, t->mis.zy};
     for (int k = 0; k < 6; ++k) s << name << ",misalignment," << mis[k] << "," << num(m[k]) << "\n";
@@ -365,22 +379,33 @@ ExportResult csv(const ExportInput& in) {
 }  // namespace
 
 bool exportTargetFromName(const std::string& n, ExportTarget* t) {
-  if (n == "kalibr") *t = ExportTarget::kKalibr;
-  else if (n == "openvins") *t = ExportTarget::kOpenVins;
-  else if (n == "px4") *t = ExportTarget::kPx4;
-  else if (n == "ardupilot") *t = ExportTarget::kArduPilot;
-  else if (n == "csv") *t = ExportTarget::kCsv;
-  else return false;
+  if (n == "kalibr")
+    *t = ExportTarget::kKalibr;
+  else if (n == "openvins")
+    *t = ExportTarget::kOpenVins;
+  else if (n == "px4")
+    *t = ExportTarget::kPx4;
+  else if (n == "ardupilot")
+    *t = ExportTarget::kArduPilot;
+  else if (n == "csv")
+    *t = ExportTarget::kCsv;
+  else
+    return false;
   return true;
 }
 
 ExportResult exportCoefficients(ExportTarget target, const ExportInput& in) {
   switch (target) {
-    case ExportTarget::kKalibr: return chainYaml(in, true);
-    case ExportTarget::kOpenVins: return chainYaml(in, false);
-    case ExportTarget::kPx4: return px4(in);
-    case ExportTarget::kArduPilot: return ardupilot(in);
-    case ExportTarget::kCsv: return csv(in);
+    case ExportTarget::kKalibr:
+      return chainYaml(in, true);
+    case ExportTarget::kOpenVins:
+      return chainYaml(in, false);
+    case ExportTarget::kPx4:
+      return px4(in);
+    case ExportTarget::kArduPilot:
+      return ardupilot(in);
+    case ExportTarget::kCsv:
+      return csv(in);
   }
   return {};
 }

@@ -41,11 +41,11 @@ struct NoiseEstimate {
 };
 
 struct ExportInput {
-  calib::SensorModel sensors;                // constant coefficients (the coefficient file)
-  std::optional<Mat3> gyro_g_sens;    // extra.gyro_g_sensitivity.G, when present
-  std::optional<ThermalFile> thermal;        // --thermal comp.json
-  std::optional<NoiseEstimate> noise;        // --recording DIR
-  std::string source;                        // the coefficient file's path (for the header)
+  calib::SensorModel sensors;          // constant coefficients (the coefficient file)
+  std::optional<Mat3> gyro_g_sens;     // extra.gyro_g_sensitivity.G, when present
+  std::optional<ThermalFile> thermal;  // --thermal comp.json
+  std::optional<NoiseEstimate> noise;  // --recording DIR
+  std::string source;                  // the coefficient file's path (for the header)
 };
 
 struct ExportResult {

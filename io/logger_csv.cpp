@@ -17,11 +17,14 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 // ---- units ----------------------------------------------------------------------------
 
 bool physicalUnit(char q, const std::string& u, double* factor, bool* increment) {
-  static const std::map<std::string, std::pair<double, bool>> w = {
-      {"rad/s", {1.0, false}}, {"deg/s", {kDeg, false}}, {"rad", {1.0, true}}, {"deg", {kDeg, true}}};
-  static const std::map<std::string, std::pair<double, bool>> a = {
-      {"m/s^2", {1.0, false}}, {"m/s2", {1.0, false}}, {"g", {kStandardGravity, false}},
-      {"m/s", {1.0, true}}};
+  static const std::map<std::string, std::pair<double, bool>> w = {{"rad/s", {1.0, false}},
+                                                                   {"deg/s", {kDeg, false}},
+                                                                   {"rad", {1.0, true}},
+                                                                   {"deg", {kDeg, true}}};
+  static const std::map<std::string, std::pair<double, bool>> a = {{"m/s^2", {1.0, false}},
+                                                                   {"m/s2", {1.0, false}},
+                                                                   {"g", {kStandardGravity, false}},
+                                                                   {"m/s", {1.0, true}}};
   static const std::map<std::string, std::pair<double, bool>> t = {
       {"s", {1.0, false}}, {"ms", {1e-3, false}}, {"us", {1e-6, false}}, {"ns", {1e-9, false}}};
   const auto& m = q == 'w' ? w : q == 'a' ? a : t;
@@ -305,8 +308,7 @@ std::vector<double> rowTimes(ParsedFile* pf, const LoggerImportOptions& o, doubl
   std::vector<double> t;
   std::vector<ParsedRow> kept;
   for (ParsedRow& r : pf->rows) {
-    const double ti =
-        o.rate_hz ? static_cast<double>(r.data_index) / *o.rate_hz : r.v[0] * unit;
+    const double ti = o.rate_hz ? static_cast<double>(r.data_index) / *o.rate_hz : r.v[0] * unit;
     if (!t.empty() && !(ti > t.back())) {
       bad->push_back({pf->layout.path, r.line,
                       "time " + fmtDouble(ti) + " s is not after the previous row's " +
@@ -510,10 +512,11 @@ Status wantedColumns(const LoggerImportOptions& o, Wanted* wa, Wanted* wg) {
     return true;
   };
   for (const auto& [k, ref] : o.columns) {
-    static const std::vector<std::string> known = {"t",  "gt", "wx", "wy", "wz",
+    static const std::vector<std::string> known = {"t",  "gt", "wx", "wy",  "wz",
                                                    "ax", "ay", "az", "temp"};
     if (std::find(known.begin(), known.end(), k) == known.end())
-      return Status::Error("--columns: unknown key '" + k + "' (t, wx, wy, wz, ax, ay, az, temp, gt)");
+      return Status::Error("--columns: unknown key '" + k +
+                           "' (t, wx, wy, wz, ax, ay, az, temp, gt)");
   }
   if (!o.rate_hz) {
     if (!add(wa, "t", "t", true)) return Status::Error("--columns needs t=COL (or give --rate HZ)");
@@ -551,8 +554,8 @@ Status timedRows(const LoggerImportOptions& o, LoggerImport* r, std::vector<Time
     if (Status st = readLoggerFile(o.gyro_path, o, wg, &fg, &r->bad_rows); !st.ok) return st;
   }
   const std::vector<double> ta = rowTimes(&fa, o, o.time_unit.factor, &r->bad_rows);
-  const std::vector<double> tg = two ? rowTimes(&fg, o, o.time_unit.factor, &r->bad_rows)
-                                     : std::vector<double>{};
+  const std::vector<double> tg =
+      two ? rowTimes(&fg, o, o.time_unit.factor, &r->bad_rows) : std::vector<double>{};
   std::vector<std::pair<std::size_t, std::size_t>> pairs;
   if (two) {
     pairs = pairRows(fa, ta, fg, tg, o, &r->bad_rows);
@@ -608,10 +611,10 @@ LoggerImport importLogger(const LoggerImportOptions& o) {
     return a.file != b.file ? a.file < b.file : a.line < b.line;
   });
   if (!r.bad_rows.empty() && !o.skip_bad_rows) {
-    r.status = Status::Error(std::to_string(r.bad_rows.size()) + " bad row" +
-                             (r.bad_rows.size() > 1 ? "s" : "") + ", the first " +
-                             r.bad_rows[0].where() + ": " + r.bad_rows[0].why +
-                             " (--skip-bad-rows leaves them out, each listed)");
+    r.status =
+        Status::Error(std::to_string(r.bad_rows.size()) + " bad row" +
+                      (r.bad_rows.size() > 1 ? "s" : "") + ", the first " + r.bad_rows[0].where() +
+                      ": " + r.bad_rows[0].why + " (--skip-bad-rows leaves them out, each listed)");
     return r;
   }
   std::vector<TimedRow> kept;
@@ -657,7 +660,8 @@ std::string importReportJson(const LoggerImportOptions& o, const LoggerImport& r
     j["units"]["time"] = o.time_unit.text;
   j["samples"] = r.recording.imu.size();
   j["bad_rows"] = nlohmann::ordered_json::array();
-  for (const BadRow& b : r.bad_rows) j["bad_rows"].push_back({{"where", b.where()}, {"why", b.why}});
+  for (const BadRow& b : r.bad_rows)
+    j["bad_rows"].push_back({{"where", b.where()}, {"why", b.why}});
   j["bad_rows_left_out"] = o.skip_bad_rows ? r.bad_rows.size() : 0;
   const TimingReport& t = r.timing;
   j["timing"] = {{"from_rate", t.from_rate},       {"median_dt_s", t.median_dt_s},

@@ -52,9 +52,9 @@ struct LoggerImportOptions {
   ColumnUnit time_unit;  // of "t"/"gt"
   ColumnUnit gyro_unit;
   ColumnUnit accel_unit;
-  std::optional<double> rate_hz;    // no time column: row k (from 0) at k / rate_hz
-  std::optional<char> delimiter;    // unset: detected from the first rows (, ; tab | space)
-  std::optional<bool> header;       // unset: detected (a first row with a non-number field)
+  std::optional<double> rate_hz;      // no time column: row k (from 0) at k / rate_hz
+  std::optional<char> delimiter;      // unset: detected from the first rows (, ; tab | space)
+  std::optional<bool> header;         // unset: detected (a first row with a non-number field)
   std::optional<double> resample_hz;  // set: readings resampled (area-preserving) to this rate
   // Two files merged on time: rows pair when their stamps differ by at most this fraction of
   // the median interval (loggers stamp both streams from one clock; a quarter interval

@@ -47,7 +47,7 @@ struct Recording {
   calib::TableKind table_kind = calib::TableKind::kTwoAxis;
   std::optional<double> outer_axis_heading_deg;  // two-axis only; absent means 90 (East)
 
-  nav::ImuSamples imu;                 // imu.csv, t strictly increasing
+  nav::ImuSamples imu;  // imu.csv, t strictly increasing
   // table.csv, t strictly increasing. Empty (the header alone) for a recording without table
   // angles: the IMU was not on a table (a logger's file imported by `imubench import-csv`).
   std::vector<TableSample> table;

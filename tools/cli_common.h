@@ -45,12 +45,12 @@ void addExplainCommand(CLI::App& app);     // cli_explain.cpp (model-discrepancy
 void addStoreCommands(CLI::App& app);
 // Operator's commands to imubenchd over its control socket: start, pause, resume, abort, stop,
 // status, results, watch.
-void addControlCommands(CLI::App& app);  // cli_control.cpp
-void addResultsCommand(CLI::App& app);   // cli_results.cpp
-void addThermalCommand(CLI::App& app);   // cli_thermal.cpp (`thermal fit`)
-void addApplyCommand(CLI::App& app);     // cli_apply.cpp
-void addImportCsvCommand(CLI::App& app);      // cli_import_csv.cpp (`import-csv`)
-void addExportCoeffsCommand(CLI::App& app);   // cli_export_coeffs.cpp (`export-coeffs`)
+void addControlCommands(CLI::App& app);      // cli_control.cpp
+void addResultsCommand(CLI::App& app);       // cli_results.cpp
+void addThermalCommand(CLI::App& app);       // cli_thermal.cpp (`thermal fit`)
+void addApplyCommand(CLI::App& app);         // cli_apply.cpp
+void addImportCsvCommand(CLI::App& app);     // cli_import_csv.cpp (`import-csv`)
+void addExportCoeffsCommand(CLI::App& app);  // cli_export_coeffs.cpp (`export-coeffs`)
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {

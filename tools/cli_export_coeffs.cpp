@@ -85,7 +85,8 @@ void runExport(const ExportOptions& o) {
   io::ExportInput in;
   in.source = o.coeffs;
   in.sensors = c.value.values.sensors;
-  if (c.value.values.extra.gyro_g_sensitivity) in.gyro_g_sens = c.value.values.extra.gyro_g_sensitivity->G;
+  if (c.value.values.extra.gyro_g_sensitivity)
+    in.gyro_g_sens = c.value.values.extra.gyro_g_sensitivity->G;
   if (!o.thermal.empty()) {
     const io::ThermalFileResult t = io::readThermalFile(o.thermal);
     if (!t.status.ok) throw CommandFailed(t.status.message);
@@ -96,7 +97,8 @@ void runExport(const ExportOptions& o) {
   if (!r.status.ok) throw CommandFailed(o.to + ": " + r.status.message, 2);
   std::ofstream f(o.out, std::ios::binary);
   if (!f || !(f << r.text) || !f.flush()) throw CommandFailed(o.out + ": cannot write");
-  for (const std::string& d : r.dropped) std::cerr << "imubench: " << o.to << " drops " << d << "\n";
+  for (const std::string& d : r.dropped)
+    std::cerr << "imubench: " << o.to << " drops " << d << "\n";
   std::cout << "wrote " << o.out << " (" << o.to << "; conventions in docs/export.md)\n";
 }
 

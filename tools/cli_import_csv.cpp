@@ -51,7 +51,7 @@ void unitsOf(ImportCsvOptions* o) {
   bool w = false, a = false, t = false;
   std::string why;
   for (const auto& [k, v] : keyValues(o->units, "--units")) {
-    io::ColumnUnit* u = k == "w" ? &o->io.gyro_unit
+    io::ColumnUnit* u = k == "w"   ? &o->io.gyro_unit
                         : k == "a" ? &o->io.accel_unit
                         : k == "t" ? &o->io.time_unit
                                    : nullptr;
@@ -102,23 +102,27 @@ void printReport(const ImportCsvOptions& o, const io::LoggerImport& r) {
   if (!r.status.ok) return;
   for (const io::FileLayout& f : r.files)
     std::cout << f.path << ": " << f.data_rows << " data rows, delimiter "
-              << (f.delimiter == ' ' ? "whitespace" : f.delimiter == '\t' ? "tab"
-                                                                          : std::string(1, f.delimiter))
+              << (f.delimiter == ' '    ? "whitespace"
+                  : f.delimiter == '\t' ? "tab"
+                                        : std::string(1, f.delimiter))
               << ", " << (f.header ? "header" : "no header") << ", " << f.skipped_lines
               << " blank/comment lines\n";
   const io::TimingReport& t = r.timing;
-  std::printf("timing%s: median interval %.6g s (%.6g Hz), jitter RMS %.3g s, max %.3g s, "
-              "intervals %.6g .. %.6g s, %zu gap(s) > 1.5 median\n",
-              t.from_rate ? " (from --rate)" : "", t.median_dt_s, t.rate_hz, t.jitter_rms_s,
-              t.jitter_max_s, t.min_dt_s, t.max_dt_s, t.gaps.size());
+  std::printf(
+      "timing%s: median interval %.6g s (%.6g Hz), jitter RMS %.3g s, max %.3g s, "
+      "intervals %.6g .. %.6g s, %zu gap(s) > 1.5 median\n",
+      t.from_rate ? " (from --rate)" : "", t.median_dt_s, t.rate_hz, t.jitter_rms_s, t.jitter_max_s,
+      t.min_dt_s, t.max_dt_s, t.gaps.size());
   for (std::size_t i = 0; i < t.gaps.size() && i < kShown; ++i)
     std::printf("  gap before %s:%ld: %.6g s (%.6g .. %.6g)\n", t.gaps[i].file.c_str(),
                 t.gaps[i].line, t.gaps[i].t1 - t.gaps[i].t0, t.gaps[i].t0, t.gaps[i].t1);
   if (!r.bad_rows.empty())
     std::cout << r.bad_rows.size() << " bad row(s) left out (--skip-bad-rows), listed above\n";
   for (const std::string& n : r.notes) std::cout << "note: " << n << "\n";
-  std::cout << "wrote " << r.recording.imu.size() << " samples to " << o.out
-            << " (imubench-csv/1, no table angles; report in import.json)\n";
+  std::cout
+      << "wrote " << r.recording.imu.size() << " samples to " << o.out
+      << " (imubench-csv/1, no table angles; report in import.json)\nnext: imubench calibrate "
+      << o.out << " --method scalar (static poses and rotations, no table)\n";
 }
 
 void runImportCsv(ImportCsvOptions o) {
