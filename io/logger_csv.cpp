@@ -120,19 +120,21 @@ std::string delimiterName(char d) {
   return std::string("'") + d + "'";
 }
 
-// The delimiter giving the same field count (>= 2) on the first lines, preferring , tab ; |
-// and whitespace in that order.
+// The delimiter whose most frequent field count (>= 2) holds on at least 80 % of the first
+// lines (a truncated row among them is a bad row, not a reason to guess another delimiter),
+// preferring , tab ; | and whitespace in that order.
 bool detectDelimiter(const std::vector<std::string_view>& first, char* delim) {
   std::vector<std::string_view> f;
   for (char d : {',', '\t', ';', '|', ' '}) {
-    std::size_t n = 0;
-    bool same = true;
+    std::map<std::size_t, std::size_t> counts;
     for (std::string_view line : first) {
       splitLine(line, d, &f);
-      if (n == 0) n = f.size();
-      same = same && f.size() == n;
+      ++counts[f.size()];
     }
-    if (same && n >= 2) {
+    const auto mode =
+        std::max_element(counts.begin(), counts.end(),
+                         [](const auto& a, const auto& b) { return a.second < b.second; });
+    if (mode->first >= 2 && 5 * mode->second >= 4 * first.size()) {
       *delim = d;
       return true;
     }
