@@ -119,6 +119,9 @@ void printReport(const ImportCsvOptions& o, const io::LoggerImport& r) {
   if (!r.bad_rows.empty())
     std::cout << r.bad_rows.size() << " bad row(s) left out (--skip-bad-rows), listed above\n";
   for (const std::string& n : r.notes) std::cout << "note: " << n << "\n";
+  if (!o.latitude_deg)
+    std::cout << "note: no --latitude: meta.json says 0 deg (give it for navigation, alignment "
+                 "and the Earth-rate checks)\n";
   std::cout
       << "wrote " << r.recording.imu.size() << " samples to " << o.out
       << " (imubench-csv/1, no table angles; report in import.json)\nnext: imubench calibrate "
