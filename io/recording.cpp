@@ -15,6 +15,7 @@
 #include <system_error>
 #include <thread>
 
+#include "io/csv_text.h"
 #include "io/file_io.h"
 
 namespace imubench::io {
@@ -40,40 +41,6 @@ struct FileCloser {
 };
 using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
 
-std::string quoteForMessage(std::string_view s) {
-  constexpr size_t kMax = 40;
-  std::string r = "'";
-  r.append(s.substr(0, kMax));
-  if (s.size() > kMax) r += "...";
-  return r + "'";
-}
-
-// Line-by-line cursor over a CSV text with 1-based line numbers. Accepts \n and \r\n.
-class LineCursor {
- public:
-  explicit LineCursor(std::string_view text) : p_(text.data()), end_(text.data() + text.size()) {}
-
-  // Next line without its terminator; false at the end of the text.
-  bool next(std::string_view* line) {
-    if (p_ >= end_) return false;
-    const char* nl =
-        static_cast<const char*>(std::memchr(p_, '\n', static_cast<size_t>(end_ - p_)));
-    const char* stop = nl ? nl : end_;
-    const char* e = stop;
-    if (e > p_ && e[-1] == '\r') --e;
-    *line = std::string_view(p_, static_cast<size_t>(e - p_));
-    p_ = nl ? nl + 1 : end_;
-    ++line_no_;
-    return true;
-  }
-  long lineNo() const { return line_no_; }
-
- private:
-  const char* p_;
-  const char* end_;
-  long line_no_ = 0;
-};
-
 // Splits a line into exactly `expected` comma-separated fields (no quoting: numeric files).
 // Returns false with *why on a different count.
 bool splitFields(std::string_view line, std::string_view* fields, size_t expected,
@@ -94,36 +61,6 @@ bool splitFields(std::string_view line, std::string_view* fields, size_t expecte
     return false;
   }
   return true;
-}
-
-// Parses one finite decimal number occupying the whole field.
-bool parseNumber(std::string_view field, std::string_view column, double* value, std::string* why) {
-  if (field.empty()) {
-    *why = "column '" + std::string(column) + "' is empty";
-    return false;
-  }
-  const char* b = field.data();
-  const char* e = field.data() + field.size();
-  const auto r = std::from_chars(b, e, *value);
-  if (r.ec == std::errc::result_out_of_range) {
-    *why = "column '" + std::string(column) + "': number out of range " + quoteForMessage(field);
-    return false;
-  }
-  if (r.ec != std::errc() || r.ptr != e) {
-    *why = "column '" + std::string(column) + "': not a number " + quoteForMessage(field);
-    return false;
-  }
-  if (!std::isfinite(*value)) {
-    *why = "column '" + std::string(column) + "': non-finite value " + quoteForMessage(field);
-    return false;
-  }
-  return true;
-}
-
-std::string fmtDouble(double v) {
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, r.ptr);
 }
 
 // Checks time order; `t` must be strictly after `prev`.
@@ -622,7 +559,6 @@ Status validateForWrite(const Recording& rec) {
   if (!(rec.imu_rate_hz > 0.0) || !std::isfinite(rec.imu_rate_hz))
     return bad("IMU rate must be positive");
   if (rec.imu.empty()) return bad("no IMU samples");
-  if (rec.table.empty()) return bad("no table samples");
   if (rec.table_kind == calib::TableKind::kThreeAxis && rec.outer_axis_heading_deg) {
     return bad("outer_axis_heading_deg applies to two-axis tables only");
   }
@@ -793,8 +729,8 @@ RecordingReadResult readRecording(const std::string& dir) {
       rec.table.push_back(s);
     });
     if (!st.ok) return fail(st);
-    if (rec.table.empty())
-      return fail(Status::Error(at(table_path, 2, "no samples after the header")));
+    // A header without rows: a recording without table angles (a logger's file imported by
+    // `imubench import-csv`, docs/import.md); no segments are derived from it.
   }
   // chamber.csv (optional)
   const std::string chamber_path = (d / "chamber.csv").string();

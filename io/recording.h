@@ -47,8 +47,10 @@ struct Recording {
   calib::TableKind table_kind = calib::TableKind::kTwoAxis;
   std::optional<double> outer_axis_heading_deg;  // two-axis only; absent means 90 (East)
 
-  nav::ImuSamples imu;                 // imu.csv, t strictly increasing
-  std::vector<TableSample> table;      // table.csv, t strictly increasing
+  nav::ImuSamples imu;  // imu.csv, t strictly increasing
+  // table.csv, t strictly increasing. Empty (the header alone) for a recording without table
+  // angles: the IMU was not on a table (a logger's file imported by `imubench import-csv`).
+  std::vector<TableSample> table;
   std::vector<ChamberSample> chamber;  // chamber.csv (empty: file absent)
   // segments.csv, or derived from the table motion when the file is absent. For kRotate the
   // axis and signed angle are filled from the table samples (the file does not carry them).

@@ -524,9 +524,9 @@ void addCalibrateCommand(CLI::App& app) {
                 "\"coefficients\") of that run, with its IMU serial and mean temperature");
   sub->add_option("--format", opt->format,
                   "imubench (recording directory, default) | imutk (imu_tk text pair: "
-                  "accelerometer file + --gyro) | imucal (imucal Ferraris CSV) | mikov "
-                  "(imu-calib six-column log ax ay az wx wy wz, SI, no time column)")
-      ->check(CLI::IsMember({"imubench", "imutk", "imucal", "mikov"}));
+                  "accelerometer file + --gyro) | imucal (imucal Ferraris CSV) | imu-calib "
+                  "(alias mikov; imu-calib six-column log ax ay az wx wy wz, SI, no time column)")
+      ->check(CLI::IsMember({"imubench", "imutk", "imucal", "imu-calib", "mikov"}));
   sub->add_option("--gyro", opt->gyro_file, "imutk: the gyro file of the pair");
   sub->add_option("--rate", opt->rate_hz,
                   "imucal/mikov: sampling rate, Hz (default 102.4 imucal, 100 mikov)")

@@ -140,7 +140,9 @@ RealRecording readRealRecording(const RealRecordingOptions& o) {
       so.checks.accel_min = so.checks.gyro_min = 0.0;
       so.checks.accel_max = so.checks.gyro_max = 65535.0;
     }
-  } else if (o.format == "mikov") {
+  } else if (o.format == "imu-calib" || o.format == "mikov") {
+    if (o.format == "mikov")
+      std::cerr << "imubench: note: --format mikov is the old name of --format imu-calib\n";
     r.import = io::readSixColumnLog(o.path, o.rate_hz.value_or(io::kSixColumnLogRateHz));
     r.accel_si = true;
   } else {

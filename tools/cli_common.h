@@ -47,10 +47,12 @@ void addExplainCommand(CLI::App& app);     // cli_explain.cpp (model-discrepancy
 void addStoreCommands(CLI::App& app);
 // Operator's commands to imubenchd over its control socket: start, pause, resume, abort, stop,
 // status, results, watch.
-void addControlCommands(CLI::App& app);  // cli_control.cpp
-void addResultsCommand(CLI::App& app);   // cli_results.cpp
-void addThermalCommand(CLI::App& app);   // cli_thermal.cpp (`thermal fit`)
-void addApplyCommand(CLI::App& app);     // cli_apply.cpp
+void addControlCommands(CLI::App& app);      // cli_control.cpp
+void addResultsCommand(CLI::App& app);       // cli_results.cpp
+void addThermalCommand(CLI::App& app);       // cli_thermal.cpp (`thermal fit`)
+void addApplyCommand(CLI::App& app);         // cli_apply.cpp
+void addImportCsvCommand(CLI::App& app);     // cli_import_csv.cpp (`import-csv`)
+void addExportCoeffsCommand(CLI::App& app);  // cli_export_coeffs.cpp (`export-coeffs`)
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {
@@ -105,12 +107,13 @@ calib::BenchTruth gyroReferencedTruth(const calib::BenchTruth& truth,
 // OUTSIDE or "held (not judged)".
 void printComparisonRows(const calib::TruthComparison& c);
 
-// A third-party recording without table angles (--format imutk|imucal|mikov), as `calibrate`
+// A third-party recording without table angles (--format imutk|imucal|imu-calib;
+// mikov is imu-calib's old name), as `calibrate`
 // and `explain` read it: its readings and the scalar calibration options it implies (imu_tk's
 // long initial static and unsigned-count rails; gravity from --gravity, else from --latitude
 // and --height, else the options' default).
 struct RealRecordingOptions {
-  std::string format;             // imutk | imucal | mikov
+  std::string format;             // imutk | imucal | imu-calib (alias mikov)
   std::string path;               // the file (imutk: the accelerometer file)
   std::string gyro_file;          // imutk: the gyro file of the pair
   std::optional<double> rate_hz;  // imucal, mikov: sampling rate (default: the source's)

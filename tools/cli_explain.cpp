@@ -415,8 +415,9 @@ void addExplainCommand(CLI::App& app) {
                   "candidate effect ids, comma-separated (default: the whole library)");
   sub->add_option("--bin", opt->bin_s, "bin length, s (default 0.5)");
   addStoreOption(*sub, &opt->db);
-  sub->add_option("--format", opt->format, "imubench (default), imutk, imucal or mikov")
-      ->check(CLI::IsMember({"imubench", "imutk", "imucal", "mikov"}));
+  sub->add_option("--format", opt->format,
+                  "imubench (default), imutk, imucal or imu-calib (alias mikov)")
+      ->check(CLI::IsMember({"imubench", "imutk", "imucal", "imu-calib", "mikov"}));
   sub->add_option("--gyro", opt->real.gyro_file, "imutk: the gyro file of the pair");
   sub->add_option("--rate", opt->real.rate_hz, "imucal, mikov: sampling rate, Hz");
   sub->add_option("--gravity", opt->real.gravity, "local gravity, m/s^2");

@@ -6,6 +6,7 @@
 #include <string_view>
 #include <system_error>
 
+#include "io/format_hint.h"
 #include "tools/cli_common.h"
 
 namespace imubench::tools {
@@ -57,7 +58,7 @@ ResolvedRecording loadRunOrDir(const std::string& arg, const std::string& db_pat
   const bool exists = fs::exists(arg, ec);
   throw CommandFailed("'" + arg + "' is neither a recording directory (" +
                       (exists ? "not a directory" : "no such directory") +
-                      ") nor a run id (N or run:N, N >= 1)");
+                      ") nor a run id (N or run:N, N >= 1)" + io::recordingFileHint(arg));
 }
 
 }  // namespace imubench::tools

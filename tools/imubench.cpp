@@ -31,6 +31,8 @@ int main(int argc, char** argv) {
   addResultsCommand(app);
   addThermalCommand(app);
   addApplyCommand(app);
+  addImportCsvCommand(app);
+  addExportCoeffsCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
