@@ -64,6 +64,16 @@ struct DaemonOptions {
   // Table (and chamber) poll period: the table samples of the recording and the runner's
   // reaction time. 20 ms keeps a 300 deg/s axis below 6 deg between two readings.
   double table_poll_s = 0.02;
+  // Two stored table readings further apart than their cadence plus this (wall time) while the
+  // plan runs are a gap in the table data: an alarm, and the step runs again (as after a gap
+  // of the IMU stream: BenchDaemon::onRecordingGap). The cadence is the poll period or, on a
+  // slow link, the newer reading's whole poll (8 round trips on a two-axis Modbus table: 0.4 s
+  // at 50 ms latency). 0.2 s: ten polls at the default period, so a late poll or two of a
+  // loaded machine pass, while a controller that stops answering for a while, or a loop held
+  // up (the overload that lost stretches of table.csv, issue 28), does not pass silently. Wall
+  // time, not IMU time: a virtual bench at 20x has polls 0.4 s of IMU time apart. Must be at
+  // least two poll periods.
+  double table_gap_s = 0.2;
   double status_period_s = 1.0;  // status events and sd_notify STATUS
   LogLimiterOptions log_limits;  // repeated problems: one line, then a summary per period
   bool IsValid(std::string* why) const;
@@ -137,14 +147,22 @@ class BenchDaemon {
   void onImuReadable();
   void onPoll();
   void stampPendingTable(const drivers::DecodedImuSample& d, bool burst_end);
-  void storeTableSample(const io::TableSample& ts);
+  // When and how a table reading was read (wall clock, unixNow).
+  struct TableReadTiming {
+    double at_unix_s = 0.0;        // the reading's instant (the axes' mean read time)
+    double round_trip_s = 0.0;     // the axes' longest read round trip (NaN: unknown)
+    double poll_duration_s = 0.0;  // the whole poll's (heartbeat, status, every axis)
+  };
+  void storeTableSample(const io::TableSample& ts, const TableReadTiming& read);
   void onChamberPoll();
   void reportImuProblems();
   // A step of the IMU time longer than this many sample periods is a gap (below calib's
   // refusal threshold, calib::IncrementCheckOptions::max_gap_factor = 5 median steps).
   static constexpr double kGapPeriods = 4.0;
   void checkImuGap(std::size_t i);
-  void onImuGap(double t_a, double t_b, const std::string& cause);
+  // A gap (IMU time t_a to t_b) in the IMU stream (`what` "IMU data") or the stored table
+  // readings ("table data") inside the run.
+  void onRecordingGap(double t_a, double t_b, const std::string& what, const std::string& cause);
   void onStatusTimer();
   void publish(const std::vector<RunnerEvent>& events);
   void beginStep(int step, std::optional<double> t0);

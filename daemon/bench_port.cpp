@@ -126,6 +126,7 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
     o.angles.push_back(a.angle);
     o.rates.push_back(a.rate);
     o.angles_unix_s.push_back(a.read_unix_s);
+    o.angles_round_trip_s.push_back(a.round_trip_s);
     o.moving = o.moving || a.moving;
   }
   return o;
