@@ -224,10 +224,10 @@ struct BenchDaemon::ActiveRun {
   bool imuStill() const { return rate_filtered.norm() < kStillRateRadps; }
   double poll_unix_s = 0.0;  // when the newest table reading was requested
   std::optional<double> last_table_t;
-  // The wall instant of the newest stored table reading (TableReadTiming::at_unix_s): a gap in
-  // the table readings is judged on it (DaemonOptions::table_gap_s). Reset by a gap of the IMU
-  // stream, which holds the readings back too and is handled as such.
-  std::optional<double> last_table_at_unix_s;
+  // How the newest stored table reading was read: a gap in the table readings is judged on it
+  // (DaemonOptions::table_gap_s). Reset by a gap of the IMU stream, which holds the readings
+  // back too and is handled as such.
+  std::optional<TableReadTiming> last_table_read;
   // A table reading waits for its IMU time. The controller sampled each axis' encoder
   // between the request and the reply that read it (drivers::TableAxisReading::read_unix_s,
   // CLOCK_REALTIME like the frames' kernel receive times); `clock` maps those instants onto
@@ -245,7 +245,7 @@ struct BenchDaemon::ActiveRun {
     std::array<double, 3> read_unix_s{};  // per axis; 0 when the driver gives none
     std::array<double, 3> rate{};         // rad/s, per axis
     io::TableSample sample;               // angles set, t to be found
-    TableReadTiming read{0.0, kNaN, 0.0};  // at_unix_s: the axes' mean read time
+    TableReadTiming read{0.0, kNaN, 0.0, 0.0};  // at_unix_s: the axes' mean read time
   };
   std::optional<PendingTable> pending_table;
   std::optional<double> last_rx_unix_s, last_rx_t;  // newest sample with a receive time
@@ -276,6 +276,7 @@ struct BenchDaemon::ActiveRun {
       if (rt > 0.0) longest = std::isnan(longest) ? rt : std::max(longest, rt);
     }
     p.read.poll_duration_s = poll_duration_s;
+    p.read.busy_s = obs.busy_s;
     p.read.at_unix_s = stamped ? sum / static_cast<double>(stamped) : polled;
     for (double& r : p.read_unix_s) {
       if (!(r > 0.0)) r = p.read.at_unix_s;
@@ -527,7 +528,7 @@ void BenchDaemon::checkImuGap(std::size_t i) {
     }
   }
   if (!gap) return;
-  run.last_table_at_unix_s.reset();  // the readings it held back are this gap's
+  run.last_table_read.reset();  // the readings it held back are this gap's
   onRecordingGap(*prev, t, "IMU data", cause);
 }
 
@@ -684,16 +685,18 @@ void BenchDaemon::storeTableSample(const io::TableSample& ts, const TableReadTim
     run.engine->addTable(ts);
   }
   const std::optional<double> prev_t = run.last_table_t;
-  const std::optional<double> prev_at = run.last_table_at_unix_s;
+  const std::optional<TableReadTiming> prev = run.last_table_read;
   run.last_table_t = ts.t;
-  run.last_table_at_unix_s = read.at_unix_s;
-  if (!prev_t || !prev_at || run.runner->state() != RunnerState::kRunning) return;
+  run.last_table_read = read;
+  if (!prev_t || !prev || run.runner->state() != RunnerState::kRunning) return;
   const double cadence_s = std::max(options_.table_poll_s, read.poll_duration_s);
-  const double apart_s = read.at_unix_s - *prev_at;
-  if (apart_s <= cadence_s + options_.table_gap_s) return;
+  const double busy_s = read.busy_s - prev->busy_s;
+  const double apart_s = read.at_unix_s - prev->at_unix_s;
+  if (apart_s - busy_s <= cadence_s + options_.table_gap_s) return;
   std::ostringstream cause;
   cause << "table readings " << apart_s << " s apart (wall clock; a poll takes " << cadence_s
-        << " s, gap threshold " << options_.table_gap_s << " s beyond it)";
+        << " s, device commands took " << busy_s << " s meanwhile, gap threshold "
+        << options_.table_gap_s << " s beyond them)";
   onRecordingGap(*prev_t, ts.t, "table data", cause.str());
 }
 

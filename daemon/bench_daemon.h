@@ -68,7 +68,9 @@ struct DaemonOptions {
   // plan runs are a gap in the table data: an alarm, and the step runs again (as after a gap
   // of the IMU stream: BenchDaemon::onRecordingGap). The cadence is the poll period or, on a
   // slow link, the newer reading's whole poll (8 round trips on a two-axis Modbus table: 0.4 s
-  // at 50 ms latency). 0.2 s: ten polls at the default period, so a late poll or two of a
+  // at 50 ms latency), plus the time the daemon spent commanding the devices and reading the
+  // chamber between the two readings (DriverBenchPort::busyS: a step's start is a dozen round
+  // trips). 0.2 s: ten polls at the default period, so a late poll or two of a
   // loaded machine pass, while a controller that stops answering for a while, or a loop held
   // up (the overload that lost stretches of table.csv, issue 28), does not pass silently. Wall
   // time, not IMU time: a virtual bench at 20x has polls 0.4 s of IMU time apart. Must be at
@@ -152,6 +154,7 @@ class BenchDaemon {
     double at_unix_s = 0.0;        // the reading's instant (the axes' mean read time)
     double round_trip_s = 0.0;     // the axes' longest read round trip (NaN: unknown)
     double poll_duration_s = 0.0;  // the whole poll's (heartbeat, status, every axis)
+    double busy_s = 0.0;           // BenchObservation::busy_s of its poll
   };
   void storeTableSample(const io::TableSample& ts, const TableReadTiming& read);
   void onChamberPoll();
