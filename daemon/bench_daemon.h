@@ -147,6 +147,8 @@ class BenchDaemon {
   TableStatus tableStatus() const;
 
   void onImuReadable();
+  static constexpr int kImuBatchesPerWake = 8;
+  bool readImuBatch();
   void onPoll();
   void stampPendingTable(const drivers::DecodedImuSample& d, bool burst_end);
   // When and how a table reading was read (wall clock, unixNow).
