@@ -225,7 +225,7 @@ struct BenchDaemon::ActiveRun {
   double poll_unix_s = 0.0;  // when the newest table reading was requested
   std::optional<double> last_table_t;
   // How the newest stored table reading was read: a gap in the table readings is judged on it
-  // (DaemonOptions::table_gap_s). Reset by a gap of the IMU stream, which holds the readings
+  // (BenchConfig::table_reading_gap_s). Reset by a gap of the IMU stream, which holds the readings
   // back too and is handled as such.
   std::optional<TableReadTiming> last_table_read;
   // A table reading waits for its IMU time. The controller sampled each axis' encoder
@@ -290,10 +290,6 @@ struct BenchDaemon::ActiveRun {
 bool DaemonOptions::IsValid(std::string* why) const {
   if (!(table_poll_s > 0.0 && table_poll_s <= 1.0)) {
     if (why != nullptr) *why = "table_poll_s must be in (0, 1] s";
-    return false;
-  }
-  if (!(table_gap_s >= 2.0 * table_poll_s)) {
-    if (why != nullptr) *why = "table_gap_s must be at least two table poll periods";
     return false;
   }
   if (!(status_period_s > 0.0)) {
@@ -687,7 +683,7 @@ void BenchDaemon::stampPendingTable(const drivers::DecodedImuSample& d, bool bur
 }
 
 // A stamped table reading goes to the store (with its read round trip) and the online engine,
-// in time order. Readings further apart than table_gap_s while the plan runs: onRecordingGap.
+// in time order. Readings further apart than the bench's [table] reading_gap while the plan runs: onRecordingGap.
 void BenchDaemon::storeTableSample(const io::TableSample& ts, const TableReadTiming& read) {
   ActiveRun& run = *run_;
   if (run.last_table_t && ts.t <= *run.last_table_t) return;
@@ -705,11 +701,11 @@ void BenchDaemon::storeTableSample(const io::TableSample& ts, const TableReadTim
   const double cadence_s = std::max(options_.table_poll_s, read.poll_duration_s);
   const double busy_s = read.busy_s - prev->busy_s;
   const double apart_s = read.at_unix_s - prev->at_unix_s;
-  if (apart_s - busy_s <= cadence_s + options_.table_gap_s) return;
+  if (apart_s - busy_s <= cadence_s + bench_.table_reading_gap_s) return;
   std::ostringstream cause;
   cause << "table readings " << apart_s << " s apart (wall clock; a poll takes " << cadence_s
         << " s, device commands took " << busy_s << " s meanwhile, gap threshold "
-        << options_.table_gap_s << " s beyond them)";
+        << bench_.table_reading_gap_s << " s beyond them)";
   onRecordingGap(*prev_t, ts.t, "table data", cause.str());
 }
 

@@ -64,18 +64,6 @@ struct DaemonOptions {
   // Table (and chamber) poll period: the table samples of the recording and the runner's
   // reaction time. 20 ms keeps a 300 deg/s axis below 6 deg between two readings.
   double table_poll_s = 0.02;
-  // Two stored table readings further apart than their cadence plus this (wall time) while the
-  // plan runs are a gap in the table data: an alarm, and the step runs again (as after a gap
-  // of the IMU stream: BenchDaemon::onRecordingGap). The cadence is the poll period or, on a
-  // slow link, the newer reading's whole poll (8 round trips on a two-axis Modbus table: 0.4 s
-  // at 50 ms latency), plus the time the daemon spent commanding the devices and reading the
-  // chamber between the two readings (DriverBenchPort::busyS: a step's start is a dozen round
-  // trips). 0.2 s: ten polls at the default period, so a late poll or two of a
-  // loaded machine pass, while a controller that stops answering for a while, or a loop held
-  // up (the overload that lost stretches of table.csv, issue 28), does not pass silently. Wall
-  // time, not IMU time: a virtual bench at 20x has polls 0.4 s of IMU time apart. Must be at
-  // least two poll periods.
-  double table_gap_s = 0.2;
   double status_period_s = 1.0;  // status events and sd_notify STATUS
   LogLimiterOptions log_limits;  // repeated problems: one line, then a summary per period
   bool IsValid(std::string* why) const;

@@ -55,7 +55,7 @@ class DriverBenchPort : public BenchPort {
   // Seconds (monotonic, summed since construction) this port spent in device transactions
   // other than the table's polling reads: commands, the chamber's reads. The loop reads no
   // table meanwhile, by design: the daemon's judge of a gap in the table readings leaves this
-  // time out (DaemonOptions::table_gap_s).
+  // time out (BenchConfig::table_reading_gap_s).
   double busyS() const { return busy_s_; }
   const std::string& lastTableError() const { return table_error_; }
 
