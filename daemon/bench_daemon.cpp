@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <deque>
 #include <ctime>
 #include <filesystem>
 #include <limits>
@@ -228,6 +229,21 @@ struct BenchDaemon::ActiveRun {
   // (BenchConfig::table_reading_gap_s). Reset by a gap of the IMU stream, which holds the readings
   // back too and is handled as such.
   std::optional<TableReadTiming> last_table_read;
+  // The poll durations of the newest stored readings (at most kPollHistory): their median is
+  // the link's cadence. Not the newest poll's own duration: a loop held up inside a poll (the
+  // polls are most of its time on a slow link) made that poll long, and it is the gap.
+  static constexpr std::size_t kPollHistory = 9;
+  std::deque<double> poll_durations_s;
+  double typicalPollS(double fallback_s) const {
+    if (poll_durations_s.empty()) return fallback_s;
+    std::vector<double> v(poll_durations_s.begin(), poll_durations_s.end());
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  }
+  void addPollDuration(double s) {
+    poll_durations_s.push_back(s);
+    if (poll_durations_s.size() > kPollHistory) poll_durations_s.pop_front();
+  }
   // A table reading waits for its IMU time. The controller sampled each axis' encoder
   // between the request and the reply that read it (drivers::TableAxisReading::read_unix_s,
   // CLOCK_REALTIME like the frames' kernel receive times); `clock` maps those instants onto
@@ -695,10 +711,11 @@ void BenchDaemon::storeTableSample(const io::TableSample& ts, const TableReadTim
   }
   const std::optional<double> prev_t = run.last_table_t;
   const std::optional<TableReadTiming> prev = run.last_table_read;
+  const double cadence_s = std::max(options_.table_poll_s, run.typicalPollS(read.poll_duration_s));
+  run.addPollDuration(read.poll_duration_s);
   run.last_table_t = ts.t;
   run.last_table_read = read;
   if (!prev_t || !prev || run.runner->state() != RunnerState::kRunning) return;
-  const double cadence_s = std::max(options_.table_poll_s, read.poll_duration_s);
   const double busy_s = read.busy_s - prev->busy_s;
   const double apart_s = read.at_unix_s - prev->at_unix_s;
   if (apart_s - busy_s <= cadence_s + bench_.table_reading_gap_s) return;

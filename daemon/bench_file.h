@@ -164,8 +164,8 @@ struct BenchConfig {
   // [table] reading_gap: two stored table readings further apart than their cadence plus this
   // (wall time) while the plan runs are a gap in the table data: an alarm, and the step runs
   // again (as after a gap of the IMU stream: BenchDaemon::onRecordingGap). The cadence is the
-  // poll period or, on a slow link, the newer reading's whole poll (8 round trips on a
-  // two-axis Modbus table: 0.4 s at 50 ms latency), plus the time the daemon spent commanding
+  // poll period or, on a slow link, the median duration of the last 9 polls (8 round trips on
+  // a two-axis Modbus table: 0.4 s at 50 ms latency), plus the time the daemon spent commanding
   // the devices and reading the chamber between the two readings (DriverBenchPort::busyS: a
   // step's start is a dozen round trips). 0.2 s: ten polls at the default period, so a late
   // poll or two pass, while a controller that stops answering for a while (shorter than

@@ -37,7 +37,7 @@ if [[ $SCALE == 1 ]]; then
 fi
 e2e_bench_file "$(cat "$SRC/tools/demo_bench_limits.toml")"
 e2e_start_vb --time-scale "$SCALE" --truth "$TRUTH" --noise nav-grade --seed 5 \
-  --modbus-latency-ms 20 --modbus-jitter-ms 5
+  --modbus-latency-ms "${E2E_LATENCY_MS:-20}" --modbus-jitter-ms "${E2E_JITTER_MS:-5}"
 e2e_start_daemon
 
 PYTHONPATH="$SRC/tools/python" e2e_py "$CLI" <<'PY' || fail "latency run"
@@ -58,6 +58,8 @@ stored = {r["kind"]: r["json"] for r in c.reply({"cmd": "results", "run": run})[
 x = stored.get("explain", {})
 check(x.get("format") == "imubench-explain/1", "explain stored as imubench-explain/1")
 accepted = [a["effect"] for a in x.get("accepted", [])]
+for a in x.get("accepted", []):
+    print("accepted %s: %s +- %s" % (a["effect"], json.dumps(a.get("parameters")), json.dumps(a.get("sigma"))), flush=True)
 unseparable = json.dumps(x.get("unseparable", []))
 print("explain accepts:", accepted, flush=True)
 td = [r for r in x.get("rejected", []) if r.get("effect") == "time_delay"]
