@@ -10,8 +10,10 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <deque>
 #include <ctime>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 
 #include "daemon/imu_clock.h"
@@ -37,6 +39,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 // Exports in progress at once: each holds a whole run in memory while it writes it.
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr std::size_t kMaxPendingExports = 2;
 // Calibrations in progress at once: a run's estimate (one at a time per run), the previous
 // run's end-of-plan calibration, and the next queued run's first estimate.
@@ -184,7 +187,7 @@ struct BenchDaemon::ActiveRun {
   std::unique_ptr<OnlineEngine> engine;    // with it
   std::optional<double> segment_t0;        // IMU time the current step's command went out
   int last_stored_step = -1;               // the step of the newest stored segment
-  std::optional<double> last_sample_t;     // the newest stored IMU sample (gaps: onImuGap)
+  std::optional<double> last_sample_t;     // the newest stored IMU sample (gaps: onRecordingGap)
   bool imu_restarted = false;              // the decoder saw a restart since the last batch
   // The progress shown (status, progress events): never below what was shown before in this
   // run, though the runner's planned-time figure drops when a step re-runs after a pause.
@@ -222,6 +225,25 @@ struct BenchDaemon::ActiveRun {
   bool imuStill() const { return rate_filtered.norm() < kStillRateRadps; }
   double poll_unix_s = 0.0;  // when the newest table reading was requested
   std::optional<double> last_table_t;
+  // How the newest stored table reading was read: a gap in the table readings is judged on it
+  // (BenchConfig::table_reading_gap_s). Reset by a gap of the IMU stream, which holds the readings
+  // back too and is handled as such.
+  std::optional<TableReadTiming> last_table_read;
+  // The poll durations of the newest stored readings (at most kPollHistory): their median is
+  // the link's cadence. Not the newest poll's own duration: a loop held up inside a poll (the
+  // polls are most of its time on a slow link) made that poll long, and it is the gap.
+  static constexpr std::size_t kPollHistory = 9;
+  std::deque<double> poll_durations_s;
+  double typicalPollS(double fallback_s) const {
+    if (poll_durations_s.empty()) return fallback_s;
+    std::vector<double> v(poll_durations_s.begin(), poll_durations_s.end());
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  }
+  void addPollDuration(double s) {
+    poll_durations_s.push_back(s);
+    if (poll_durations_s.size() > kPollHistory) poll_durations_s.pop_front();
+  }
   // A table reading waits for its IMU time. The controller sampled each axis' encoder
   // between the request and the reply that read it (drivers::TableAxisReading::read_unix_s,
   // CLOCK_REALTIME like the frames' kernel receive times); `clock` maps those instants onto
@@ -236,10 +258,10 @@ struct BenchDaemon::ActiveRun {
   // reading's instant; frames without a receive time: the first sample after the reading.
   static constexpr double kBurstGapS = 1e-4;
   struct PendingTable {
-    double at_unix_s = 0.0;               // the reading's instant: the axes' mean read time
     std::array<double, 3> read_unix_s{};  // per axis; 0 when the driver gives none
     std::array<double, 3> rate{};         // rad/s, per axis
     io::TableSample sample;               // angles set, t to be found
+    TableReadTiming read{0.0, kNaN, 0.0, 0.0};  // at_unix_s: the axes' mean read time
   };
   std::optional<PendingTable> pending_table;
   std::optional<double> last_rx_unix_s, last_rx_t;  // newest sample with a receive time
@@ -256,7 +278,7 @@ struct BenchDaemon::ActiveRun {
     return a;
   }  // The table reading of obs waiting for its IMU time; polled: the instant of the whole read,
   // for axes the driver gives no read time.
-  PendingTable reading(const BenchObservation& obs, double polled) {
+  PendingTable reading(const BenchObservation& obs, double polled, double poll_duration_s) {
     PendingTable p;
     double sum = 0.0;
     std::size_t stamped = 0;
@@ -265,10 +287,15 @@ struct BenchDaemon::ActiveRun {
       p.rate[a] = a < obs.rates.size() ? obs.rates[a] : 0.0;
       p.read_unix_s[a] = a < obs.angles_unix_s.size() ? obs.angles_unix_s[a] : 0.0;
       if (p.read_unix_s[a] > 0.0) sum += p.read_unix_s[a], ++stamped;
+      const double rt = a < obs.angles_round_trip_s.size() ? obs.angles_round_trip_s[a] : 0.0;
+      double& longest = p.read.round_trip_s;
+      if (rt > 0.0) longest = std::isnan(longest) ? rt : std::max(longest, rt);
     }
-    p.at_unix_s = stamped ? sum / static_cast<double>(stamped) : polled;
+    p.read.poll_duration_s = poll_duration_s;
+    p.read.busy_s = obs.busy_s;
+    p.read.at_unix_s = stamped ? sum / static_cast<double>(stamped) : polled;
     for (double& r : p.read_unix_s) {
-      if (!(r > 0.0)) r = p.at_unix_s;
+      if (!(r > 0.0)) r = p.read.at_unix_s;
     }
     return p;
   }
@@ -444,26 +471,38 @@ void BenchDaemon::stop() {
 
 // ---- IMU and table ------------------------------------------------------------------------
 
+// The IMU's frames wait in the socket while the loop talks to the devices (a table poll is 8
+// round trips: 0.17 s at 20 ms Modbus latency, 640 frames of a 200 Hz IMU at 20x). One batch
+// (drivers::ImuCanReader, 256 frames) per wake fell behind until the socket dropped frames;
+// up to kImuBatchesPerWake batches drain it, and the bound keeps the loop's other work (the
+// stop socket first) waiting for at most that many.
 void BenchDaemon::onImuReadable() {
+  for (int k = 0; k < kImuBatchesPerWake && readImuBatch(); ++k) {
+  }
+}
+
+// One batch of IMU frames: stored, stamping the pending table reading, closing steps. False
+// when nothing was read.
+bool BenchDaemon::readImuBatch() {
   decoded_.clear();
   if (auto st = imu_->poll(0, &decoded_); !st.ok) {
     limited_.report("IMU", LogLevel::kError, "IMU: " + st.message, wallNow());
-    return;
+    return false;
   }
   reportImuProblems();
-  if (decoded_.empty()) return;
+  if (decoded_.empty()) return false;
   imu_last_t_ = decoded_.back().sample.t;
   imu_last_wall_s_ = wallNow();
   // The IMU's own temperature (auto soaks watch it): the newest frame's, none when it has none.
   imu_last_temp_c_.reset();
   if (std::isfinite(decoded_.back().sample.temp_c))
     imu_last_temp_c_ = decoded_.back().sample.temp_c;
-  if (!run_) return;
+  if (!run_) return true;
   samples_.clear();
   for (const auto& d : decoded_) samples_.push_back(d.sample);
   if (auto st = run_->writer->appendImu(samples_); !st.ok) {
     log_.error("store: " + st.message);
-    return;
+    return true;
   }
   // A closing step ends at the first sample received after the table reading that ended it
   // (a frame without a kernel receive time: at once) and, after a motion, once the IMU itself
@@ -488,11 +527,12 @@ void BenchDaemon::onImuReadable() {
     closeStep(decoded_[i].sample.t);
   }
   if (run_->engine) run_->engine->addImu(std::span(samples_).subspan(first));
+  return true;
 }
 
 // A gap in the IMU stream before decoded_[i] (a step longer than kGapPeriods sample periods, or
 // the largest step of the batch in which the decoder saw a restart) voids the segments it
-// touches: onImuGap.
+// touches: onRecordingGap.
 void BenchDaemon::checkImuGap(std::size_t i) {
   ActiveRun& run = *run_;
   const double t = decoded_[i].sample.t;
@@ -512,14 +552,19 @@ void BenchDaemon::checkImuGap(std::size_t i) {
       cause = "the IMU restarted";
     }
   }
-  if (gap) onImuGap(*prev, t, cause);
+  if (!gap) return;
+  run.last_table_read.reset();  // the readings it held back are this gap's
+  onRecordingGap(*prev, t, "IMU data", cause);
 }
 
-// The IMU stream has a gap from t_a to t_b inside the run: a step whose segment would span it
-// runs again (its segment void), and so do the steps gapRestart names (no rotation next to a
-// gap); an alarm says so. A soak is not repeated (its segment stays; the calibration leaves it
-// out: online_engine.h completeSegmentsOnly). Nothing re-runs once the run is ending.
-void BenchDaemon::onImuGap(double t_a, double t_b, const std::string& cause) {
+// The IMU stream or the table readings (`what`) have a gap from t_a to t_b inside the run: a
+// step whose segment would span it runs again (its segment void), and so do the steps
+// gapRestart names (no rotation next to a gap); an alarm says so. A soak is not repeated (its
+// segment stays; the calibration leaves it out: online_engine.h completeSegmentsOnly). Nothing
+// re-runs once the run is ending. A gap of the IMU stream holds the table readings back too:
+// the table's gap across it is this one.
+void BenchDaemon::onRecordingGap(double t_a, double t_b, const std::string& what,
+                                 const std::string& cause) {
   ActiveRun& run = *run_;
   PlanRunner& r = *run.runner;
   const auto& steps = r.steps();
@@ -550,7 +595,7 @@ void BenchDaemon::onImuGap(double t_a, double t_b, const std::string& cause) {
   recordGap(run.id, t_a, t_b, cause, steps, g);
   const std::string label = steps[static_cast<std::size_t>(g.step)].label;
   std::ostringstream why;
-  why << "IMU data gap of " << (t_b - t_a) << " s at t = " << t_a << " s (" << cause
+  why << what << " gap of " << (t_b - t_a) << " s at t = " << t_a << " s (" << cause
       << ") inside the run: the steps from '" << label << "' run again";
   if (auto st = r.repeatFrom(g.step, wallNow(), why.str()); !st.ok)
     log_.error("run " + std::to_string(run.id) + ": " + st.message);
@@ -606,7 +651,9 @@ void BenchDaemon::onPoll() {
   if (obs.table_ok) table_answered_s_ = wallNow();
   if (obs.table_ok) {
     // a reading no sample has stamped yet is superseded
-    run_->pending_table = run_->reading(obs, 0.5 * (run_->poll_unix_s + unixNow()));
+    const double replied = unixNow();
+    run_->pending_table =
+        run_->reading(obs, 0.5 * (run_->poll_unix_s + replied), replied - run_->poll_unix_s);
   }
   run_->runner->tick(obs);
   publish(run_->runner->takeEvents());
@@ -625,24 +672,25 @@ void BenchDaemon::stampPendingTable(const drivers::DecodedImuSample& d, bool bur
   const double t = d.sample.t;
   if (rx > 0.0 && !burst_end) return;
   if (rx > 0.0) run.clock.addAnchor(rx, t);
-  if (run.pending_table && (rx <= 0.0 || rx >= run.pending_table->at_unix_s)) {
+  if (run.pending_table && (rx <= 0.0 || rx >= run.pending_table->read.at_unix_s)) {
     io::TableSample ts = run.pending_table->sample;
     ts.t = t;
     const std::optional<ImuClockLine> line =
         rx > 0.0 ? run.clock.line() : std::optional<ImuClockLine>();
     if (line) {
-      ts.t = line->imuTime(run.pending_table->at_unix_s);
+      ts.t = line->imuTime(run.pending_table->read.at_unix_s);
       for (std::size_t a = 0; a < 3; ++a) {  // each axis to the reading's instant
         const double t_axis = line->imuTime(run.pending_table->read_unix_s[a]);
         ts.angles_deg[a] += run.pending_table->rate[a] * (ts.t - t_axis) * kRadToDeg;
       }
     } else if (rx > 0.0 && run.last_rx_unix_s && rx > *run.last_rx_unix_s) {
       const double f =
-          (run.pending_table->at_unix_s - *run.last_rx_unix_s) / (rx - *run.last_rx_unix_s);
+          (run.pending_table->read.at_unix_s - *run.last_rx_unix_s) / (rx - *run.last_rx_unix_s);
       ts.t = *run.last_rx_t + std::clamp(f, 0.0, 1.0) * (t - *run.last_rx_t);
     }
+    const TableReadTiming read = run.pending_table->read;
     run.pending_table.reset();
-    storeTableSample(ts);
+    storeTableSample(ts, read);
   }
   if (rx > 0.0) {
     run.last_rx_unix_s = rx;
@@ -650,16 +698,32 @@ void BenchDaemon::stampPendingTable(const drivers::DecodedImuSample& d, bool bur
   }
 }
 
-// A stamped table reading goes to the store and the online engine, in time order.
-void BenchDaemon::storeTableSample(const io::TableSample& ts) {
+// A stamped table reading goes to the store (with its read round trip) and the online engine,
+// in time order. Readings further apart than the bench's [table] reading_gap while the plan runs: onRecordingGap.
+void BenchDaemon::storeTableSample(const io::TableSample& ts, const TableReadTiming& read) {
   ActiveRun& run = *run_;
   if (run.last_table_t && ts.t <= *run.last_table_t) return;
-  if (auto st = run.writer->appendTable(std::span(&ts, 1)); !st.ok) {
+  if (auto st = run.writer->appendTable(std::span(&ts, 1), std::span(&read.round_trip_s, 1));
+      !st.ok) {
     log_.error("store: " + st.message);
   } else if (run.engine) {
     run.engine->addTable(ts);
   }
+  const std::optional<double> prev_t = run.last_table_t;
+  const std::optional<TableReadTiming> prev = run.last_table_read;
+  const double cadence_s = std::max(options_.table_poll_s, run.typicalPollS(read.poll_duration_s));
+  run.addPollDuration(read.poll_duration_s);
   run.last_table_t = ts.t;
+  run.last_table_read = read;
+  if (!prev_t || !prev || run.runner->state() != RunnerState::kRunning) return;
+  const double busy_s = read.busy_s - prev->busy_s;
+  const double apart_s = read.at_unix_s - prev->at_unix_s;
+  if (apart_s - busy_s <= cadence_s + bench_.table_reading_gap_s) return;
+  std::ostringstream cause;
+  cause << "table readings " << apart_s << " s apart (wall clock; a poll takes " << cadence_s
+        << " s, device commands took " << busy_s << " s meanwhile, gap threshold "
+        << bench_.table_reading_gap_s << " s beyond them)";
+  onRecordingGap(*prev_t, ts.t, "table data", cause.str());
 }
 
 // A step's segment and the online engine's view of it begin at IMU time t0.

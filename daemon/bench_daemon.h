@@ -135,16 +135,27 @@ class BenchDaemon {
   TableStatus tableStatus() const;
 
   void onImuReadable();
+  static constexpr int kImuBatchesPerWake = 8;
+  bool readImuBatch();
   void onPoll();
   void stampPendingTable(const drivers::DecodedImuSample& d, bool burst_end);
-  void storeTableSample(const io::TableSample& ts);
+  // When and how a table reading was read (wall clock, unixNow).
+  struct TableReadTiming {
+    double at_unix_s = 0.0;        // the reading's instant (the axes' mean read time)
+    double round_trip_s = 0.0;     // the axes' longest read round trip (NaN: unknown)
+    double poll_duration_s = 0.0;  // the whole poll's (heartbeat, status, every axis)
+    double busy_s = 0.0;           // BenchObservation::busy_s of its poll
+  };
+  void storeTableSample(const io::TableSample& ts, const TableReadTiming& read);
   void onChamberPoll();
   void reportImuProblems();
   // A step of the IMU time longer than this many sample periods is a gap (below calib's
   // refusal threshold, calib::IncrementCheckOptions::max_gap_factor = 5 median steps).
   static constexpr double kGapPeriods = 4.0;
   void checkImuGap(std::size_t i);
-  void onImuGap(double t_a, double t_b, const std::string& cause);
+  // A gap (IMU time t_a to t_b) in the IMU stream (`what` "IMU data") or the stored table
+  // readings ("table data") inside the run.
+  void onRecordingGap(double t_a, double t_b, const std::string& what, const std::string& cause);
   void onStatusTimer();
   void publish(const std::vector<RunnerEvent>& events);
   void beginStep(int step, std::optional<double> t0);

@@ -108,7 +108,15 @@ void parseTable(const toml::table& root, const std::string& base_dir, BenchConfi
                 Diagnostics& diag) {
   const toml::table* t = subTable(root, "table", diag, true);
   if (t == nullptr) return;
-  checkKeys(*t, {"device", "host", "port", "path", "max_rate", "max_accel"}, "[table]", diag);
+  checkKeys(*t, {"device", "host", "port", "path", "max_rate", "max_accel", "reading_gap"},
+            "[table]", diag);
+  if (auto v = quantityField(*t, "reading_gap", Dimension::kTime, diag, false)) {
+    if (*v > 0.0 && *v <= 60.0) {
+      b.table_reading_gap_s = *v;
+    } else {
+      diag.error(t->get("reading_gap")->source(), "reading_gap must be in (0, 60] s");
+    }
+  }
   const auto device = strField(*t, "device", diag, true);
   if (!device) return;
   Diagnostics ddiag(resolve(base_dir, *device));

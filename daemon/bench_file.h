@@ -161,6 +161,19 @@ struct BenchConfig {
   // The table's device spec with the bench's endpoint overrides applied and its limits
   // tightened to the bench's: what the daemon enforces, whatever the controller allows.
   drivers::TableDeviceSpec table;
+  // [table] reading_gap: two stored table readings further apart than their cadence plus this
+  // (wall time) while the plan runs are a gap in the table data: an alarm, and the step runs
+  // again (as after a gap of the IMU stream: BenchDaemon::onRecordingGap). The cadence is the
+  // poll period or, on a slow link, the median duration of the last 9 polls (8 round trips on
+  // a two-axis Modbus table: 0.4 s at 50 ms latency), plus the time the daemon spent commanding
+  // the devices and reading the chamber between the two readings (DriverBenchPort::busyS: a
+  // step's start is a dozen round trips). 0.2 s: ten polls at the default period, so a late
+  // poll or two pass, while a controller that stops answering for a while (shorter than
+  // comm_timeout) or a loop held up (the overload that lost stretches of table.csv, issue 28)
+  // does not pass silently. Wall time, not IMU time: a virtual bench at 20x has polls 0.4 s of
+  // IMU time apart. (A test machine that stalls for a second at a time needs more: the e2e
+  // harness sets 3 s for tests about other things.)
+  double table_reading_gap_s = 0.2;
   std::optional<BenchChamber> chamber;
   BenchImu imu;
   BenchSafety safety;

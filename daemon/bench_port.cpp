@@ -20,6 +20,19 @@ void afterPollingRead(bool answered, Driver* driver, int* reads, double* retry_a
   if (silent) *retry_at_s = steadyNowS() + DriverBenchPort::kSilentRetryPeriodS;
 }
 
+// Adds the wall time of its scope to *total (DriverBenchPort::busyS).
+class BusyTime {
+ public:
+  explicit BusyTime(double* total) : total_(total), t0_(steadyNowS()) {}
+  ~BusyTime() { *total_ += steadyNowS() - t0_; }
+  BusyTime(const BusyTime&) = delete;
+  BusyTime& operator=(const BusyTime&) = delete;
+
+ private:
+  double* total_;
+  double t0_;
+};
+
 }  // namespace
 
 DriverBenchPort::DriverBenchPort(drivers::TableDriver& table, drivers::ChamberDriver* chamber)
@@ -38,6 +51,7 @@ Status DriverBenchPort::positionMode(int axis) {
 }
 
 Status DriverBenchPort::prepare() {
+  const BusyTime busy(&busy_s_);
   if (table_.state() == drivers::DeviceState::kOffline) {
     if (auto st = table_.connect(); !st.ok) return st;
   }
@@ -66,18 +80,21 @@ Status DriverBenchPort::prepare() {
 }
 
 Status DriverBenchPort::moveTo(int axis, double angle_rad, const drivers::MotionLimits& limits) {
+  const BusyTime busy(&busy_s_);
   if (auto st = positionMode(axis); !st.ok) return st;
   if (auto st = table_.setProfile(axis, limits); !st.ok) return st;
   return table_.moveTo(axis, angle_rad);
 }
 
 Status DriverBenchPort::rotateBy(int axis, double delta_rad, const drivers::MotionLimits& limits) {
+  const BusyTime busy(&busy_s_);
   if (auto st = positionMode(axis); !st.ok) return st;
   if (auto st = table_.setProfile(axis, limits); !st.ok) return st;
   return table_.rotateBy(axis, delta_rad);
 }
 
 Status DriverBenchPort::stopAll() {
+  const BusyTime busy(&busy_s_);
   Status first;
   for (int a = 0; a < table_.spec().axisCount(); ++a) {
     const Status st = table_.stop(a);
@@ -88,11 +105,13 @@ Status DriverBenchPort::stopAll() {
 }
 
 Status DriverBenchPort::emergencyStop() {
+  const BusyTime busy(&busy_s_);
   for (auto& m : modes_) m.reset();
   return table_.emergencyStop();
 }
 
 Status DriverBenchPort::chamberSetpoint(double setpoint_c, double ramp_c_per_s) {
+  const BusyTime busy(&busy_s_);
   if (chamber_ == nullptr) return {};
   if (ramp_c_per_s > 0.0) {
     if (auto st = chamber_->setRampRate(ramp_c_per_s); !st.ok) return st;
@@ -107,6 +126,7 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
   o.imu_last_frame_s = imu_last_frame_s;
   o.table_last_ok_s = table_last_ok_s_;
   o.chamber_temp_c = chamber_temp_c_;
+  o.busy_s = busy_s_;
   if (steadyNowS() < table_silence_.retry_at_s) return o;  // silent: next attempt later
   reading_ = drivers::TableReading{};
   table_.setSingleAttempt(true);  // a polling read: the next poll is its retry
@@ -126,12 +146,14 @@ BenchObservation DriverBenchPort::observe(double now_s, double imu_last_frame_s)
     o.angles.push_back(a.angle);
     o.rates.push_back(a.rate);
     o.angles_unix_s.push_back(a.read_unix_s);
+    o.angles_round_trip_s.push_back(a.round_trip_s);
     o.moving = o.moving || a.moving;
   }
   return o;
 }
 
 bool DriverBenchPort::readChamber(drivers::ChamberReading* out) {
+  const BusyTime busy(&busy_s_);
   chamber_temp_c_.reset();
   if (chamber_ == nullptr || steadyNowS() < chamber_silence_.retry_at_s) return false;
   *out = drivers::ChamberReading{};

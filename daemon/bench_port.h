@@ -42,7 +42,7 @@ class DriverBenchPort : public BenchPort {
 
   // Reads the table and fills what the runner needs, with the chamber temperature of the
   // last readChamber(). now_s: the daemon's monotonic time; imu_last_frame_s: when the IMU
-  // last delivered a sample (same clock). The last driver errors are kept for the alarm text
+  // last delivered a sample (same clock). BenchObservation::busy_s is busyS() then. The last driver errors are kept for the alarm text
   // (lastTableError()). A silent table is not read again before kSilentRetryPeriodS has
   // passed (table_ok false meanwhile).
   BenchObservation observe(double now_s, double imu_last_frame_s);
@@ -52,6 +52,11 @@ class DriverBenchPort : public BenchPort {
   // chamber waits for its next attempt (kSilentRetryPeriodS). No chamber: false.
   bool readChamber(drivers::ChamberReading* out);
   const drivers::TableReading& lastReading() const { return reading_; }
+  // Seconds (monotonic, summed since construction) this port spent in device transactions
+  // other than the table's polling reads: commands, the chamber's reads. The loop reads no
+  // table meanwhile, by design: the daemon's judge of a gap in the table readings leaves this
+  // time out (BenchConfig::table_reading_gap_s).
+  double busyS() const { return busy_s_; }
   const std::string& lastTableError() const { return table_error_; }
 
  private:
@@ -71,6 +76,7 @@ class DriverBenchPort : public BenchPort {
   };
   Silence table_silence_, chamber_silence_;
   std::optional<double> chamber_temp_c_;  // the last chamber read's, none after a failed one
+  double busy_s_ = 0.0;                   // busyS()
 };
 
 }  // namespace imubench::daemon

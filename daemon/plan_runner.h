@@ -144,6 +144,10 @@ struct BenchObservation {
   // When each angle was sampled (CLOCK_REALTIME s, drivers::unixTimeS; 0: unknown). Each axis
   // is read by its own request, so they differ by a round trip or more.
   std::vector<double> angles_unix_s;
+  // Each angle's read round trip, s (drivers::TableAxisReading::round_trip_s; 0: unknown).
+  std::vector<double> angles_round_trip_s;
+  // DriverBenchPort::busyS() at this reading: the port's time in commands and chamber reads.
+  double busy_s = 0.0;
   bool moving = false;  // any axis moving
   // The clock of the plan's holds and soaks: the IMU's own sample time when the daemon has
   // it (a virtual bench may run faster than the wall clock; the IMU's samples are what a

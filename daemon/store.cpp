@@ -64,6 +64,7 @@ CREATE TABLE table_samples(
   run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
   t ANY NOT NULL,
   angle0_deg ANY NOT NULL, angle1_deg ANY NOT NULL, angle2_deg ANY NOT NULL,
+  round_trip_s ANY,
   PRIMARY KEY(run_id, t)
 ) STRICT, WITHOUT ROWID;
 CREATE TABLE chamber_samples(
@@ -113,8 +114,16 @@ CREATE TABLE queue(
 ) STRICT;
 CREATE INDEX queue_by_pos ON queue(pos);
 )sql";
-constexpr const char* kSetSchemaVersionSql = "PRAGMA user_version=2";
-static_assert(kStoreSchemaVersion == 2, "kSetSchemaVersionSql writes version 2");
+// Schema version 3: each table reading's read round trip, s (RunBatch::table_round_trip_s;
+// NULL: unknown, as in every row stored before).
+constexpr const char* kRoundTripColumnSql =
+    "ALTER TABLE table_samples ADD COLUMN round_trip_s ANY";
+constexpr const char* kHasRoundTripColumnSql =
+    "SELECT count(*) FROM pragma_table_info('table_samples') WHERE name = 'round_trip_s'";
+constexpr const char* kSetSchemaVersionSql = "PRAGMA user_version=3";
+static_assert(kStoreSchemaVersion == 3, "kSetSchemaVersionSql writes version 3");
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // The newest stored IMU sample of run ?1 (NULL: none).
 constexpr const char* kLastImuTSql = "SELECT max(t) FROM imu_samples WHERE run_id = ?1";
@@ -198,10 +207,25 @@ Status checkSegments(std::span<const calib::Segment> segments, std::optional<dou
   return Status::Ok();
 }
 
+// Round trips: none, or one per table row, each unknown (NaN) or finite and >= 0.
+Status checkRoundTrips(std::span<const double> round_trip_s, std::size_t rows) {
+  if (!round_trip_s.empty() && round_trip_s.size() != rows) {
+    return Status::Error(std::to_string(round_trip_s.size()) + " round trips for " +
+                         std::to_string(rows) + " table samples");
+  }
+  for (std::size_t i = 0; i < round_trip_s.size(); ++i) {
+    const double rt = round_trip_s[i];
+    if (!std::isnan(rt) && !(std::isfinite(rt) && rt >= 0.0))
+      return Status::Error("table sample " + std::to_string(i) + ": invalid round trip");
+  }
+  return Status::Ok();
+}
+
 Status checkBatch(const RunBatch& b) {
   if (auto st = checkRows<nav::ImuSample>("IMU sample", b.imu, std::nullopt); !st.ok) return st;
   if (auto st = checkRows<io::TableSample>("table sample", b.table, std::nullopt); !st.ok)
     return st;
+  if (auto st = checkRoundTrips(b.table_round_trip_s, b.table.size()); !st.ok) return st;
   if (auto st = checkRows<io::ChamberSample>("chamber sample", b.chamber, std::nullopt); !st.ok)
     return st;
   return checkSegments(b.segments, std::nullopt);
@@ -440,13 +464,24 @@ Status Store::Impl::createSchemaIfNew() {
   });
 }
 
-// Version 1 (before the queue) -> 2.
+// Version 1 (before the queue) -> 2 -> 3 (before the round trips).
 Status Store::Impl::migrateSchema() {
-  return transaction("cannot migrate the schema to version 2", [&]() {
+  return transaction("cannot migrate the schema to version 3", [&]() {
     std::int64_t version = 0;
     // Re-read inside the write transaction: another process may have migrated it meanwhile.
-    if (auto st = checkSchemaVersion(&version); !st.ok || version != 1) return st;
-    if (auto st = execSql(kQueueSchemaSql, "cannot add the queue"); !st.ok) return st;
+    if (auto st = checkSchemaVersion(&version); !st.ok || version < 1 || version > 2) return st;
+    if (version == 1) {
+      if (auto st = execSql(kQueueSchemaSql, "cannot add the queue"); !st.ok) return st;
+    }
+    std::int64_t has_column = 0;
+    if (auto st = queryInt(kHasRoundTripColumnSql, "cannot read the table samples' columns",
+                           &has_column);
+        !st.ok) {
+      return st;
+    }
+    if (has_column == 0) {
+      if (auto st = execSql(kRoundTripColumnSql, "cannot add the round trips"); !st.ok) return st;
+    }
     return execSql(kSetSchemaVersionSql, "cannot set the schema version");
   });
 }
@@ -565,12 +600,15 @@ Status Store::Impl::insertRows(std::int64_t run_id, const RunBatch& b) {
       at("IMU sample"));
   if (!st.ok) return st;
   st = insertEach(
-      "INSERT INTO table_samples(run_id, t, angle0_deg, angle1_deg, angle2_deg) "
-      "VALUES(?1, ?2, ?3, ?4, ?5)",
+      "INSERT INTO table_samples(run_id, t, angle0_deg, angle1_deg, angle2_deg, round_trip_s) "
+      "VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
       run_id, b.table,
-      [](Bound& q, const io::TableSample& s) {
+      [&b](Bound& q, const io::TableSample& s) {
         q.bind(2, s.t);
         for (int a = 0; a < 3; ++a) q.bind(3 + a, s.angles_deg[static_cast<std::size_t>(a)]);
+        const auto k = static_cast<std::size_t>(&s - b.table.data());
+        // NaN (unknown) binds as NULL
+        q.bind(6, k < b.table_round_trip_s.size() ? b.table_round_trip_s[k] : kNaN);
       },
       at("table sample"));
   if (!st.ok) return st;
@@ -769,6 +807,7 @@ RunStart runStartFromRecording(const io::Recording& rec) {
 void RunBatch::clear() {
   imu.clear();
   table.clear();
+  table_round_trip_s.clear();
   chamber.clear();
   segments.clear();
 }
@@ -798,7 +837,7 @@ StoreOpenResult Store::open(const std::string& path, const StoreOptions& options
   if (st.ok) st = impl->checkSchemaVersion(&version);
   if (st.ok) st = impl->configure();
   if (st.ok && version == 0) st = impl->createSchemaIfNew();
-  if (st.ok && version == 1) st = impl->migrateSchema();
+  if (st.ok && (version == 1 || version == 2)) st = impl->migrateSchema();
   if (!st.ok) {
     r.status = st;
     return r;
@@ -1051,7 +1090,7 @@ RunIdResult Store::importRecording(const RunStart& start, const io::Recording& r
     r.status = impl_->error("cannot import recording: " + why);
     return r;
   }
-  RunBatch batch{rec.imu, rec.table, rec.chamber, rec.segments};
+  RunBatch batch{rec.imu, rec.table, {}, rec.chamber, rec.segments};  // round trips unknown
   if (auto st = checkBatch(batch); !st.ok) {
     r.status = impl_->error("cannot import recording: " + st.message);
     return r;
@@ -1099,6 +1138,25 @@ io::RecordingReadResult Store::loadRecording(std::int64_t run_id) {
     r.status = st;
     r.value = io::Recording{};
   }
+  return r;
+}
+
+TableRoundTripsResult Store::tableRoundTrips(std::int64_t run_id) {
+  TableRoundTripsResult r;
+  if (auto info = runInfo(run_id); !info.status.ok) {
+    r.status = info.status;
+    return r;
+  }
+  r.status = impl_->forEachRunRow(
+      "SELECT t, round_trip_s FROM table_samples WHERE run_id = ?1 ORDER BY t", run_id,
+      "table round trips", [&r](Bound& q) {
+        TableRoundTrip& row = r.value.emplace_back();
+        row.t = q.real(0);
+        const double rt = q.realOrNaN(1);
+        if (!std::isnan(rt)) row.round_trip_s = rt;
+        return Status::Ok();
+      });
+  if (!r.status.ok) r.value.clear();
   return r;
 }
 
@@ -1267,8 +1325,23 @@ Status RunWriter::appendImu(std::span<const nav::ImuSample> samples) {
   return appendRows("IMU sample", samples, &last_imu_t_, &buffer_.imu);
 }
 
-Status RunWriter::appendTable(std::span<const io::TableSample> samples) {
-  return appendRows("table sample", samples, &last_table_t_, &buffer_.table);
+Status RunWriter::appendTable(std::span<const io::TableSample> samples,
+                              std::span<const double> round_trip_s) {
+  if (auto st = checkRoundTrips(round_trip_s, samples.size()); !st.ok) {
+    return Status::Error(store_->path() + ": " + runLabel(run_id_) + ": " + st.message);
+  }
+  // Buffered first: appendRows may flush. One per buffered table row (NaN: unknown).
+  const std::size_t before = buffer_.table.size();
+  std::vector<double>& trips = buffer_.table_round_trip_s;
+  trips.resize(before, kNaN);
+  if (round_trip_s.empty()) {
+    trips.resize(before + samples.size(), kNaN);
+  } else {
+    trips.insert(trips.end(), round_trip_s.begin(), round_trip_s.end());
+  }
+  Status st = appendRows("table sample", samples, &last_table_t_, &buffer_.table);
+  if (!st.ok && buffer_.table.size() == before) trips.resize(before);  // refused: not buffered
+  return st;
 }
 
 Status RunWriter::appendChamber(std::span<const io::ChamberSample> samples) {

@@ -29,8 +29,8 @@ namespace imubench::daemon {
 
 // PRAGMA user_version of the schema this code writes. A database with a higher version was
 // written by a newer imubench and is refused rather than misread; an older one is migrated
-// when opened (1 -> 2: the plan queue's table).
-inline constexpr int kStoreSchemaVersion = 2;
+// when opened (1 -> 2: the plan queue's table; 2 -> 3: the table readings' round trips).
+inline constexpr int kStoreSchemaVersion = 3;
 
 struct StoreOptions {
   // How long a statement waits for a lock held by another connection (a CLI reading while
@@ -129,6 +129,11 @@ struct ResultFilter {
 struct RunBatch {
   nav::ImuSamples imu;
   std::vector<io::TableSample> table;
+  // Per table row, the round trip of the request that read it, s (NaN: unknown); empty when
+  // none is known, else as long as `table`. Stored beside the row (table_samples.round_trip_s)
+  // and never part of the recording: the imubench-csv/1 table.csv has no column for it
+  // (interchange.md), so an export stays bit-exact.
+  std::vector<double> table_round_trip_s;
   std::vector<io::ChamberSample> chamber;
   std::vector<calib::Segment> segments;
 
@@ -153,6 +158,11 @@ struct QueuePlace {
 using QueueAddResult = Result<QueuePlace>;
 using QueueListResult = Result<std::vector<QueueEntry>>;  // in queue order, the next first
 using CountResult = Result<int>;
+struct TableRoundTrip {
+  double t = 0.0;                       // the reading's time (table_samples.t)
+  std::optional<double> round_trip_s;  // unset: unknown
+};
+using TableRoundTripsResult = Result<std::vector<TableRoundTrip>>;
 // Where an interrupted run stands (Store::resumePoint): the step of the newest stored
 // step_finished event (its segment is committed before the event), and the newest stored row of
 // each stream, so the resumed run's rows continue after them.
@@ -220,6 +230,10 @@ class Store {
   // The run's samples and meta data as a io::Recording (also for a running or interrupted run:
   // what has been committed).
   io::RecordingReadResult loadRecording(std::int64_t run_id);
+  // The run's table readings' round trips in time order (the rows of loadRecording's table):
+  // how long the request that read each took (the daemon stamps a reading at its midpoint, so
+  // its time is within half of it); unset where unknown (an import, a driver without it).
+  TableRoundTripsResult tableRoundTrips(std::int64_t run_id);
 
   ResultIdResult storeResult(std::int64_t run_id, const std::string& imu_serial,
                              double temperature_c, const std::string& kind,
@@ -259,7 +273,9 @@ class RunWriter {
   RunWriter& operator=(const RunWriter&) = delete;
 
   Status appendImu(std::span<const nav::ImuSample> samples);
-  Status appendTable(std::span<const io::TableSample> samples);
+  // round_trip_s: empty (unknown) or one per sample (RunBatch::table_round_trip_s).
+  Status appendTable(std::span<const io::TableSample> samples,
+                     std::span<const double> round_trip_s = {});
   Status appendChamber(std::span<const io::ChamberSample> samples);
   Status appendSegment(const calib::Segment& segment);
 

@@ -27,6 +27,9 @@ struct TableAxisReading {
   // (unixTimeS); 0 when unknown. Each axis is read by its own request, so the axes' instants
   // differ by a round trip or more.
   double read_unix_s = 0.0;
+  // That request's round trip (reply time minus request time), s; 0 when unknown. The stamp
+  // read_unix_s is within half of it of the controller's sampling instant.
+  double round_trip_s = 0.0;
   bool moving = false;
   bool in_position = false;
 };

@@ -117,7 +117,11 @@ Status ModbusTable::read(TableReading* out) {
     auto& a = r.axes[i];
     const double asked = unixTimeS();
     if (Status s = link_.read(ax.position, what("read position", i), &a.angle); !s.ok) return s;
-    a.read_unix_s = 0.5 * (asked + unixTimeS());
+    {
+      const double replied = unixTimeS();
+      a.read_unix_s = 0.5 * (asked + replied);
+      a.round_trip_s = replied - asked;
+    }
     if (Status s = link_.read(ax.rate, what("read rate", i), &a.rate); !s.ok) return s;
     uint32_t st = 0;
     if (Status s = link_.readBits(ax.status, what("read axis status", i), &st); !s.ok) return s;

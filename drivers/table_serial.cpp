@@ -199,7 +199,11 @@ Status SerialTable::read(TableReading* out) {
     double v = 0;
     const double asked = unixTimeS();
     if (Status s = query(spec_.commands.read_position, i, "read position", &v); !s.ok) return s;
-    a.read_unix_s = 0.5 * (asked + unixTimeS());
+    {
+      const double replied = unixTimeS();
+      a.read_unix_s = 0.5 * (asked + replied);
+      a.round_trip_s = replied - asked;
+    }
     a.angle = v * spec_.commands.angle_unit;
     if (Status s = query(spec_.commands.read_rate, i, "read rate", &v); !s.ok) return s;
     a.rate = v * spec_.commands.rate_unit;

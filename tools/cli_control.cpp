@@ -567,27 +567,18 @@ void addQueueCommands(CLI::App& app, const std::string& group) {
 // The emergency stop goes to the stop socket (served before anything else the daemon does,
 // never full): one connect, one line, one reply. A daemon without one (older, or the path
 // does not exist) gets it on the control socket.
+// `imubench stop` without --json is served by the front end (tools/imubench_front.cpp) with the
+// same sendEmergencyStop, messages and exit codes, so an operator's stop does not wait for this
+// program's libraries to load.
 void runStop(const ControlOptions& o, const std::string& stop_socket) {
-  const std::string path = stop_socket.empty() ? o.socket + ".stop" : stop_socket;
   try {
-    ControlClient c;
-    try {
-      c.connect(path);
-    } catch (const ControlError& e) {
-      if (!stop_socket.empty()) throw;
-      c.connect(o.socket);  // no stop socket at the default path: the control socket
-    }
-    const json reply = c.request({{"cmd", "stop"}});
+    const json reply = sendEmergencyStop(o.socket, stop_socket);
     if (o.json) std::cout << dumpJson(reply) << "\n" << std::flush;
-    if (!reply["ok"].get<bool>()) {
-      const json& e = reply["error"];
-      throw CommandFailed("error (" + e.value("code", std::string("?")) +
-                          "): " + e.value("message", dumpJson(e)));
-    }
+    throwIfRefused(reply);
   } catch (const ControlError& e) {
     throw CommandFailed(e.what());
   }
-  if (!o.json) std::cout << "emergency stop sent\n";
+  if (!o.json) std::cout << kEmergencyStopSent << "\n";
 }
 
 // ---- pause / resume / abort ----

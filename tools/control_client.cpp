@@ -270,7 +270,12 @@ json ControlClient::request(json req, int timeout_ms) {
 
 json ControlClient::call(json req, int timeout_ms) {
   json reply = request(std::move(req), timeout_ms);
-  if (reply["ok"].get<bool>()) return reply.contains("result") ? reply["result"] : json::object();
+  throwIfRefused(reply);
+  return reply.contains("result") ? reply["result"] : json::object();
+}
+
+void throwIfRefused(const json& reply) {
+  if (reply["ok"].get<bool>()) return;
   const json& e = reply["error"];
   const std::string code =
       e.contains("code") && e["code"].is_string() ? e["code"].get<std::string>() : "?";
@@ -295,6 +300,17 @@ std::optional<json> ControlClient::nextEvent(int timeout_ms) {
     }
     if (!readSome(msLeft(deadline))) return std::nullopt;
   }
+}
+
+json sendEmergencyStop(const std::string& control_socket, const std::string& stop_socket) {
+  ControlClient c;
+  try {
+    c.connect(stop_socket.empty() ? control_socket + ".stop" : stop_socket);
+  } catch (const ControlError&) {
+    if (!stop_socket.empty()) throw;
+    c.connect(control_socket);  // no stop socket at the default path: the control socket
+  }
+  return c.request({{"cmd", "stop"}});
 }
 
 }  // namespace imubench::tools

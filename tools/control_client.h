@@ -102,4 +102,16 @@ class ControlClient {
   std::deque<nlohmann::json> events_;
 };
 
+// The emergency stop (`imubench stop`): one connect to stop_socket (empty: control_socket +
+// ".stop", and when nothing listens there, control_socket itself: an older daemon), one line,
+// and the daemon's reply, raw (ok true or false). Throws ControlError like request(). Shared by
+// the CLI's `stop` and the light front end that serves it without loading the CLI
+// (tools/imubench_front.cpp).
+nlohmann::json sendEmergencyStop(const std::string& control_socket,
+                                 const std::string& stop_socket);
+// What `imubench stop` prints when the daemon took it.
+inline constexpr const char* kEmergencyStopSent = "emergency stop sent";
+// An ok=false reply throws RemoteError ("error (code): message"), as ControlClient::call.
+void throwIfRefused(const nlohmann::json& reply);
+
 }  // namespace imubench::tools

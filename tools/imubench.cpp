@@ -2,7 +2,7 @@
 // pattern in tools/cli_common.h); main only wires them and maps failures to exit codes:
 //   0 success, 1 the command failed (bad input file, plan errors, failed work),
 //   2 bad command line (CLI11 parse error).
-// The same main is linked twice (tools/CMakeLists.txt): `imubench` without the run store, which
+// The same main is linked twice (tools/CMakeLists.txt): `imubench-cli` without the run store, which
 // hands the store commands to `imubench-store` (NeedsRunStore, tools/cli_store.h), and
 // `imubench-store` with it.
 #include <exception>

@@ -105,6 +105,25 @@ TEST(BenchFile, ControlIdleTimeout) {
   EXPECT_NE(typo.str().find("unknown key \"idle\" in [control]"), std::string::npos) << typo.str();
 }
 
+// Issue 28 item 7: the gap in the table readings that re-runs a step, default 0.2 s.
+TEST(BenchFile, TableReadingGap) {
+  io::Diagnostics diag("bench.toml");
+  auto b = parse(kGood, diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_DOUBLE_EQ(b->table_reading_gap_s, 0.2);
+  b = parse(replaced("max_rate = \"30 deg/s\"", "max_rate = \"30 deg/s\"\nreading_gap = \"1.5 s\""),
+            diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_DOUBLE_EQ(b->table_reading_gap_s, 1.5);
+  io::Diagnostics bad("bench.toml");
+  EXPECT_FALSE(
+      parse(replaced("max_rate = \"30 deg/s\"", "max_rate = \"30 deg/s\"\nreading_gap = \"0 s\""),
+            bad)
+          .has_value());
+  EXPECT_NE(bad.str().find("bench.toml:"), std::string::npos) << bad.str();
+  EXPECT_NE(bad.str().find("reading_gap must be in (0, 60] s"), std::string::npos) << bad.str();
+}
+
 // Issue 28: connections per uid and the stop socket.
 TEST(BenchFile, ControlConnectionsPerUidAndStopSocket) {
   io::Diagnostics diag("bench.toml");

@@ -158,6 +158,53 @@ TEST(Store, LiveRunThroughRunWriterLoadsBitExact) {
   expectSameStored(rec, loaded.value);
 }
 
+// Each table reading's read round trip is stored beside it (known or not, across flushes), read
+// back in time order, and never part of the recording; a count that does not match the rows or
+// a negative round trip is refused with nothing buffered.
+TEST(Store, TableRoundTripsAreStoredBesideTheReadings) {
+  ScratchDir dir("store");
+  StoreOptions small;
+  small.max_unflushed_rows = 7;  // flushes in the middle of the appends below
+  auto opened = Store::open(dir.file("bench.db"), small);
+  ASSERT_TRUE(opened.status.ok) << opened.status.message;
+  Store& store = *opened.value;
+  const io::Recording rec = makeRecording(3, calib::TableKind::kTwoAxis, 400);
+  ASSERT_GE(rec.table.size(), 20u);
+  const RunIdResult run = store.beginRun(runStartFromRecording(rec));
+  ASSERT_TRUE(run.status.ok) << run.status.message;
+  std::vector<std::optional<double>> expected;
+  {
+    RunWriter writer(store, run.value);
+    const double bad[2] = {0.01, 0.02};
+    EXPECT_FALSE(writer.appendTable(std::span(rec.table).first(1), std::span(bad, 2)).ok);
+    const double negative = -0.001;
+    EXPECT_FALSE(writer.appendTable(std::span(rec.table).first(1), std::span(&negative, 1)).ok);
+    for (std::size_t i = 0; i < 20; ++i) {
+      const auto row = std::span(rec.table).subspan(i, 1);
+      if (i % 3 == 0) {  // unknown: no round trip given
+        ASSERT_TRUE(writer.appendTable(row).ok);
+        expected.emplace_back();
+      } else {
+        const double rt = 0.015 + 0.001 * static_cast<double>(i);
+        ASSERT_TRUE(writer.appendTable(row, std::span(&rt, 1)).ok);
+        expected.emplace_back(rt);
+      }
+    }
+    ASSERT_TRUE(writer.flush().ok);
+  }
+  const TableRoundTripsResult trips = store.tableRoundTrips(run.value);
+  ASSERT_TRUE(trips.status.ok) << trips.status.message;
+  ASSERT_EQ(trips.value.size(), expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(trips.value[i].t, rec.table[i].t);
+    EXPECT_EQ(trips.value[i].round_trip_s, expected[i]) << "row " << i;
+  }
+  const io::RecordingReadResult loaded = store.loadRecording(run.value);
+  ASSERT_TRUE(loaded.status.ok);
+  ASSERT_EQ(loaded.value.table.size(), expected.size());
+  EXPECT_FALSE(store.tableRoundTrips(run.value + 1).status.ok);
+}
+
 TEST(Store, DatabaseIsWalWithSchemaVersion) {
   ScratchDir dir("store");
   const std::string path = dir.file("bench.db");
@@ -541,9 +588,53 @@ TEST(StoreQueue, Version1DatabaseIsMigrated) {
   sqlite3_stmt* q = nullptr;
   ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA user_version", -1, &q, nullptr), SQLITE_OK);
   ASSERT_EQ(sqlite3_step(q), SQLITE_ROW);
-  EXPECT_EQ(sqlite3_column_int(q, 0), 2);
+  EXPECT_EQ(sqlite3_column_int(q, 0), kStoreSchemaVersion);
   sqlite3_finalize(q);
   sqlite3_close(db);
+}
+
+// A version 2 database (before the round trips) gets the column; its table rows stay, their
+// round trips unknown, and new rows store theirs.
+TEST(Store, Version2DatabaseGetsRoundTrips) {
+  ScratchDir dir("store");
+  const std::string path = dir.file("v2.db");
+  const io::Recording rec = makeRecording(5, calib::TableKind::kTwoAxis, 400);
+  std::int64_t run = 0;
+  {
+    auto store = openOrFail(path);
+    ASSERT_TRUE(store);
+    const RunIdResult begun = store->beginRun(runStartFromRecording(rec));
+    ASSERT_TRUE(begun.status.ok) << begun.status.message;
+    run = begun.value;
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  // The version 2 table, with one row.
+  ASSERT_EQ(sqlite3_exec(db,
+                         "DROP TABLE table_samples; CREATE TABLE table_samples(run_id INTEGER "
+                         "NOT NULL REFERENCES runs(id) ON DELETE CASCADE, t ANY NOT NULL, "
+                         "angle0_deg ANY NOT NULL, angle1_deg ANY NOT NULL, angle2_deg ANY NOT "
+                         "NULL, PRIMARY KEY(run_id, t)) STRICT, WITHOUT ROWID; INSERT INTO "
+                         "table_samples VALUES(1, 0.5, 1.0, 2.0, 0.0); PRAGMA user_version = 2",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  auto store = openOrFail(path);
+  ASSERT_TRUE(store);
+  {
+    RunWriter writer(*store, run, store->resumePoint(run));
+    const io::TableSample later{1.0, {3.0, 4.0, 0.0}};
+    const double rt = 0.021;
+    ASSERT_TRUE(writer.appendTable(std::span(&later, 1), std::span(&rt, 1)).ok);
+    ASSERT_TRUE(writer.flush().ok);
+  }
+  const TableRoundTripsResult trips = store->tableRoundTrips(run);
+  ASSERT_TRUE(trips.status.ok) << trips.status.message;
+  ASSERT_EQ(trips.value.size(), 2u);
+  EXPECT_FALSE(trips.value[0].round_trip_s.has_value());
+  ASSERT_TRUE(trips.value[1].round_trip_s.has_value());
+  EXPECT_EQ(*trips.value[1].round_trip_s, 0.021);
+  EXPECT_EQ(store->loadRecording(run).value.table.size(), 2u);
 }
 
 TEST(Store, OptionsAndRunStartAreValidated) {

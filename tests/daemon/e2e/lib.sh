@@ -21,6 +21,10 @@
 #   $E2E_WATCHDOG_TIMEOUT              # the virtual table's host-watchdog timeout, s (default
 #                                      #   2: a stalled machine must not open the interlock in a
 #                                      #   test about something else; host_watchdog.sh: 0.5)
+#   $E2E_TABLE_READING_GAP             # the bench file's [table] reading_gap (default 3 s: a
+#                                      #   loaded user-mode Linux holds the loop up for a second
+#                                      #   and more; table_gap.sh and table_latency.sh: 0.2 s,
+#                                      #   the daemon's default)
 #   e2e_stop_daemon                    # SIGTERM, checks the exit status
 #   e2e_py SCRIPT [ARGS...]            # python3 with tests/daemon/e2e on the path (e2e_client)
 #   fail MESSAGE                       # prints the tails of the logs and exits 1
@@ -79,6 +83,7 @@ device = "$E2E_TABLE_DEVICE"
 port = 1502
 max_rate = "30 deg/s"
 max_accel = "10 deg/s^2"
+reading_gap = "${E2E_TABLE_READING_GAP:-3 s}"
 [chamber]
 device = "$E2E_CHAMBER_DEVICE"
 port = 1503

@@ -9,11 +9,12 @@
 #     recently active closed), the regular and reserved slots fill, further root connections are
 #     refused busy;
 #   - `imubench stop` (the CLI as an operator runs it) exits 0, and the table is at rest within
-#     100 ms of the command (median of the 20; none beyond 500 ms, see the check): the controller's own registers (Modbus, polled every ~2 ms by
-#     this test: estop bit and the outer axis's encoder rate) from the moment the CLI sends its
-#     line (strace -ttt of its sendto; the process start-up before main, 0.1-3 s under a loaded
-#     user-mode-linux, is not the stop's latency: the CLI connects once and sends one line);
-#     the run ends faulted (emergency_stop);
+#     STOP_LIMIT_MS of the command, each of the 20 tries: the controller's own registers
+#     (Modbus, polled every ~2 ms by this test: estop bit and the outer axis's encoder rate)
+#     from the moment the test starts the CLI process (its start-up included: `imubench` is a
+#     libc-only front end that serves `stop` itself, tools/imubench_front.cpp; the whole CLI
+#     took 0.15 s to load in an idle user-mode Linux, 0.6 s loaded); the run ends faulted
+#     (emergency_stop);
 #   - the holders go, the controller restarts (SIGRTMIN, which clears its latched estop).
 # Usage: stop_lockout.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
@@ -163,14 +164,9 @@ for attempt in range(1, 21):
 
     t = threading.Thread(target=poll)
     t.start()
-    trace = "%s/stop-%d.strace" % (work, attempt)
-    t_run = time.time()
-    p = subprocess.run(["strace", "-ttt", "-e", "trace=sendto,sendmsg,write", "-o", trace, cli,
-                        "stop"], capture_output=True, text=True, timeout=30)
-    t_cli = time.time() - t_run
-    sends = [float(l.split()[0]) for l in open(trace) if "stop" in l and "send" in l]
-    check(len(sends) == 1, "try %d: the CLI sends one stop line: %s" % (attempt, open(trace).read()))
-    t0 = sends[0]
+    t0 = time.time()
+    p = subprocess.run([cli, "stop"], capture_output=True, text=True, timeout=30)
+    t_cli = time.time() - t0
     fin = watcher.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run,
                              "run end", limit=10)
     while not samples or samples[-1][0] < t0 + 0.5:
@@ -183,9 +179,8 @@ for attempt in range(1, 21):
     rest = next((s[0] for s in after if s[1] and abs(s[2]) < 1e-4), None)
     check(rest is not None, "try %d: the table comes to rest with its estop latched" % attempt)
     latencies.append(rest - t0)
-    print("try %d: the CLI's stop line -> table at rest %.1f ms (the CLI ran for %.1f ms, its "
-          "line went out %.1f ms after it was started)"
-          % (attempt, 1e3 * (rest - t0), 1e3 * t_cli, 1e3 * (t0 - t_run)), flush=True)
+    print("try %d: imubench stop started -> table at rest %.1f ms (the CLI ran for %.1f ms)"
+          % (attempt, 1e3 * (rest - t0), 1e3 * t_cli), flush=True)
     check(fin["state"] == "faulted" and fin["exit"] == "emergency_stop", "the run ended by it")
     for c in roots:
         c.close()
@@ -206,12 +201,12 @@ for attempt in range(1, 21):
             raise SystemExit("the virtual table kept its estop after a restart")
         time.sleep(0.05)
     enc.s.close()
-# The typical stop is the requirement (100 ms); the worst of 20 is bounded looser because this
-# test shares 2 cores with the rest of the suite in user-mode Linux, where a loop turn can be
-# held by a table poll under load (measured at a load of 10-12: median 58 ms, max 161 ms).
-check(statistics.median(latencies) < 0.1 and max(latencies) < 0.5,
-      "the CLI's stop line -> table at rest: median %.1f ms (< 100), max %.1f ms (< 500) over "
-      "%d tries" % (1e3 * statistics.median(latencies), 1e3 * max(latencies), len(latencies)))
+limit = float(os.environ.get("STOP_LIMIT_MS", "150")) / 1e3
+print("command -> table at rest: median %.1f ms, max %.1f ms over %d tries (limit %.0f ms each)"
+      % (1e3 * statistics.median(latencies), 1e3 * max(latencies), len(latencies), 1e3 * limit))
+check(max(latencies) < limit and statistics.median(latencies) < 0.1,
+      "every stop within %.0f ms of the command, median within 100 ms: %s ms"
+      % (1e3 * limit, ", ".join("%.0f" % (1e3 * x) for x in latencies)))
 PY
 grep -q "emergency stop through the stop socket" "$W/d.out" ||
   fail "the daemon log does not say the stop came through the stop socket"
