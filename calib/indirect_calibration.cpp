@@ -222,6 +222,9 @@ bool IndirectOptions::IsValid(std::string* why) const {
   if (max_outer_iterations < 1) return invalidOption(why, "max_outer_iterations must be >= 1");
   if (!(outer_tolerance_sigma > 0.0))
     return invalidOption(why, "outer_tolerance_sigma must be > 0");
+  if (solver.max_iterations < 1 || !(solver.function_tolerance > 0.0) ||
+      !(solver.parameter_tolerance > 0.0) || !(solver.gradient_tolerance > 0.0))
+    return invalidOption(why, "solver: max_iterations >= 1 and tolerances > 0");
   if (!(min_accel_noise > 0.0) || !(min_gyro_noise > 0.0))
     return invalidOption(why, "noise floors must be > 0");
   if (!(typical_scale > 0.0) || !(typical_misalignment > 0.0) || !(typical_accel_bias > 0.0) ||
@@ -551,13 +554,14 @@ void fixNonFree(const Parameters& p, double* block, int offset, int size, ceres:
 }
 
 // Solves the problem; false (result->error set) when the solution is unusable.
-bool solve(ceres::Problem* problem, CalibrationResult* result) {
+bool solve(ceres::Problem* problem, const IndirectOptions::SolverSettings& settings,
+           CalibrationResult* result) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 50;
-  so.function_tolerance = 1e-15;
-  so.parameter_tolerance = 1e-15;
-  so.gradient_tolerance = 1e-20;
+  so.max_num_iterations = settings.max_iterations;
+  so.function_tolerance = settings.function_tolerance;
+  so.parameter_tolerance = settings.parameter_tolerance;
+  so.gradient_tolerance = settings.gradient_tolerance;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
   so.num_threads = 1;
@@ -769,7 +773,7 @@ bool solveOuter(const IndirectInput& in, const IndirectOptions& opt, const Obser
     fixNonFree(*p, p->table, kTableOffset, kTableSize, &problem);
     const std::array<double, kParamCount> before = flatParameters(*p);
     result->outer_iterations += 1;
-    if (!solve(&problem, result)) return false;
+    if (!solve(&problem, opt.solver, result)) return false;
     if (!parameterSigmas(&problem, p, sigma, result)) return false;
     *largest = largestResiduals(&problem, blocks);
     groupRms(&problem, blocks, result);

@@ -103,6 +103,21 @@ struct IndirectOptions {
   int max_outer_iterations = 5;
   // Stop when no parameter moved by more than this relative to its sigma.
   double outer_tolerance_sigma = 1e-3;
+  // The inner solve of each outer iteration (Ceres, Levenberg-Marquardt on a small dense
+  // problem: DENSE_QR, one thread so results are bit-identical from run to run and the daemon's
+  // loop keeps the other core).
+  struct SolverSettings {
+    // The problem is nearly linear from a direct start: a handful of iterations converge; the
+    // cap bounds a pathological recording (the outer loop re-solves anyway).
+    int max_iterations = 50;
+    // Tolerances far below the noise (the cost is a sum of squared normalised residuals):
+    // the outer loop's test (outer_tolerance_sigma, 1e-3 sigma) must not be limited by an
+    // inner solve that stopped early, as Ceres' defaults (1e-6 relative cost) could.
+    double function_tolerance = 1e-15;
+    double parameter_tolerance = 1e-15;
+    double gradient_tolerance = 1e-20;
+  };
+  SolverSettings solver;
   // Floors of the per-sample noise estimated from the holds (noise-free simulations would
   // otherwise give zero weights' inverse): m/s^2 and rad/s.
   double min_accel_noise = 1e-6;
