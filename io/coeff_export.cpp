@@ -170,31 +170,33 @@ AxisFit fitOffset(const ThermalFile& tf, const model::ThermalTriad& triad, int a
 
 // What the per-axis targets drop from a thermal model: scale change over the range,
 // misalignments, dT/dt terms, the cubic fit's residual.
+// What the per-axis targets drop from a thermal model (maxima over 51 temperatures of the
+// range): the accelerometer scale's change from its value at ref_c (has_scale: the target
+// holds one constant scale) or the whole gyro scale (no gyro scale parameter), the
+// misalignments, the dT/dt terms, the cubic fit's residual.
 void thermalDropped(const ThermalFile& tf, const char* name, const model::ThermalTriad& triad,
                     double ref_c, bool has_scale, const std::array<AxisFit, 3>& fits,
                     std::vector<std::string>* dropped) {
   const auto& c = tf.coefficients;
   double ds = 0.0, mis = 0.0, h = 0.0, fit = 0.0;
-  for (int a = 0; a < 3; ++a) {
-    const double s_ref = model::thermalValue(triad[model::kScale + a], ref_c - c.t_ref_c, 0.0);
-    for (double T : {c.t_min_c, c.t_max_c})
-      ds = std::max(
-          ds, std::abs(model::thermalValue(triad[model::kScale + a], T - c.t_ref_c, 0.0) / s_ref -
-                       1.0));
-    fit = std::max(fit, fits[a].fit_residual);
+  for (int i = 0; i <= 50; ++i) {
+    const double dT = c.t_min_c + (c.t_max_c - c.t_min_c) * i / 50.0 - c.t_ref_c;
+    for (int a = 0; a < 3; ++a) {
+      const auto& sc = triad[model::kScale + a];
+      const double s_ref = has_scale ? model::thermalValue(sc, ref_c - c.t_ref_c, 0.0) : 1.0;
+      ds = std::max(ds, std::abs(model::thermalValue(sc, dT, 0.0) / s_ref - 1.0));
+    }
+    for (int k = model::kMis; k < model::kTriadSize; ++k)
+      mis =
+          std::max(mis, std::abs(model::thermalValue(triad[static_cast<std::size_t>(k)], dT, 0.0)));
   }
-  for (int k = 0; k < model::kTriadSize; ++k) {
-    const auto& p = triad[static_cast<std::size_t>(k)];
+  for (int a = 0; a < 3; ++a) fit = std::max(fit, fits[a].fit_residual);
+  for (const auto& p : triad)
     if (p.hysteresis) h = std::max(h, std::abs(p.dTdt));
-    if (k >= model::kMis)
-      for (double T : {c.t_min_c, c.t_max_c})
-        mis = std::max(mis, std::abs(model::thermalValue(p, T - c.t_ref_c, 0.0)));
-  }
   dropped->push_back(std::string(name) +
-                     (has_scale ? " scale change over the range (the scale is "
-                                  "constant): up to "
-                                : " scale (not carried at all): up to ") +
-                     num(has_scale ? ds : ds) + " of the input (relative) at the range edges");
+                     (has_scale ? " scale change over the range (one constant scale): up to "
+                                : " scale (no gyro scale parameter): up to ") +
+                     num(ds) + " of the input (relative)");
   dropped->push_back(std::string(name) + " misalignments: up to " + num(mis) +
                      " rad, residual up to that fraction of the input on the other axes");
   if (h > 0.0)
