@@ -68,7 +68,7 @@ namespace {
 
 struct CalibrateOptions {
   std::string dir;
-  std::string method;  // empty: indirect for imubench recordings, scalar for the others
+  std::string method;  // empty: the service's choice; scalar without table angles or with --format
   std::string format = "imubench";
   std::string gyro_file;                      // imutk: the gyro file of the pair
   double rate_hz = io::kImucalExampleRateHz;  // imucal: sampling rate
@@ -471,6 +471,17 @@ void runCalibrate(const CalibrateOptions& o) {
   const ResolvedRecording src = loadRunOrDir(o.dir, o.db);
   checkStoreResult(o, src);
   if (o.method == "scalar") return runScalarMethod(o, src);
+  if (src.recording.table.empty()) {
+    // No table angles (a logger's file, `imubench import-csv`): the scalar calibration is the
+    // one method that needs none.
+    if (!o.method.empty() || !o.direct_dir.empty()) {
+      throw CommandFailed(src.label + ": the recording has no table angles: only --method scalar",
+                          2);
+    }
+    (o.json ? std::cerr : std::cout)
+        << "method: scalar: the recording has no table angles (the IMU was not on a table)\n";
+    return runScalarMethod(o, src);
+  }
   if (o.direct_dir.empty()) return runService(o, src, nullptr);
   const ResolvedRecording direct = loadRunOrDir(o.direct_dir, o.db);
   if (sameRecording(src.recording, direct.recording)) {

@@ -335,6 +335,11 @@ class Cases:
                         worst_z = float("inf")
         self.check("real: same coefficients as --format imu-calib (max diff %.3g, %.3g sigma)"
                    % (worst, worst_z), worst_z < 0.2, "")
+        # Without --method: the recording has no table angles, so the scalar calibration is
+        # chosen (and said), with the same coefficients.
+        c3, j3 = run(self.bin, ["calibrate", out, "--json"])
+        self.check("real: calibrate without --method chooses scalar",
+                   c3 == 0 and "method: scalar" in j3 and coeffs(j3) == a, j3[-400:])
 
 
 def main():
