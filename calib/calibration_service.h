@@ -94,6 +94,13 @@ struct ServiceOptions {
   // when it is usable. explain's baseline turns this off: it analyses the plain model's misfit
   // and names the table errors itself.
   bool escalate_unusable = true;
+  // The resampling check of the printed sigmas (calib/calibration_result.h, issue 26): the
+  // navigation-based calibration's jackknife over its holds and runs, the direct
+  // calibration's over its static positions and rate runs. Off by default: it refits the
+  // model once per hold and run (about 1-2 s more on a 40-run recording, each pass), which
+  // the daemon's end-of-plan gate and explain's baseline do not need; `imubench calibrate`
+  // turns it on (it prints the sigmas to a person).
+  SigmaCheckOptions sigma_check;
 
   bool IsValid(std::string* why) const;
 };
@@ -122,6 +129,9 @@ struct CalibrationOutcome {
   int passes = 0;                  // navigation: 1, or 2 after the nonorthogonality pass
   int holds = 0, runs = 0;         // what the segments of the recording hold
   std::vector<std::string> notes;  // plain language, in order
+  // ServiceOptions::sigma_check on the method that gave the coefficients (their sigmas are
+  // already raised when it is outside its band); why_not says why it was not done.
+  SigmaCheck sigma_check;
 
   // Flat names of the table parameters that were estimated (and observable).
   std::vector<std::string> estimatedTableParams() const;
