@@ -46,8 +46,8 @@ struct SigmaGroupRatio {
 };
 
 struct SigmaCheckOptions {
-  // Run the check (it refits the model once per resample: see the front end's comment on
-  // its cost). Off in the engine by default; the calibration service turns it on.
+  // Run the check (one resample per hold, run or half: see the front end's comment on its
+  // cost). Off in the engine by default; the calibration service's caller turns it on.
   bool enabled = false;
   // The band of honest ratios: a median ratio outside it is said, and the printed sigmas
   // become the larger of printed and resampled. Jackknife estimates of a sigma from 10-40

@@ -96,10 +96,10 @@ struct ServiceOptions {
   bool escalate_unusable = true;
   // The resampling check of the printed sigmas (calib/calibration_result.h, issue 26): the
   // navigation-based calibration's jackknife over its holds and runs, the direct
-  // calibration's over its static positions and rate runs. Off by default: it refits the
-  // model once per hold and run (about 1-2 s more on a 40-run recording, each pass), which
-  // the daemon's end-of-plan gate and explain's baseline do not need; `imubench calibrate`
-  // turns it on (it prints the sigmas to a person).
+  // calibration's over its static positions and rate runs. Off by default: the daemon's
+  // end-of-plan gate and explain's baseline do not print sigmas to a person; `imubench
+  // calibrate` turns it on (its cost is one Jacobian and a small solve per resample: 0.06 s
+  // on a 65-unit two-axis recording, 0.3 s on a 111-unit three-axis one, measured).
   SigmaCheckOptions sigma_check;
 
   bool IsValid(std::string* why) const;
