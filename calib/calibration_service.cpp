@@ -309,8 +309,8 @@ void attachSigmaCheck(const CalibrationRequest& rq, const ServiceOptions& o,
   } else if (out->method == ServiceMethod::kNavigation && out->refined) {
     out->sigma_check = out->refined->sigma_check;
   } else if (out->method == ServiceMethod::kDirect && out->direct && out->status.HasResult()) {
-    out->sigma_check = jackknifeDirect(rq.recording, directOptions(rq, o), *out->direct,
-                                       o.sigma_check);
+    out->sigma_check =
+        jackknifeDirect(rq.recording, directOptions(rq, o), *out->direct, o.sigma_check);
     raiseSigmas(&out->coefficients, &out->sigma_check);
   } else {
     out->sigma_check.why_not = "no result to check";

@@ -509,7 +509,7 @@ double runAngleSigma(const Observations& obs, const IndirectOptions& opt,
 // kind at 1 / factor^2 (the sigmas scaled by the measured residual); all but one hold or run
 // (a jackknife resample).
 struct ResidualSelection {
-  std::array<double, 3> weight = {1.0, 1.0, 1.0};  // by ResidualGroup
+  std::array<double, 3> weight = {1.0, 1.0, 1.0};        // by ResidualGroup
   std::size_t skip_hold = static_cast<std::size_t>(-1);  // index into Observations::holds
   std::size_t skip_run = static_cast<std::size_t>(-1);   // index into Observations::runs
 };
@@ -877,8 +877,8 @@ SigmaCheck jackknife(const IndirectInput& in, const IndirectOptions& opt, const 
   SigmaCheck c;
   const std::size_t nh = obs.holds.size(), nr = obs.runs.size();
   if (static_cast<int>(nh + nr) < opt.sigma_check.min_resamples) {
-    c.why_not = std::to_string(nh) + " holds and " + std::to_string(nr) +
-                " runs: fewer than the " + std::to_string(opt.sigma_check.min_resamples) +
+    c.why_not = std::to_string(nh) + " holds and " + std::to_string(nr) + " runs: fewer than the " +
+                std::to_string(opt.sigma_check.min_resamples) +
                 " a leave-one-out estimate of the sigmas needs";
     return c;
   }
@@ -903,10 +903,11 @@ SigmaCheck jackknife(const IndirectInput& in, const IndirectOptions& opt, const 
   }
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(crs.num_rows, static_cast<Eigen::Index>(cols.size()));
   std::vector<int> col_of(kParamCount, -1);
-  for (std::size_t k = 0; k < cols.size(); ++k) col_of[static_cast<std::size_t>(cols[k])] = static_cast<int>(k);
+  for (std::size_t k = 0; k < cols.size(); ++k)
+    col_of[static_cast<std::size_t>(cols[k])] = static_cast<int>(k);
   for (int r = 0; r < crs.num_rows; ++r) {
-    for (int k = crs.rows[static_cast<std::size_t>(r)]; k < crs.rows[static_cast<std::size_t>(r) + 1];
-         ++k) {
+    for (int k = crs.rows[static_cast<std::size_t>(r)];
+         k < crs.rows[static_cast<std::size_t>(r) + 1]; ++k) {
       const int col = col_of[static_cast<std::size_t>(crs.cols[static_cast<std::size_t>(k)])];
       if (col >= 0) J(r, col) += crs.values[static_cast<std::size_t>(k)];
     }
@@ -936,12 +937,12 @@ SigmaCheck jackknife(const IndirectInput& in, const IndirectOptions& opt, const 
     }
     estimates.push_back(std::move(e));
   }
-  c = compareSigmas(freeEntries(full, sigma.data()), jackknifeSigmas(estimates),
-                    opt.sigma_check);
+  c = compareSigmas(freeEntries(full, sigma.data()), jackknifeSigmas(estimates), opt.sigma_check);
   c.resamples = static_cast<int>(estimates.size());
-  c.method = "jackknife: each of " + std::to_string(nh) + " holds and " + std::to_string(nr) +
-             " runs left out once" +
-             (failed ? " (" + std::to_string(failed) + " left the rest singular, not counted)" : "");
+  c.method =
+      "jackknife: each of " + std::to_string(nh) + " holds and " + std::to_string(nr) +
+      " runs left out once" +
+      (failed ? " (" + std::to_string(failed) + " left the rest singular, not counted)" : "");
   if (c.resamples < opt.sigma_check.min_resamples) {
     c.done = false;
     c.why_not = "only " + std::to_string(c.resamples) +

@@ -104,8 +104,7 @@ TEST(IndirectCalibration, UnderModelledRecordingScalesItsSigmas) {
   for (const char* n : {"accel.scale.x", "accel.scale.z", "accel.bias.y", "accel.bias.z"}) {
     const double s_clean = *clean.coefficients.uncertainty.at(n).sigma;
     const double s_tilted = *tilted.coefficients.uncertainty.at(n).sigma;
-    EXPECT_GT(s_tilted, 0.8 * tilted.accel_sigma_factor / clean.accel_sigma_factor * s_clean)
-        << n;
+    EXPECT_GT(s_tilted, 0.8 * tilted.accel_sigma_factor / clean.accel_sigma_factor * s_clean) << n;
   }
 }
 
