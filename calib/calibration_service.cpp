@@ -118,6 +118,7 @@ DirectCalibrationOptions directOptions(const CalibrationRequest& rq, const Servi
 IndirectOptions indirectOptions(const CalibrationRequest& rq, const ServiceOptions& o) {
   IndirectOptions io = o.indirect;
   io.checks = o.checks;
+  io.sigma_check = o.sigma_check;
   if (rq.known_table_errors) io.estimate_nonorthogonality = false;
   return io;
 }
@@ -294,6 +295,22 @@ CalibrationOutcome automatic(const CalibrationRequest& rq, const ServiceOptions&
   return out;
 }
 
+// The sigma check of the method that gave the coefficients (ServiceOptions::sigma_check).
+void attachSigmaCheck(const CalibrationRequest& rq, const ServiceOptions& o,
+                      CalibrationOutcome* out) {
+  if (!o.sigma_check.enabled) {
+    out->sigma_check.why_not = "not asked for";
+  } else if (out->method == ServiceMethod::kNavigation && out->refined) {
+    out->sigma_check = out->refined->sigma_check;
+  } else if (out->method == ServiceMethod::kDirect && out->direct && out->status.HasResult()) {
+    out->sigma_check =
+        jackknifeDirect(rq.recording, directOptions(rq, o), *out->direct, o.sigma_check);
+    raiseSigmas(&out->coefficients, &out->sigma_check);
+  } else {
+    out->sigma_check.why_not = "no result to check";
+  }
+}
+
 }  // namespace
 
 const char* serviceMethodName(ServiceMethod m) {
@@ -322,7 +339,8 @@ bool ServiceOptions::IsValid(std::string* why) const {
   if (direct_unknowns_per_axis < 1) {
     return invalidOption(why, "direct_unknowns_per_axis must be >= 1");
   }
-  return direct.IsValid(why) && indirect.IsValid(why) && checks.IsValid(why);
+  return direct.IsValid(why) && indirect.IsValid(why) && checks.IsValid(why) &&
+         sigma_check.IsValid(why);
 }
 
 std::vector<std::string> CalibrationOutcome::estimatedTableParams() const {
@@ -376,6 +394,7 @@ CalibrationOutcome calibrateRecording(const CalibrationRequest& rq, const Servic
   }
   out.holds = motion.holds;
   out.runs = motion.runs;
+  attachSigmaCheck(rq, o, &out);
   out.table = tableDecisions(rq.recording.geometry.kind, out.method, rq, indirectOptions(rq, o));
   return out;
 }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <span>
 #include <sstream>
 #include <utility>
@@ -290,7 +291,8 @@ std::vector<std::string> axisNames(const std::string& triad, int i) {
 // the RMS residual and each row's normalised squared residual (summed over the axes).
 void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string& triad,
               TriadModel* out, CoefficientReport* report, std::vector<std::string>* notes,
-              double* rms, double residual_floor, std::vector<double>* row_ss) {
+              double* rms, double residual_floor, std::vector<double>* row_ss,
+              std::vector<std::string>* noise_only = nullptr) {
   const Eigen::Index n = static_cast<Eigen::Index>(rows.input.size());
   Eigen::MatrixXd X(n, 4);
   for (Eigen::Index j = 0; j < n; ++j) {
@@ -329,6 +331,7 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
     }
     // The pairwise estimator's noise propagation replaces the joint covariance.
     const Eigen::Matrix4d cov = f.have_cov ? f.cov : jointCovariance(X, r);
+    if (f.have_cov && noise_only) noise_only->insert(noise_only->end(), names.begin(), names.end());
     K.row(i) = beta.head<3>().transpose();
     o(i) = beta(kOffsetCol);
     const double s = beta(i);
@@ -525,9 +528,21 @@ void largestResiduals(const Rows& rows, const std::vector<double>& row_ss, const
 }
 
 // Fit quality of the result: residuals against the noise, determined and plausible values.
+// The sigmas propagated from the sensor noise alone (noise_only: their names) scaled by
+// max(1, their triad's normalised RMS).
+void scaleNoiseSigmas(const std::vector<std::string>& noise_only, DirectCalibrationResult* res) {
+  res->accel_sigma_factor = std::max(1.0, res->accel_normalised_rms);
+  res->gyro_sigma_factor = std::max(1.0, res->gyro_normalised_rms);
+  for (const std::string& name : noise_only) {
+    Uncertainty& u = res->report.uncertainty[name];
+    if (!u.sigma) continue;
+    *u.sigma *= name.rfind("accel.", 0) == 0 ? res->accel_sigma_factor : res->gyro_sigma_factor;
+  }
+}
+
 void judgeDirect(const DirectRows& rows, const std::vector<double>& acc_ss,
-                 const std::vector<double>& gyr_ss, const DirectCalibrationOptions& o,
-                 DirectCalibrationResult* res) {
+                 const std::vector<double>& gyr_ss, const std::vector<std::string>& noise_only,
+                 const DirectCalibrationOptions& o, DirectCalibrationResult* res) {
   double ss = 0.0;
   for (double v : acc_ss) ss += v;
   for (double v : gyr_ss) ss += v;
@@ -541,6 +556,7 @@ void judgeDirect(const DirectRows& rows, const std::vector<double>& acc_ss,
   };
   res->accel_normalised_rms = triadRms(acc_ss);
   res->gyro_normalised_rms = triadRms(gyr_ss);
+  scaleNoiseSigmas(noise_only, res);
   std::vector<std::string> reasons;
   if (res->normalised_residual_rms > o.quality.max_normalised_rms) {
     char buf[200];
@@ -624,19 +640,102 @@ DirectCalibrationResult calibrateDirect(const RecordingView& in,
   setRowNoise(&rows);
   const bool pairwise = o.estimator == DirectEstimator::kAxisPairs;
   std::vector<double> acc_ss, gyr_ss;
+  std::vector<std::string> noise_only;
   fitTriad(rows.acc, TriadKind::kAccel, pairwise, "accel", &res.report.values.sensors.accel,
-           &res.report, &res.notes, &res.accel_residual_rms, o.accel_residual_floor, &acc_ss);
+           &res.report, &res.notes, &res.accel_residual_rms, o.accel_residual_floor, &acc_ss,
+           &noise_only);
   if (res.rotations_used == 0)
     res.notes.push_back("no rate runs: gyro scales and misalignments rest on the Earth rate alone");
   fitTriad(rows.gyr, TriadKind::kGyro, pairwise && res.rotations_used >= 3, "gyro",
            &res.report.values.sensors.gyro, &res.report, &res.notes, &res.gyro_residual_rms,
-           o.gyro_residual_floor, &gyr_ss);
+           o.gyro_residual_floor, &gyr_ss, &noise_only);
   res.report.values.table_kind = in.geometry.kind;
   res.notes.push_back(
       "table errors are not estimated by direct calibration: they leak into the coefficients "
       "(mounting into both triads' misalignments, base tilt into the accelerometers')");
-  judgeDirect(rows, acc_ss, gyr_ss, o, &res);
+  judgeDirect(rows, acc_ss, gyr_ss, noise_only, o, &res);
   return res;
+}
+
+namespace {
+
+// rows without row j.
+Rows withoutRow(const Rows& r, std::size_t j) {
+  Rows out = r;
+  const auto at = [j](auto& v) { v.erase(v.begin() + static_cast<std::ptrdiff_t>(j)); };
+  at(out.input);
+  at(out.reading);
+  at(out.reading_se);
+  at(out.what);
+  at(out.is_static);
+  if (j < out.up_B.size()) at(out.up_B);
+  return out;
+}
+
+// Both triads fitted on the rows (as calibrateDirect does), the values of the names.
+std::map<std::string, double> refitValues(const DirectRows& rows, const DirectCalibrationOptions& o,
+                                          int rotations, const std::vector<std::string>& names) {
+  CoefficientReport rep;
+  std::vector<std::string> notes;
+  std::vector<double> ss;
+  double rms = 0.0;
+  const bool pairwise = o.estimator == DirectEstimator::kAxisPairs;
+  fitTriad(rows.acc, TriadKind::kAccel, pairwise, "accel", &rep.values.sensors.accel, &rep, &notes,
+           &rms, o.accel_residual_floor, &ss);
+  fitTriad(rows.gyr, TriadKind::kGyro, pairwise && rotations >= 3, "gyro", &rep.values.sensors.gyro,
+           &rep, &notes, &rms, o.gyro_residual_floor, &ss);
+  std::map<std::string, double> out;
+  for (const std::string& n : names) {
+    const auto it = rep.uncertainty.find(n);
+    if (it != rep.uncertainty.end() && !it->second.observable) continue;
+    if (const std::optional<double> v = flatValue(rep.values, n)) out[n] = *v;
+  }
+  return out;
+}
+
+}  // namespace
+
+SigmaCheck jackknifeDirect(const RecordingView& in, const DirectCalibrationOptions& o,
+                           const DirectCalibrationResult& full, const SigmaCheckOptions& check) {
+  SigmaCheck c;
+  DirectCalibrationResult counts;
+  DirectRows rows;
+  std::vector<std::pair<double, double>> spans;
+  if (!checkInput(in, o).empty() || !full.status.HasResult()) {
+    c.why_not = "no direct calibration to check";
+    return c;
+  }
+  collectRows(in, o, &rows, &spans, &counts);
+  setRowNoise(&rows);
+  const std::size_t n = rows.gyr.reading.size();
+  if (static_cast<int>(n) < check.min_resamples) {
+    c.why_not = std::to_string(counts.statics_used) + " static positions and " +
+                std::to_string(counts.rotations_used) + " rate runs: fewer than the " +
+                std::to_string(check.min_resamples) + " a leave-one-out estimate needs";
+    return c;
+  }
+  std::map<std::string, double> printed;
+  std::vector<std::string> names;
+  for (const auto& [name, u] : full.report.uncertainty) {
+    if (!u.observable || !u.sigma) continue;
+    printed[name] = *u.sigma;
+    names.push_back(name);
+  }
+  std::vector<std::map<std::string, double>> estimates;
+  std::size_t s = 0;  // static rows: the same index in both triads' rows
+  for (std::size_t j = 0; j < n; ++j) {
+    DirectRows r = rows;
+    const bool is_static = rows.gyr.is_static[j];
+    r.gyr = withoutRow(rows.gyr, j);
+    if (is_static) r.acc = withoutRow(rows.acc, s++);
+    estimates.push_back(refitValues(r, o, counts.rotations_used - (is_static ? 0 : 1), names));
+  }
+  c = compareSigmas(printed, jackknifeSigmas(estimates), check);
+  c.resamples = static_cast<int>(estimates.size());
+  c.method = "jackknife: each of " + std::to_string(counts.statics_used) +
+             " static positions and " + std::to_string(counts.rotations_used) +
+             " rate runs left out once";
+  return c;
 }
 
 DirectObservations directObservations(const RecordingView& in, const DirectCalibrationOptions& o) {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "calib/bench_truth.h"
+#include "calib/calibration_result.h"
 #include "calib/fit_quality.h"
 #include "calib/motion.h"
 #include "calib/recording_view.h"
@@ -97,6 +98,12 @@ struct DirectCalibrationResult {
   // The same per triad (goodness of fit): accelerometer rows, gyro rows (statics and runs).
   double accel_normalised_rms = 0.0;
   double gyro_normalised_rms = 0.0;
+  // The sigmas are scaled by the measured residual: the axis-pairs estimator propagates the
+  // sensor noise alone, so its sigmas are multiplied by max(1, the triad's normalised RMS)
+  // (the joint least squares' covariance already carries the residual scatter). 1: the noise
+  // model fits.
+  double accel_sigma_factor = 1.0;
+  double gyro_sigma_factor = 1.0;
   // Accel and gyro coefficients (report.values.sensors), sigmas and unobservable flags by
   // flat name; report.values.table stays zero (direct calibration does not estimate it).
   CoefficientReport report;
@@ -111,6 +118,14 @@ DirectCalibrationResult calibrateDirect(const RecordingView& input,
                                         const DirectCalibrationOptions& options = {});
 DirectCalibrationResult calibrateDirect(const DirectCalibrationInput& input,
                                         const DirectCalibrationOptions& options = {});
+
+// The jackknife check of a direct calibration's sigmas (calib/calibration_result.h): every
+// static position (its accelerometer and gyro rows) and every rate run left out once, the
+// triads refitted (linear: no start needed), the leave-one-out scatter against the sigmas of
+// `full` (calibrateDirect(input, options)). Not done (why_not) with fewer positions and runs
+// than options.min_resamples.
+SigmaCheck jackknifeDirect(const RecordingView& input, const DirectCalibrationOptions& options,
+                           const DirectCalibrationResult& full, const SigmaCheckOptions& check);
 
 // One row of the linear model above as calibrateDirect builds it: the mean reading of a static
 // position (an accelerometer and a gyro row) or of a rate run (a gyro row), the input it was

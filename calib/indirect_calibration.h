@@ -162,11 +162,18 @@ struct IndirectOptions {
   SegmentCheckOptions segment_check;
   // When the result is unusable (CalibrationResult::status, calib/fit_quality.h).
   FitQualityOptions quality;
+  // The jackknife check of the sigmas (CalibrationResult::sigma_check): every hold and every
+  // run left out once, each resample one Gauss-Newton step from the full solution (one
+  // Jacobian and one small solve per resample: milliseconds); off by default here (the
+  // calibration service decides).
+  SigmaCheckOptions sigma_check;
 
   bool IsValid(std::string* why) const;
 };
 
-// Runs the calibration. Result status kFailed with a message naming the cause when the input has
+// Runs the calibration. The sigmas are the covariance's with each kind of residual (accel
+// holds, gyro holds, runs) weighted by its noise times max(1, its normalised RMS): scaled by
+// the measured residual. Result status kFailed with a message naming the cause when the input has
 // no usable holds or runs, the solver fails (Summary::IsSolutionUsable() false) or the
 // covariance cannot be computed.
 CalibrationResult calibrateIndirect(const IndirectInput& input, const IndirectOptions& options);

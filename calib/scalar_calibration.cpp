@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "calib/model/sensor_equation.h"
@@ -19,6 +20,8 @@ namespace imubench::calib {
 bool ScalarCalibrationOptions::IsValid(std::string* why) const {
   if (!(gravity_mps2 > 9.7 && gravity_mps2 < 9.9))
     return invalidOption(why, "gravity_mps2 must be in (9.7, 9.9)");
+  if (!(held_accel_misalignment_prior_rad >= 0.0))
+    return invalidOption(why, "held_accel_misalignment_prior_rad must be >= 0");
   if (gyro_scale_guess && !(*gyro_scale_guess > 0.0))
     return invalidOption(why, "gyro_scale_guess must be > 0");
   if (!(min_initial_static_s >= 0.0))
@@ -595,6 +598,50 @@ void earthRateNote(const Poses& p, const ScalarCalibrationOptions& o,
 
 namespace {
 
+// The Schmidt consider term of the accelerometer misalignments held at 0 (too few gravity
+// directions): each is set to a small step, the gravity directions and the gyro gains refitted,
+// and the gyro coefficients' sensitivity S to it times the prior added to their variance. The
+// accelerometer's scales and biases are kept: |f| = g is insensitive to these misalignments on
+// the poses that cannot determine them (the reason they are held).
+void considerHeldAccelMisalignments(const RawImuData& data, const Poses& p,
+                                    const ScalarCalibrationOptions& o,
+                                    ScalarCalibrationResult* res) {
+  const auto held = res->report.uncertainty.find("accel.misalignment.xy");
+  if (!(o.held_accel_misalignment_prior_rad > 0.0) || held == res->report.uncertainty.end() ||
+      held->second.observable) {
+    return;
+  }
+  constexpr double kStep = 1e-4;  // rad: linear against the prior, far above round-off
+  ScalarCalibrationOptions so = o;
+  so.gyro_scale_guess = res->gyro().scale.mean();
+  std::map<std::string, double> added;  // variance
+  for (const int m : {kMisXY, kMisXZ, kMisYZ}) {
+    Triad acc = res->accel().block();
+    acc[static_cast<std::size_t>(kMis + m)] += kStep;
+    ScalarCalibrationResult moved;
+    if (!fitGyroGains(rotationsBetweenPoses(data, p, TriadModel::fromBlock(acc.data()), so), so,
+                      &moved)
+             .ok) {
+      continue;
+    }
+    for (const auto& [name, u] : moved.report.uncertainty) {
+      const double s =
+          (*flatValue(moved.report.values, name) - *flatValue(res->report.values, name)) / kStep *
+          o.held_accel_misalignment_prior_rad;
+      added[name] += s * s;
+    }
+  }
+  for (const auto& [name, var] : added) {
+    Uncertainty& u = res->report.uncertainty[name];
+    if (u.sigma) u.sigma = std::sqrt(*u.sigma * *u.sigma + var);
+  }
+  std::ostringstream s;
+  s << "the accelerometer misalignments held at 0 are in the gyro scales' and misalignments' "
+       "sigmas (consider term, prior "
+    << o.held_accel_misalignment_prior_rad << " rad each)";
+  res->notes.push_back(s.str());
+}
+
 // The range refusal in the IMU's terms ("--gyro-range").
 RecordingCheck fromRangeCheck(RecordingCheck c) {
   if (!c.ok) c.message += " (the IMU's range as given: --gyro-range/--accel-range)";
@@ -634,6 +681,7 @@ ScalarCalibrationResult scalarCalibrate(const RawImuData& data, const ScalarCali
   }
   res.status = fitGyroGains(rots, o, &res);
   if (!res.status.ok) return res;
+  considerHeldAccelMisalignments(data, p, o, &res);
   gyroBias(data, p, o, &res);
   RangeCheckOptions gyro_range;
   gyro_range.gyro_range_radps = o.gyro_range_radps;

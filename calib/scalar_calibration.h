@@ -68,6 +68,13 @@ struct ScalarCalibrationOptions {
   // before and after (true, default: MEMS biases move by 0.1-1 mrad/s between poses), or the
   // first pose's rest reading throughout (false: imu_tk's assumption).
   bool interpolate_gyro_bias = true;
+  // Plausible magnitude (1 sigma, rad) of the accelerometer misalignments xy, xz, yz when the
+  // poses are too few to fit them (held at 0): a Schmidt consider term carries it into the
+  // gyro scales' and misalignments' sigmas, Sigma += S P S^T with S the sensitivity of the
+  // gyro fit to each held misalignment (the gravity directions it compares move with them).
+  // 1 % (0.01 rad): consumer MEMS datasheets give cross-axis sensitivity of 1-2 %; lower it
+  // for a better-graded IMU, 0 leaves the held misalignments out of the sigmas.
+  double held_accel_misalignment_prior_rad = 0.01;
   // Readings of static samples are skipped this long at each span end, s (settling).
   double span_trim_s = 0.1;
   StaticDetectionOptions detection;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "calib/recording_checks.h"
@@ -173,6 +174,27 @@ std::string describe(const ScalarConsistency& c) {
     << c.second_poses << " poses): " << c.rows.size() << " coefficients, RMS z = " << c.rms_z
     << ", largest |z| = " << c.max_abs_z << " (" << c.worst << ")\n";
   return o.str();
+}
+
+SigmaCheck sigmaCheckFromHalves(const ScalarConsistency& c, const CoefficientReport& full,
+                                const SigmaCheckOptions& options) {
+  SigmaCheck out;
+  if (!c.halves_ok || c.rows.empty()) {
+    out.why_not = c.halves_why.empty() ? "the halves were not compared" : c.halves_why;
+    return out;
+  }
+  constexpr double kMedianAbsZ = 0.6745;  // median of |z| for z ~ N(0, 1)
+  std::map<std::string, double> printed, resampled;
+  for (const ScalarConsistencyRow& r : c.rows) {
+    const auto it = full.uncertainty.find(r.name);
+    if (it == full.uncertainty.end() || !it->second.sigma || !it->second.observable) continue;
+    printed[r.name] = *it->second.sigma;
+    resampled[r.name] = *it->second.sigma * std::abs(r.z) / kMedianAbsZ;
+  }
+  out = compareSigmas(printed, resampled, options);
+  out.resamples = 2;
+  out.method = "half against half, |z| / 0.674 per coefficient";
+  return out;
 }
 
 }  // namespace imubench::calib

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/calibration_result.h"
 #include "calib/scalar_calibration.h"
 
 namespace imubench::calib {
@@ -51,6 +52,13 @@ struct ScalarConsistency {
 // pose the cut goes through) serves as its initial static whatever its length.
 ScalarConsistency scalarConsistency(const RawImuData& data, const ScalarCalibrationResult& full,
                                     const ScalarCalibrationOptions& options, bool accel_unit_is_si);
+
+// The half-against-half comparison as the sigma check of the full calibration's sigmas
+// (calib/calibration_result.h): each compared coefficient's |z| / 0.674 (the median of |z| for
+// honest sigmas is 0.674) is its ratio of resampled to printed sigma, so the median ratio is
+// ~1 when the sigmas are honest. Not done (why_not) when the halves were not compared.
+SigmaCheck sigmaCheckFromHalves(const ScalarConsistency& c, const CoefficientReport& full,
+                                const SigmaCheckOptions& options);
 
 // Plain text, one line per item, each ending in '\n'.
 std::string describe(const ScalarConsistency& c);

@@ -94,6 +94,15 @@ TEST(ScalarReal, ImucalFerrarisSession) {
   // the six faces the accelerometer needs, so the halves are not compared (and each half alone
   // is refused, not calibrated).
   checkConsistency(in.data, r, o, true, 0);
+  // issue 26: six faces leave the accelerometer misalignments held at 0; what they may hold
+  // (1 % each, the consider prior) leaks into the gyro misalignments, whose sigmas now carry
+  // it: xy and yx (5.5 and 4.9 sigma without the consider term) are no longer claimed at 3.5
+  // sigma. xz stays at 3.9 sigma: the held misalignments hardly move it, the data show it.
+  for (const char* m : {"xy", "yx"}) {
+    const std::string n = std::string("gyro.misalignment.") + m;
+    const double z = *calib::flatValue(r.report.values, n) / *r.report.uncertainty.at(n).sigma;
+    EXPECT_LT(std::abs(z), 3.5) << n;
+  }
   // Independent of the annotation, the gravity-direction fit says how many readings make one
   // rad/s. Check it against imucal's protocol: each *_rot section is one full turn (imucal's
   // FerrarisCalibration expects -360 deg). Integrating the calibrated gyro over x_rot must

@@ -7,6 +7,7 @@ the holds, 100 and 400 Hz, navigation-grade noise). Issue 26's first must-show i
 Per case two commands, exactly as a user types them:
   imubench calibrate DIR                               (no flags: what the recording supports)
   imubench calibrate DIR --truth DIR/truth.json --json
+    (and its "sigma_check": the jackknife ratio of resampled to printed sigmas in [0.7, 1.5])
 Both must exit 0. The coefficients (printed by the first, JSON of the second) are judged on
 the frame-independent quantities (run_cases.judge; docs/independent-recordings.md says why):
   scales                                  10 ppm
@@ -97,6 +98,24 @@ def diagnosis(stdout, stderr):
     return keep
 
 
+SIGMA_BAND = (0.7, 1.5)
+
+
+def sigma_check_ok(est_j):
+    """(ok, text): the jackknife of the printed sigmas in `calibrate --json` (issue 26): done,
+    and its median ratio of resampled to printed sigma within [0.7, 1.5] -- the writer's noise
+    is white and its model complete, so honest sigmas give a ratio near 1."""
+    sc = est_j.get("calibration", {}).get("sigma_check")
+    if not sc:
+        return False, "no sigma_check in the JSON"
+    if not sc.get("done"):
+        return False, "sigma check not done: %s" % sc.get("why_not", "?")
+    ratio = sc["median_ratio"]
+    groups = ", ".join("%s %.2f" % (g, v["median_ratio"]) for g, v in sorted(sc["groups"].items()))
+    text = "sigma ratio %.2f over %d resamples (%s)" % (ratio, sc["resamples"], groups)
+    return SIGMA_BAND[0] <= ratio <= SIGMA_BAND[1], text
+
+
 def run(cmd, timeout):
     t = time.time()
     p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
@@ -135,6 +154,9 @@ def check_case(imubench, rec, truth, timeout):
     bad = truth_rows_ok(est_j.get("truth_comparison", {}))
     if bad:
         text += "; --truth outside: " + ", ".join(bad)
+    sigma_ok, sigma_text = sigma_check_ok(est_j)
+    text += "; " + sigma_text + ("" if sigma_ok else " OUTSIDE [0.7, 1.5]")
+    ok = ok and sigma_ok
     rows.append(("calibrate --truth --json",
                  "accurate" if ok and not bad else "WRONG (exit 0)", secs_j, text))
     return ok_plain and ok and not bad, rows
