@@ -31,6 +31,9 @@ struct Group {
   std::vector<std::size_t> effects;  // into the effect list
   bool unseparable = false;
   std::vector<double> target;  // per parameter of the effects (precision groups)
+  // Unseparable on every candidate block together (e.g. a base tilt about the outer axis and
+  // the outer encoder zero are one rotation on a two-axis table): no plan of them helps.
+  std::string impossible;
 };
 
 std::size_t effectIndex(const std::string& id, const std::vector<ExplainCandidateSpec>& specs,
@@ -54,12 +57,17 @@ void listGroups(const ExplainInput& in, const ExplainResult& res, const ExplainO
   ExplainOptions all = eo;
   all.candidates.clear();
   const std::vector<ExplainCandidateSpec> specs = explainCandidates(in, all);
+  // A pair (two effects sharing a direction) or one effect the baseline absorbs.
   for (const ExplainUnseparable& u : res.unseparable) {
-    if (u.effects.size() != 2) continue;
+    if (u.effects.empty() || u.effects.size() > 2) continue;
     Group g;
     g.unseparable = true;
-    for (const std::string& id : u.effects) g.effects.push_back(effectIndex(id, specs, effects));
-    if (g.effects[0] < effects->size() && g.effects[1] < effects->size()) groups->push_back(g);
+    bool known = true;
+    for (const std::string& id : u.effects) {
+      g.effects.push_back(effectIndex(id, specs, effects));
+      known = known && g.effects.back() < effects->size();
+    }
+    if (known) groups->push_back(g);
   }
   for (const ExplainAccepted& a : res.accepted) {
     double norm = 0.0;
@@ -366,13 +374,39 @@ struct Layout {
   std::vector<std::vector<int>> active;   // per effect: the ones not held (see holdIntrinsic)
 };
 
+// Predicted sigmas of a group's parameters: the information of the baseline's and the group's
+// active columns (what explain fits for it); a held parameter is NaN.
+std::vector<double> groupSigmas(const Eigen::MatrixXd& J, int nb, const Group& g,
+                                const Layout& lay) {
+  std::vector<int> cols;
+  for (int j = 0; j < nb; ++j) cols.push_back(j);
+  for (std::size_t e : g.effects) {
+    for (int j : lay.active[e]) cols.push_back(nb + j);
+  }
+  Eigen::MatrixXd Jg(J.rows(), static_cast<int>(cols.size()));
+  for (std::size_t k = 0; k < cols.size(); ++k) Jg.col(static_cast<int>(k)) = J.col(cols[k]);
+  const std::vector<double> sig = predictedSigmas(Jg);
+  std::vector<double> out;
+  std::size_t next = static_cast<std::size_t>(nb);
+  for (std::size_t e : g.effects) {
+    for (int j : lay.columns[e]) {
+      const bool active = std::find(lay.active[e].begin(), lay.active[e].end(), j) !=
+                          lay.active[e].end();
+      out.push_back(active ? sig[next++] : std::numeric_limits<double>::quiet_NaN());
+    }
+  }
+  return out;
+}
+
 double groupDeficit(const Group& g, const Assessment& a, std::size_t k, double limit,
                     double collinear) {
   double d = 0.0;
-  if (g.unseparable) d += std::max(0.0, 1.0 - a.angle[k] / limit);
+  if (!g.impossible.empty()) return d;
+  if (g.unseparable && g.effects.size() == 2) d += std::max(0.0, 1.0 - a.angle[k] / limit);
   for (double kept : a.kept[k]) d += std::max(0.0, 1.0 - kept / collinear);
   for (std::size_t p = 0; p < g.target.size(); ++p) {
     const double s = a.sigma[k][p];
+    if (std::isnan(s)) continue;  // held (explain holds it too)
     d += std::isfinite(s) ? std::max(0.0, std::log10(s / g.target[p])) : kUnseenDecades;
   }
   return d;
@@ -384,12 +418,12 @@ Assessment assess(const Eigen::MatrixXd& J, int nb, const std::vector<Group>& gr
   const Eigen::MatrixXd Ub = columnBasis(J.leftCols(nb), 1e-7);
   const Eigen::MatrixXd C = J.rightCols(J.cols() - nb);
   const Eigen::MatrixXd Cperp = projectOff(Ub, C);
-  const std::vector<double> sig = predictedSigmas(J);
   for (std::size_t k = 0; k < groups.size(); ++k) {
     const Group& g = groups[k];
-    a.angle.push_back(g.unseparable ? principalAngle(Cperp, lay.active[g.effects[0]],
-                                                     lay.active[g.effects[1]])
-                                    : 0.0);
+    a.angle.push_back(g.unseparable && g.effects.size() == 2
+                          ? principalAngle(Cperp, lay.active[g.effects[0]],
+                                           lay.active[g.effects[1]])
+                          : 0.0);
     a.kept.emplace_back();
     a.sigma.emplace_back();
     for (std::size_t e : g.effects) {
@@ -397,7 +431,11 @@ Assessment assess(const Eigen::MatrixXd& J, int nb, const std::vector<Group>& gr
         const double n = C.col(j).norm();
         a.kept.back().push_back(n > 0.0 ? Cperp.col(j).norm() / n : 0.0);
       }
-      for (int j : lay.columns[e]) a.sigma.back().push_back(sig[static_cast<std::size_t>(nb + j)]);
+    }
+    a.sigma.back() = groupSigmas(J, nb, g, lay);
+    if (g.unseparable && g.effects.size() == 1 && !a.kept.back().empty()) {
+      const double m = *std::min_element(a.kept.back().begin(), a.kept.back().end());
+      a.angle.back() = std::asin(std::clamp(m, 0.0, 1.0));
     }
     a.deficit.push_back(groupDeficit(g, a, k, limit, collinear));
   }
@@ -476,6 +514,31 @@ void holdIntrinsic(const Eigen::MatrixXd& J_all, int nb, const std::vector<Effec
   }
 }
 
+// Groups no plan of the candidate blocks separates: their angle with every block at once.
+void markImpossible(const Eigen::MatrixXd& J_all, int nb, const Layout& lay, double limit,
+                    const ExplainOptions& eo, const std::vector<EffectColumns>& effects,
+                    std::vector<Group>* groups) {
+  const Assessment a = assess(J_all, nb, *groups, lay, limit, eo.baseline_collinear);
+  for (std::size_t k = 0; k < groups->size(); ++k) {
+    Group& g = (*groups)[k];
+    if (g.unseparable && g.effects.size() == 1 && lay.active[g.effects[0]].empty()) {
+      g.impossible = "no plan within the bench limits separates it: " + effects[g.effects[0]].id +
+                     " mimics the baseline coefficients on every candidate motion (it needs "
+                     "another reference or a change of the set-up, not another plan)";
+    }
+    if (!g.unseparable || g.effects.size() != 2 || a.angle[k] >= limit) continue;
+    char buf[400];
+    std::snprintf(buf, sizeof(buf),
+                  "no plan within the bench limits separates them: with every candidate block "
+                  "together (runs, holds, two rates, reversals about every axis) their principal "
+                  "angle is %.3g deg, below the limit %.3g deg; they change the readings the "
+                  "same way on any motion of this table (%s and %s",
+                  a.angle[k] / kDeg, limit / kDeg, effects[g.effects[0]].id.c_str(),
+                  effects[g.effects[1]].id.c_str());
+    g.impossible = std::string(buf) + " need another reference, not another plan)";
+  }
+}
+
 struct Search {
   std::vector<ProposedBlock> chosen;
   std::vector<std::vector<std::size_t>> served;  // per group: indices into chosen
@@ -521,11 +584,15 @@ void greedy(const std::vector<ProposedBlock>& blocks, const std::vector<Eigen::M
 std::string shortfall(const Group& g, const Assessment& a, std::size_t k, double limit,
                       const std::vector<EffectColumns>& effects) {
   char buf[200];
+  if (!g.impossible.empty()) return g.impossible;
   if (g.unseparable && a.angle[k] < limit) {
     std::snprintf(buf, sizeof(buf), "principal angle %.3g deg, limit %.3g deg",
                   a.angle[k] / kDeg, limit / kDeg);
     return std::string(buf) + ": " + effects[g.effects[0]].id + " and " +
            effects[g.effects[1]].id + " stay unseparable";
+  }
+  if (a.deficit[k] > 0.0 && g.unseparable && g.effects.size() == 1) {
+    return effects[g.effects[0]].id + " stays unseparable from the baseline coefficients";
   }
   if (a.deficit[k] > 0.0) return "a predicted sigma stays above the requested precision";
   return "";
@@ -551,10 +618,33 @@ void fillGroups(const std::vector<Group>& groups, const std::vector<EffectColumn
       out.added.push_back(s.chosen[b].purpose);
       out.added_duration_s += s.chosen[b].duration_s;
     }
+    out.possible = g.impossible.empty();
     out.why = shortfall(g, after, k, limit, effects);
     out.resolved = out.why.empty();
     r->groups.push_back(std::move(out));
   }
+}
+
+// Not even the calibration base fits in max_duration_s: no plan; every group as it was.
+void baseTooLong(const std::vector<Group>& groups, const std::vector<EffectColumns>& effects,
+                 const Assessment& before, double base_s, double max_s, ProposeResult* r) {
+  Search none;
+  none.served.assign(groups.size(), {});
+  fillGroups(groups, effects, before, before, none, r->angle_limit_rad, r);
+  char buf[200];
+  std::snprintf(buf, sizeof(buf),
+                "the calibration base alone takes %.0f s, more than the %.0f s allowed: no plan", base_s,
+                max_s);
+  for (ProposedGroup& g : r->groups) {
+    if (!g.possible) continue;
+    std::string names;
+    for (const std::string& e : g.effects) names += (names.empty() ? "" : " and ") + e;
+    g.resolved = false;
+    g.why = std::string(buf) + "; " + names +
+            (!g.unseparable ? " stays short of the precision"
+             : g.effects.size() > 1 ? " stay unseparable" : " stays unseparable");
+  }
+  r->notes.push_back(buf);
 }
 
 }  // namespace
@@ -600,9 +690,14 @@ ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
     rows.push_back(std::move(x.value));
   }
   holdIntrinsic(all, nb, effects, eo.baseline_collinear, &lay, &r.notes);
+  markImpossible(all, nb, lay, r.angle_limit_rad, eo, effects, &groups);
   const Eigen::MatrixXd J_rec = rowsOf(&m, in.geometry, in.imu, in.table, in.segments);
   const Assessment before =
       assess(J_rec, nb, groups, lay, r.angle_limit_rad, eo.baseline_collinear);
+  if (dur[0] > po.max_duration_s) {
+    baseTooLong(groups, effects, before, dur[0], po.max_duration_s, &r);
+    return r;
+  }
   Search s;
   s.chosen.push_back(blocks[0]);
   s.chosen.back().duration_s = dur[0];
@@ -612,8 +707,16 @@ ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
   const std::vector<Eigen::MatrixXd> cand_rows(rows.begin() + 1, rows.end());
   const std::vector<double> cand_dur(dur.begin() + 1, dur.end());
   greedy(cands, cand_rows, cand_dur, groups, lay, nb, r.angle_limit_rad, eo, po.max_duration_s, &s);
+  const Assessment base = assess(rows[0], nb, groups, lay, r.angle_limit_rad, eo.baseline_collinear);
+  for (std::size_t k = 0; k < groups.size(); ++k) {
+    if (base.deficit[k] < before.deficit[k] - 1e-9) s.served[k].insert(s.served[k].begin(), 0);
+  }
   const Assessment after = assess(s.J, nb, groups, lay, r.angle_limit_rad, eo.baseline_collinear);
   fillGroups(groups, effects, before, after, s, r.angle_limit_rad, &r);
+  if (std::all_of(groups.begin(), groups.end(), [](const Group& g) { return !g.impossible.empty(); })) {
+    r.notes.push_back("no group can be separated by a plan of this table: no plan proposed");
+    return r;
+  }
   r.plan = planOf(in.geometry.kind, po, s.chosen);
   r.plan.description = "explain's proposal: separates what the analysed recording could not";
   const Result<Motion> full = expand(r.plan);
@@ -622,9 +725,6 @@ ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
     return r;
   }
   r.duration_s = full.value.duration;
-  if (s.duration > po.max_duration_s) {
-    r.notes.push_back("the calibration base alone exceeds --max-duration");
-  }
   return r;
 }
 

@@ -110,12 +110,16 @@ struct ProposedGroup {
   std::vector<std::string> added;    // purposes of the blocks that served it
   double added_duration_s = 0.0;
   bool resolved = false;
+  // False: no plan of the candidate motions separates it (why says so), e.g. a base tilt about
+  // the outer axis and the outer encoder zero, one rotation on a two-axis table.
+  bool possible = true;
   std::string why;  // unresolved: what is missing
 };
 
 struct ProposeResult {
   Status status = Status::Error("not proposed");  // why not (bad options, expander refused)
   bool nothing_to_propose = false;  // no group: no plan
+  // The plan (no blocks when no group can be served by any plan: every group impossible).
   ProposedPlan plan;
   double duration_s = 0.0;
   double angle_limit_rad = 0.0;
