@@ -162,8 +162,8 @@ ProposedBlock runsBlock(TableKind kind, int t, int p, double a, const ProposeOpt
   ProposedBlock b;
   b.purpose = "turns each way about " + where(kind, t, p, a) +
               " (axis perpendicularity, tilts and zeros seen along another direction)";
-  b.steps = {moveTo(pose(n, p, a)), holdFor(o.hold_s), turn(t, 360.0, rate), holdFor(o.hold_s),
-             turn(t, -360.0, rate), holdFor(o.hold_s)};
+  b.steps = {moveTo(pose(n, p, a)), holdFor(o.hold_s),     turn(t, 360.0, rate),
+             holdFor(o.hold_s),     turn(t, -360.0, rate), holdFor(o.hold_s)};
   return b;
 }
 
@@ -188,10 +188,9 @@ ProposedBlock ratesBlock(TableKind kind, int t, int p, double a, const ProposeOp
   ProposedBlock b;
   b.purpose = "runs at two rates each way about " + where(kind, t, p, a) +
               " (rate-dependent terms: lever arm, size effect, delays, scale asymmetry)";
-  b.steps = {moveTo(pose(n, p, a)), holdFor(o.hold_s),  turn(t, 720.0, fast),
-             holdFor(o.hold_s),     turn(t, -720.0, fast), holdFor(o.hold_s),
-             turn(t, 360.0, slow),  holdFor(o.hold_s),  turn(t, -360.0, slow),
-             holdFor(o.hold_s)};
+  b.steps = {moveTo(pose(n, p, a)), holdFor(o.hold_s), turn(t, 720.0, fast), holdFor(o.hold_s),
+             turn(t, -720.0, fast), holdFor(o.hold_s), turn(t, 360.0, slow), holdFor(o.hold_s),
+             turn(t, -360.0, slow), holdFor(o.hold_s)};
   return b;
 }
 
@@ -202,9 +201,9 @@ ProposedBlock reversalsBlock(TableKind kind, int t, int p, double a, const Propo
   b.purpose = "180 deg reversals about " + where(kind, t, p, a) +
               " (holds on both sides of a half turn each way: zeros and biases against "
               "direction-dependent terms)";
-  b.steps = {moveTo(pose(n, p, a)), holdFor(o.hold_s), turn(t, 180.0, rate), holdFor(o.hold_s),
-             turn(t, -180.0, rate),  holdFor(o.hold_s), turn(t, -180.0, rate), holdFor(o.hold_s),
-             turn(t, 180.0, rate),   holdFor(o.hold_s)};
+  b.steps = {moveTo(pose(n, p, a)), holdFor(o.hold_s), turn(t, 180.0, rate),  holdFor(o.hold_s),
+             turn(t, -180.0, rate), holdFor(o.hold_s), turn(t, -180.0, rate), holdFor(o.hold_s),
+             turn(t, 180.0, rate),  holdFor(o.hold_s)};
   return b;
 }
 
@@ -233,7 +232,8 @@ ProposedPlan withWaypoints(const ProposedPlan& plan) {
   for (ProposedBlock& b : out.blocks) {
     std::vector<ProposedStep> steps;
     for (const ProposedStep& s : b.steps) {
-      if (s.kind == ProposedStep::Kind::kRotate) at[static_cast<std::size_t>(s.axis)] += s.angle_rad;
+      if (s.kind == ProposedStep::Kind::kRotate)
+        at[static_cast<std::size_t>(s.axis)] += s.angle_rad;
       if (s.kind != ProposedStep::Kind::kMove) {
         steps.push_back(s);
         continue;
@@ -282,8 +282,7 @@ Eigen::MatrixXd rowsOf(Model* m, const TableGeometry& geometry, std::span<const 
       prepareExplainData(geometry, m->input->site, imu, table, segments, m->eo->model);
   if (data.bins.empty()) return Eigen::MatrixXd(0, static_cast<int>(m->names.size()));
   ExplainPredictor predictor(&data);
-  ExplainEvaluator eval(&data.bins, &predictor, explainRowSigmas(data, *m->noise),
-                        m->eo->fd_step);
+  ExplainEvaluator eval(&data.bins, &predictor, explainRowSigmas(data, *m->noise), m->eo->fd_step);
   return eval.jacobian(m->state, m->names);
 }
 
@@ -311,10 +310,10 @@ Result<Eigen::MatrixXd> blockRows(Model* m, const ProposedBlock& block, const Pr
 // ---- Separation and sigmas of a set of rows ----------------------------------------------
 
 struct Assessment {
-  std::vector<double> angle;                  // per group (unseparable groups)
-  std::vector<std::vector<double>> kept;      // per group, per active column: off-baseline part
-  std::vector<std::vector<double>> sigma;     // per group, per parameter (all of its effects)
-  std::vector<double> deficit;                // per group
+  std::vector<double> angle;               // per group (unseparable groups)
+  std::vector<std::vector<double>> kept;   // per group, per active column: off-baseline part
+  std::vector<std::vector<double>> sigma;  // per group, per parameter (all of its effects)
+  std::vector<double> deficit;             // per group
 };
 
 Eigen::MatrixXd normalisedColumns(const Eigen::MatrixXd& M, const std::vector<int>& cols) {
@@ -390,8 +389,8 @@ std::vector<double> groupSigmas(const Eigen::MatrixXd& J, int nb, const Group& g
   std::size_t next = static_cast<std::size_t>(nb);
   for (std::size_t e : g.effects) {
     for (int j : lay.columns[e]) {
-      const bool active = std::find(lay.active[e].begin(), lay.active[e].end(), j) !=
-                          lay.active[e].end();
+      const bool active =
+          std::find(lay.active[e].begin(), lay.active[e].end(), j) != lay.active[e].end();
       out.push_back(active ? sig[next++] : std::numeric_limits<double>::quiet_NaN());
     }
   }
@@ -420,10 +419,10 @@ Assessment assess(const Eigen::MatrixXd& J, int nb, const std::vector<Group>& gr
   const Eigen::MatrixXd Cperp = projectOff(Ub, C);
   for (std::size_t k = 0; k < groups.size(); ++k) {
     const Group& g = groups[k];
-    a.angle.push_back(g.unseparable && g.effects.size() == 2
-                          ? principalAngle(Cperp, lay.active[g.effects[0]],
-                                           lay.active[g.effects[1]])
-                          : 0.0);
+    a.angle.push_back(
+        g.unseparable && g.effects.size() == 2
+            ? principalAngle(Cperp, lay.active[g.effects[0]], lay.active[g.effects[1]])
+            : 0.0);
     a.kept.emplace_back();
     a.sigma.emplace_back();
     for (std::size_t e : g.effects) {
@@ -458,9 +457,9 @@ Eigen::MatrixXd stack(const Eigen::MatrixXd& top, const Eigen::MatrixXd& bottom)
 
 bool ProposeOptions::IsValid(std::string* why) const {
   if (limits.max_rate_rad_s > 0.0 && limits.max_accel_rad_s2 > 0.0 && relative_precision > 0.0 &&
-      max_duration_s > 0.0 && hold_s > 0.0 && run_rate_fraction > 0.0 &&
-      run_rate_fraction <= 1.0 && slow_rate_fraction > 0.0 && slow_rate_fraction < 1.0 &&
-      imu_rate_hz > 0.0 && table_rate_hz > 0.0) {
+      max_duration_s > 0.0 && hold_s > 0.0 && run_rate_fraction > 0.0 && run_rate_fraction <= 1.0 &&
+      slow_rate_fraction > 0.0 && slow_rate_fraction < 1.0 && imu_rate_hz > 0.0 &&
+      table_rate_hz > 0.0) {
     return true;
   }
   *why =
@@ -560,8 +559,8 @@ void greedy(const std::vector<ProposedBlock>& blocks, const std::vector<Eigen::M
     Assessment best_a;
     for (std::size_t b = 0; b < blocks.size(); ++b) {
       if (used[b] || s->duration + dur[b] > max_s || rows[b].rows() == 0) continue;
-      const Assessment a = assess(stack(s->J, rows[b]), nb, groups, lay, limit,
-                                  eo.baseline_collinear);
+      const Assessment a =
+          assess(stack(s->J, rows[b]), nb, groups, lay, limit, eo.baseline_collinear);
       const double gain = (total(now) - total(a)) / dur[b];
       if (gain > best_gain * (1.0 + 1e-9) && total(now) - total(a) > 1e-6) {
         best_gain = gain;
@@ -586,10 +585,10 @@ std::string shortfall(const Group& g, const Assessment& a, std::size_t k, double
   char buf[200];
   if (!g.impossible.empty()) return g.impossible;
   if (g.unseparable && a.angle[k] < limit) {
-    std::snprintf(buf, sizeof(buf), "principal angle %.3g deg, limit %.3g deg",
-                  a.angle[k] / kDeg, limit / kDeg);
-    return std::string(buf) + ": " + effects[g.effects[0]].id + " and " +
-           effects[g.effects[1]].id + " stay unseparable";
+    std::snprintf(buf, sizeof(buf), "principal angle %.3g deg, limit %.3g deg", a.angle[k] / kDeg,
+                  limit / kDeg);
+    return std::string(buf) + ": " + effects[g.effects[0]].id + " and " + effects[g.effects[1]].id +
+           " stay unseparable";
   }
   if (a.deficit[k] > 0.0 && g.unseparable && g.effects.size() == 1) {
     return effects[g.effects[0]].id + " stays unseparable from the baseline coefficients";
@@ -599,8 +598,8 @@ std::string shortfall(const Group& g, const Assessment& a, std::size_t k, double
 }
 
 void fillGroups(const std::vector<Group>& groups, const std::vector<EffectColumns>& effects,
-                const Assessment& before, const Assessment& after, const Search& s,
-                double limit, ProposeResult* r) {
+                const Assessment& before, const Assessment& after, const Search& s, double limit,
+                ProposeResult* r) {
   for (std::size_t k = 0; k < groups.size(); ++k) {
     const Group& g = groups[k];
     ProposedGroup out;
@@ -633,16 +632,17 @@ void baseTooLong(const std::vector<Group>& groups, const std::vector<EffectColum
   fillGroups(groups, effects, before, before, none, r->angle_limit_rad, r);
   char buf[200];
   std::snprintf(buf, sizeof(buf),
-                "the calibration base alone takes %.0f s, more than the %.0f s allowed: no plan", base_s,
-                max_s);
+                "the calibration base alone takes %.0f s, more than the %.0f s allowed: no plan",
+                base_s, max_s);
   for (ProposedGroup& g : r->groups) {
     if (!g.possible) continue;
     std::string names;
     for (const std::string& e : g.effects) names += (names.empty() ? "" : " and ") + e;
     g.resolved = false;
     g.why = std::string(buf) + "; " + names +
-            (!g.unseparable ? " stays short of the precision"
-             : g.effects.size() > 1 ? " stay unseparable" : " stays unseparable");
+            (!g.unseparable         ? " stays short of the precision"
+             : g.effects.size() > 1 ? " stay unseparable"
+                                    : " stays unseparable");
   }
   r->notes.push_back(buf);
 }
@@ -707,13 +707,15 @@ ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
   const std::vector<Eigen::MatrixXd> cand_rows(rows.begin() + 1, rows.end());
   const std::vector<double> cand_dur(dur.begin() + 1, dur.end());
   greedy(cands, cand_rows, cand_dur, groups, lay, nb, r.angle_limit_rad, eo, po.max_duration_s, &s);
-  const Assessment base = assess(rows[0], nb, groups, lay, r.angle_limit_rad, eo.baseline_collinear);
+  const Assessment base =
+      assess(rows[0], nb, groups, lay, r.angle_limit_rad, eo.baseline_collinear);
   for (std::size_t k = 0; k < groups.size(); ++k) {
     if (base.deficit[k] < before.deficit[k] - 1e-9) s.served[k].insert(s.served[k].begin(), 0);
   }
   const Assessment after = assess(s.J, nb, groups, lay, r.angle_limit_rad, eo.baseline_collinear);
   fillGroups(groups, effects, before, after, s, r.angle_limit_rad, &r);
-  if (std::all_of(groups.begin(), groups.end(), [](const Group& g) { return !g.impossible.empty(); })) {
+  if (std::all_of(groups.begin(), groups.end(),
+                  [](const Group& g) { return !g.impossible.empty(); })) {
     r.notes.push_back("no group can be separated by a plan of this table: no plan proposed");
     return r;
   }

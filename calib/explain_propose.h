@@ -104,10 +104,10 @@ struct ProposedGroup {
   // Principal angle between the effects' projected columns (unseparable groups), rad: on the
   // recording and on the proposed plan; the limit is acos(unseparable_cos).
   double angle_before_rad = 0.0, angle_after_rad = 0.0;
-  std::vector<std::string> flat_names;  // the effects' parameters
+  std::vector<std::string> flat_names;            // the effects' parameters
   std::vector<double> sigma_before, sigma_after;  // predicted, per flat name (NaN: not seen)
-  std::vector<double> sigma_target;  // precision requests only (else empty)
-  std::vector<std::string> added;    // purposes of the blocks that served it
+  std::vector<double> sigma_target;               // precision requests only (else empty)
+  std::vector<std::string> added;                 // purposes of the blocks that served it
   double added_duration_s = 0.0;
   bool resolved = false;
   // False: no plan of the candidate motions separates it (why says so), e.g. a base tilt about
@@ -118,7 +118,7 @@ struct ProposedGroup {
 
 struct ProposeResult {
   Status status = Status::Error("not proposed");  // why not (bad options, expander refused)
-  bool nothing_to_propose = false;  // no group: no plan
+  bool nothing_to_propose = false;                // no group: no plan
   // The plan (no blocks when no group can be served by any plan: every group impossible).
   ProposedPlan plan;
   double duration_s = 0.0;

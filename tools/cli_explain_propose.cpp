@@ -42,14 +42,13 @@ void printSigmas(const calib::ProposedGroup& g) {
 void printGroup(const calib::ProposedGroup& g, double limit) {
   std::string names;
   for (const std::string& e : g.effects) names += (names.empty() ? "" : " + ") + e;
-  std::printf("  %s (%s): %s\n", names.c_str(),
-              g.unseparable ? "unseparable" : "short of the precision",
-              g.resolved ? (g.unseparable ? "separated by the plan" : "precise enough with the plan")
-                         : ("NOT RESOLVED: " + g.why).c_str());
+  std::printf(
+      "  %s (%s): %s\n", names.c_str(), g.unseparable ? "unseparable" : "short of the precision",
+      g.resolved ? (g.unseparable ? "separated by the plan" : "precise enough with the plan")
+                 : ("NOT RESOLVED: " + g.why).c_str());
   if (g.unseparable) {
     std::printf("    principal angle %.3g -> %.3g deg (limit %.3g deg)\n",
-                g.angle_before_rad * kRadToDeg, g.angle_after_rad * kRadToDeg,
-                limit * kRadToDeg);
+                g.angle_before_rad * kRadToDeg, g.angle_after_rad * kRadToDeg, limit * kRadToDeg);
   }
   std::printf("    the plan adds %.0f s for it:\n", g.added_duration_s);
   for (const std::string& a : g.added) std::printf("      - %s\n", a.c_str());

@@ -5,10 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
-
-#include "calib/explain_propose.h"
 #include <map>
 
+#include "calib/explain_propose.h"
 #include "explain_sim.h"
 #include "io/plan_writer.h"
 #include "plans/proposal.h"
@@ -142,10 +141,10 @@ TEST(ExplainPropose, LevelRecordingGetsAPlanThatSeparatesTiltFromNonorthogonalit
   const ExplainAccepted* nonorth = accepted(r2, "nonorthogonality");
   ASSERT_NE(tilt, nullptr);
   ASSERT_NE(nonorth, nullptr);
-  const std::map<std::string, double> truth = {{"table.base_tilt.x", e.base_tilt->x},
-                                               {"table.base_tilt.y", e.base_tilt->y},
-                                               {"table.nonorthogonality.inner_y",
-                                                e.nonorthogonality->inner_y}};
+  const std::map<std::string, double> truth = {
+      {"table.base_tilt.x", e.base_tilt->x},
+      {"table.base_tilt.y", e.base_tilt->y},
+      {"table.nonorthogonality.inner_y", e.nonorthogonality->inner_y}};
   for (const ExplainAccepted* a : {tilt, nonorth}) {
     for (std::size_t k = 0; k < a->flat_names.size(); ++k) {
       ASSERT_TRUE(truth.count(a->flat_names[k])) << a->flat_names[k];
