@@ -218,5 +218,47 @@ TEST(ExplainPropose, TooShortMaxDurationLeavesTheGroupUnseparable) {
   EXPECT_TRUE(p.plan.blocks.empty());
 }
 
+// An accepted effect short of the requested precision: the greedy search adds blocks to the
+// base until the predicted sigma is below the target, within the duration; with too little time
+// it says the effect stays short.
+TEST(ExplainPropose, PrecisionRequestAddsBlocksUntilThePredictedSigmaIsBelowTheTarget) {
+  EffectSet e;
+  e.enable(EffectId::kNonorthogonality);
+  e.nonorthogonality->inner_y = 30.0 * kArcsec;
+  const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), e, 51);
+  const ExplainInput input = simulatedExplainInput(rec);
+  ExplainOptions eo;
+  eo.candidates = {"nonorthogonality"};
+  const ExplainResult r = explainRecording(input, eo);
+  ASSERT_TRUE(r.status.ok) << r.status.message;
+  const ExplainAccepted* a = accepted(r, "nonorthogonality");
+  ASSERT_NE(a, nullptr) << summary(r);
+  ProposeOptions po;
+  po.relative_precision = 0.5 * a->sigmas[0] / std::abs(a->values[0]);  // half its sigma
+  const ProposeResult p = proposePlan(input, r, eo, po, plans::expandProposedPlan);
+  ASSERT_TRUE(p.status.ok) << p.status.message;
+  printProposal(p);
+  ASSERT_EQ(p.groups.size(), 1u);
+  const ProposedGroup& g = p.groups[0];
+  EXPECT_TRUE(g.resolved) << g.why;
+  EXPECT_GE(p.plan.blocks.size(), 2u);  // the base and at least one block
+  EXPECT_FALSE(g.added.empty());
+  ASSERT_EQ(g.sigma_after.size(), g.sigma_target.size());
+  for (std::size_t k = 0; k < g.sigma_after.size(); ++k) {
+    EXPECT_LE(g.sigma_after[k], g.sigma_target[k]) << g.flat_names[k];
+  }
+  EXPECT_LE(p.duration_s, po.max_duration_s);
+  const plans::PlanCheck check =
+      plans::checkPlanText(io::proposedPlanToml(p.plan), "proposal.toml");
+  EXPECT_TRUE(check.status.ok) << check.status.message;
+
+  po.max_duration_s = 700.0;  // the base (588 s) and no block of the needed length
+  const ProposeResult short_plan = proposePlan(input, r, eo, po, plans::expandProposedPlan);
+  ASSERT_TRUE(short_plan.status.ok) << short_plan.status.message;
+  ASSERT_EQ(short_plan.groups.size(), 1u);
+  EXPECT_FALSE(short_plan.groups[0].resolved);
+  EXPECT_NE(short_plan.groups[0].why.find("above the requested precision"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace imubench::calib::testing
