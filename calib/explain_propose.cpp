@@ -584,7 +584,7 @@ std::string shortfall(const Group& g, const Assessment& a, std::size_t k, double
                       const std::vector<EffectColumns>& effects) {
   char buf[200];
   if (!g.impossible.empty()) return g.impossible;
-  if (g.unseparable && a.angle[k] < limit) {
+  if (g.unseparable && g.effects.size() == 2 && a.angle[k] < limit) {
     std::snprintf(buf, sizeof(buf), "principal angle %.3g deg, limit %.3g deg", a.angle[k] / kDeg,
                   limit / kDeg);
     return std::string(buf) + ": " + effects[g.effects[0]].id + " and " + effects[g.effects[1]].id +
@@ -666,6 +666,7 @@ ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
   std::vector<Group> groups;
   listGroups(in, res, eo, po, &effects, &groups);
   r.angle_limit_rad = std::acos(eo.unseparable_cos);
+  r.baseline_angle_limit_rad = std::asin(eo.baseline_collinear);
   r.status = Status::Ok();
   if (groups.empty()) {
     r.nothing_to_propose = true;

@@ -101,8 +101,10 @@ struct ProposeOptions {
 struct ProposedGroup {
   std::vector<std::string> effects;
   bool unseparable = false;  // from ExplainResult::unseparable (else a precision request)
-  // Principal angle between the effects' projected columns (unseparable groups), rad: on the
-  // recording and on the proposed plan; the limit is acos(unseparable_cos).
+  // Principal angle between the effects' projected columns (unseparable pairs), rad: on the
+  // recording and on the proposed plan; the limit is acos(unseparable_cos). One effect
+  // unseparable from the baseline: the smallest angle of its parameters' columns to the
+  // baseline's column space (limit asin(baseline_collinear)).
   double angle_before_rad = 0.0, angle_after_rad = 0.0;
   std::vector<std::string> flat_names;            // the effects' parameters
   std::vector<double> sigma_before, sigma_after;  // predicted, per flat name (NaN: not seen)
@@ -122,7 +124,8 @@ struct ProposeResult {
   // The plan (no blocks when no group can be served by any plan: every group impossible).
   ProposedPlan plan;
   double duration_s = 0.0;
-  double angle_limit_rad = 0.0;
+  double angle_limit_rad = 0.0;           // pairs
+  double baseline_angle_limit_rad = 0.0;  // one effect against the baseline
   std::vector<ProposedGroup> groups;
   std::vector<std::string> notes;
 };

@@ -39,7 +39,8 @@ void printSigmas(const calib::ProposedGroup& g) {
   }
 }
 
-void printGroup(const calib::ProposedGroup& g, double limit) {
+void printGroup(const calib::ProposedGroup& g, const calib::ProposeResult& p) {
+  const double limit = g.effects.size() > 1 ? p.angle_limit_rad : p.baseline_angle_limit_rad;
   std::string names;
   for (const std::string& e : g.effects) names += (names.empty() ? "" : " + ") + e;
   std::printf(
@@ -47,7 +48,9 @@ void printGroup(const calib::ProposedGroup& g, double limit) {
       g.resolved ? (g.unseparable ? "separated by the plan" : "precise enough with the plan")
                  : ("NOT RESOLVED: " + g.why).c_str());
   if (g.unseparable) {
-    std::printf("    principal angle %.3g -> %.3g deg (limit %.3g deg)\n",
+    std::printf(g.effects.size() > 1
+                    ? "    principal angle %.3g -> %.3g deg (limit %.3g deg)\n"
+                    : "    angle to the baseline's columns %.3g -> %.3g deg (limit %.3g deg)\n",
                 g.angle_before_rad * kRadToDeg, g.angle_after_rad * kRadToDeg, limit * kRadToDeg);
   }
   std::printf("    the plan adds %.0f s for it:\n", g.added_duration_s);
@@ -83,7 +86,7 @@ void proposeFromExplain(const ProposeCliOptions& o, const calib::ExplainInput& i
   std::printf("propose (limits %.3g deg/s, %.3g deg/s^2, at most %.0f s):\n",
               po.limits.max_rate_rad_s * kRadToDeg, po.limits.max_accel_rad_s2 * kRadToDeg,
               po.max_duration_s);
-  for (const calib::ProposedGroup& g : p.groups) printGroup(g, p.angle_limit_rad);
+  for (const calib::ProposedGroup& g : p.groups) printGroup(g, p);
   for (const std::string& n : p.notes) std::printf("  note: %s\n", n.c_str());
   if (p.plan.blocks.empty()) {
     std::printf("propose: no plan written (no group can be served by a plan)\n");
