@@ -647,6 +647,25 @@ void baseTooLong(const std::vector<Group>& groups, const std::vector<EffectColum
   r->notes.push_back(buf);
 }
 
+// The base and the candidates expanded, simulated and differentiated once each (the base is
+// blocks[0]).
+Status evaluateBlocks(Model* m, const ProposeOptions& po, const ProposalExpander& expand,
+                      std::vector<ProposedBlock>* blocks, std::vector<Eigen::MatrixXd>* rows,
+                      std::vector<double>* dur) {
+  const TableKind kind = m->input->geometry.kind;
+  *blocks = candidateBlocks(kind, po);
+  blocks->insert(blocks->begin(), baseBlock(kind, po));
+  dur->assign(blocks->size(), 0.0);
+  for (std::size_t b = 0; b < blocks->size(); ++b) {
+    Result<Eigen::MatrixXd> x = blockRows(m, (*blocks)[b], po, expand, &(*dur)[b]);
+    if (!x.ok()) {
+      return Status::Error("generated block '" + (*blocks)[b].purpose + "': " + x.status.message);
+    }
+    rows->push_back(std::move(x.value));
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
@@ -675,21 +694,15 @@ ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
   Layout lay;
   Model m = modelOf(in, res, eo, effects, &lay);
   const int nb = m.baseline_cols;
-  // The candidates (and the base) expanded, simulated and differentiated once each.
-  std::vector<ProposedBlock> blocks = candidateBlocks(in.geometry.kind, po);
-  blocks.insert(blocks.begin(), baseBlock(in.geometry.kind, po));
+  std::vector<ProposedBlock> blocks;
   std::vector<Eigen::MatrixXd> rows;
-  std::vector<double> dur(blocks.size(), 0.0);
-  Eigen::MatrixXd all(0, static_cast<int>(m.names.size()));
-  for (std::size_t b = 0; b < blocks.size(); ++b) {
-    Result<Eigen::MatrixXd> x = blockRows(&m, blocks[b], po, expand, &dur[b]);
-    if (!x.ok()) {
-      r.status = Status::Error("generated block '" + blocks[b].purpose + "': " + x.status.message);
-      return r;
-    }
-    all = stack(all, x.value);
-    rows.push_back(std::move(x.value));
+  std::vector<double> dur;
+  if (Status st = evaluateBlocks(&m, po, expand, &blocks, &rows, &dur); !st.ok) {
+    r.status = st;
+    return r;
   }
+  Eigen::MatrixXd all(0, static_cast<int>(m.names.size()));
+  for (const Eigen::MatrixXd& x : rows) all = stack(all, x);
   holdIntrinsic(all, nb, effects, eo.baseline_collinear, &lay, &r.notes);
   markImpossible(all, nb, lay, r.angle_limit_rad, eo, effects, &groups);
   const Eigen::MatrixXd J_rec = rowsOf(&m, in.geometry, in.imu, in.table, in.segments);
