@@ -89,7 +89,7 @@ void proposeFromExplain(const ProposeCliOptions& o, const calib::ExplainInput& i
   for (const calib::ProposedGroup& g : p.groups) printGroup(g, p);
   for (const std::string& n : p.notes) std::printf("  note: %s\n", n.c_str());
   if (p.plan.blocks.empty()) {
-    std::printf("propose: no plan written (no group can be served by a plan)\n");
+    std::printf("propose: no plan written (why: the groups and notes above)\n");
     return;
   }
   writePlan(o.out, p.plan);
