@@ -8,4 +8,5 @@ target_sources(imubench_calib PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/explain_json.cpp
   ${CMAKE_CURRENT_LIST_DIR}/explain_baseline.cpp
   ${CMAKE_CURRENT_LIST_DIR}/explain_scalar.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/explain_propose.cpp
 )

@@ -473,7 +473,7 @@ std::string checkInput(const ExplainInput& in, const ExplainOptions& o,
   return "";
 }
 
-std::vector<std::string> baselineNames(const ExplainInput& in) {
+std::vector<std::string> baselineNamesOf(const ExplainInput& in) {
   std::vector<std::string> names;
   BenchTruth t = in.baseline.values;
   t.table_kind = in.geometry.kind;
@@ -1254,6 +1254,19 @@ void listHarmonicVariants(const ExplainData& data, const ExplainOptions& o, Expl
 
 }  // namespace
 
+std::vector<double> explainRowSigmas(const ExplainData& data, const NoiseFloor& noise) {
+  return rowSigmas(data, noise);
+}
+
+std::vector<std::string> explainBaselineNames(const ExplainInput& input) {
+  return baselineNamesOf(input);
+}
+
+std::vector<ExplainCandidateSpec> explainCandidates(const ExplainInput& input,
+                                                    const ExplainOptions& options) {
+  return candidateEffects(input, options);
+}
+
 std::string explainMotionRefusal(const RecordingView& recording) {
   const MotionSupport m = motionSupport(recording);
   if (m.determinesTriads()) return "";
@@ -1297,8 +1310,8 @@ ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) 
   p.sigma = rowSigmas(data, p.noise, &p.model_sigma);
   p.start.model = in.baseline.values;
   p.start.model.table_kind = in.geometry.kind;
-  p.baseline_names = baselineNames(in);
-  p.candidates = candidateEffects(in, o);
+  p.baseline_names = explainBaselineNames(in);
+  p.candidates = explainCandidates(in, o);
   p.segments.assign(in.segments.begin(), in.segments.end());
   p.baseline_method = in.baseline_method;
   listHarmonicVariants(data, o, &p);

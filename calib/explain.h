@@ -287,6 +287,15 @@ struct ExplainProblem {
 };
 ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions& options);
 
+// The pieces explainRecording builds its problem from, for analyses of other motions on the
+// same model (calib/explain_propose.h): per-row sigmas of prepared bins under a noise floor
+// (noise and encoder interpolation), the baseline's flat names, the candidate effects (the
+// table groups the baseline did not estimate, then the registry's).
+std::vector<double> explainRowSigmas(const ExplainData& data, const NoiseFloor& noise);
+std::vector<std::string> explainBaselineNames(const ExplainInput& input);
+std::vector<ExplainCandidateSpec> explainCandidates(const ExplainInput& input,
+                                                    const ExplainOptions& options);
+
 // The interchange report (interchange.md "Explain report", imubench-explain/1).
 nlohmann::json toJson(const ExplainResult& result);
 

@@ -1,5 +1,7 @@
 // imubench explain RUN_OR_DIR [--coeffs C.json] [--direct RUN_OR_DIR] [--json FILE]
 //                             [--report DIR] [--effects id,id,...] [--bin S] [--db PATH]
+//                             [--propose-plan OUT.toml [--bench BENCH.toml] [--max-duration S]
+//                              [--precision F]]   (tools/cli_explain_propose.h)
 // imubench explain FILE --format imutk --gyro GYRO_FILE [--latitude DEG --height M | --gravity G]
 // imubench explain FILE --format imucal|mikov [--rate HZ] [--gravity G]
 //
@@ -53,6 +55,7 @@
 #include "io/sim_recording.h"
 #include "io/truth_file.h"
 #include "tools/cli_common.h"
+#include "tools/cli_explain_propose.h"
 #include "tools/cli_store.h"
 
 namespace imubench::tools {
@@ -73,6 +76,7 @@ struct ExplainCliOptions {
   RealRecordingOptions real;
   std::optional<double> gyro_range_dps;  // IMU ranges: samples at them are refused
   std::optional<double> accel_range_g;
+  ProposeCliOptions propose;  // --propose-plan, --bench, --max-duration, --precision
 };
 
 // "Result unusable" (the recording cannot support the analysis): calibrate's exit code.
@@ -353,9 +357,13 @@ void runExplainTable(const ExplainCliOptions& o) {
   }
   printSummary(p, r);
   writeOutputs(o, src.label, r);
+  if (!o.propose.out.empty()) proposeFromExplain(o.propose, p.input, r, eo);
 }
 
 void runExplainScalar(const ExplainCliOptions& o) {
+  if (!o.propose.out.empty()) {
+    throw CommandFailed("--propose-plan needs a table recording (a plan moves a table)", 2);
+  }
   if (!o.coeffs.empty() || !o.direct.empty()) {
     throw CommandFailed("--format " + o.format +
                             " recordings are explained from their own scalar calibration: no "
@@ -429,6 +437,17 @@ void addExplainCommand(CLI::App& app) {
   sub->add_option("--accel-range", opt->accel_range_g,
                   "IMU accelerometer range, g: samples at it are clipped and the recording is "
                   "refused")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--propose-plan", opt->propose.out,
+                  "write the plan that separates what this recording could not (plan TOML)");
+  sub->add_option("--bench", opt->propose.bench,
+                  "bench file whose [table] max_rate/max_accel bound the proposal (default: the "
+                  "virtual bench's 30 deg/s, 10 deg/s^2)");
+  sub->add_option("--max-duration", opt->propose.max_duration_s,
+                  "longest proposed plan, s (default 7200)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--precision", opt->propose.precision,
+                  "wanted sigma of an accepted effect as a fraction of its size (default 0.1)")
       ->check(CLI::PositiveNumber);
   sub->callback([opt] {
     if (opt->format == "imubench") {
