@@ -10,8 +10,8 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <deque>
 #include <ctime>
+#include <deque>
 #include <filesystem>
 #include <limits>
 #include <sstream>
@@ -258,9 +258,9 @@ struct BenchDaemon::ActiveRun {
   // reading's instant; frames without a receive time: the first sample after the reading.
   static constexpr double kBurstGapS = 1e-4;
   struct PendingTable {
-    std::array<double, 3> read_unix_s{};  // per axis; 0 when the driver gives none
-    std::array<double, 3> rate{};         // rad/s, per axis
-    io::TableSample sample;               // angles set, t to be found
+    std::array<double, 3> read_unix_s{};        // per axis; 0 when the driver gives none
+    std::array<double, 3> rate{};               // rad/s, per axis
+    io::TableSample sample;                     // angles set, t to be found
     TableReadTiming read{0.0, kNaN, 0.0, 0.0};  // at_unix_s: the axes' mean read time
   };
   std::optional<PendingTable> pending_table;
@@ -699,7 +699,8 @@ void BenchDaemon::stampPendingTable(const drivers::DecodedImuSample& d, bool bur
 }
 
 // A stamped table reading goes to the store (with its read round trip) and the online engine,
-// in time order. Readings further apart than the bench's [table] reading_gap while the plan runs: onRecordingGap.
+// in time order. Readings further apart than the bench's [table] reading_gap while the plan runs:
+// onRecordingGap.
 void BenchDaemon::storeTableSample(const io::TableSample& ts, const TableReadTiming& read) {
   ActiveRun& run = *run_;
   if (run.last_table_t && ts.t <= *run.last_table_t) return;

@@ -42,9 +42,9 @@ class DriverBenchPort : public BenchPort {
 
   // Reads the table and fills what the runner needs, with the chamber temperature of the
   // last readChamber(). now_s: the daemon's monotonic time; imu_last_frame_s: when the IMU
-  // last delivered a sample (same clock). BenchObservation::busy_s is busyS() then. The last driver errors are kept for the alarm text
-  // (lastTableError()). A silent table is not read again before kSilentRetryPeriodS has
-  // passed (table_ok false meanwhile).
+  // last delivered a sample (same clock). BenchObservation::busy_s is busyS() then. The last driver
+  // errors are kept for the alarm text (lastTableError()). A silent table is not read again before
+  // kSilentRetryPeriodS has passed (table_ok false meanwhile).
   BenchObservation observe(double now_s, double imu_last_frame_s);
   // Reads the chamber (the daemon does on the chamber's own, slower timer). True when *out
   // holds a temperature: also with an active alarm (over-temperature is the runner's to

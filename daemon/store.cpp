@@ -116,8 +116,7 @@ CREATE INDEX queue_by_pos ON queue(pos);
 )sql";
 // Schema version 3: each table reading's read round trip, s (RunBatch::table_round_trip_s;
 // NULL: unknown, as in every row stored before).
-constexpr const char* kRoundTripColumnSql =
-    "ALTER TABLE table_samples ADD COLUMN round_trip_s ANY";
+constexpr const char* kRoundTripColumnSql = "ALTER TABLE table_samples ADD COLUMN round_trip_s ANY";
 constexpr const char* kHasRoundTripColumnSql =
     "SELECT count(*) FROM pragma_table_info('table_samples') WHERE name = 'round_trip_s'";
 constexpr const char* kSetSchemaVersionSql = "PRAGMA user_version=3";
@@ -474,8 +473,8 @@ Status Store::Impl::migrateSchema() {
       if (auto st = execSql(kQueueSchemaSql, "cannot add the queue"); !st.ok) return st;
     }
     std::int64_t has_column = 0;
-    if (auto st = queryInt(kHasRoundTripColumnSql, "cannot read the table samples' columns",
-                           &has_column);
+    if (auto st =
+            queryInt(kHasRoundTripColumnSql, "cannot read the table samples' columns", &has_column);
         !st.ok) {
       return st;
     }
@@ -1147,15 +1146,15 @@ TableRoundTripsResult Store::tableRoundTrips(std::int64_t run_id) {
     r.status = info.status;
     return r;
   }
-  r.status = impl_->forEachRunRow(
-      "SELECT t, round_trip_s FROM table_samples WHERE run_id = ?1 ORDER BY t", run_id,
-      "table round trips", [&r](Bound& q) {
-        TableRoundTrip& row = r.value.emplace_back();
-        row.t = q.real(0);
-        const double rt = q.realOrNaN(1);
-        if (!std::isnan(rt)) row.round_trip_s = rt;
-        return Status::Ok();
-      });
+  r.status =
+      impl_->forEachRunRow("SELECT t, round_trip_s FROM table_samples WHERE run_id = ?1 ORDER BY t",
+                           run_id, "table round trips", [&r](Bound& q) {
+                             TableRoundTrip& row = r.value.emplace_back();
+                             row.t = q.real(0);
+                             const double rt = q.realOrNaN(1);
+                             if (!std::isnan(rt)) row.round_trip_s = rt;
+                             return Status::Ok();
+                           });
   if (!r.status.ok) r.value.clear();
   return r;
 }

@@ -159,7 +159,7 @@ using QueueAddResult = Result<QueuePlace>;
 using QueueListResult = Result<std::vector<QueueEntry>>;  // in queue order, the next first
 using CountResult = Result<int>;
 struct TableRoundTrip {
-  double t = 0.0;                       // the reading's time (table_samples.t)
+  double t = 0.0;                      // the reading's time (table_samples.t)
   std::optional<double> round_trip_s;  // unset: unknown
 };
 using TableRoundTripsResult = Result<std::vector<TableRoundTrip>>;

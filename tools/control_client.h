@@ -107,8 +107,7 @@ class ControlClient {
 // and the daemon's reply, raw (ok true or false). Throws ControlError like request(). Shared by
 // the CLI's `stop` and the light front end that serves it without loading the CLI
 // (tools/imubench_front.cpp).
-nlohmann::json sendEmergencyStop(const std::string& control_socket,
-                                 const std::string& stop_socket);
+nlohmann::json sendEmergencyStop(const std::string& control_socket, const std::string& stop_socket);
 // What `imubench stop` prints when the daemon took it.
 inline constexpr const char* kEmergencyStopSent = "emergency stop sent";
 // An ok=false reply throws RemoteError ("error (code): message"), as ControlClient::call.

@@ -44,8 +44,8 @@ std::optional<StopArgs> parseStop(int argc, char** argv) {
     std::string_view name;
     for (auto [opt, field] : {std::pair{std::string_view("--socket"), &a.socket},
                               std::pair{std::string_view("--stop-socket"), &a.stop_socket}}) {
-      if (arg == opt || (arg.size() > opt.size() && arg.substr(0, opt.size()) == opt &&
-                         arg[opt.size()] == '=')) {
+      if (arg == opt ||
+          (arg.size() > opt.size() && arg.substr(0, opt.size()) == opt && arg[opt.size()] == '=')) {
         into = field;
         name = opt;
       }

@@ -26,6 +26,9 @@
 #                                      #   and more; table_gap.sh and table_latency.sh: 0.2 s,
 #                                      #   the daemon's default)
 #   e2e_stop_daemon                    # SIGTERM, checks the exit status
+#   e2e_truth_targets OUT              # OUT (`imubench results RUN --truth T`) meets the targets:
+#                                      #   scale/misalignment/table rows within 3 arcsec / 10 ppm,
+#                                      #   at most one bias outside 2 sigma, none beyond 3 sigma
 #   e2e_py SCRIPT [ARGS...]            # python3 with tests/daemon/e2e on the path (e2e_client)
 #   fail MESSAGE                       # prints the tails of the logs and exits 1
 # The bench file uses limits the bundled virtual bench has (30 deg/s, 10 deg/s^2), so the
@@ -178,4 +181,20 @@ e2e_hold() {
 e2e_rotate() {
   printf '[[step]]\ntype = "rotate"\naxis = "%s"\nangle = "%s"\ndirection = "%s"\n' "$2" "$3" "$4"
   printf 'rate = "10 deg/s"\naccel = "5 deg/s^2"\nlabel = "%s"\n' "$1"
+}
+
+e2e_truth_targets() {
+  python3 - "$1" <<'PY' || fail "stored coefficients against the truth"
+import re, sys
+rows = [l for l in sys.argv[1].splitlines() if " error " in l and " limit " in l]
+assert rows, "no comparison rows"
+bad_angle = [l for l in rows if "OUTSIDE" in l and ".bias." not in l]
+assert not bad_angle, "scale/misalignment/table outside 3 arcsec / 10 ppm:\n" + "\n".join(bad_angle)
+bias_out = [l for l in rows if "OUTSIDE" in l and ".bias." in l]
+assert len(bias_out) <= 1, "more than one bias outside 2 sigma:\n" + "\n".join(bias_out)
+for l in bias_out:
+    m = re.search(r"error\s+([-+0-9.]+)\s+\S+\s+limit\s+([0-9.]+)", l)
+    assert abs(float(m.group(1))) <= 1.5 * float(m.group(2)), "bias beyond 3 sigma: " + l
+print("ok: %d parameters compared, %d bias(es) outside 2 sigma" % (len(rows), len(bias_out)))
+PY
 }

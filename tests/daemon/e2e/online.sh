@@ -154,19 +154,7 @@ grep -q '^verdict: PASS' <<<"$out" || fail "results 2: verdict PASS"
 grep -q 'pipeline calibration' <<<"$out" || fail "results 2: pipeline"
 grep -q '^missing physics (indirect baseline)' <<<"$out" || fail "results 2: explain shown"
 grep -qE '^  unexplained windows: [0-9]+' <<<"$out" || fail "results 2: unexplained windows"
-python3 - "$out" <<'PY' || fail "stored coefficients against the truth"
-import re, sys
-rows = [l for l in sys.argv[1].splitlines() if " error " in l and " limit " in l]
-assert rows, "no comparison rows"
-bad_angle = [l for l in rows if "OUTSIDE" in l and ".bias." not in l]
-assert not bad_angle, "scale/misalignment/table outside 3 arcsec / 10 ppm:\n" + "\n".join(bad_angle)
-bias_out = [l for l in rows if "OUTSIDE" in l and ".bias." in l]
-assert len(bias_out) <= 1, "more than one bias outside 2 sigma:\n" + "\n".join(bias_out)
-for l in bias_out:
-    m = re.search(r"error\s+([-+0-9.]+)\s+\S+\s+limit\s+([0-9.]+)", l)
-    assert abs(float(m.group(1))) <= 1.5 * float(m.group(2)), "bias beyond 3 sigma: " + l
-print("ok: %d parameters compared, %d bias(es) outside 2 sigma" % (len(rows), len(bias_out)))
-PY
+e2e_truth_targets "$out"
 python3 -c 'import json,sys; j=json.load(open(sys.argv[1])); assert "accel" in j and "gyro" in j' \
   "$W/coefficients.json" || fail "coefficients.json"
 hist=$("$CLI" results --serial E2E-1 --db "$W/imubench.db") || fail "results --serial"
