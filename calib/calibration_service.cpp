@@ -277,8 +277,7 @@ CalibrationOutcome automatic(const CalibrationRequest& rq, const ServiceOptions&
     return out;
   }
   if (out.status.IsSolutionUsable()) {
-    out.why_method = "navigation-based: the direct calibration is unusable (" +
-                     d.status.message +
+    out.why_method = "navigation-based: the direct calibration is unusable (" + d.status.message +
                      "); the navigation-based calibration estimates the table errors it takes "
                      "as nominal";
     return out;

@@ -528,12 +528,17 @@ void largestResiduals(const Rows& rows, const std::vector<double>& row_ss, const
 }
 
 // Fit quality of the result: residuals against the noise, determined and plausible values.
-// The sigmas propagated from the sensor noise alone (noise_only: their names) scaled by
-// max(1, their triad's normalised RMS).
+// The misalignment sigmas propagated from the sensor noise alone (noise_only: their names)
+// scaled by max(1, their triad's normalised RMS). Scales and biases keep theirs: the axis
+// pairs' up/down differences cancel a tilt of the input to first order (the seed's finding),
+// so the misfit a table error leaves is in the misalignment rows, and scaling the scales'
+// and biases' sigmas by it overstated them about twofold on a 40" tilted table
+// (DirectPlans.ScaleAndBiasSigmasAreHonestOnATiltedTable).
 void scaleNoiseSigmas(const std::vector<std::string>& noise_only, DirectCalibrationResult* res) {
   res->accel_sigma_factor = std::max(1.0, res->accel_normalised_rms);
   res->gyro_sigma_factor = std::max(1.0, res->gyro_normalised_rms);
   for (const std::string& name : noise_only) {
+    if (name.find(".misalignment.") == std::string::npos) continue;
     Uncertainty& u = res->report.uncertainty[name];
     if (!u.sigma) continue;
     *u.sigma *= name.rfind("accel.", 0) == 0 ? res->accel_sigma_factor : res->gyro_sigma_factor;
