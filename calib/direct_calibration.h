@@ -99,9 +99,10 @@ struct DirectCalibrationResult {
   double accel_normalised_rms = 0.0;
   double gyro_normalised_rms = 0.0;
   // The sigmas are scaled by the measured residual: the axis-pairs estimator propagates the
-  // sensor noise alone, so its sigmas are multiplied by max(1, the triad's normalised RMS)
-  // (the joint least squares' covariance already carries the residual scatter). 1: the noise
-  // model fits.
+  // sensor noise alone, so its misalignment sigmas are multiplied by max(1, the triad's
+  // normalised RMS); its scales and biases cancel a tilted input to first order and keep the
+  // noise's (the joint least squares' covariance already carries the residual scatter). 1: the
+  // noise model fits.
   double accel_sigma_factor = 1.0;
   double gyro_sigma_factor = 1.0;
   // Accel and gyro coefficients (report.values.sensors), sigmas and unobservable flags by
