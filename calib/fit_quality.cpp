@@ -1,5 +1,6 @@
 #include "calib/fit_quality.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -16,6 +17,15 @@ bool FitQualityOptions::IsValid(std::string* why) const {
   if (!(max_scale_sigma > 0.0) || !(max_misalignment_sigma > 0.0))
     return fail("max_scale_sigma and max_misalignment_sigma must be > 0");
   return true;
+}
+
+FitQualityOptions FitQualityOptions::acceptingMisfit(double max_rms) const {
+  FitQualityOptions o = *this;
+  const double ratio = std::max(1.0, max_rms / max_normalised_rms);
+  o.max_normalised_rms = std::max(max_rms, max_normalised_rms);
+  o.max_scale_sigma *= ratio;
+  o.max_misalignment_sigma *= ratio;
+  return o;
 }
 
 void judgeCoefficients(const CoefficientReport& report, const FitQualityOptions& o,

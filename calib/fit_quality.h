@@ -51,6 +51,10 @@ struct FitQualityOptions {
   double max_misalignment_sigma = 1e-4;
 
   bool IsValid(std::string* why) const;
+  // This gate accepting a misfit up to max_rms: the sigma limits grow by the same ratio, since
+  // the calibrators scale their sigmas by the normalised RMS (a pass whose misfit is known and
+  // removed later, e.g. a thermal ramp's within-repetition drift, is not judged on it).
+  FitQualityOptions acceptingMisfit(double max_rms) const;
 };
 
 // Findings on the coefficients of a report: a sensor coefficient the data do not determine

@@ -156,8 +156,9 @@ struct ThermalRunsFitOptions {
   // correction is linear in the model's error).
   int refinements = 2;
   // Normalised residual RMS accepted in every pass but the last: a point's drift shows as
-  // model misfit until it is moved to one temperature; the last pass applies points.direct's
-  // gate.
+  // model misfit until it is moved to one temperature (and inflates the sigmas, which are
+  // scaled by the misfit: the sigma limits grow with it, FitQualityOptions::acceptingMisfit);
+  // the last pass applies points.direct's gate.
   double max_normalised_rms_before_last = 1e6;
 
   bool IsValid(std::string* why) const;
