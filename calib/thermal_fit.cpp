@@ -458,8 +458,7 @@ ThermalRunsFitResult fitThermalRuns(const std::vector<ThermalRun>& runs,
   for (int pass = 0; pass <= options.refinements; ++pass) {
     ThermalPointOptions po = options.points;
     if (pass < options.refinements) {
-      po.direct.quality =
-          po.direct.quality.acceptingMisfit(options.max_normalised_rms_before_last);
+      po.direct.quality = po.direct.quality.acceptingMisfit(options.max_normalised_rms_before_last);
     }
     if (pass > 0) po.reference = &previous;
     r.points.clear();
