@@ -119,7 +119,10 @@ if crash:  # kill -9 once two estimates of the 12-run plan are out; resumed belo
                  str(e.get("label", "")).endswith("_before"), "a run's first hold", 400)
     os.kill(dpid, signal.SIGKILL)
 else:
-    nav, est, res = run_plan(work + "/12run.toml", "pipeline", 3)
+    # Two: the trend needs two. The engine runs one estimate at a time and coalesces the step
+    # ends that come while it runs (daemon/online_engine.h); at 20x a navigation-based
+    # estimate on a loaded host outlasts several runs (2 of 6 possible seen at load 8).
+    nav, est, res = run_plan(work + "/12run.toml", "pipeline", 2)
     sigma_trend(est, "")
     check(res["pass"] is True, "verdict PASS: %s" % res)
 
