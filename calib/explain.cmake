@@ -9,4 +9,5 @@ target_sources(imubench_calib PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/explain_baseline.cpp
   ${CMAKE_CURRENT_LIST_DIR}/explain_scalar.cpp
   ${CMAKE_CURRENT_LIST_DIR}/explain_propose.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/explain_joint.cpp
 )

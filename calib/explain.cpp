@@ -946,7 +946,7 @@ std::vector<ExplainCandidateSpec> registryCandidates(const ExplainOptions& o) {
     ExplainCandidateSpec c;
     c.id = name;
     // Discrete parameters (a table axis, an order) are held at their defaults here;
-    // explainRecording lists angle_harmonic's variants (listHarmonicVariants).
+    // explainRecording lists angle_harmonic's variants (addHarmonicVariants).
     EffectSet defaults;
     defaults.enable(id);
     const std::vector<double> value = defaults.flat(id);
@@ -1132,7 +1132,8 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   res.unseparable = q.gate.unseparable;
   res.rejected = q.gate.rejected;
   res.notes = q.gate.notes;
-  res.refit = {q.fit.iterations, q.fit.converged, q.fit.last_step_sigma};
+  res.refit = {q.fit.iterations, q.fit.converged, q.fit.last_step_sigma,
+               q.fit.chi2 / std::max(1, eval.rows() - q.fit.rank)};
   if (!q.fit.converged) {
     char buf[240];
     std::snprintf(buf, sizeof(buf),
@@ -1179,9 +1180,12 @@ Result<std::vector<RunAttitudeResidual>> runResidualsAt(const ExplainInput& in,
   return indirectRunResiduals(ii, IndirectOptions{});
 }
 
+}  // namespace
+
 // ExplainResult::runs: before at the baseline, after at the refit. Nothing when the recording
 // has no run between two holds (or the method's checks refuse it).
-std::vector<ExplainRunResidual> runResiduals(const ExplainInput& in, const BenchTruth& after) {
+std::vector<ExplainRunResidual> explainRunResiduals(const ExplainInput& in,
+                                                    const BenchTruth& after) {
   const auto b = runResidualsAt(in, in.baseline.values);
   const auto a = runResidualsAt(in, after);
   std::vector<ExplainRunResidual> out;
@@ -1201,7 +1205,7 @@ std::vector<ExplainRunResidual> runResiduals(const ExplainInput& in, const Bench
 // A note when the refitted coefficients navigate the runs clearly worse than the baseline's:
 // the bins then constrain what the runs measure (gyro scales and misalignments) weakly, e.g.
 // through the encoder samples' timing scatter, and the refit drifted along it.
-std::string navigationNote(const std::vector<ExplainRunResidual>& runs) {
+std::string explainNavigationNote(const std::vector<ExplainRunResidual>& runs) {
   double chi2_before = 0.0, chi2_after = 0.0, ss_before = 0.0, ss_after = 0.0;
   for (const ExplainRunResidual& r : runs) {
     for (int k = 0; k < 2; ++k) {
@@ -1225,15 +1229,19 @@ std::string navigationNote(const std::vector<ExplainRunResidual>& runs) {
   return buf;
 }
 
+namespace {
+
 // The effect axis (kTableAxisOuter / Middle / Inner) of spline a of ExplainData::axes.
 int tableAxisOfSpline(TableKind kind, std::size_t a) {
   if (a == 0) return kTableAxisOuter;
   return kind == TableKind::kTwoAxis || a == 2 ? kTableAxisInner : kTableAxisMiddle;
 }
 
+}  // namespace
+
 // angle_harmonic's variants (ExplainOptions::harmonic_*): every order on every axis that
 // turns far enough. None when no axis does (the default variant is then not excited).
-void listHarmonicVariants(const ExplainData& data, const ExplainOptions& o, ExplainProblem* p) {
+void addHarmonicVariants(const ExplainData& data, const ExplainOptions& o, ExplainProblem* p) {
   for (ExplainCandidateSpec& spec : p->candidates) {
     if (spec.id != "angle_harmonic" || spec.fixed.size() != 2) continue;
     for (std::size_t a = 0; a < data.axes.size(); ++a) {
@@ -1246,13 +1254,12 @@ void listHarmonicVariants(const ExplainData& data, const ExplainOptions& o, Expl
         for (auto& [name, value] : f) {
           value = name.ends_with(".axis") ? tableAxisOfSpline(data.geometry.kind, a) : k;
         }
-        spec.variants.push_back(std::move(f));
+        if (std::find(spec.variants.begin(), spec.variants.end(), f) == spec.variants.end())
+          spec.variants.push_back(std::move(f));
       }
     }
   }
 }
-
-}  // namespace
 
 std::vector<double> explainRowSigmas(const ExplainData& data, const NoiseFloor& noise) {
   return rowSigmas(data, noise);
@@ -1276,49 +1283,73 @@ std::string explainMotionRefusal(const RecordingView& recording) {
          "bundled direct_two_axis plan), or give the coefficients (--coeffs)";
 }
 
-ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
-  ExplainResult res;
+ExplainPart prepareExplainPart(const ExplainInput& in, const ExplainOptions& o) {
+  ExplainPart part;
   const std::vector<HoldReadings> holds = staticHolds(in, o);
   if (std::string why = checkInput(in, o, holds); !why.empty()) {
-    res.status = Status::Error(std::move(why));
-    return res;
+    part.status = Status::Error(std::move(why));
+    return part;
   }
   if (in.baseline_method != "given" && in.baseline_from_this_recording) {
     // A baseline calibrated from a recording whose motion cannot determine it is noise fitted
     // to noise: refused before any analysis.
     if (std::string why = explainMotionRefusal(in.recording()); !why.empty()) {
-      res.status = Status::Error(std::move(why));
-      res.unusable = true;
-      return res;
+      part.status = Status::Error(std::move(why));
+      part.unusable = true;
+      return part;
     }
   }
+  part.noise = noiseFloor(holds, o.noise);
+  if (!part.noise.status.ok) {
+    part.status = part.noise.status;
+    return part;
+  }
+  part.data = prepareExplainData(in.geometry, in.site, in.imu, in.table, in.segments, o.model);
+  if (part.data.bins.empty()) {
+    part.status = Status::Error("no IMU sample lies within the span of the encoder samples");
+    return part;
+  }
+  part.sigma = rowSigmas(part.data, part.noise, &part.model_sigma);
+  return part;
+}
+
+std::pair<int, double> explainRecordingTime(const ExplainResult& r, double t) {
+  int k = 0;
+  while (k + 1 < static_cast<int>(r.recording_offsets_s.size()) &&
+         t >= r.recording_offsets_s[static_cast<std::size_t>(k + 1)]) {
+    ++k;
+  }
+  return {k, r.recording_offsets_s.empty()
+                 ? t
+                 : t - r.recording_offsets_s[static_cast<std::size_t>(k)]};
+}
+
+ExplainResult explainRecording(const ExplainInput& in, const ExplainOptions& o) {
+  ExplainResult res;
+  const ExplainPart part = prepareExplainPart(in, o);
+  if (!part.status.ok) {
+    res.status = part.status;
+    res.unusable = part.unusable;
+    return res;
+  }
+  ExplainPredictor predictor(&part.data);
   ExplainProblem p;
-  p.noise = noiseFloor(holds, o.noise);
-  if (!p.noise.status.ok) {
-    res.status = p.noise.status;
-    return res;
-  }
-  const ExplainData data =
-      prepareExplainData(in.geometry, in.site, in.imu, in.table, in.segments, o.model);
-  if (data.bins.empty()) {
-    res.status = Status::Error("no IMU sample lies within the span of the encoder samples");
-    return res;
-  }
-  ExplainPredictor predictor(&data);
-  p.bins = &data.bins;
+  p.noise = part.noise;
+  p.bins = &part.data.bins;
   p.forward = &predictor;
-  p.sigma = rowSigmas(data, p.noise, &p.model_sigma);
+  p.sigma = part.sigma;
+  p.model_sigma = part.model_sigma;
   p.start.model = in.baseline.values;
   p.start.model.table_kind = in.geometry.kind;
   p.baseline_names = explainBaselineNames(in);
   p.candidates = explainCandidates(in, o);
   p.segments.assign(in.segments.begin(), in.segments.end());
   p.baseline_method = in.baseline_method;
-  listHarmonicVariants(data, o, &p);
+  addHarmonicVariants(part.data, o, &p);
   res = analyseProblem(p, o);
   if (!res.status.ok) return res;
-  res.runs = runResiduals(in, res.coefficients.values);
-  if (const std::string n = navigationNote(res.runs); !n.empty()) res.notes.push_back(n);
+  res.runs = explainRunResiduals(in, res.coefficients.values);
+  if (const std::string n = explainNavigationNote(res.runs); !n.empty()) res.notes.push_back(n);
   return res;
 }
 

@@ -221,6 +221,9 @@ struct ExplainResult {
     int iterations = 0;
     bool converged = false;
     double last_step_sigma = 0.0;
+    // chi^2 per degree of freedom of the refit: the sigmas are the design's (regressors and
+    // noise floor) times sqrt(max(1, this)).
+    double chi2_per_dof = 1.0;
   } refit;
   std::vector<ExplainBinResidual> bins;
   // Every rotate run between two holds, at the baseline and at the refitted sensor and table
@@ -228,7 +231,15 @@ struct ExplainResult {
   std::vector<ExplainRunResidual> runs;
   std::vector<Segment> segments;
   std::vector<std::string> notes;
+  // A joint analysis of several recordings (explainRecordings): recording k's clock plus
+  // recording_offsets_s[k] is the analysis' time axis (bins, windows, segments and runs are on
+  // it, one recording after the other). Empty for one recording.
+  std::vector<double> recording_offsets_s;
 };
+
+// Which recording of a joint analysis time t (its time axis) lies in, and t on that
+// recording's own clock. (0, t) for a single recording.
+std::pair<int, double> explainRecordingTime(const ExplainResult& result, double t);
 
 // Channels whose residual after the refit is above the noise floor (channel_normalised_rms >
 // channel_limit), and the sentence the front ends print for the residual after the refit:
@@ -250,6 +261,38 @@ std::string explainMotionRefusal(const RecordingView& recording);
 // A table recording (imubench-csv/1, or a stored run): bins along the encoder spline, the
 // library forward model, the table groups the baseline did not estimate as candidates.
 ExplainResult explainRecording(const ExplainInput& input, const ExplainOptions& options = {});
+
+struct ExplainProblem;
+
+// Several recordings of one IMU on one bench (issue 27 item 2: a recording and the follow-up
+// that separates what it could not): one model over all of them, the bins of each recording
+// whitened by its own noise floor, the baseline coefficients and every candidate shared (one
+// IMU, one table: the same sensor errors and table errors in every recording; a turn-on bias
+// that differs between power cycles shows as residual and as a constancy failure). The
+// baseline (start values, its parameters, the candidate table groups) is inputs[0]'s; the
+// others' `baseline` fields are ignored. Refused: fewer than two recordings, different table
+// kinds or sites (another bench), a recording the single analysis refuses.
+ExplainResult explainRecordings(std::span<const ExplainInput> inputs,
+                                const ExplainOptions& options = {});
+
+// One recording prepared for an analysis: checked (samples, table, static holds; a baseline
+// from this recording needs motion that determines it), its noise floor, bins and per-row
+// sigmas (noise and encoder interpolation; the model part alone in model_sigma).
+struct ExplainPart {
+  Status status = Status::Ok();
+  bool unusable = false;  // ExplainResult::unusable
+  NoiseFloor noise;
+  ExplainData data;
+  std::vector<double> sigma, model_sigma;
+};
+ExplainPart prepareExplainPart(const ExplainInput& input, const ExplainOptions& options);
+// angle_harmonic's variants for a recording's axes (added to problem->candidates' variants,
+// none twice), and the runs' navigation residuals at the baseline and at `after`.
+void addHarmonicVariants(const ExplainData& data, const ExplainOptions& options,
+                         ExplainProblem* problem);
+std::vector<ExplainRunResidual> explainRunResiduals(const ExplainInput& input,
+                                                    const BenchTruth& after);
+std::string explainNavigationNote(const std::vector<ExplainRunResidual>& runs);
 
 // ---- The analysis on prepared bins (table recordings above; table-free ones in
 // calib/explain_scalar.h) ----

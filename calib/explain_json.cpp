@@ -117,7 +117,10 @@ nlohmann::json toJson(const ExplainResult& r) {
   j["refit"] = {{"solver", "Gauss-Newton, truncated SVD step, central differences"},
                 {"iterations", r.refit.iterations},
                 {"converged", r.refit.converged},
-                {"last_step_sigma", r.refit.last_step_sigma}};
+                {"last_step_sigma", r.refit.last_step_sigma},
+                {"chi2_per_dof", r.refit.chi2_per_dof}};
+  // A joint analysis: where each recording starts on the report's time axis.
+  if (!r.recording_offsets_s.empty()) j["recording_offsets_s"] = r.recording_offsets_s;
   j["accepted"] = nlohmann::json::array();
   for (const ExplainAccepted& a : r.accepted) {
     nlohmann::json values, sigmas;

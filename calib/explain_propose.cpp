@@ -598,8 +598,8 @@ std::string shortfall(const Group& g, const Assessment& a, std::size_t k, double
 }
 
 void fillGroups(const std::vector<Group>& groups, const std::vector<EffectColumns>& effects,
-                const Assessment& before, const Assessment& after, const Search& s, double limit,
-                ProposeResult* r) {
+                const Assessment& before, const Assessment& after, const Assessment* joint,
+                const Search& s, double limit, ProposeResult* r) {
   for (std::size_t k = 0; k < groups.size(); ++k) {
     const Group& g = groups[k];
     ProposedGroup out;
@@ -612,6 +612,7 @@ void fillGroups(const std::vector<Group>& groups, const std::vector<EffectColumn
     out.angle_after_rad = after.angle[k];
     out.sigma_before = before.sigma[k];
     out.sigma_after = after.sigma[k];
+    if (joint != nullptr) out.sigma_joint = joint->sigma[k];
     out.sigma_target = g.target;
     for (std::size_t b : s.served[k]) {
       out.added.push_back(s.chosen[b].purpose);
@@ -629,7 +630,7 @@ void baseTooLong(const std::vector<Group>& groups, const std::vector<EffectColum
                  const Assessment& before, double base_s, double max_s, ProposeResult* r) {
   Search none;
   none.served.assign(groups.size(), {});
-  fillGroups(groups, effects, before, before, none, r->angle_limit_rad, r);
+  fillGroups(groups, effects, before, before, nullptr, none, r->angle_limit_rad, r);
   char buf[200];
   std::snprintf(buf, sizeof(buf),
                 "the calibration base alone takes %.0f s, more than the %.0f s allowed: no plan",
@@ -727,7 +728,9 @@ ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
     if (base.deficit[k] < before.deficit[k] - 1e-9) s.served[k].insert(s.served[k].begin(), 0);
   }
   const Assessment after = assess(s.J, nb, groups, lay, r.angle_limit_rad, eo.baseline_collinear);
-  fillGroups(groups, effects, before, after, s, r.angle_limit_rad, &r);
+  const Assessment joint =
+      assess(stack(J_rec, s.J), nb, groups, lay, r.angle_limit_rad, eo.baseline_collinear);
+  fillGroups(groups, effects, before, after, &joint, s, r.angle_limit_rad, &r);
   if (std::all_of(groups.begin(), groups.end(),
                   [](const Group& g) { return !g.impossible.empty(); })) {
     r.notes.push_back("no group can be separated by a plan of this table: no plan proposed");

@@ -108,8 +108,10 @@ struct ProposedGroup {
   double angle_before_rad = 0.0, angle_after_rad = 0.0;
   std::vector<std::string> flat_names;            // the effects' parameters
   std::vector<double> sigma_before, sigma_after;  // predicted, per flat name (NaN: not seen)
-  std::vector<double> sigma_target;               // precision requests only (else empty)
-  std::vector<std::string> added;                 // purposes of the blocks that served it
+  // Predicted for the recording and the plan's recording analysed together (explain A B).
+  std::vector<double> sigma_joint;
+  std::vector<double> sigma_target;  // precision requests only (else empty)
+  std::vector<std::string> added;    // purposes of the blocks that served it
   double added_duration_s = 0.0;
   bool resolved = false;
   // False: no plan of the candidate motions separates it (why says so), e.g. a base tilt about

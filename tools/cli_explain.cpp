@@ -1,4 +1,5 @@
-// imubench explain RUN_OR_DIR [--coeffs C.json] [--direct RUN_OR_DIR] [--json FILE]
+// imubench explain RUN_OR_DIR [RUN_OR_DIR ...] [--coeffs C.json] [--direct RUN_OR_DIR] [--json
+// FILE]
 //                             [--report DIR] [--effects id,id,...] [--bin S] [--db PATH]
 //                             [--propose-plan OUT.toml [--bench BENCH.toml] [--max-duration S]
 //                              [--precision F]]   (tools/cli_explain_propose.h)
@@ -34,6 +35,12 @@
 // cannot determine the baseline, too few or too short static poses) or its data contradict the
 // time axis (a --rate that is not the recording's: gyro scales or integrated rotation a factor
 // off); the reason is printed.
+// Several recordings (explain A B ...: a recording and the follow-up its --propose-plan
+// designed, same IMU and bench): A's analysis alone, then one model over all of them
+// (calib::explainRecordings); each group A could not separate is reported resolved (values
+// and sigmas: achieved, and the design's from the regressors and noise floors alone) or still
+// unseparable. The baseline options apply to A. Recordings of different IMU serials or of
+// another bench are refused (exit 1).
 // Output: a summary on stdout; --json FILE the interchange report (imubench-explain/1);
 // --report DIR a self-contained DIR/report.html (io/explain_report.h).
 #include <algorithm>
@@ -44,6 +51,8 @@
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "calib/explain.h"
 #include "calib/explain_baseline.h"
@@ -62,7 +71,8 @@ namespace imubench::tools {
 namespace {
 
 struct ExplainCliOptions {
-  std::string input;
+  std::vector<std::string> inputs;  // RUN_OR_DIR ...; with --format, the file
+  std::string input;                // inputs[0]
   std::string coeffs;
   std::string direct;
   std::string json_out;
@@ -219,7 +229,7 @@ void printRms(const ChannelUnits& units, const calib::ExplainResult& r) {
               r.refit.last_step_sigma);
 }
 
-void printWindows(const ChannelUnits& units, const char* what,
+void printWindows(const ChannelUnits& units, const calib::ExplainResult& r, const char* what,
                   const std::vector<calib::ExplainWindow>& ws) {
   const std::size_t shown = std::min<std::size_t>(ws.size(), 8);
   std::printf("%s: %zu window(s)%s\n", what, ws.size(), ws.empty() ? "" : ", largest first:");
@@ -229,7 +239,9 @@ void printWindows(const ChannelUnits& units, const char* what,
   for (std::size_t k = 0; k < shown; ++k) {
     const calib::ExplainWindow& w = sorted[k];
     const std::size_t c = static_cast<std::size_t>(w.channel);
-    std::printf("  %9.1f-%9.1f s  %-7s %+8.1f sigma  (%+.4g %s)  %s\n", w.t0, w.t1,
+    const auto [rec, t0] = calib::explainRecordingTime(r, w.t0);
+    if (!r.recording_offsets_s.empty()) std::printf("  rec%d", rec + 1);
+    std::printf("  %9.1f-%9.1f s  %-7s %+8.1f sigma  (%+.4g %s)  %s\n", t0, t0 + (w.t1 - w.t0),
                 calib::explainChannelName(w.channel), w.sigma, w.mean / units.per[c],
                 units.name[c].c_str(), w.reason.c_str());
   }
@@ -292,11 +304,12 @@ void printSummary(const Prepared& p, const calib::ExplainResult& r) {
   }
   std::printf("\n");
   printRms(p.units, r);
-  printWindows(p.units, "located (baseline residual beyond the noise floor)", r.located);
+  printWindows(p.units, r, "located (baseline residual beyond the noise floor)", r.located);
   printRunResiduals(r);
   printEffects(r);
   if (!r.unexplained.empty()) {
-    printWindows(p.units, "UNEXPLAINED (nothing in the library accounts for these)", r.unexplained);
+    printWindows(p.units, r, "UNEXPLAINED (nothing in the library accounts for these)",
+                 r.unexplained);
   }
   std::printf("unexplained: %s\n", calib::explainVerdict(r).c_str());
   for (const std::string& n : r.notes) std::printf("note: %s\n", n.c_str());
@@ -327,6 +340,28 @@ calib::ExplainOptions analysisOptions(const ExplainCliOptions& o) {
   return eo;
 }
 
+// The baseline of a table recording (p->input holds its view): --coeffs, --direct, or
+// calibrated from the recording itself.
+void baselineOf(const ExplainCliOptions& o, const ResolvedRecording& src, Prepared* p) {
+  refuseInconsistentTime(src.label, p->input.recording());
+  if (!o.coeffs.empty()) {
+    baselineFromFile(o, p);
+  } else if (!o.direct.empty()) {
+    baselineFromPipeline(o, src, p);
+  } else {
+    // Refused before any calibration: a baseline the motion cannot determine is noise.
+    if (const std::string why = calib::explainMotionRefusal(p->input.recording()); !why.empty()) {
+      throw CommandFailed(src.label + ": " + why + " (result unusable, exit 3)", kExitUnusable);
+    }
+    baselineFromRecording(src, p);
+  }
+}
+
+std::string describe(const ResolvedRecording& src) {
+  return "explain " + src.label + ": " + std::to_string(src.recording.imu.size()) +
+         " IMU samples, " + std::to_string(src.recording.segments.size()) + " segments";
+}
+
 void runExplainTable(const ExplainCliOptions& o) {
   if (!o.coeffs.empty() && !o.direct.empty()) {
     throw CommandFailed("--coeffs and --direct both give the baseline: choose one", 2);
@@ -336,20 +371,8 @@ void runExplainTable(const ExplainCliOptions& o) {
   const io::CalibrationView view(src.recording);
   Prepared p;
   p.input.recording() = view.view();
-  p.said.push_back("explain " + src.label + ": " + std::to_string(src.recording.imu.size()) +
-                   " IMU samples, " + std::to_string(src.recording.segments.size()) + " segments");
-  refuseInconsistentTime(src.label, p.input.recording());
-  if (!o.coeffs.empty()) {
-    baselineFromFile(o, &p);
-  } else if (!o.direct.empty()) {
-    baselineFromPipeline(o, src, &p);
-  } else {
-    // Refused before any calibration: a baseline the motion cannot determine is noise.
-    if (const std::string why = calib::explainMotionRefusal(p.input.recording()); !why.empty()) {
-      throw CommandFailed(src.label + ": " + why + " (result unusable, exit 3)", kExitUnusable);
-    }
-    baselineFromRecording(src, &p);
-  }
+  p.said.push_back(describe(src));
+  baselineOf(o, src, &p);
   const calib::ExplainResult r = calib::explainRecording(p.input, eo);
   if (!r.status.ok) {
     throw CommandFailed(src.label + ": explain: " + r.status.message,
@@ -358,6 +381,97 @@ void runExplainTable(const ExplainCliOptions& o) {
   printSummary(p, r);
   writeOutputs(o, src.label, r);
   if (!o.propose.out.empty()) proposeFromExplain(o.propose, p.input, r, eo);
+}
+
+const calib::ExplainAccepted* acceptedEffect(const calib::ExplainResult& r, const std::string& id) {
+  for (const calib::ExplainAccepted& a : r.accepted) {
+    if (a.effect == id) return &a;
+  }
+  return nullptr;
+}
+
+// What became of each group the first recording could not separate: per effect accepted
+// (values, achieved sigmas and the design's: regressors and noise floors without the refit's
+// misfit, what --propose-plan predicts) or not warranted, or the group still unseparable.
+void printGroups(const std::string& label, const calib::ExplainResult& alone,
+                 const calib::ExplainResult& joint) {
+  if (alone.unseparable.empty()) {
+    std::printf("groups unseparable in %s alone: none\n", label.c_str());
+    return;
+  }
+  const double misfit = std::sqrt(std::max(1.0, joint.refit.chi2_per_dof));
+  std::printf("groups unseparable in %s alone (sigma achieved; the design's: %.3gx smaller):\n",
+              label.c_str(), misfit);
+  for (const calib::ExplainUnseparable& u : alone.unseparable) {
+    std::string ids;
+    for (const std::string& e : u.effects) ids += (ids.empty() ? "" : " + ") + e;
+    bool still = false;
+    for (const calib::ExplainUnseparable& v : joint.unseparable) still |= v.effects == u.effects;
+    std::printf("  %s: %s\n", ids.c_str(), still ? "STILL UNSEPARABLE" : "resolved");
+    if (still) continue;
+    for (const std::string& e : u.effects) {
+      const calib::ExplainAccepted* a = acceptedEffect(joint, e);
+      if (a == nullptr) {
+        std::printf("    %s: not warranted (see rejected)\n", e.c_str());
+        continue;
+      }
+      for (std::size_t k = 0; k < a->values.size(); ++k) {
+        if (!std::isfinite(a->sigmas[k])) continue;
+        std::printf("    %-36s %+.6g  sigma %.3g (design %.3g) (SI)\n", a->flat_names[k].c_str(),
+                    a->values[k], a->sigmas[k], a->sigmas[k] / misfit);
+      }
+    }
+  }
+}
+
+// explain A B ...: A's analysis alone (its groups), then one model over every recording.
+void runExplainJoint(const ExplainCliOptions& o) {
+  if (!o.propose.out.empty()) {
+    throw CommandFailed("--propose-plan takes one recording (the one whose groups it separates)",
+                        2);
+  }
+  if (!o.coeffs.empty() && !o.direct.empty()) {
+    throw CommandFailed("--coeffs and --direct both give the baseline: choose one", 2);
+  }
+  const calib::ExplainOptions eo = analysisOptions(o);
+  std::vector<std::unique_ptr<ResolvedRecording>> srcs;
+  std::vector<std::unique_ptr<io::CalibrationView>> views;  // the inputs view their recordings
+  std::vector<calib::ExplainInput> inputs;
+  Prepared p;
+  for (const std::string& path : o.inputs) {
+    srcs.push_back(std::make_unique<ResolvedRecording>(loadRunOrDir(path, o.db)));
+    const ResolvedRecording& src = *srcs.back();
+    const std::string& serial0 = srcs.front()->recording.imu_serial;
+    if (!serial0.empty() && !src.recording.imu_serial.empty() &&
+        src.recording.imu_serial != serial0) {
+      throw CommandFailed(src.label + ": IMU serial '" + src.recording.imu_serial + "', " +
+                          srcs.front()->label + ": '" + serial0 +
+                          "': a joint analysis is of one IMU");
+    }
+    views.push_back(std::make_unique<io::CalibrationView>(src.recording));
+    inputs.emplace_back();
+    inputs.back().recording() = views.back()->view();
+    p.said.push_back(describe(src));
+    if (inputs.size() > 1) refuseInconsistentTime(src.label, inputs.back().recording());
+  }
+  p.input = inputs[0];
+  baselineOf(o, *srcs[0], &p);
+  inputs[0] = p.input;
+  const calib::ExplainResult alone = calib::explainRecording(p.input, eo);
+  if (!alone.status.ok) {
+    throw CommandFailed(srcs[0]->label + ": explain: " + alone.status.message,
+                        alone.unusable ? kExitUnusable : 1);
+  }
+  const calib::ExplainResult r = calib::explainRecordings(inputs, eo);
+  if (!r.status.ok)
+    throw CommandFailed("joint explain: " + r.status.message, r.unusable ? kExitUnusable : 1);
+  for (std::size_t k = 1; k < r.recording_offsets_s.size(); ++k) {
+    p.said.push_back("recording " + std::to_string(k + 1) + " (" + srcs[k]->label + ") starts at " +
+                     std::to_string(r.recording_offsets_s[k]) + " s on the joint time axis");
+  }
+  printSummary(p, r);
+  printGroups(srcs[0]->label, alone, r);
+  writeOutputs(o, srcs[0]->label + " + " + std::to_string(srcs.size() - 1) + " more", r);
 }
 
 void runExplainScalar(const ExplainCliOptions& o) {
@@ -411,8 +525,9 @@ void addExplainCommand(CLI::App& app) {
       "explain",
       "where the model misses a recording, what physics it left out, how much, and how much "
       "better the fit is with it (docs/explain.md)");
-  sub->add_option("RUN_OR_DIR", opt->input,
-                  "imubench-csv/1 directory or run id (N, run:N); with --format, the file")
+  sub->add_option("RUN_OR_DIR", opt->inputs,
+                  "imubench-csv/1 directory or run id (N, run:N); with --format, the file; "
+                  "several: one model over all (the first's groups resolved or not)")
       ->required();
   sub->add_option("--coeffs", opt->coeffs, "baseline coefficients (interchange coefficient file)");
   sub->add_option("--direct", opt->direct,
@@ -450,8 +565,13 @@ void addExplainCommand(CLI::App& app) {
                   "wanted sigma of an accepted effect as a fraction of its size (default 0.1)")
       ->check(CLI::PositiveNumber);
   sub->callback([opt] {
-    if (opt->format == "imubench") {
+    opt->input = opt->inputs.front();
+    if (opt->format == "imubench" && opt->inputs.size() > 1) {
+      runExplainJoint(*opt);
+    } else if (opt->format == "imubench") {
       runExplainTable(*opt);
+    } else if (opt->inputs.size() > 1) {
+      throw CommandFailed("--format " + opt->format + ": one recording file", 2);
     } else {
       runExplainScalar(*opt);
     }

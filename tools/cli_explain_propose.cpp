@@ -34,6 +34,7 @@ void printSigmas(const calib::ProposedGroup& g) {
   for (std::size_t k = 0; k < g.flat_names.size(); ++k) {
     std::printf("    %-36s predicted sigma %.3g -> %.3g", g.flat_names[k].c_str(),
                 g.sigma_before[k], g.sigma_after[k]);
+    if (k < g.sigma_joint.size()) std::printf(" (with this recording: %.3g)", g.sigma_joint[k]);
     if (k < g.sigma_target.size()) std::printf(" (wanted <= %.3g)", g.sigma_target[k]);
     std::printf("%s\n", std::isnan(g.sigma_after[k]) ? " (held: explain holds it)" : "");
   }
