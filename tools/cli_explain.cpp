@@ -288,9 +288,11 @@ void printRunResiduals(const calib::ExplainResult& r) {
       "navigation residual per run (end attitude about the horizontal axes, arcsec; "
       "baseline -> refit; sigma from the gyro noise):\n");
   for (const calib::ExplainRunResidual& n : r.runs) {
+    const double t0 = calib::explainRecordingTime(r, n.t0).second;  // its recording's clock
     std::printf("  %-24s %8.1f-%8.1f s  x %+8.2f -> %+8.2f  y %+8.2f -> %+8.2f  sigma %.2f\n",
-                n.label.c_str(), n.t0, n.t1, n.before[0] * kArcsec, n.after[0] * kArcsec,
-                n.before[1] * kArcsec, n.after[1] * kArcsec, n.sigma * kArcsec);
+                n.label.c_str(), t0, t0 + (n.t1 - n.t0), n.before[0] * kArcsec,
+                n.after[0] * kArcsec, n.before[1] * kArcsec, n.after[1] * kArcsec,
+                n.sigma * kArcsec);
   }
 }
 
@@ -400,8 +402,10 @@ void printGroups(const std::string& label, const calib::ExplainResult& alone,
     return;
   }
   const double misfit = std::sqrt(std::max(1.0, joint.refit.chi2_per_dof));
-  std::printf("groups unseparable in %s alone (sigma achieved; the design's: %.3gx smaller):\n",
-              label.c_str(), misfit);
+  std::printf(
+      "groups unseparable in %s alone (sigma achieved; design: the regressors and noise floors "
+      "alone, achieved / %.3g for the refit's misfit):\n",
+      label.c_str(), misfit);
   for (const calib::ExplainUnseparable& u : alone.unseparable) {
     std::string ids;
     for (const std::string& e : u.effects) ids += (ids.empty() ? "" : " + ") + e;

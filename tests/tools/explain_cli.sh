@@ -7,7 +7,11 @@
 #   2. the same plan clean: nothing accepted;
 #   3. bad input, each a clear error (exit 1) naming the file and why, never a crash: a NaN in
 #      imu.csv, a gap, no static holds, a coefficient file of another IMU, --coeffs and
-#      --direct together (exit 2), an unknown effect id (exit 2).
+#      --direct together (exit 2), an unknown effect id (exit 2);
+#   4. explain A B (issue 27 item 2): a second recording of the same IMU with the same lever arm,
+#      one model over both: lever_arm within 10 % or 2 sigma with smaller sigmas than from A
+#      alone, the joint time axis in the report; another IMU's recording refused (exit 1),
+#      --propose-plan with two recordings refused (exit 2).
 # Usage: explain_cli.sh IMUBENCH PLAN_DIR TRUTH WORKDIR
 set -e
 bin="$1"; plans="$2"; truth="$3"; work="$4"
@@ -85,4 +89,33 @@ PY
 expect 1 "do not describe this IMU" "$bin" explain "$work/clean" --coeffs "$work/other.json"
 expect 2 "choose one" "$bin" explain "$work/clean" --coeffs "$truth" --direct "$work/clean"
 expect 2 "not an effect id" "$bin" explain "$work/clean" --effects lever_arm,warp_drive
+
+"$bin" simulate "$plans/direct_two_axis.toml" --truth "$truth" --out "$work/lever2" --rate 50 \
+  --seed 13 --noise nav-grade --effect lever_arm.r_m=0.06,-0.04,0.03 > /dev/null
+python3 - "$work/lever/meta.json" "$work/lever2/meta.json" <<'PY'
+import json, sys
+a, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+b["imu"]["serial"] = a["imu"]["serial"]  # the same IMU recorded twice
+json.dump(b, open(sys.argv[2], "w"))
+PY
+"$bin" explain "$work/lever" "$work/lever2" --json "$work/joint.json" > "$work/joint.txt" ||
+  { cat "$work/joint.txt"; fail "explain of two recordings failed"; }
+cat "$work/joint.txt"
+grep -q "^accepted lever_arm" "$work/joint.txt" || fail "joint: lever_arm not named"
+grep -q "^groups unseparable in $work/lever alone" "$work/joint.txt" || fail "joint: no groups line"
+python3 - "$work/lever.json" "$work/joint.json" <<'PY'
+import json, sys
+one, j = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert len(j["recording_offsets_s"]) == 2 and j["recording_offsets_s"][1] > 0, j.get("recording_offsets_s")
+acc = {a["effect"]: a for a in j["accepted"]}
+s1 = {a["effect"]: a for a in one["accepted"]}["lever_arm"]["sigma"]["r_m"]
+truth = [0.06, -0.04, 0.03]
+r, s = acc["lever_arm"]["parameters"]["r_m"], acc["lever_arm"]["sigma"]["r_m"]
+for k in range(3):
+    assert abs(r[k] - truth[k]) <= max(0.1 * abs(truth[k]), 2 * s[k]), (k, r[k], truth[k], s[k])
+    assert s[k] < s1[k], ("two recordings determine it better", k, s[k], s1[k])
+print("joint lever arm:", r, "+-", s, "(one recording: +-", s1, ")")
+PY
+expect 1 "one IMU" "$bin" explain "$work/lever" "$work/clean"
+expect 2 "one recording" "$bin" explain "$work/lever" "$work/lever2" --propose-plan "$work/p.toml"
 echo PASS
