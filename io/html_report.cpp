@@ -50,10 +50,14 @@ const char* const kHtmlReportStyle =
     ".legend span{display:inline-block;margin-right:1.5em}";
 
 Status writeHtmlReport(const std::string& dir, const std::string& html) {
+  return writeHtmlFile(dir, "report.html", html);
+}
+
+Status writeHtmlFile(const std::string& dir, const std::string& name, const std::string& html) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) return Status::Error(dir + ": cannot create the report directory: " + ec.message());
-  const std::string path = dir + "/report.html", tmp = path + ".tmp";
+  const std::string path = dir + "/" + name, tmp = path + ".tmp";
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) return Status::Error(tmp + ": cannot create: " + std::strerror(errno));
   const bool ok = std::fwrite(html.data(), 1, html.size(), f) == html.size();

@@ -21,5 +21,7 @@ extern const char* const kHtmlReportStyle;
 // Creates DIR when needed and writes DIR/report.html (temp file + rename). A DIR that cannot
 // be created or written is named in the error.
 Status writeHtmlReport(const std::string& dir, const std::string& html);
+// The same for DIR/name.
+Status writeHtmlFile(const std::string& dir, const std::string& name, const std::string& html);
 
 }  // namespace imubench::io

@@ -1,6 +1,8 @@
 #include "tools/cli_common.h"
 
+#include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -11,6 +13,17 @@
 #include "io/truth_file.h"
 
 namespace imubench::tools {
+
+// "2024-05-01T12:00:00Z"; "-" for a time that does not fit.
+std::string utcTime(double unix_s) {
+  if (!std::isfinite(unix_s)) return "-";
+  const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
+  std::tm tm{};
+  if (gmtime_r(&t, &tm) == nullptr) return "-";
+  char buf[32];
+  if (std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm) == 0) return "-";
+  return buf;
+}
 
 nav::Site SiteOptions::site() const {
   nav::Site s;

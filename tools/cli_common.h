@@ -53,6 +53,10 @@ void addThermalCommand(CLI::App& app);       // cli_thermal.cpp (`thermal fit`)
 void addApplyCommand(CLI::App& app);         // cli_apply.cpp
 void addImportCsvCommand(CLI::App& app);     // cli_import_csv.cpp (`import-csv`)
 void addExportCoeffsCommand(CLI::App& app);  // cli_export_coeffs.cpp (`export-coeffs`)
+void addCertificateCommand(CLI::App& app);   // cli_certificate.cpp (`certificate`)
+
+// "2024-05-01T12:00:00Z"; "-" for a time that does not fit.
+std::string utcTime(double unix_s);
 
 // A subcommand failed; the message has already been printed (or is printed by main).
 class CommandFailed : public std::runtime_error {

@@ -1,11 +1,14 @@
 // imubench nav DIR [--out FILE] [--every SECONDS] [--align SECONDS]: free (unaided) navigation
 // of a recording. Initial state: at rest at the recording's site, attitude from the table's
 // encoder angles at the start through the nominal table kinematics (the seed's validation: no
-// alignment, no aiding), or with --align from a static coarse alignment (levelling and
-// gyrocompassing, nav/alignment.h) over the first SECONDS: heading, the latitude the Earth rate
-// implies, the biases a static span separates and the alignment's own uncertainty
-// (nav/alignment_uncertainty.h) are printed; a span that is not static is refused (exit 3).
-// Warns when the start is not static. Prints E/N velocity errors and displacements over time.
+// alignment, no aiding), or with --align from a coarse alignment over the first SECONDS:
+// through sway for 60 s or more (nav/inertial_alignment.h), static for shorter spans
+// (nav/alignment.h, nav/alignment_uncertainty.h). Heading, the latitude the Earth rate implies,
+// the biases the span separates and the alignment's own uncertainty are printed; a span that
+// cannot be aligned is refused (exit 3) with the reason, with levelling only when the gyro's
+// bias hides the Earth rate. Warns when the start is not static. Prints E/N velocity errors
+// and displacements over time.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -16,6 +19,7 @@
 #include "io/recording.h"
 #include "nav/alignment_uncertainty.h"
 #include "nav/free_navigation.h"
+#include "nav/inertial_alignment.h"
 #include "tools/cli_common.h"
 
 namespace imubench::tools {
@@ -36,22 +40,80 @@ std::span<const nav::ImuSample> firstSeconds(const nav::ImuSamples& imu, double 
   return {imu.data(), n};
 }
 
-// Static coarse alignment over the first o.align_s seconds, its report printed; refused
-// (exit 3) when the span is not static or the Earth rate cannot give a heading.
-Quat alignedStart(const NavOptions& o, const io::Recording& rec) {
-  const auto span = firstSeconds(rec.imu, o.align_s);
-  const nav::AlignmentResult a = nav::coarseAlign(span, rec.site());
-  if (!a.ok())
-    throw CommandFailed(o.dir + ": alignment over the first " + std::to_string(o.align_s) +
-                            " s refused: " + a.message +
-                            " (a static start is needed: levelling and gyrocompassing from a "
-                            "moving or swaying IMU are not built; a MEMS gyro bias far above the "
-                            "Earth rate gives no heading)",
-                        kExitResultUnusable);
+std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0, double e = 0) {
+  char buf[640];
+  std::snprintf(buf, sizeof(buf), f, a, b, c, d, e);
+  return buf;
+}
+
+// The span's mean specific force and angular rate (B).
+struct SpanMeans {
+  Vec3 f_B = Vec3::Zero();
+  Vec3 w_B = Vec3::Zero();
+};
+SpanMeans spanMeans(std::span<const nav::ImuSample> span) {
+  SpanMeans m;
+  for (const nav::ImuSample& x : span) {
+    m.f_B += x.dvel;
+    m.w_B += x.dtheta;
+  }
+  const double dt = span.back().t - nav::firstIntervalStart(span);
+  m.f_B /= dt;
+  m.w_B /= dt;
+  return m;
+}
+
+// When the span is at rest on average (|mean f| within 2 % of gravity) but its mean rate is
+// far above the Earth rate (3x, the static alignment's own limit), no span can give a heading:
+// the gyro's bias hides the Earth rate (told from sway by a rate that is steady over the span's
+// quarters). Returns the reason then (and prints the levelling: roll
+// and pitch from the mean specific force, nav/alignment.h convention
+// C_LB = Rz(-h) Rx(p) Ry(r), so f_B = g (-cos p sin r, sin p, cos p cos r)); empty otherwise.
+std::string gyroHidesEarthRate(const io::Recording& rec, std::span<const nav::ImuSample> span) {
+  const SpanMeans m = spanMeans(span);
+  const double g = nav::siteGravity(rec.site()), w = m.w_B.norm();
+  if (std::abs(m.f_B.norm() - g) > 0.02 * g || !(w > 3.0 * nav::kEarthRate)) return "";
+  // A steady rate (a bias), not sway: each quarter's mean rate within half the mean's size.
+  constexpr std::size_t kQuarters = 4;
+  if (span.size() < 2 * kQuarters) return "";
+  const std::size_t q = span.size() / kQuarters;
+  for (std::size_t i = 0; i < kQuarters; ++i) {
+    const SpanMeans mq = spanMeans(span.subspan(i * q, q));
+    if ((mq.w_B - m.w_B).norm() > 0.5 * w) return "";
+  }
+  const Vec3& f = m.f_B;
+  std::printf("levelling only (mean specific force %.4f m/s^2): roll %.4f deg, pitch %.4f deg\n",
+              f.norm(), std::atan2(-f.x(), f.z()) / kDegToRad,
+              std::asin(std::clamp(f.y() / f.norm(), -1.0, 1.0)) / kDegToRad);
+  return fmt(
+      "the gyros' mean rate over the span is %.4g deg/h, %.3g times the Earth rate (15 "
+      "deg/h at most): a gyro bias that large (a consumer MEMS gyro's) hides the Earth "
+      "rate, and heading needs it: a gyro like this cannot gyrocompass. Roll and pitch "
+      "above are levelling only; no navigation without a heading",
+      w / kDegPerHourToRadPerSec, w / nav::kEarthRate);
+}
+
+// A refusal of the alignment: exit 3 with the reason, and the levelling where only the heading
+// is out of reach.
+[[noreturn]] void refuseAlignment(const NavOptions& o, const io::Recording& rec,
+                                  std::span<const nav::ImuSample> span, const std::string& why) {
+  const std::string gyro = span.size() >= 2 ? gyroHidesEarthRate(rec, span) : "";
+  throw CommandFailed(
+      o.dir + ": alignment over the first " + fmt("%.3g", o.align_s) + " s refused: " +
+          (gyro.empty() ? why + " (the IMU must be at rest, or sway about a point at rest, "
+                                "over the span)"
+                        : gyro + " (" + why + ")"),
+      kExitResultUnusable);
+}
+
+// Static coarse alignment over the first o.align_s seconds, its report printed.
+Quat staticStart(const io::Recording& rec, const nav::AlignmentResult& a,
+                 std::span<const nav::ImuSample> span) {
   const nav::AlignmentUncertainty u = nav::alignmentUncertainty(span, rec.site(), a);
   const Vec3 rph = nav::rollPitchHeading(a.q_BtoL) / kDegToRad;
   std::printf(
-      "alignment over %.3g s (%d samples): roll %.4f deg, pitch %.4f deg, heading %.4f deg\n",
+      "static alignment over %.3g s (%d samples): roll %.4f deg, pitch %.4f deg, heading %.4f "
+      "deg\n",
       a.duration_s, u.samples, rph[0], rph[1], rph[2]);
   std::printf(
       "  1-sigma from the noise: tilt %.3g deg, heading %.3g deg; a residual East gyro bias "
@@ -68,6 +130,53 @@ Quat alignedStart(const NavOptions& o, const io::Recording& rec) {
   return a.q_BtoL;
 }
 
+// Sway-tolerant alignment (nav/inertial_alignment.h) over the span, its report printed; the
+// attitude at the span's start is returned (navigation starts there).
+Quat swayStart(const NavOptions& o, const io::Recording& rec,
+               std::span<const nav::ImuSample> span) {
+  const nav::InertialAlignmentResult a = nav::inertialAlign(span, rec.site());
+  if (!a.ok()) refuseAlignment(o, rec, span, a.message);
+  const Vec3 rph = nav::rollPitchHeading(a.q_BtoL_start) / kDegToRad;
+  std::printf(
+      "sway-tolerant alignment (gravity in the inertial frame) over %.3g s (%d samples, %d "
+      "blocks, attitude moved up to %.3g deg): roll %.4f deg, pitch %.4f deg, heading %.4f "
+      "deg\n",
+      a.duration_s, a.samples, a.blocks, a.sway_peak_rad / kDegToRad, rph[0], rph[1], rph[2]);
+  std::printf(
+      "  1-sigma from the fit's residuals: tilt %.3g deg, heading %.3g deg; a residual East "
+      "gyro bias b adds b / (W cos lat) = %.3g deg of heading per 0.01 deg/h\n",
+      a.sigma_tilt_rad / kDegToRad, a.sigma_heading_rad / kDegToRad,
+      a.heading_rad_per_gyro_bias * 0.01 * kDegPerHourToRadPerSec / kDegToRad);
+  std::printf("  latitude the Earth rate implies: %.3f +- %.3f deg (site %.3f deg)\n",
+              a.implied_latitude_rad / kDegToRad, a.sigma_implied_latitude_rad / kDegToRad,
+              rec.latitude_deg);
+  std::printf(
+      "  biases: vertical accelerometer %.3g m/s^2; gyro biases are not separable under sway "
+      "(the East one is the heading term above); fit misfit %.3g deg RMS\n",
+      a.accel_bias_up_mps2, a.residual_rms_rad / kDegToRad);
+  return a.q_BtoL_start;
+}
+
+// Alignment over the first o.align_s seconds. A span long enough for the sway-tolerant
+// alignment (nav/inertial_alignment.h, 60 s) always takes it, static or not: a static test of
+// block means passes a sway whose periods the blocks average, and the static gyrocompass then
+// takes the sway's net turn over the span for Earth rate (a ship's 4 deg roll over 290 s is
+// 50 deg/h). A shorter span must be static (nav/alignment.h). Refused (exit 3) with the reason.
+Quat alignedStart(const NavOptions& o, const io::Recording& rec) {
+  const auto span = firstSeconds(rec.imu, o.align_s);
+  if (span.size() < 2) refuseAlignment(o, rec, span, "fewer than two samples");
+  const double duration = span.back().t - nav::firstIntervalStart(span);
+  if (duration >= nav::InertialAlignmentOptions{}.min_duration_s) return swayStart(o, rec, span);
+  const nav::AlignmentResult a = nav::coarseAlign(span, rec.site());
+  if (!a.ok())
+    refuseAlignment(o, rec, span,
+                    a.message + (a.status == nav::AlignmentStatus::kNotStatic
+                                     ? fmt("; a swaying IMU needs a span of at least %.3g s",
+                                           nav::InertialAlignmentOptions{}.min_duration_s)
+                                     : std::string()));
+  return staticStart(rec, a, span);
+}
+
 // Warns (stderr) when the first seconds are not static: a start attitude from table angles
 // or an alignment assumes the IMU at rest there.
 void warnIfStartMoves(const NavOptions& o, const io::Recording& rec) {
@@ -75,12 +184,6 @@ void warnIfStartMoves(const NavOptions& o, const io::Recording& rec) {
   if (a.status == nav::AlignmentStatus::kNotStatic)
     std::cerr << "imubench: warning: " << o.dir << ": the IMU is not static in the first 10 s ("
               << a.message << "); navigation assumes it at rest at the start\n";
-}
-
-std::string fmt(const char* f, double a, double b, double c, double d, double e) {
-  char buf[160];
-  std::snprintf(buf, sizeof(buf), f, a, b, c, d, e);
-  return buf;
 }
 
 void runNav(const NavOptions& o) {
@@ -153,7 +256,8 @@ void addNavCommand(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   sub->add_option("--align", opt->align_s,
-                  "static coarse alignment over the first SECONDS (no table angles needed)")
+                  "coarse alignment over the first SECONDS (no table angles needed): static, "
+                  "or through sway (vehicle, ship) when the span is not static")
       ->check(CLI::PositiveNumber);
   sub->callback([opt] { runNav(*opt); });
 }

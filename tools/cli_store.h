@@ -92,9 +92,14 @@ std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
 // when a run has no results, e.g. after a crash.
 struct StoredRunState {
   std::string plan_name;
-  std::string state;        // daemon/store.h runStateName: running, interrupted, ...
-  std::string exit_reason;  // empty while running
-  std::optional<int> step;  // the last step started (0-based); absent: none started
+  std::string plan_toml;  // the plan's text as the run started it
+  std::string bench_name;
+  std::string imu_serial;
+  double started_unix_s = 0.0;
+  std::optional<double> finished_unix_s;  // absent while running and for interrupted runs
+  std::string state;                      // daemon/store.h runStateName: running, interrupted, ...
+  std::string exit_reason;                // empty while running
+  std::optional<int> step;                // the last step started (0-based); absent: none started
   std::string step_label;
   int last_finished_step = -1;  // -1: none finished
 };

@@ -25,17 +25,6 @@ const char* tableKindName(calib::TableKind kind) {
   return kind == calib::TableKind::kThreeAxis ? "three-axis" : "two-axis";
 }
 
-// "2024-05-01T12:00:00Z"; "-" for a time that does not fit.
-std::string utcTime(double unix_s) {
-  if (!std::isfinite(unix_s)) return "-";
-  const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
-  std::tm tm{};
-  if (gmtime_r(&t, &tm) == nullptr) return "-";
-  char buf[32];
-  if (std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm) == 0) return "-";
-  return buf;
-}
-
 std::string orDash(const std::string& s) {
   return s.empty() ? "-" : s;
 }
@@ -201,6 +190,11 @@ StoredRunState loadRunState(const std::string& db_path, std::int64_t run_id) {
   if (!info.status.ok) throw CommandFailed(info.status.message);
   StoredRunState out;
   out.plan_name = info.value.start.plan_name;
+  out.plan_toml = info.value.start.plan_toml;
+  out.bench_name = info.value.start.bench_name;
+  out.imu_serial = info.value.start.imu_serial;
+  out.started_unix_s = info.value.started_unix_s;
+  out.finished_unix_s = info.value.finished_unix_s;
   out.state = daemon::runStateName(info.value.state);
   out.exit_reason = info.value.exit_reason;
   const daemon::EventListResult events = store->events(run_id);

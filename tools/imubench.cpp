@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   addApplyCommand(app);
   addImportCsvCommand(app);
   addExportCoeffsCommand(app);
+  addCertificateCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
