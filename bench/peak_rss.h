@@ -25,6 +25,8 @@ inline double processCpuS() {
 }
 
 // Adds the counter "peak_rss_MiB" to the benchmark's report.
-inline void reportPeakRss(benchmark::State& state) { state.counters["peak_rss_MiB"] = peakRssMiB(); }
+inline void reportPeakRss(benchmark::State& state) {
+  state.counters["peak_rss_MiB"] = peakRssMiB();
+}
 
 }  // namespace imubench::bench

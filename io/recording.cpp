@@ -1,5 +1,7 @@
 #include "io/recording.h"
 
+#include <fast_float/fast_float.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -7,7 +9,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fast_float/fast_float.h>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -187,8 +188,8 @@ Status readNumericCsv(const std::string& path, std::string_view header,
         const char* stop = nl ? static_cast<const char*>(nl) : end;
         const char* e = stop > p && stop[-1] == '\r' ? stop - 1 : stop;
         std::string why;
-        if (!parseRowStrict(std::string_view(p, static_cast<size_t>(e - p)), names,
-                            empty_ok_column, v.data(), &why)) {
+        if (!parseRowStrict(std::string_view(p, static_cast<size_t>(e - p)), names, empty_ok_column,
+                            v.data(), &why)) {
           return fail(why);
         }
         next = nl ? stop + 1 : end;
@@ -229,7 +230,6 @@ Status readImuCsv(const std::string& path, nav::ImuSamples* out) {
         s.temp_c = v[7];
       });
 }
-
 
 std::optional<calib::SegmentKind> segmentKindFromName(std::string_view s) {
   if (s == "static") return calib::SegmentKind::kStatic;
@@ -731,7 +731,9 @@ RecordingReadResult readRecording(const std::string& dir) {
   if (fs::exists(chamber_path, ec)) {
     auto st = readNumericCsv(
         chamber_path, kChamberHeader, "", -1, [&](size_t rows) { rec.chamber.reserve(rows); },
-        [&](const double* v) { rec.chamber.push_back({v[0], v[1], v[2]}); });
+        [&](const double* v) {
+          rec.chamber.push_back({v[0], v[1], v[2]});
+        });
     if (!st.ok) return fail(st);
   }
   // segments.csv (optional)
