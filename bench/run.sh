@@ -9,8 +9,8 @@
 # medians of both and the ratio REV/this of the time per iteration (> 1: this tree is faster),
 # the peak RSS of both processes (/usr/bin/time) and, where both report it, the ratio of every
 # shared counter. --pin CPU runs both on one core (taskset), --only keeps the binaries whose
-# target name matches. REV's worktree and build stay in $TMPDIR/imubench-against-REV for the
-# next run. The README's "vs 5518d93" column is `--against 5518d93`.
+# target name matches. REV's worktree and build stay in build-against-REV (git-ignored) for
+# the next run. The README's "vs 5518d93" column is `--against 5518d93`.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 
@@ -30,12 +30,14 @@ against() {  # rev, rounds, pin, only, build
   local rev=$1 rounds=$2 pin=$3 only=$4 build=$5
   local sha
   sha=$(git -C "$here" rev-parse --short "$rev^{commit}")
-  # REV's worktree and build are kept for the next run against it (builds are the cost);
+  # REV's worktree and build are kept for the next run against it (builds are the cost), next
+  # to this tree's build directories so ccache (base_dir) shares objects between the trees;
   # remove with: git worktree remove --force DIR
-  local wt=${TMPDIR:-/tmp}/imubench-against-$sha
+  local wt=$here/build-against-$sha
   if [[ ! -d $wt/.git && ! -f $wt/.git ]]; then
     git -C "$here" worktree add --detach "$wt" "$sha" >/dev/null
   fi
+  wt=$(cd "$wt" && pwd -P)  # a symlink to an existing REV build works too
   local tmp
   tmp=$(mktemp -d "${TMPDIR:-/tmp}/imubench-against-run.XXXXXX")
   echo "bench/run.sh: results in $tmp" >&2
