@@ -237,11 +237,16 @@ Readings forwardReadings(const SensorModel& sensors, const EffectSet& effects,
 class ForwardModel {
  public:
   ForwardModel(const SensorModel& sensors, const EffectSet& effects);
+  ForwardModel(const ForwardModel& other);
+  ForwardModel& operator=(const ForwardModel& other);
   Readings readings(const PhysicsPoint& p) const;
 
  private:
   model::TriadCoefficients<double> accel_, gyro_;
   EffectBlockStore effects_;
+  // effects_.blocks(), made once (not per call: issue 31); they point into effects_, so a copy
+  // makes its own.
+  model::EffectBlocks<double> blocks_{};
 };
 
 // The reading change one effect makes: forwardReadings(all) - forwardReadings(all but id).

@@ -76,7 +76,8 @@ Mat3 TableModel::C_LB(const TableAngles& a) const {
                               a.inner + e.zero_inner);
 }
 
-TableKinematics TableModel::kinematics(const TableState& s) const {
+// flatten: chainKinematics' rotation helpers inlined for double (issue 31).
+[[gnu::flatten]] TableKinematics TableModel::kinematics(const TableState& s) const {
   const model::ChainErrors<double>& e = chain_errors_;
   auto joint = [](const AxisState& a, double zero) {
     return model::JointState<double>{a.angle + zero, a.rate, a.accel};

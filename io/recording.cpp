@@ -1,5 +1,7 @@
 #include "io/recording.h"
 
+#include <fast_float/fast_float.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -13,7 +15,6 @@
 #include <nlohmann/json.hpp>
 #include <string_view>
 #include <system_error>
-#include <thread>
 
 #include "io/csv_text.h"
 #include "io/file_io.h"
@@ -73,59 +74,6 @@ bool checkTimeOrder(bool first, double prev, double t, std::string* why) {
   return true;
 }
 
-// Generic numeric CSV reader: header must match exactly; each row has `columns.size()` fields,
-// all numeric except those listed as allowed-empty (returned as NaN); column 0 is the time and
-// must strictly increase. `row` receives the parsed values.
-// Result of parsing the data rows of one chunk of a numeric CSV.
-struct BodyParse {
-  bool ok = true;
-  long error_line = 0;  // 1-based within the chunk
-  std::string why;
-  long lines = 0;  // lines consumed
-  bool any = false;
-  double first_t = 0.0;
-  double last_t = 0.0;
-};
-
-// Parses data rows (no header): `names.size()` fields each, all numeric except an empty
-// `empty_ok_column` (NaN); column 0 is the time and must strictly increase.
-template <typename RowFn>
-BodyParse parseBody(std::string_view body, const std::vector<std::string_view>& names,
-                    int empty_ok_column, RowFn&& row) {
-  BodyParse r;
-  LineCursor cur(body);
-  std::string_view line;
-  const size_t n = names.size();
-  std::array<std::string_view, 8> fields;
-  std::array<double, 8> values;
-  auto fail = [&](std::string why) {
-    r.ok = false;
-    r.error_line = cur.lineNo();
-    r.why = std::move(why);
-    return r;
-  };
-  while (cur.next(&line)) {
-    // Only a trailing newline at the very end is allowed (LineCursor skips it); an empty
-    // line inside the file is malformed.
-    if (line.empty()) return fail("empty line");
-    if (!splitFields(line, fields.data(), n, &r.why)) return fail(r.why);
-    for (size_t i = 0; i < n; ++i) {
-      if (static_cast<int>(i) == empty_ok_column && fields[i].empty()) {
-        values[i] = std::numeric_limits<double>::quiet_NaN();
-        continue;
-      }
-      if (!parseNumber(fields[i], names[i], &values[i], &r.why)) return fail(r.why);
-    }
-    if (!checkTimeOrder(!r.any, r.last_t, values[0], &r.why)) return fail(r.why);
-    if (!r.any) r.first_t = values[0];
-    r.last_t = values[0];
-    r.any = true;
-    row(values.data());
-  }
-  r.lines = cur.lineNo();
-  return r;
-}
-
 std::vector<std::string_view> columnNames(std::string_view header) {
   std::vector<std::string_view> names;
   size_t s = 0;
@@ -138,100 +86,149 @@ std::vector<std::string_view> columnNames(std::string_view header) {
   return names;
 }
 
-// Checks the header line; on success *body is the text after it.
-Status checkHeader(const std::string& name, std::string_view text, std::string_view header,
-                   std::string_view what_header, std::string_view* body) {
-  LineCursor cur(text);
-  std::string_view line;
-  if (!cur.next(&line)) {
-    return Status::Error(at(name, 1, "empty file, expected header '" + std::string(header) + "'"));
+// What a data row of a numeric CSV may be: `names.size()` (<= kMaxColumns) fields, all numbers
+// (parseNumber) except an empty `empty_ok_column` (NaN). The reference for every row: the fast
+// path below only accepts rows this accepts, and defers to it for the reason otherwise.
+constexpr size_t kMaxColumns = 8;
+bool parseRowStrict(std::string_view line, const std::vector<std::string_view>& names,
+                    int empty_ok_column, double* values, std::string* why) {
+  if (line.empty()) {
+    *why = "empty line";
+    return false;
   }
-  if (line != header) {
-    return Status::Error(at(name, 1,
-                            "wrong header " + quoteForMessage(line) + ", expected '" +
-                                std::string(header) + "'" + std::string(what_header)));
-  }
-  const size_t nl = text.find('\n');
-  *body = nl == std::string_view::npos ? std::string_view() : text.substr(nl + 1);
-  return Status::Ok();
-}
-
-template <typename RowFn>
-Status readNumericCsv(const std::string& name, std::string_view text, std::string_view header,
-                      std::string_view what_header, int empty_ok_column, RowFn&& row) {
-  std::string_view body;
-  if (auto st = checkHeader(name, text, header, what_header, &body); !st.ok) return st;
-  const BodyParse r = parseBody(body, columnNames(header), empty_ok_column, row);
-  if (!r.ok) return Status::Error(at(name, 1 + r.error_line, r.why));
-  return Status::Ok();
-}
-
-// imu.csv, the big one (7.2 M rows for 1 h at 2 kHz): the body is cut at line boundaries into
-// one chunk per hardware thread, parsed in parallel into per-chunk vectors, then joined; time
-// order across chunk boundaries and the line numbers of errors are checked after the join.
-Status readImuCsv(const std::string& name, std::string_view text, nav::ImuSamples* out) {
-  std::string_view body;
-  if (auto st = checkHeader(name, text, kImuHeader, "", &body); !st.ok) return st;
-  const auto names = columnNames(kImuHeader);
-  constexpr size_t kMinChunkBytes = 4u << 20;  // below this, threads cost more than they save
-  const size_t hw = std::max(1u, std::thread::hardware_concurrency());
-  const size_t n_chunks =
-      std::clamp<size_t>(body.size() / kMinChunkBytes, 1, std::min<size_t>(hw, 8));
-  std::vector<std::string_view> chunks;
-  size_t start = 0;
-  for (size_t k = 1; k <= n_chunks && start < body.size(); ++k) {
-    size_t end = k == n_chunks ? body.size() : body.size() * k / n_chunks;
-    if (end < body.size()) {
-      const size_t nl = body.find('\n', std::max(end, start));
-      end = nl == std::string_view::npos ? body.size() : nl + 1;
+  std::array<std::string_view, kMaxColumns> fields;
+  const size_t n = names.size();
+  if (!splitFields(line, fields.data(), n, why)) return false;
+  for (size_t i = 0; i < n; ++i) {
+    if (static_cast<int>(i) == empty_ok_column && fields[i].empty()) {
+      values[i] = std::numeric_limits<double>::quiet_NaN();
+      continue;
     }
-    chunks.push_back(body.substr(start, end - start));
-    start = end;
+    if (!parseNumber(fields[i], names[i], &values[i], why)) return false;
   }
-  std::vector<nav::ImuSamples> parts(chunks.size());
-  std::vector<BodyParse> results(chunks.size());
-  auto work = [&](size_t k) {
-    parts[k].reserve(chunks[k].size() / 64 + 16);  // rows are >= ~64 bytes in practice
-    results[k] = parseBody(chunks[k], names, 7, [&](const double* v) {
-      nav::ImuSample s;
-      s.t = v[0];
-      s.dtheta = Vec3(v[1], v[2], v[3]);
-      s.dvel = Vec3(v[4], v[5], v[6]);
-      s.temp_c = v[7];
-      parts[k].push_back(s);
-    });
-  };
-  {
-    std::vector<std::thread> threads;
-    for (size_t k = 1; k < chunks.size(); ++k) threads.emplace_back(work, k);
-    if (!chunks.empty()) work(0);
-    for (auto& t : threads) t.join();
-  }
-  long line0 = 1;  // the header
-  size_t total = 0;
-  for (size_t k = 0; k < chunks.size(); ++k) {
-    const BodyParse& r = results[k];
-    if (!r.ok) return Status::Error(at(name, line0 + r.error_line, r.why));
-    if (k > 0 && r.any && results[k - 1].any) {
-      std::string why;
-      if (!checkTimeOrder(false, results[k - 1].last_t, r.first_t, &why)) {
-        return Status::Error(at(name, line0 + 1, why));
+  return true;
+}
+
+// One row straight from the text at p (whole lines up to end): n fields, each a finite number
+// fast_float reads up to the next ',' (the last up to "\n", "\r\n", "\r" at the end, or the
+// end), or an empty `empty_ok_column` (NaN). Returns the position after the row's line end, or
+// nullptr for anything else (parseRowStrict then gives the verdict and the reason). fast_float
+// and std::from_chars read the same grammar to the same correctly rounded value; they differ
+// only in what they call out of range (fast_float: inf, refused here as non-finite; and 0 for
+// an underflow, so a zero is read again by std::from_chars, which refuses an underflow).
+const char* parseRowFast(const char* p, const char* end, size_t n, int empty_ok_column,
+                         double* values) {
+  for (size_t i = 0; i < n; ++i) {
+    const bool last = i + 1 == n;
+    const bool at_sep = p == end || *p == (last ? '\n' : ',') || (last && *p == '\r');
+    if (static_cast<int>(i) == empty_ok_column && at_sep) {
+      values[i] = std::numeric_limits<double>::quiet_NaN();
+    } else {
+      const auto r = fast_float::from_chars(p, end, values[i]);
+      if (r.ec != std::errc() || !std::isfinite(values[i])) return nullptr;
+      if (values[i] == 0.0) {
+        const auto z = std::from_chars(p, r.ptr, values[i]);
+        if (z.ec != std::errc() || z.ptr != r.ptr) return nullptr;
       }
+      p = r.ptr;
     }
-    line0 += r.lines;
-    total += parts[k].size();
+    if (!last) {
+      if (p == end || *p != ',') return nullptr;
+      ++p;
+    }
   }
-  if (parts.size() == 1) {
-    *out = std::move(parts[0]);
-  } else {
-    out->clear();
-    out->reserve(total);
-    for (auto& p : parts) {
-      out->insert(out->end(), p.begin(), p.end());
-      nav::ImuSamples().swap(p);
+  if (p == end) return p;
+  if (*p == '\n') return p + 1;
+  if (*p == '\r' && p + 1 == end) return end;
+  if (*p == '\r' && p[1] == '\n') return p + 2;
+  return nullptr;
+}
+
+// Reads a numeric CSV file streaming (io/csv_text.h readLineBlocks: the file is never held
+// whole; 1 h at 2 kHz is 1 GB of text): the header must match exactly, every row is parsed as
+// parseRowStrict says, column 0 is the time and must strictly increase. row(values) receives
+// each row; reserve(rows) once, after the first block, an estimate of the file's row count.
+template <typename ReserveFn, typename RowFn>
+Status readNumericCsv(const std::string& path, std::string_view header,
+                      std::string_view what_header, int empty_ok_column, ReserveFn&& reserve,
+                      RowFn&& row) {
+  const auto names = columnNames(header);
+  const size_t n = names.size();
+  long line = 0;  // lines consumed; the header is line 1
+  bool any = false;
+  double last_t = 0.0;
+  size_t bytes_seen = 0;
+  size_t rows = 0;
+  Status err = Status::Ok();
+  std::array<double, kMaxColumns> v;
+  auto fail = [&](std::string why) {
+    err = Status::Error(at(path, line, why));
+    return false;
+  };
+  auto st = readLineBlocks(path, [&](std::string_view text, size_t file_bytes) {
+    const char* p = text.data();
+    const char* const end = p + text.size();
+    if (line == 0) {
+      LineCursor cur(text);
+      std::string_view first;
+      cur.next(&first);
+      ++line;
+      if (first != header) {
+        return fail("wrong header " + quoteForMessage(first) + ", expected '" +
+                    std::string(header) + "'" + std::string(what_header));
+      }
+      const void* nl = std::memchr(p, '\n', text.size());
+      p = nl ? static_cast<const char*>(nl) + 1 : end;
     }
+    while (p < end) {
+      ++line;
+      const char* next = parseRowFast(p, end, n, empty_ok_column, v.data());
+      if (!next) {
+        const void* nl = std::memchr(p, '\n', static_cast<size_t>(end - p));
+        const char* stop = nl ? static_cast<const char*>(nl) : end;
+        const char* e = stop > p && stop[-1] == '\r' ? stop - 1 : stop;
+        std::string why;
+        if (!parseRowStrict(std::string_view(p, static_cast<size_t>(e - p)), names, empty_ok_column,
+                            v.data(), &why)) {
+          return fail(why);
+        }
+        next = nl ? stop + 1 : end;
+      }
+      std::string why;
+      if (!checkTimeOrder(!any, last_t, v[0], &why)) return fail(why);
+      any = true;
+      last_t = v[0];
+      row(v.data());
+      ++rows;
+      p = next;
+    }
+    if (bytes_seen == 0 && rows > 0) {
+      const double per_row = static_cast<double>(text.size()) / static_cast<double>(rows);
+      reserve(static_cast<size_t>(1.02 * static_cast<double>(file_bytes) / per_row) + 16);
+    }
+    bytes_seen += text.size();
+    return true;
+  });
+  if (!st.ok) return st;
+  if (!err.ok) return err;
+  if (line == 0) {
+    return Status::Error(at(path, 1, "empty file, expected header '" + std::string(header) + "'"));
   }
   return Status::Ok();
+}
+
+// imu.csv, the big one (7.2 M rows, 1 GB for 1 h at 2 kHz), read streaming into *out.
+Status readImuCsv(const std::string& path, nav::ImuSamples* out) {
+  out->clear();
+  return readNumericCsv(
+      path, kImuHeader, "", 7, [&](size_t rows) { out->reserve(rows); },
+      [&](const double* v) {
+        nav::ImuSample& s = out->emplace_back();
+        s.t = v[0];
+        s.dtheta = Vec3(v[1], v[2], v[3]);
+        s.dvel = Vec3(v[4], v[5], v[6]);
+        s.temp_c = v[7];
+      });
 }
 
 std::optional<calib::SegmentKind> segmentKindFromName(std::string_view s) {
@@ -708,26 +705,23 @@ RecordingReadResult readRecording(const std::string& dir) {
 
   // imu.csv
   const std::string imu_path = (d / "imu.csv").string();
-  if (auto st = readWholeFile(imu_path, &text); !st.ok) return fail(st);
-  {
-    if (auto st = readImuCsv(imu_path, text, &rec.imu); !st.ok) return fail(st);
-    if (rec.imu.empty()) return fail(Status::Error(at(imu_path, 2, "no samples after the header")));
-    std::string().swap(text);  // release the imu.csv text (1 GB for an hour at 2 kHz)
-  }
+  if (auto st = readImuCsv(imu_path, &rec.imu); !st.ok) return fail(st);
+  if (rec.imu.empty()) return fail(Status::Error(at(imu_path, 2, "no samples after the header")));
   // table.csv
   const std::string table_path = (d / "table.csv").string();
-  if (auto st = readWholeFile(table_path, &text); !st.ok) return fail(st);
   {
     const bool two = rec.table_kind == calib::TableKind::kTwoAxis;
     const std::string_view header = two ? kTable2Header : kTable3Header;
     const std::string note = two ? " (meta.json says two-axis)" : " (meta.json says three-axis)";
     const int n_axes = calib::axisCount(rec.table_kind);
-    auto st = readNumericCsv(table_path, text, header, note, -1, [&](const double* v) {
-      TableSample s;
-      s.t = v[0];
-      for (int a = 0; a < n_axes; ++a) s.angles_deg[static_cast<size_t>(a)] = v[a + 1];
-      rec.table.push_back(s);
-    });
+    auto st = readNumericCsv(
+        table_path, header, note, -1, [&](size_t rows) { rec.table.reserve(rows); },
+        [&](const double* v) {
+          TableSample s;
+          s.t = v[0];
+          for (int a = 0; a < n_axes; ++a) s.angles_deg[static_cast<size_t>(a)] = v[a + 1];
+          rec.table.push_back(s);
+        });
     if (!st.ok) return fail(st);
     // A header without rows: a recording without table angles (a logger's file imported by
     // `imubench import-csv`, docs/import.md); no segments are derived from it.
@@ -735,10 +729,11 @@ RecordingReadResult readRecording(const std::string& dir) {
   // chamber.csv (optional)
   const std::string chamber_path = (d / "chamber.csv").string();
   if (fs::exists(chamber_path, ec)) {
-    if (auto st = readWholeFile(chamber_path, &text); !st.ok) return fail(st);
-    auto st = readNumericCsv(chamber_path, text, kChamberHeader, "", -1, [&](const double* v) {
-      rec.chamber.push_back({v[0], v[1], v[2]});
-    });
+    auto st = readNumericCsv(
+        chamber_path, kChamberHeader, "", -1, [&](size_t rows) { rec.chamber.reserve(rows); },
+        [&](const double* v) {
+          rec.chamber.push_back({v[0], v[1], v[2]});
+        });
     if (!st.ok) return fail(st);
   }
   // segments.csv (optional)

@@ -1,6 +1,7 @@
 // Simulator throughput: IMU samples per second on one core (target >= 2 M/s).
 #include <benchmark/benchmark.h>
 
+#include "bench/peak_rss.h"
 #include "calib/simulator.h"
 
 namespace imubench::calib {
@@ -52,6 +53,7 @@ void BM_ImuSimulator(benchmark::State& state) {
     benchmark::DoNotOptimize(s);
   }
   state.SetItemsProcessed(state.iterations());
+  imubench::bench::reportPeakRss(state);
 }
 BENCHMARK(BM_ImuSimulator)
     ->ArgNames({"moving", "noise", "effects"})

@@ -13,6 +13,7 @@
 #include <chrono>
 
 #include "bench/calibration/plan_fixture.h"
+#include "bench/peak_rss.h"
 #include "calib/effects.h"
 #include "calib/explain.h"
 #include "calib/explain_baseline.h"
@@ -104,6 +105,7 @@ void BM_Explain12Run2kHz(benchmark::State& state) {
   state.counters["fraction_of_10s_target"] = explain_s / 10.0;
   state.counters["explain_cpu_s"] = cpu_s / n;
   state.counters["cpu_fraction_of_10s_target"] = cpu_s / n / 10.0;
+  imubench::bench::reportPeakRss(state);
 }
 // Manual step timing: the wall time Google Benchmark reports also holds the separate bins_s.
 BENCHMARK(BM_Explain12Run2kHz)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(2);
@@ -137,6 +139,7 @@ void BM_ForwardReadingsPerNode(benchmark::State& state) {
     state.counters["prepare_overhead_x"] = built / once;
   }
   benchmark::DoNotOptimize(sum);
+  imubench::bench::reportPeakRss(state);
 }
 BENCHMARK(BM_ForwardReadingsPerNode)->Unit(benchmark::kMillisecond)->Iterations(3);
 

@@ -8,6 +8,7 @@
 #include <benchmark/benchmark.h>
 
 #include "bench/calibration/plan_fixture.h"
+#include "bench/peak_rss.h"
 #include "calib/bench_calibration.h"
 #include "calib/indirect_calibration.h"
 
@@ -62,6 +63,7 @@ void BM_IndirectCalibration12Run2kHz(benchmark::State& state) {
       f.duration_s, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.counters["fraction_of_10s_target"] = benchmark::Counter(
       10.0, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  imubench::bench::reportPeakRss(state);
 }
 BENCHMARK(BM_IndirectCalibration12Run2kHz)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(3);
 
@@ -97,6 +99,7 @@ void BM_BenchPipeline2kHz(benchmark::State& state) {
       recorded, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.counters["fraction_of_10s_target"] = benchmark::Counter(
       10.0, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  imubench::bench::reportPeakRss(state);
 }
 BENCHMARK(BM_BenchPipeline2kHz)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(2);
 

@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "bench/peak_rss.h"
 #include "daemon/online_engine.h"
 
 namespace {
@@ -56,6 +57,7 @@ void BM_OnlineEnginePerSample2kHz(benchmark::State& state) {
   state.counters["ns_per_sample"] = per_sample_s * 1e9;
   state.counters["core_share_at_2kHz"] = per_sample_s * kRateHz;
   state.counters["x_target"] = per_sample_s * kRateHz / kTargetCoreShare;
+  imubench::bench::reportPeakRss(state);
 }
 BENCHMARK(BM_OnlineEnginePerSample2kHz)->Unit(benchmark::kMillisecond)->Iterations(2);
 

@@ -13,6 +13,7 @@
 #include <iostream>
 #include <random>
 
+#include "bench/peak_rss.h"
 #include "daemon/store.h"
 
 namespace {
@@ -95,6 +96,7 @@ void BM_StoreAppendSecondOf2kHz(benchmark::State& state, const std::string& db_p
   state.SetItemsProcessed(static_cast<int64_t>(rows_per_second) * state.iterations());
   state.counters["x_realtime"] = static_cast<double>(state.iterations()) / wall_s;
   state.counters["rows_per_s"] = rows_per_second * static_cast<double>(state.iterations()) / wall_s;
+  imubench::bench::reportPeakRss(state);
 }
 
 void BM_StoreLoad10MinRun(benchmark::State& state, const std::string& db_path) {
@@ -117,6 +119,7 @@ void BM_StoreLoad10MinRun(benchmark::State& state, const std::string& db_path) {
   }
   state.SetItemsProcessed(static_cast<int64_t>(rows) * state.iterations());
   state.counters["rows"] = static_cast<double>(rows);
+  imubench::bench::reportPeakRss(state);
 }
 
 }  // namespace

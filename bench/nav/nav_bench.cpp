@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "bench/peak_rss.h"
 #include "nav/free_navigation.h"
 #include "nav/strapdown.h"
 
@@ -52,6 +53,7 @@ void BM_InsMech(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
   state.counters["x_5M_target"] = benchmark::Counter(static_cast<double>(state.iterations()) / 5e6,
                                                      benchmark::Counter::kIsRate);
+  imubench::bench::reportPeakRss(state);
 }
 BENCHMARK(BM_InsMech);
 
@@ -85,6 +87,7 @@ void BM_FreeNav1h2kHz(benchmark::State& state) {
   // Seconds of recording navigated per second of wall time.
   state.counters["realtime_ratio"] = benchmark::Counter(
       static_cast<double>(state.iterations()) * 3600.0, benchmark::Counter::kIsRate);
+  imubench::bench::reportPeakRss(state);
 }
 BENCHMARK(BM_FreeNav1h2kHz)->Unit(benchmark::kMillisecond);
 

@@ -236,6 +236,25 @@ TEST(Recording, CrLfLineEndingsAreAccepted) {
   EXPECT_DOUBLE_EQ(r.value.imu[0].dvel.z(), 0.098);
 }
 
+// The reader's fast path (fast_float) calls an underflow 0; the strict parse refuses it as out
+// of range, like an overflow, and a plain zero still reads.
+TEST(Recording, UnderflowIsOutOfRangeAndZeroReads) {
+  ScratchDir dir("rec-underflow");
+  writeText(dir.file("meta.json"), kGoodMeta);
+  writeText(dir.file("table.csv"), kGoodTable);
+  writeText(dir.file("imu.csv"),
+            "t,dthx,dthy,dthz,dvx,dvy,dvz,temp\n0.01,0,-0,0e3,0,0,0.098,25\n"
+            "0.02,0,0,1e-400,0,0,0.098,25\n");
+  const auto r = io::readRecording(dir.str());
+  ASSERT_FALSE(r.status.ok);
+  EXPECT_EQ(r.status.message,
+            dir.file("imu.csv") + ":3: column 'dthz': number out of range '1e-400'");
+  writeText(dir.file("imu.csv"), "t,dthx,dthy,dthz,dvx,dvy,dvz,temp\n0.01,0,-0,0e3,0,0,0.098,25\n");
+  const auto ok = io::readRecording(dir.str());
+  ASSERT_TRUE(ok.status.ok) << ok.status.message;
+  EXPECT_TRUE(std::signbit(ok.value.imu[0].dtheta.y()));
+}
+
 TEST(Recording, NotADirectory) {
   const auto r = io::readRecording("/nonexistent/imubench/recording");
   EXPECT_FALSE(r.status.ok);
