@@ -556,11 +556,12 @@ Status Store::Impl::migrateSchema() {
     std::int64_t version = 0;
     // Re-read inside the write transaction: another process may have migrated it meanwhile.
     if (auto st = checkSchemaVersion(&version); !st.ok || version < 1 || version > 3) return st;
-    if (auto st = execSql(kOutboxSchemaSql, "cannot add the lab outbox"); !st.ok) return st;
-    if (version == 3) return execSql(kSetSchemaVersionSql, "cannot set the schema version");
     if (version == 1) {
       if (auto st = execSql(kQueueSchemaSql, "cannot add the queue"); !st.ok) return st;
     }
+    // After the queue: the outbox's triggers watch it.
+    if (auto st = execSql(kOutboxSchemaSql, "cannot add the lab outbox"); !st.ok) return st;
+    if (version == 3) return execSql(kSetSchemaVersionSql, "cannot set the schema version");
     std::int64_t has_column = 0;
     if (auto st =
             queryInt(kHasRoundTripColumnSql, "cannot read the table samples' columns", &has_column);

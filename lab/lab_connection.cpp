@@ -69,8 +69,9 @@ Result<std::string> readPasswordFile(const std::string& path) {
   }
   if (st.st_uid != ::geteuid() || (st.st_mode & 077) != 0) {
     return Result<std::string>::Error(
-        path + ": the lab password file must belong to the daemon's user and be readable by it "
-               "only (chmod 600)");
+        path +
+        ": the lab password file must belong to the daemon's user and be readable by it "
+        "only (chmod 600)");
   }
   std::ifstream in(path);
   std::string line;
@@ -83,13 +84,20 @@ Result<std::string> readPasswordFile(const std::string& path) {
 
 const char* labFaultName(LabFault fault) {
   switch (fault) {
-    case LabFault::kNone: return "none";
-    case LabFault::kConfig: return "configuration";
-    case LabFault::kUnreachable: return "unreachable";
-    case LabFault::kAuth: return "authentication";
-    case LabFault::kRights: return "rights";
-    case LabFault::kSchema: return "schema";
-    case LabFault::kOther: return "error";
+    case LabFault::kNone:
+      return "none";
+    case LabFault::kConfig:
+      return "configuration";
+    case LabFault::kUnreachable:
+      return "unreachable";
+    case LabFault::kAuth:
+      return "authentication";
+    case LabFault::kRights:
+      return "rights";
+    case LabFault::kSchema:
+      return "schema";
+    case LabFault::kOther:
+      return "error";
   }
   return "error";
 }
@@ -106,13 +114,20 @@ LabError connectLab(const LabEndpoint& endpoint, const char* application_name, P
     password = std::move(pw.value);
   }
   const std::string timeout = std::to_string(endpoint.connect_timeout_s);
-  const std::string options = "-c statement_timeout=" + std::to_string(endpoint.statement_timeout_ms);
+  const std::string options =
+      "-c statement_timeout=" + std::to_string(endpoint.statement_timeout_ms);
   // dbname first (expanded), so the settings after it override the string's.
-  std::vector<const char*> keys = {"dbname", "connect_timeout", "application_name", "options",
-                                   "keepalives", "keepalives_idle", "keepalives_interval",
-                                   "keepalives_count"};
-  std::vector<const char*> values = {endpoint.conninfo.c_str(), timeout.c_str(), application_name,
-                                     options.c_str(), "1", "5", "2", "3"};
+  std::vector<const char*> keys = {
+      "dbname",     "connect_timeout", "application_name",    "options",
+      "keepalives", "keepalives_idle", "keepalives_interval", "keepalives_count"};
+  std::vector<const char*> values = {endpoint.conninfo.c_str(),
+                                     timeout.c_str(),
+                                     application_name,
+                                     options.c_str(),
+                                     "1",
+                                     "5",
+                                     "2",
+                                     "3"};
   if (!password.empty()) {
     keys.push_back("password");
     values.push_back(password.c_str());
@@ -131,7 +146,8 @@ LabError connectLab(const LabEndpoint& endpoint, const char* application_name, P
   }
   // The server's notices (e.g. "terminating connection due to administrator command") come
   // back as errors where they matter; libpq must not print them on the daemon's stderr.
-  PQsetNoticeProcessor(c.get(), [](void*, const char*) {}, nullptr);
+  PQsetNoticeProcessor(
+      c.get(), [](void*, const char*) {}, nullptr);
   *conn = std::move(c);
   return {};
 }

@@ -54,12 +54,12 @@ using PgResult = std::unique_ptr<PGresult, PgResultDeleter>;
 // What went wrong, as the operator needs to hear it.
 enum class LabFault {
   kNone,
-  kConfig,        // the endpoint or password file is refused
-  kUnreachable,   // no connection (down, partitioned, refused)
-  kAuth,          // wrong password or unknown role
-  kRights,        // the role may not write (e.g. a read-only role)
-  kSchema,        // the lab schema is missing, older or newer than this imubench
-  kOther,         // any other error the server reports
+  kConfig,       // the endpoint or password file is refused
+  kUnreachable,  // no connection (down, partitioned, refused)
+  kAuth,         // wrong password or unknown role
+  kRights,       // the role may not write (e.g. a read-only role)
+  kSchema,       // the lab schema is missing, older or newer than this imubench
+  kOther,        // any other error the server reports
 };
 const char* labFaultName(LabFault fault);  // "unreachable", "authentication", ...
 

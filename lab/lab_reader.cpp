@@ -13,8 +13,8 @@ Result<PgResult> query(const LabEndpoint& endpoint, PgConn* conn, const char* sq
     return R::Error(std::string("lab database (") + labFaultName(e.fault) + "): " + e.message);
   }
   if (LabError e = checkLabSchema(conn->get()); !e.ok()) return R::Error(e.message);
-  PgResult r(PQexecParams(conn->get(), sql, static_cast<int>(params.size()), nullptr,
-                          params.data(), nullptr, nullptr, 0));
+  PgResult r(PQexecParams(conn->get(), sql, static_cast<int>(params.size()), nullptr, params.data(),
+                          nullptr, nullptr, 0));
   if (PQresultStatus(r.get()) != PGRES_TUPLES_OK) {
     return R::Error(statementError(conn->get(), r.get(), what).message);
   }
@@ -63,10 +63,9 @@ Result<std::vector<LabResult>> readLabResults(const LabEndpoint& endpoint,
                                               const LabResultFilter& filter) {
   Result<std::vector<LabResult>> out;
   const std::string run = filter.run_id ? std::to_string(*filter.run_id) : "";
-  const std::vector<const char*> params = {
-      filter.imu_serial ? filter.imu_serial->c_str() : nullptr,
-      filter.run_id ? run.c_str() : nullptr,
-      filter.bench_id ? filter.bench_id->c_str() : nullptr};
+  const std::vector<const char*> params = {filter.imu_serial ? filter.imu_serial->c_str() : nullptr,
+                                           filter.run_id ? run.c_str() : nullptr,
+                                           filter.bench_id ? filter.bench_id->c_str() : nullptr};
   PgConn conn;
   auto q = query(endpoint, &conn,
                  "SELECT bench_id, run_id, result_id, imu_serial, temperature_c, kind, "

@@ -20,8 +20,7 @@ constexpr const char* kDeleteSql =
     "AND outbox_seq <= $3::bigint";
 
 double nowUnixS() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 }  // namespace

@@ -41,8 +41,8 @@ struct ShipperOptions {
 
 // One step's outcome.
 struct ShipStep {
-  LabError error;          // fault of this step (none: shipped or nothing to ship)
-  int shipped = 0;         // entries committed and acknowledged
+  LabError error;             // fault of this step (none: shipped or nothing to ship)
+  int shipped = 0;            // entries committed and acknowledged
   std::int64_t backlog = -1;  // entries still waiting (-1: unknown)
 };
 
@@ -67,10 +67,10 @@ class Shipper {
 struct MirrorStatus {
   std::string state = "starting";  // starting, ok, fault
   LabFault fault = LabFault::kNone;
-  std::string message;             // the fault, one line (no credentials)
-  std::int64_t backlog = -1;       // outbox entries waiting (-1: not yet known)
-  std::int64_t shipped = 0;        // entries shipped since start
-  double fault_since_unix_s = 0.0; // when the current fault began (0: none)
+  std::string message;              // the fault, one line (no credentials)
+  std::int64_t backlog = -1;        // outbox entries waiting (-1: not yet known)
+  std::int64_t shipped = 0;         // entries shipped since start
+  double fault_since_unix_s = 0.0;  // when the current fault began (0: none)
 };
 
 // The shipper on its own thread, over its own connection to the bench's SQLite store.

@@ -54,8 +54,8 @@ class LabCluster {
     std::filesystem::permissions(root_, std::filesystem::perms(0755));
     dir_ = (root_ / "cluster").string();
     port_ = freeTcpPort();
-    const std::string init = script() + " init " + dir_ + " " + std::to_string(port_) +
-                             " > " + (root_ / "init.log").string() + " 2>&1";
+    const std::string init = script() + " init " + dir_ + " " + std::to_string(port_) + " > " +
+                             (root_ / "init.log").string() + " 2>&1";
     started_ = shell(init) == 0;
     if (!started_) {
       std::ifstream log(root_ / "init.log");

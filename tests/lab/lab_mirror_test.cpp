@@ -39,8 +39,7 @@ constexpr const char* kHostile[] = {
 };
 
 double now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 // A bench's work: runs with step events, segments, results, a finish; a queued plan that
@@ -59,8 +58,9 @@ void fillBench(Store& store, int runs, int events_per_run, const std::string& se
     ASSERT_TRUE(id.ok()) << id.status.message;
     for (int e = 0; e < events_per_run; ++e) {
       const nlohmann::json details = {{"step", e}, {"label", label}, {"value", 0.1 * e}};
-      ASSERT_TRUE(store.addEvent({id.value, now(), daemon::EventSeverity::kInfo, "step_finished",
-                                  details.dump()})
+      ASSERT_TRUE(store
+                      .addEvent({id.value, now(), daemon::EventSeverity::kInfo, "step_finished",
+                                 details.dump()})
                       .ok);
     }
     daemon::RunBatch batch;
@@ -101,7 +101,8 @@ Items sqliteItems(const std::string& path) {
       "SELECT run_id, item, payload FROM lab_item_segments";
   EXPECT_EQ(sqlite3_prepare_v2(db, sql, -1, &q, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
   while (sqlite3_step(q) == SQLITE_ROW) {
-    const Key k{sqlite3_column_int64(q, 0), reinterpret_cast<const char*>(sqlite3_column_text(q, 1))};
+    const Key k{sqlite3_column_int64(q, 0),
+                reinterpret_cast<const char*>(sqlite3_column_text(q, 1))};
     out[k] = nlohmann::json::parse(reinterpret_cast<const char*>(sqlite3_column_text(q, 2)));
   }
   sqlite3_finalize(q);
@@ -112,8 +113,10 @@ Items sqliteItems(const std::string& path) {
 Items labItems(const LabCluster& cluster, const std::string& bench, const char* kinds) {
   Items out;
   PgConn c(PQconnectdb(cluster.adminConninfo().c_str()));
-  const std::string sql = "SELECT run_id, item, payload::text FROM lab.items WHERE bench_id = $1 "
-                          "AND kind " + std::string(kinds);
+  const std::string sql =
+      "SELECT run_id, item, payload::text FROM lab.items WHERE bench_id = $1 "
+      "AND kind " +
+      std::string(kinds);
   const char* params[] = {bench.c_str()};
   PgResult r(PQexecParams(c.get(), sql.c_str(), 1, nullptr, params, nullptr, nullptr, 0));
   EXPECT_EQ(PQresultStatus(r.get()), PGRES_TUPLES_OK) << PQresultErrorMessage(r.get());
@@ -248,8 +251,9 @@ TEST_F(LabMirrorTest, DatabaseStoppedMidShippingThenStartedDeliversEverythingOnc
   int written = 0;
   while (now() < until) {
     const double t0 = now();
-    ASSERT_TRUE(store->addEvent({1, t0, daemon::EventSeverity::kInfo, "while_down",
-                                 "{\"n\":" + std::to_string(written++) + "}"})
+    ASSERT_TRUE(store
+                    ->addEvent({1, t0, daemon::EventSeverity::kInfo, "while_down",
+                                "{\"n\":" + std::to_string(written++) + "}"})
                     .ok);
     worst_write_s = std::max(worst_write_s, now() - t0);
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
