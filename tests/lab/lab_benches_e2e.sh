@@ -13,15 +13,17 @@ set -euo pipefail
 VB=$1 DAEMON=$2 CLI=$3 SRC=$4
 DEV=$SRC/drivers/devices
 W=$(mktemp -d)
-chmod 755 "$W"
-PG=$W/pg
+# The cluster's directory: its unprivileged user must reach it (TMPDIR under vcan-run.sh is in
+# a private directory), so it sits in /tmp itself.
+PG=$(mktemp -d /tmp/imubench-lab-pg.XXXXXX)
+chmod 755 "$PG"
 PIDS=()
 cleanup() {
   for p in "${PIDS[@]}"; do kill "$p" 2>/dev/null || true; done
   wait 2>/dev/null || true
   "$SRC/tools/lab-db.sh" stop "$PG/c" >/dev/null 2>&1 || true
   if [[ -n ${VCAN_RUN_INSIDE_UML:-} ]]; then umount "$PG" 2>/dev/null || true; fi
-  rm -rf "$W"
+  rm -rf "$W" "$PG"
 }
 trap cleanup EXIT
 fail() {
@@ -33,7 +35,6 @@ fail() {
   exit 1
 }
 
-mkdir -p "$PG"
 if [[ -n ${VCAN_RUN_INSIDE_UML:-} ]]; then mount -t tmpfs -o size=400m,mode=755 tmpfs "$PG"; fi
 PORT=5439
 "$SRC/tools/lab-db.sh" init "$PG/c" $PORT >/dev/null || fail "lab-db.sh init"
@@ -50,14 +51,21 @@ start_daemon() {  # i
 }
 
 declare -A DPID
+# The direct plan with its calibration (results to list), at 20x with a 200 Hz IMU: light
+# enough for three benches in user-mode Linux (as table_latency.sh at 20x).
+sed 's/^sample_period = "1 ms"/sample_period = "5 ms"/' "$DEV/imus/navgrade_fd.toml" >"$W/imu.toml"
+grep -q '^sample_period = "5 ms"' "$W/imu.toml" || fail "IMU layout copy"
+sed 's/^name = "direct_two_axis"/&\ncalibration = "direct"/' \
+  "$SRC/plans/library/direct_two_axis.toml" >"$W/direct.toml"
 for i in 1 2 3; do
   mkdir -p "$W/b$i"
   can=vcan$((i - 1))
   ip link show "$can" >/dev/null 2>&1 || ip link add dev "$can" type vcan
   ip link set "$can" up
   "$VB" --table "$DEV/tables/imubench-ref-2axis-tcp.toml" \
-    --chamber "$DEV/chambers/watlow-f4-style.toml" --imu "$DEV/imus/navgrade_fd.toml" \
-    --can "$can" --table-port "15${i}2" --chamber-port "15${i}3" --time-scale 5 \
+    --chamber "$DEV/chambers/watlow-f4-style.toml" --imu "$W/imu.toml" \
+    --can "$can" --table-port "15${i}2" --chamber-port "15${i}3" --time-scale 20 \
+    --truth "$SRC/tests/tools/data/truth_nav_grade.json" --noise nav-grade \
     --host-watchdog-timeout 2 --seed "$i" >"$W/b$i/vb.out" 2>&1 &
   PIDS+=($!)
   cat >"$W/b$i/bench.toml" <<TOML
@@ -80,11 +88,10 @@ port = 15${i}3
 safe_setpoint = "23 degC"
 over_temperature = "90 degC"
 [imu]
-layout = "$DEV/imus/navgrade_fd.toml"
+layout = "$W/imu.toml"
 interface = "$can"
 serial = "LAB-SN-7"
-[safety]
-imu_timeout = "2 s"
+$(cat "$SRC/tools/demo_bench_limits.toml")
 [lab]
 database = "postgresql://bench$i@127.0.0.1:$PORT/lab"
 password_file = "$PG/c/secrets/bench$i.pass"
@@ -111,7 +118,7 @@ def status(path):
 PY
 export PYTHONPATH=$W
 
-PLAN=$SRC/tests/daemon/data/smoke_plan.toml
+PLAN=$W/direct.toml
 for i in 1 2 3; do
   IMUBENCH_SOCKET=$W/b$i/control.sock "$CLI" start "$PLAN" >/dev/null || fail "start on bench $i"
 done
@@ -122,8 +129,9 @@ import sys, time
 from labstatus import status
 end = time.time() + 120
 while time.time() < end:
-    lab = status(sys.argv[1]).get("lab", {})
-    if lab.get("shipped", 0) >= 5: sys.exit(0)
+    st = status(sys.argv[1])
+    lab = st.get("lab", {})
+    if st["state"] == "running" and lab.get("shipped", 0) >= 10: sys.exit(0)
     time.sleep(0.2)
 print("lab status:", lab); sys.exit(1)
 PY
@@ -138,7 +146,7 @@ echo "bench 2 killed with SIGKILL mid-run, restarted, its run resumed"
 python3 - "$W" <<'PY' || fail "benches did not finish and drain their outboxes"
 import sys, time
 from labstatus import status
-end = time.time() + 400
+end = time.time() + 700
 while time.time() < end:
     st = [status("%s/b%d/control.sock" % (sys.argv[1], i)) for i in (1, 2, 3)]
     if all(s["state"] == "idle" and s["lab"]["state"] == "ok" and s["lab"]["backlog"] == 0
@@ -147,7 +155,14 @@ while time.time() < end:
     time.sleep(1)
 print([(s["state"], s["lab"]) for s in st]); sys.exit(1)
 PY
-sleep 2  # results are stored off the loop after the run ends
+# The calibration's results are stored off the loop after a run ends: wait for every bench's in
+# the lab (through the reader), then for empty outboxes.
+for _ in $(seq 300); do
+  out=$("$CLI" results --serial LAB-SN-7 --db "$LAB" 2>&1) || true
+  grep -q "^bench1 " <<<"$out" && grep -q "^bench2 " <<<"$out" && grep -q "^bench3 " <<<"$out" &&
+    break
+  sleep 1
+done
 python3 - "$W" <<'PY' || fail "outboxes after the results"
 import sys, time
 from labstatus import status
