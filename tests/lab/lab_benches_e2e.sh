@@ -66,7 +66,7 @@ for i in 1 2 3; do
     --chamber "$DEV/chambers/watlow-f4-style.toml" --imu "$W/imu.toml" \
     --can "$can" --table-port "15${i}2" --chamber-port "15${i}3" --time-scale 20 \
     --truth "$SRC/tests/tools/data/truth_nav_grade.json" --noise nav-grade \
-    --host-watchdog-timeout 2 --seed "$i" >"$W/b$i/vb.out" 2>&1 &
+    --host-watchdog-timeout 10 --seed "$i" >"$W/b$i/vb.out" 2>&1 &
   PIDS+=($!)
   cat >"$W/b$i/bench.toml" <<TOML
 [bench]
