@@ -349,6 +349,17 @@ Status BenchDaemon::start() {
   if (cut.status.ok && cut.value > 0) {
     log_.warning(std::to_string(cut.value) + " run(s) cut off by a crash marked interrupted");
   }
+  if (bench_.lab) {
+    // Never blocks the bench: the mirror connects and ships from its own thread, and reports
+    // faults through status and the lab_alarm event.
+    lab::LabEndpoint endpoint;
+    endpoint.conninfo = bench_.lab->database;
+    endpoint.password_file = bench_.lab->password_file;
+    auto mirror = lab::LabMirror::start(db, endpoint);
+    if (!mirror.ok()) return Status::Error("lab mirror: " + mirror.status.message);
+    lab_ = std::move(mirror.value);
+    log_.info("lab mirror: shipping the store's outbox to the [lab] database");
+  }
 
   // The drivers report every retry and fault: on a dead link that is every poll.
   const auto sink = [this](const char* topic) {
@@ -882,8 +893,33 @@ void BenchDaemon::closeRun() {
   if (state == RunState::kFinished) loop_.post([this] { advanceQueue(); });
 }
 
+std::optional<LabStatus> BenchDaemon::labStatus() const {
+  if (!lab_) return std::nullopt;
+  const lab::MirrorStatus m = lab_->status();
+  return LabStatus{m.state, lab::labFaultName(m.fault), m.message, m.backlog, m.shipped};
+}
+
+// An alarm (log and topic status) when the mirror goes into a fault or its fault changes, and
+// a note when it is back; the fault's text carries no credentials (lab/lab_connection.h).
+void BenchDaemon::checkLab() {
+  const auto s = labStatus();
+  if (!s) return;
+  const std::string now = s->state == "fault" ? s->fault + ": " + s->message : "";
+  if (now == lab_reported_) return;
+  if (!now.empty()) {
+    log_.warning("lab mirror ALARM: " + now + " (" + std::to_string(s->backlog) +
+                 " item(s) waiting in the outbox; the bench goes on)");
+    server_->broadcast(Topic::kStatus, LabAlarmEvent::kAlarm, toJson(LabAlarmEvent{*s}));
+  } else {
+    log_.info("lab mirror: the lab database is reached again");
+    server_->broadcast(Topic::kStatus, LabAlarmEvent::kOk, toJson(LabAlarmEvent{*s}));
+  }
+  lab_reported_ = now;
+}
+
 void BenchDaemon::onStatusTimer() {
   limited_.tick(wallNow());
+  checkLab();
   if (!run_) return;
   const PlanRunner& r = *run_->runner;
   const RunStep& s = r.displayedStep();
@@ -1547,6 +1583,7 @@ Reply BenchDaemon::status() const {
   s.imu_bad_frames = imu_->decoder().counters().badFrames();
   s.imu_restarts = imu_->decoder().counters().restarts;
   s.table = tableStatus();
+  s.lab = labStatus();
   if (const auto waiting = store_->queueList(); waiting.status.ok) {
     s.queued = waiting.value.size();  // plans in the queue (queue_list)
   }

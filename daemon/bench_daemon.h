@@ -53,6 +53,7 @@
 #include "daemon/sd_notify.h"
 #include "daemon/store.h"
 #include "drivers/imu_can_reader.h"
+#include "lab/shipper.h"
 
 namespace imubench::daemon {
 
@@ -158,6 +159,9 @@ class BenchDaemon {
   void onRecordingGap(double t_a, double t_b, const std::string& what, const std::string& cause);
   void onStatusTimer();
   void publish(const std::vector<RunnerEvent>& events);
+  // The lab mirror's state for status, and its alarm on a change into or out of a fault.
+  std::optional<LabStatus> labStatus() const;
+  void checkLab();
   void beginStep(int step, std::optional<double> t0);
   void closeStep(std::optional<double> t1);
   void closeRun();
@@ -169,6 +173,10 @@ class BenchDaemon {
   LogLimiter limited_;  // log_ for repeated problems
   EventLoop loop_;
   std::unique_ptr<Store> store_;
+  // The lab mirror's shipping thread (with a [lab] database), over its own store connection;
+  // after store_, so it stops first.
+  std::unique_ptr<lab::LabMirror> lab_;
+  std::string lab_reported_;  // the fault last alarmed ("" when none)
   std::unique_ptr<drivers::TableDriver> table_;
   std::unique_ptr<drivers::ChamberDriver> chamber_;
   std::unique_ptr<DriverBenchPort> port_;

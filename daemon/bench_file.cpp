@@ -12,6 +12,7 @@
 
 #include "calib/bench_truth.h"
 #include "calib/truth_comparison.h"
+#include "lab/lab_connection.h"
 #include "nav/rotation.h"
 
 namespace imubench::daemon {
@@ -295,6 +296,26 @@ void parseAcceptance(const toml::table& root, BenchConfig& b, Diagnostics& diag)
   }
 }
 
+// [lab]: the mirror's database. A password in the connection string is refused at its key:
+// credentials never live in the bench file (a file only the daemon's user reads, or libpq's).
+void parseLab(const toml::table& root, const std::string& base_dir, BenchConfig& b,
+              Diagnostics& diag) {
+  const toml::table* t = subTable(root, "lab", diag, false);
+  if (t == nullptr) return;
+  checkKeys(*t, {"database", "password_file"}, "[lab]", diag);
+  BenchLab lab;
+  lab.database = strField(*t, "database", diag, true).value_or("");
+  if (t->get("database") != nullptr) {
+    if (lab.database.empty()) {
+      diag.error(t->get("database")->source(), "database is empty");
+    } else if (Status st = lab::checkConninfo(lab.database); !st.ok) {
+      diag.error(t->get("database")->source(), st.message);
+    }
+  }
+  lab.password_file = resolve(base_dir, strField(*t, "password_file", diag, false).value_or(""));
+  b.lab = lab;
+}
+
 }  // namespace
 
 std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_view file_name,
@@ -303,7 +324,8 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
   if (!root) return std::nullopt;
   BenchConfig b;
   b.file = std::string(file_name);
-  checkKeys(*root, {"bench", "site", "table", "chamber", "imu", "safety", "control", "acceptance"},
+  checkKeys(*root,
+            {"bench", "site", "table", "chamber", "imu", "safety", "control", "acceptance", "lab"},
             "the top level", diag);
   parseBenchTable(*root, base_dir, b, diag);
   parseSite(*root, b, diag);
@@ -313,6 +335,7 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
   parseSafety(*root, b, diag);
   parseControl(*root, base_dir, b, diag);
   parseAcceptance(*root, b, diag);
+  parseLab(*root, base_dir, b, diag);
   if (!diag.ok()) return std::nullopt;
   return b;
 }

@@ -61,6 +61,11 @@
 //                                    #   ".stop" (also under systemd): a socket that takes only
 //                                    #   stop, served before anything else; `imubench stop`
 //                                    #   uses it
+//   [lab]                     # optional: mirror runs and results to the lab's PostgreSQL
+//   database = "postgresql://bench_a@lab-db:5432/lab"   # libpq URI, never with a password in it
+//   password_file = "/etc/imubench/lab.pass"  # optional: the password (first line), owned by the
+//                             #   daemon's user, mode 0600; else libpq's ~/.pgpass or service file
+//                             #   The SQLite store stays the source of truth (lab/shipper.h).
 //   [acceptance]              # optional: the IMU's pass/fail limits, checked after a plan's
 //                             #   calibration (daemon/run_calibration.h): |estimate| <= limit
 //   "gyro.bias" = "0.01 deg/h"       # a parameter's flat name (interchange.md), or a group:
@@ -150,6 +155,12 @@ struct AcceptanceLimit {
   std::string text;    // as written, e.g. "0.01 deg/h"
 };
 
+// [lab]: where the bench mirrors its store (issue 30, lab/shipper.h).
+struct BenchLab {
+  std::string database;       // libpq connection URI or key=value string, without a password
+  std::string password_file;  // empty: libpq's password or service file
+};
+
 struct BenchConfig {
   std::string file;  // the bench file as given
   std::string name;
@@ -179,6 +190,7 @@ struct BenchConfig {
   BenchSafety safety;
   BenchControl control;
   std::vector<AcceptanceLimit> acceptance;  // empty: no verdict (results say so)
+  std::optional<BenchLab> lab;              // unset: no lab mirror
 };
 
 // Parses bench text; device files are resolved against base_dir. file_name names the text in

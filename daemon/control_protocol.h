@@ -683,6 +683,39 @@ struct StatusStep {
   }
 };
 
+// The lab mirror (issue 30, lab/shipper.h): whether the bench's store reaches the lab's
+// PostgreSQL, and how much waits in the outbox meanwhile.
+struct LabStatus {
+  std::string state;          // starting, ok, fault
+  std::string fault;          // none, unreachable, authentication, rights, schema, ...
+  std::string message;        // the fault in one line (never credentials); empty when ok
+  std::int64_t backlog = -1;  // outbox items not yet in the lab (-1: not known yet)
+  std::int64_t shipped = 0;   // items shipped since the daemon started
+  bool operator==(const LabStatus&) const = default;
+  template <class V>
+  void fields(V& v) {
+    v("state", state);
+    v("fault", fault);
+    v("message", message);
+    v("backlog", backlog);
+    v("shipped", shipped);
+  }
+};
+
+// The lab mirror went into a fault or out of it (topic status): "lab_alarm" with the fault,
+// "lab_ok" once the lab is reached again.
+struct LabAlarmEvent {
+  static constexpr std::string_view kAlarm = "lab_alarm";
+  static constexpr std::string_view kOk = "lab_ok";
+  static constexpr Topic kTopic = Topic::kStatus;
+  LabStatus lab;
+  bool operator==(const LabAlarmEvent&) const = default;
+  template <class V>
+  void fields(V& v) {
+    lab.fields(v);
+  }
+};
+
 struct StatusReply {  // status
   std::string bench;
   std::string state;                 // "idle" or the runner's state
@@ -698,6 +731,7 @@ struct StatusReply {  // status
   std::optional<double> progress;  // 0..1
   std::optional<double> eta_s;
   std::optional<StatusStep> step;
+  std::optional<LabStatus> lab;  // with a [lab] database in the bench file
   bool operator==(const StatusReply&) const = default;
   template <class V>
   void fields(V& v) {
@@ -714,6 +748,7 @@ struct StatusReply {  // status
     v("progress", progress);
     v("eta_s", eta_s);
     v("step", step);
+    v("lab", lab);
   }
 };
 

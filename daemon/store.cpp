@@ -119,8 +119,94 @@ CREATE INDEX queue_by_pos ON queue(pos);
 constexpr const char* kRoundTripColumnSql = "ALTER TABLE table_samples ADD COLUMN round_trip_s ANY";
 constexpr const char* kHasRoundTripColumnSql =
     "SELECT count(*) FROM pragma_table_info('table_samples') WHERE name = 'round_trip_s'";
-constexpr const char* kSetSchemaVersionSql = "PRAGMA user_version=3";
-static_assert(kStoreSchemaVersion == 3, "kSetSchemaVersionSql writes version 3");
+// Schema version 4: the lab mirror's outbox (issue 30, lab/shipper.h). What must reach the lab
+// database is written to lab_outbox by triggers, so it lands in the same transaction as the
+// data it copies; the shipper reads it in seq order and deletes what the lab has committed.
+// The triggers only fire once the outbox is enabled (Store::enableOutbox: a bench without a
+// lab database keeps no outbox). Each lab_item_* view is the one definition of an item's key
+// (run_id, item) and payload, used by the triggers and by enableOutbox's backfill alike.
+constexpr const char* kOutboxSchemaSql = R"sql(
+CREATE TABLE lab_outbox(
+  seq INTEGER PRIMARY KEY AUTOINCREMENT,
+  run_id INTEGER NOT NULL,
+  item TEXT NOT NULL,
+  kind TEXT NOT NULL,
+  op TEXT NOT NULL CHECK(op IN ('upsert', 'delete')),
+  payload TEXT NOT NULL
+) STRICT;
+CREATE TABLE lab_outbox_enabled(one INTEGER PRIMARY KEY CHECK(one = 1)) STRICT;
+CREATE VIEW lab_item_runs AS SELECT id AS run_id, 'run' AS item, 'run' AS kind,
+  json_object('id', id, 'plan_name', plan_name, 'plan_toml', plan_toml, 'bench_name', bench_name,
+    'imu_serial', imu_serial, 'imu_rate_hz', imu_rate_hz, 'latitude_deg', latitude_deg,
+    'height_m', height_m, 'gravity_mps2', gravity_mps2, 'table_kind', table_kind,
+    'outer_axis_heading_deg', outer_axis_heading_deg, 'segments_from_file', segments_from_file,
+    'started_unix_s', started_unix_s, 'finished_unix_s', finished_unix_s, 'state', state,
+    'exit_reason', exit_reason) AS payload FROM runs;
+CREATE VIEW lab_item_events AS SELECT run_id, 'event/' || id AS item, 'event' AS kind,
+  json_object('id', id, 'wall_unix_s', wall_unix_s, 'severity', severity, 'kind', kind,
+    'details', json(json)) AS payload FROM events;
+CREATE VIEW lab_item_results AS SELECT run_id, 'result/' || id AS item, 'result' AS kind,
+  json_object('id', id, 'imu_serial', imu_serial, 'temperature_c', temperature_c, 'kind', kind,
+    'result', json(json), 'created_unix_s', created_unix_s) AS payload FROM results;
+CREATE VIEW lab_item_segments AS SELECT run_id, 'segment/' || idx AS item, 'segment' AS kind,
+  json_object('idx', idx, 't0', t0, 't1', t1, 'kind', kind, 'label', label,
+    'recording', recording, 'axis', axis, 'angle_rad', angle_rad) AS payload FROM segments;
+CREATE VIEW lab_item_queue AS SELECT 0 AS run_id, 'queue/' || id AS item, 'queue' AS kind,
+  json_object('id', id, 'plan_name', plan_name, 'source', source, 'plan_toml', plan_toml,
+    'label', label, 'added_unix_s', added_unix_s, 'left_unix_s', NULL) AS payload FROM queue;
+CREATE TRIGGER lab_run_insert AFTER INSERT ON runs WHEN EXISTS(SELECT 1 FROM lab_outbox_enabled)
+BEGIN INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_runs WHERE run_id = NEW.id; END;
+CREATE TRIGGER lab_run_update AFTER UPDATE ON runs WHEN EXISTS(SELECT 1 FROM lab_outbox_enabled)
+BEGIN INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_runs WHERE run_id = NEW.id; END;
+CREATE TRIGGER lab_event_insert AFTER INSERT ON events
+WHEN EXISTS(SELECT 1 FROM lab_outbox_enabled)
+BEGIN INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_events
+  WHERE item = 'event/' || NEW.id; END;
+CREATE TRIGGER lab_result_insert AFTER INSERT ON results
+WHEN EXISTS(SELECT 1 FROM lab_outbox_enabled)
+BEGIN INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_results
+  WHERE item = 'result/' || NEW.id; END;
+CREATE TRIGGER lab_segment_insert AFTER INSERT ON segments
+WHEN EXISTS(SELECT 1 FROM lab_outbox_enabled)
+BEGIN INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_segments
+  WHERE run_id = NEW.run_id AND item = 'segment/' || NEW.idx; END;
+CREATE TRIGGER lab_segment_delete AFTER DELETE ON segments
+WHEN EXISTS(SELECT 1 FROM lab_outbox_enabled)
+BEGIN INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  VALUES(OLD.run_id, 'segment/' || OLD.idx, 'segment', 'delete', '{}'); END;
+CREATE TRIGGER lab_queue_insert AFTER INSERT ON queue
+WHEN EXISTS(SELECT 1 FROM lab_outbox_enabled)
+BEGIN INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_queue
+  WHERE item = 'queue/' || NEW.id; END;
+CREATE TRIGGER lab_queue_delete BEFORE DELETE ON queue
+WHEN EXISTS(SELECT 1 FROM lab_outbox_enabled)
+BEGIN INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert',
+    json_set(payload, '$.left_unix_s', (julianday('now') - 2440587.5) * 86400.0) FROM lab_item_queue
+  WHERE item = 'queue/' || OLD.id; END;
+)sql";
+// enableOutbox's backfill: everything stored before the outbox was enabled, in a stable order.
+constexpr const char* kOutboxBackfillSql = R"sql(
+INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_runs ORDER BY run_id;
+INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_segments;
+INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_events;
+INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_results;
+INSERT INTO lab_outbox(run_id, item, kind, op, payload)
+  SELECT run_id, item, kind, 'upsert', payload FROM lab_item_queue;
+INSERT INTO lab_outbox_enabled VALUES(1);
+)sql";
+constexpr const char* kSetSchemaVersionSql = "PRAGMA user_version=4";
+static_assert(kStoreSchemaVersion == 4, "kSetSchemaVersionSql writes version 4");
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -459,19 +545,32 @@ Status Store::Impl::createSchemaIfNew() {
     if (objects != 0) return error("not an imubench store (has tables but no schema version)");
     if (auto st = execSql(kSchemaSql, "cannot create the schema"); !st.ok) return st;
     if (auto st = execSql(kQueueSchemaSql, "cannot create the schema"); !st.ok) return st;
+    if (auto st = execSql(kOutboxSchemaSql, "cannot create the schema"); !st.ok) return st;
     return execSql(kSetSchemaVersionSql, "cannot set the schema version");
   });
 }
 
-// Version 1 (before the queue) -> 2 -> 3 (before the round trips).
+// Version 1 (before the queue) -> 2 -> 3 (before the round trips) -> 4 (before the outbox).
 Status Store::Impl::migrateSchema() {
-  return transaction("cannot migrate the schema to version 3", [&]() {
+  return transaction("cannot migrate the schema to version 4", [&]() {
     std::int64_t version = 0;
     // Re-read inside the write transaction: another process may have migrated it meanwhile.
-    if (auto st = checkSchemaVersion(&version); !st.ok || version < 1 || version > 2) return st;
+    if (auto st = checkSchemaVersion(&version); !st.ok || version < 1 || version > 3) return st;
     if (version == 1) {
       if (auto st = execSql(kQueueSchemaSql, "cannot add the queue"); !st.ok) return st;
     }
+    // After the queue: the outbox's triggers watch it. Skipped when it exists (a database
+    // whose version was set back by hand, as the tests do).
+    std::int64_t has_outbox = 0;
+    if (auto st = queryInt("SELECT count(*) FROM sqlite_schema WHERE name = 'lab_outbox'",
+                           "cannot read the schema", &has_outbox);
+        !st.ok) {
+      return st;
+    }
+    if (has_outbox == 0) {
+      if (auto st = execSql(kOutboxSchemaSql, "cannot add the lab outbox"); !st.ok) return st;
+    }
+    if (version == 3) return execSql(kSetSchemaVersionSql, "cannot set the schema version");
     std::int64_t has_column = 0;
     if (auto st =
             queryInt(kHasRoundTripColumnSql, "cannot read the table samples' columns", &has_column);
@@ -836,7 +935,7 @@ StoreOpenResult Store::open(const std::string& path, const StoreOptions& options
   if (st.ok) st = impl->checkSchemaVersion(&version);
   if (st.ok) st = impl->configure();
   if (st.ok && version == 0) st = impl->createSchemaIfNew();
-  if (st.ok && (version == 1 || version == 2)) st = impl->migrateSchema();
+  if (st.ok && version >= 1 && version < kStoreSchemaVersion) st = impl->migrateSchema();
   if (!st.ok) {
     r.status = st;
     return r;
@@ -1274,6 +1373,51 @@ Status Store::queueRemove(std::int64_t entry_id) {
   if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot remove " + what);
   if (sqlite3_changes(impl_->db.get()) == 0) return impl_->error(what + " not found");
   return Status::Ok();
+}
+
+Status Store::enableOutbox() {
+  return impl_->transaction("cannot enable the lab outbox", [&]() {
+    std::int64_t enabled = 0;
+    if (auto st = impl_->queryInt("SELECT count(*) FROM lab_outbox_enabled",
+                                  "cannot read the lab outbox", &enabled);
+        !st.ok || enabled != 0) {
+      return st;
+    }
+    return impl_->execSql(kOutboxBackfillSql, "cannot fill the lab outbox");
+  });
+}
+
+OutboxListResult Store::outboxPeek(std::size_t limit) {
+  OutboxListResult r;
+  Bound q = impl_->use(
+      "SELECT seq, run_id, item, kind, op, payload FROM lab_outbox ORDER BY seq LIMIT ?1",
+      &r.status);
+  if (!q) return r;
+  q.bind(1, static_cast<std::int64_t>(limit));
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    r.value.push_back(
+        {q.integer(0), q.integer(1), q.text(2), q.text(3), q.text(4) == "delete", q.text(5)});
+  }
+  if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot read the lab outbox");
+  return r;
+}
+
+Status Store::outboxAck(std::int64_t up_to_seq) {
+  Status st;
+  Bound q = impl_->use("DELETE FROM lab_outbox WHERE seq <= ?1", &st);
+  if (!q) return st;
+  q.bind(1, up_to_seq);
+  if (q.step() != SQLITE_DONE) return impl_->sqlError("cannot acknowledge the lab outbox");
+  return Status::Ok();
+}
+
+CountResult Store::outboxBacklog() {
+  CountResult r;
+  std::int64_t n = 0;
+  r.status = impl_->queryInt("SELECT count(*) FROM lab_outbox", "cannot count the lab outbox", &n);
+  r.value = static_cast<int>(n);
+  return r;
 }
 
 Status Store::integrityCheck() {

@@ -29,8 +29,9 @@ namespace imubench::daemon {
 
 // PRAGMA user_version of the schema this code writes. A database with a higher version was
 // written by a newer imubench and is refused rather than misread; an older one is migrated
-// when opened (1 -> 2: the plan queue's table; 2 -> 3: the table readings' round trips).
-inline constexpr int kStoreSchemaVersion = 3;
+// when opened (1 -> 2: the plan queue's table; 2 -> 3: the table readings' round trips;
+// 3 -> 4: the lab mirror's outbox).
+inline constexpr int kStoreSchemaVersion = 4;
 
 struct StoreOptions {
   // How long a statement waits for a lock held by another connection (a CLI reading while
@@ -141,6 +142,18 @@ struct RunBatch {
   void clear();
 };
 
+// One entry of the lab mirror's outbox (issue 30): an item keyed by (run_id, item) to upsert
+// into (or delete from) the lab database. Written by triggers in the same transaction as the
+// data it copies; payload is a JSON object (lab/shipper.h ships it).
+struct OutboxItem {
+  std::int64_t seq = 0;     // ships in this order; acknowledged up to a seq
+  std::int64_t run_id = 0;  // 0: not of one run (the plan queue's history)
+  std::string item;         // "run", "event/12", "result/3", "segment/4", "queue/7"
+  std::string kind;         // run, event, result, segment, queue
+  bool remove = false;      // a discarded segment: delete the item
+  std::string payload;      // JSON object
+};
+
 class Store;
 
 // What the store's calls return: the status and, when ok(), the payload in `value`.
@@ -158,6 +171,7 @@ struct QueuePlace {
 using QueueAddResult = Result<QueuePlace>;
 using QueueListResult = Result<std::vector<QueueEntry>>;  // in queue order, the next first
 using CountResult = Result<int>;
+using OutboxListResult = Result<std::vector<OutboxItem>>;  // by seq
 struct TableRoundTrip {
   double t = 0.0;                      // the reading's time (table_samples.t)
   std::optional<double> round_trip_s;  // unset: unknown
@@ -247,6 +261,15 @@ class Store {
   // entry or a position out of range (nothing changes).
   Status queueMove(std::int64_t entry_id, int position);
   Status queueRemove(std::int64_t entry_id);  // refuses an unknown entry
+
+  // The lab mirror's outbox (OutboxItem). enableOutbox is idempotent: the first call enqueues
+  // everything already stored and from then on every change of runs, events, results, segments
+  // and the queue enqueues its item in the same transaction. A store that never enabled it
+  // keeps no outbox. Another connection (the shipper's) may peek and acknowledge concurrently.
+  Status enableOutbox();
+  OutboxListResult outboxPeek(std::size_t limit);  // the oldest `limit` entries
+  Status outboxAck(std::int64_t up_to_seq);        // the lab committed every seq <= up_to_seq
+  CountResult outboxBacklog();                     // entries not yet acknowledged
 
   // PRAGMA integrity_check: ok, or the problems it lists.
   Status integrityCheck();

@@ -374,6 +374,14 @@ void printStatus(const json& r) {
   if (st.imu_time_s) std::cout << "t " << formatNumber(*st.imu_time_s) << " s, ";
   std::cout << "lost samples " << st.imu_lost_samples << ", bad frames " << st.imu_bad_frames
             << ", restarts " << st.imu_restarts << "\n";
+  if (st.lab) {
+    std::cout << "lab mirror: " << st.lab->state;
+    if (st.lab->state == "fault")
+      std::cout << " (" << st.lab->fault << ": " << st.lab->message << ")";
+    std::cout << ", outbox "
+              << (st.lab->backlog < 0 ? std::string("?") : std::to_string(st.lab->backlog))
+              << " waiting, " << st.lab->shipped << " shipped\n";
+  }
 }
 
 int terminalWidth() {

@@ -48,6 +48,7 @@ using nlohmann::json;
 struct ResultsOptions {
   std::optional<std::string> run;
   std::optional<std::string> serial;
+  std::optional<std::string> bench;  // the lab database: one bench's results
   std::string db;
   bool json = false;
   std::string truth;
@@ -307,7 +308,7 @@ Outcome printRun(const ResultsOptions& o, std::int64_t run, const StoredResultRo
 }
 
 Outcome runOne(const ResultsOptions& o, std::int64_t run) {
-  std::vector<StoredResultRow> rows = loadStoredResults(o.db, run, std::nullopt);
+  std::vector<StoredResultRow> rows = loadStoredResults(o.db, run, std::nullopt, o.bench);
   if (rows.empty()) noResults(o, run);
   std::vector<StoredResultRow> point_rows;
   std::erase_if(rows, [&](const StoredResultRow& r) {
@@ -333,30 +334,37 @@ Outcome runOne(const ResultsOptions& o, std::int64_t run) {
   return printRun(o, run, rows.back(), k);
 }
 
+// The history of one IMU serial: every run with results, across benches in the lab database
+// (each line then names its bench).
 void runHistory(const ResultsOptions& o) {
-  const std::vector<StoredResultRow> rows = loadStoredResults(o.db, std::nullopt, o.serial);
-  std::map<std::int64_t, std::vector<StoredResultRow>> runs, points;
-  for (const StoredResultRow& r : rows)
-    (r.kind == kPointKind ? points : runs)[r.run_id].push_back(r);
+  const std::vector<StoredResultRow> rows =
+      loadStoredResults(o.db, std::nullopt, o.serial, o.bench);
+  using RunKey = std::pair<std::string, std::int64_t>;  // (bench, run): run ids are per bench
+  std::map<RunKey, std::vector<StoredResultRow>> runs, points;
+  bool lab = false;
+  for (const StoredResultRow& r : rows) {
+    (r.kind == kPointKind ? points : runs)[{r.bench, r.run_id}].push_back(r);
+    lab = lab || !r.bench.empty();
+  }
   if (o.json) {
     json list = json::array();
-    for (const auto& [run, rs] : runs) {
+    auto entry = [lab](const RunKey& key, const StoredResultRow& r, json kinds) {
+      json e = {{"run", key.second},
+                {"imu_serial", r.imu_serial},
+                {"temperature_c", r.temperature_c},
+                {"created_unix_s", r.created_unix_s},
+                {"results", std::move(kinds)}};
+      if (lab) e["bench"] = key.first;
+      return e;
+    };
+    for (const auto& [key, rs] : runs) {
       json kinds = json::object();
       for (const auto& [kind, j] : byKind(rs)) kinds[kind] = j;
-      list.push_back({{"run", run},
-                      {"imu_serial", rs.back().imu_serial},
-                      {"temperature_c", rs.back().temperature_c},
-                      {"created_unix_s", rs.back().created_unix_s},
-                      {"results", kinds}});
+      list.push_back(entry(key, rs.back(), kinds));
     }
-    for (const auto& [run, rs] : points) {
-      for (const StoredResultRow& r : rs) {
-        list.push_back({{"run", run},
-                        {"imu_serial", r.imu_serial},
-                        {"temperature_c", r.temperature_c},
-                        {"created_unix_s", r.created_unix_s},
-                        {"results", {{kPointKind, json::parse(r.json, nullptr, false)}}}});
-      }
+    for (const auto& [key, rs] : points) {
+      for (const StoredResultRow& r : rs)
+        list.push_back(entry(key, r, {{kPointKind, json::parse(r.json, nullptr, false)}}));
     }
     std::cout << list.dump(2) << "\n";
     return;
@@ -365,17 +373,22 @@ void runHistory(const ResultsOptions& o) {
     std::cout << "IMU " << *o.serial << ": no results stored\n";
     return;
   }
+  if (lab) std::printf("%-16s  ", "bench");
   std::printf("%6s  %10s  %-9s  %s\n", "run", "temp degC", "method", "verdict");
-  for (const auto& [run, rs] : runs) {
+  for (const auto& [key, rs] : runs) {
     std::map<std::string, json> k = byKind(rs);
     const std::string method =
         k.count("report") ? k["report"].value("method", std::string("-")) : std::string("-");
-    std::printf("%6lld  %10.1f  %-9s  %s\n", static_cast<long long>(run), rs.back().temperature_c,
-                method.c_str(),
+    if (lab) std::printf("%-16s  ", key.first.c_str());
+    std::printf("%6lld  %10.1f  %-9s  %s\n", static_cast<long long>(key.second),
+                rs.back().temperature_c, method.c_str(),
                 k.count("verdict") ? verdictText(k["verdict"]).c_str() : "(no verdict)");
   }
-  for (const auto& [run, rs] : points) {
-    for (const StoredResultRow& r : rs) printPoint(static_cast<long long>(run), r);
+  for (const auto& [key, rs] : points) {
+    for (const StoredResultRow& r : rs) {
+      if (lab) std::printf("%-16s  ", key.first.c_str());
+      printPoint(static_cast<long long>(key.second), r);
+    }
   }
 }
 
@@ -412,7 +425,12 @@ void addResultsCommand(CLI::App& app) {
       "calibration failed, a parameter not determined), 1 error (no such run; no results: an "
       "interrupted run says where it stopped), 2 usage");
   sub->add_option("RUN", o->run, "run id (N or run:N)");
-  sub->add_option("--serial", o->serial, "list the results of this IMU serial");
+  sub->add_option("--serial", o->serial,
+                  "list the results of this IMU serial (with --db postgresql://...: on every "
+                  "bench of the lab database)");
+  sub->add_option("--bench", o->bench,
+                  "the lab database (--db postgresql://...): only this bench's results (a run "
+                  "id names a run together with its bench)");
   sub->add_flag("--json", o->json, "print the stored results as JSON");
   sub->add_option("--truth", o->truth,
                   "RUN: compare the stored coefficients with this truth file (3 arcsec, 10 ppm, "

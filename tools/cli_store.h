@@ -34,7 +34,9 @@ inline constexpr const char* kStorePathEnv = "IMUBENCH_DB";
 // $IMUBENCH_DB when set and non-empty, else kDefaultStorePath.
 std::string defaultStorePath();
 
-// Adds `--db PATH` to `sub`, bound to *db_path (set to defaultStorePath() here).
+// Adds `--db PATH` to `sub`, bound to *db_path (set to defaultStorePath() here). PATH may also
+// be the lab database's URI, postgresql://ROLE@HOST:PORT/DB (issue 30; password from libpq's
+// PGPASSFILE or ~/.pgpass) for the commands that read: runs, results.
 void addStoreOption(CLI::App& sub, std::string* db_path);
 
 // "N" or "run:N" with N a positive integer (decimal digits only, no sign, no spaces).
@@ -76,6 +78,7 @@ std::int64_t storeRunResult(const std::string& db_path, std::int64_t run_id,
 
 // Stored results (daemon/store.h StoredResult) of one run or of one IMU serial, by id.
 struct StoredResultRow {
+  std::string bench;  // the bench that stored it: set when read from the lab database
   std::int64_t id = 0;
   std::int64_t run_id = 0;
   std::string imu_serial;
@@ -84,9 +87,12 @@ struct StoredResultRow {
   std::string json;
   double created_unix_s = 0.0;
 };
+// db_path may be the lab database (`postgresql://...`, issue 30): then the rows of every bench
+// (or of `bench`), each naming its bench. A run id names one run only together with its bench.
 std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
                                                std::optional<std::int64_t> run_id,
-                                               std::optional<std::string> imu_serial);
+                                               std::optional<std::string> imu_serial,
+                                               std::optional<std::string> bench = std::nullopt);
 
 // A run's state as stored, and where it stopped (its step events): what `results RUN` says
 // when a run has no results, e.g. after a crash.

@@ -41,7 +41,8 @@ std::int64_t storeRunResult(const std::string& /*db_path*/, std::int64_t /*run_i
 
 std::vector<StoredResultRow> loadStoredResults(const std::string& /*db_path*/,
                                                std::optional<std::int64_t> /*run_id*/,
-                                               std::optional<std::string> /*imu_serial*/) {
+                                               std::optional<std::string> /*imu_serial*/,
+                                               std::optional<std::string> /*bench*/) {
   throw NeedsRunStore();
 }
 

@@ -9,12 +9,14 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 #include <system_error>
 
 #include "daemon/store.h"
 #include "io/recording.h"
 #include "io/truth_file.h"
+#include "lab/lab_reader.h"
 #include "tools/cli_common.h"
 #include "tools/cli_store.h"
 
@@ -62,6 +64,85 @@ nlohmann::json runJson(const daemon::RunInfo& r) {
   return j;
 }
 
+// ---- the lab database (issue 30): the same readers over every bench's mirrored rows ----
+
+lab::LabEndpoint labEndpoint(const std::string& uri) {
+  lab::LabEndpoint e;
+  e.conninfo = uri;  // the password from libpq's PGPASSFILE or ~/.pgpass
+  return e;
+}
+
+void runLabRuns(const RunsOptions& o) {
+  const auto runs = lab::readLabRuns(labEndpoint(o.db));
+  if (!runs.ok()) throw CommandFailed(runs.status.message);
+  if (o.json) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const lab::LabRun& r : runs.value) {
+      a.push_back({{"bench", r.bench_id},
+                   {"id", r.run_id},
+                   {"state", r.state},
+                   {"plan_name", r.plan_name},
+                   {"bench_name", r.bench_name},
+                   {"imu_serial", r.imu_serial},
+                   {"started_unix_s", r.started_unix_s},
+                   {"finished_unix_s", r.finished_unix_s ? nlohmann::json(*r.finished_unix_s)
+                                                         : nlohmann::json(nullptr)},
+                   {"exit_reason", r.exit_reason}});
+    }
+    std::cout << a.dump(2) << "\n";
+    return;
+  }
+  if (runs.value.empty()) {
+    std::cout << "no runs in the lab database\n";
+    return;
+  }
+  std::printf("%-16s  %6s  %-11s  %-20s  %-24s  %-16s  %s\n", "bench", "id", "state",
+              "started (UTC)", "plan", "IMU serial", "exit reason");
+  for (const lab::LabRun& r : runs.value) {
+    std::printf("%-16s  %6lld  %-11s  %-20s  %-24s  %-16s  %s\n", r.bench_id.c_str(),
+                static_cast<long long>(r.run_id), r.state.c_str(),
+                utcTime(r.started_unix_s).c_str(), orDash(r.plan_name).c_str(),
+                orDash(r.imu_serial).c_str(), orDash(r.exit_reason).c_str());
+  }
+}
+
+std::vector<StoredResultRow> loadLabResults(const std::string& uri,
+                                            std::optional<std::int64_t> run_id,
+                                            std::optional<std::string> imu_serial,
+                                            std::optional<std::string> bench) {
+  const auto r = lab::readLabResults(labEndpoint(uri), {std::move(imu_serial), run_id, bench});
+  if (!r.ok()) throw CommandFailed(r.status.message);
+  std::vector<StoredResultRow> out;
+  std::set<std::string> benches;
+  for (const lab::LabResult& s : r.value) {
+    benches.insert(s.bench_id);
+    out.push_back({s.bench_id, s.result_id, s.run_id, s.imu_serial, s.temperature_c, s.kind, s.json,
+                   s.created_unix_s});
+  }
+  if (run_id && benches.size() > 1) {
+    std::string names;
+    for (const std::string& b : benches) names += (names.empty() ? "" : ", ") + b;
+    throw CommandFailed(
+        "run " + std::to_string(*run_id) + " is on several benches (" + names + "): give --bench B",
+        2);
+  }
+  return out;
+}
+
+StoredRunState loadLabRunState(const std::string& uri, std::int64_t run_id) {
+  const auto runs = lab::readLabRuns(labEndpoint(uri));
+  if (!runs.ok()) throw CommandFailed(runs.status.message);
+  for (const lab::LabRun& r : runs.value) {
+    if (r.run_id != run_id) continue;
+    StoredRunState st;
+    st.plan_name = r.plan_name;
+    st.state = r.state;
+    st.exit_reason = r.exit_reason;
+    return st;  // the step events are in the lab too, but not read here
+  }
+  throw CommandFailed("run " + std::to_string(run_id) + " is not in the lab database");
+}
+
 }  // namespace
 
 std::string runStoreProgram(char** /*argv*/) {
@@ -88,6 +169,10 @@ std::int64_t storeRunResult(const std::string& db_path, std::int64_t run_id,
 // ---- runs ----
 
 void runRuns(const RunsOptions& o) {
+  if (lab::isLabUri(o.db)) {
+    runLabRuns(o);
+    return;
+  }
   const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kExisting);
   const daemon::RunListResult list = store->listRuns();
   if (!list.status.ok) throw CommandFailed(list.status.message);
@@ -116,6 +201,12 @@ void runRuns(const RunsOptions& o) {
 void runExport(const ExportOptions& o) {
   const std::optional<std::int64_t> id = parseRunId(o.run);
   if (!id) throw CommandFailed("'" + o.run + "' is not a run id (N or run:N, N >= 1)", 2);
+  if (lab::isLabUri(o.db)) {
+    throw CommandFailed(
+        "export: the lab database holds runs, events, segments and results but no samples "
+        "(mirror_samples is not built yet): export the recording from the bench's own store "
+        "(--db PATH); `results RUN --db postgresql://... --bench B --json` gives its results");
+  }
   const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kExisting);
   const io::RecordingReadResult rec = store->loadRecording(*id);
   if (!rec.status.ok) throw CommandFailed(rec.status.message);
@@ -165,7 +256,10 @@ void runImport(const ImportOptions& o) {
 
 std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
                                                std::optional<std::int64_t> run_id,
-                                               std::optional<std::string> imu_serial) {
+                                               std::optional<std::string> imu_serial,
+                                               std::optional<std::string> bench) {
+  if (lab::isLabUri(db_path)) return loadLabResults(db_path, run_id, imu_serial, bench);
+  if (bench) throw CommandFailed("--bench applies to the lab database (--db postgresql://...)", 2);
   auto store = openStoreOrFail(db_path, StoreAccess::kExisting);
   if (run_id) {
     const daemon::RunInfoResult info = store->runInfo(*run_id);
@@ -179,12 +273,13 @@ std::vector<StoredResultRow> loadStoredResults(const std::string& db_path,
   std::vector<StoredResultRow> out;
   for (const daemon::StoredResult& s : r.value) {
     out.push_back(
-        {s.id, s.run_id, s.imu_serial, s.temperature_c, s.kind, s.json, s.created_unix_s});
+        {"", s.id, s.run_id, s.imu_serial, s.temperature_c, s.kind, s.json, s.created_unix_s});
   }
   return out;
 }
 
 StoredRunState loadRunState(const std::string& db_path, std::int64_t run_id) {
+  if (lab::isLabUri(db_path)) return loadLabRunState(db_path, run_id);
   auto store = openStoreOrFail(db_path, StoreAccess::kExisting);
   const daemon::RunInfoResult info = store->runInfo(run_id);
   if (!info.status.ok) throw CommandFailed(info.status.message);

@@ -6,6 +6,7 @@ pkgs=(
   cmake ninja-build g++ pkg-config ccache git clang-format
   libeigen3-dev libceres-dev libmodbus-dev libsystemd-dev libtomlplusplus-dev
   nlohmann-json3-dev libfast-float-dev libcli11-dev libsqlite3-dev libssl-dev libgtest-dev libgmock-dev libbenchmark-dev
+  libpq-dev postgresql-15 postgresql-client-15
   can-utils user-mode-linux kmod iproute2 mbpoll python3 python3-numpy python3-pymodbus socat systemd
   chromium-headless-shell
 )

@@ -105,6 +105,31 @@ TEST(BenchFile, ControlIdleTimeout) {
   EXPECT_NE(typo.str().find("unknown key \"idle\" in [control]"), std::string::npos) << typo.str();
 }
 
+// Issue 30: [lab] names the lab database; a password in its URI is refused at its line and
+// never repeated in the diagnostic; the password file resolves against the bench file.
+TEST(BenchFile, LabDatabaseWithoutCredentials) {
+  io::Diagnostics diag("bench.toml");
+  auto b = parse(kGood +
+                     "\n[lab]\ndatabase = \"postgresql://bench1@127.0.0.1:5433/lab\"\n"
+                     "password_file = \"lab.pass\"\n",
+                 diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  ASSERT_TRUE(b->lab.has_value());
+  EXPECT_EQ(b->lab->database, "postgresql://bench1@127.0.0.1:5433/lab");
+  EXPECT_EQ(b->lab->password_file, std::string(kBenchDir) + "/lab.pass");
+  EXPECT_FALSE(parse(kGood, diag)->lab.has_value());
+  io::Diagnostics bad("bench.toml");
+  EXPECT_FALSE(
+      parse(kGood + "\n[lab]\ndatabase = \"postgresql://bench1:hunter2@127.0.0.1/lab\"\n", bad)
+          .has_value());
+  EXPECT_NE(bad.str().find("carries a password"), std::string::npos) << bad.str();
+  EXPECT_EQ(bad.str().find("hunter2"), std::string::npos) << bad.str();
+  io::Diagnostics typo("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[lab]\ndatabase = \"postgresql:///lab\"\npassword = \"x\"\n", typo)
+                   .has_value());
+  EXPECT_NE(typo.str().find("unknown key \"password\" in [lab]"), std::string::npos) << typo.str();
+}
+
 // Issue 28 item 7: the gap in the table readings that re-runs a step, default 0.2 s.
 TEST(BenchFile, TableReadingGap) {
   io::Diagnostics diag("bench.toml");

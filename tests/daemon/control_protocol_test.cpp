@@ -592,6 +592,7 @@ TEST(ControlProtocol, EveryReplyRoundTrips) {
                    std::nullopt,
                    std::nullopt,
                    std::nullopt,
+                   std::nullopt,
                    std::nullopt};
   expectReplyRoundTrip(idle);
   StatusReply running = idle;
@@ -606,6 +607,7 @@ TEST(ControlProtocol, EveryReplyRoundTrips) {
   running.progress = 0.31;
   running.eta_s = 812.5;
   running.step = StatusStep{3, "run01_x_p1", "rotate", 45};
+  running.lab = LabStatus{"fault", "authentication", "password authentication failed", 42, 7};
   expectReplyRoundTrip(running);
   expectReplyRoundTrip(PlanListReply{"/etc/imubench/plans", {"a.toml", "sub/b.toml"}});
   expectReplyRoundTrip(ValidatePlanReply{plan});

@@ -593,6 +593,52 @@ TEST(StoreQueue, Version1DatabaseIsMigrated) {
   sqlite3_close(db);
 }
 
+// Issue 30: a version 3 database (before the lab outbox) gets it. A store keeps no outbox until
+// a mirror enables it; enabling enqueues what was stored, and from then on every change in the
+// transaction that makes it.
+TEST(Store, Version3DatabaseGetsTheLabOutbox) {
+  ScratchDir dir("store");
+  const std::string path = dir.file("v3.db");
+  std::int64_t run = 0;
+  {
+    auto store = openOrFail(path);
+    ASSERT_TRUE(store);
+    run = store->beginRun(benchStart("SN-1")).value;
+    ASSERT_GT(run, 0);
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  std::string drop;
+  for (const char* t :
+       {"lab_run_insert", "lab_run_update", "lab_event_insert", "lab_result_insert",
+        "lab_segment_insert", "lab_segment_delete", "lab_queue_insert", "lab_queue_delete"}) {
+    drop += std::string("DROP TRIGGER ") + t + ";";
+  }
+  for (const char* v : {"lab_item_runs", "lab_item_events", "lab_item_results", "lab_item_segments",
+                        "lab_item_queue"}) {
+    drop += std::string("DROP VIEW ") + v + ";";
+  }
+  drop += "DROP TABLE lab_outbox; DROP TABLE lab_outbox_enabled; PRAGMA user_version = 3";
+  ASSERT_EQ(sqlite3_exec(db, drop.c_str(), nullptr, nullptr, nullptr), SQLITE_OK)
+      << sqlite3_errmsg(db);
+  sqlite3_close(db);
+  auto store = openOrFail(path);
+  ASSERT_TRUE(store);
+  ASSERT_TRUE(store->addEvent({run, 1.0, EventSeverity::kInfo, "note", "{}"}).ok);
+  EXPECT_EQ(store->outboxBacklog().value, 0);  // not enabled: no outbox kept
+  ASSERT_TRUE(store->enableOutbox().ok);
+  EXPECT_EQ(store->outboxBacklog().value, 2);  // the run and its event
+  ASSERT_TRUE(store->storeResult(run, "SN-1", 20.0, "report", "{\"a\": 1}").status.ok);
+  const auto items = store->outboxPeek(10);
+  ASSERT_TRUE(items.ok());
+  ASSERT_EQ(items.value.size(), 3u);
+  EXPECT_EQ(items.value[0].item, "run");
+  EXPECT_EQ(items.value[2].item, "result/1");
+  EXPECT_EQ(items.value[2].kind, "result");
+  ASSERT_TRUE(store->outboxAck(items.value[1].seq).ok);
+  EXPECT_EQ(store->outboxBacklog().value, 1);
+}
+
 // A version 2 database (before the round trips) gets the column; its table rows stay, their
 // round trips unknown, and new rows store theirs.
 TEST(Store, Version2DatabaseGetsRoundTrips) {

@@ -39,7 +39,8 @@ Replies (the "result" object):
     status                       {"bench", "state", ["imu_time_s"], "imu_lost_samples",
                                   "imu_bad_frames", "imu_restarts", "table": TABLE, ["queued"],
                                   ["run"], ["plan"], ["progress"], ["eta_s"],
-                                  ["step": {"index", "label", "kind", "count"}]}
+                                  ["step": {"index", "label", "kind", "count"}],
+                                  ["lab": {"state", "fault", "message", "backlog", "shipped"}]}
                                  state is "idle" or the run's (running, paused, ...)
     list_plans                   {"plan_dir", "plans": [path, ...]}
     validate_plan                {"plan", "steps", "planned_s"}
