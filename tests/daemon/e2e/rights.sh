@@ -27,7 +27,11 @@ grep -q "control rights: commands need group daemon, reading needs group nogroup
   fail "the daemon does not log its rights"
 
 as_nobody=(setpriv --reuid=65534 --regid=65534 --clear-groups)
-cp "$SRC/tests/daemon/data/smoke_plan.toml" "$W/smoke.toml"
+# The smoke plan with 300 s holds: the run must still be running when the other users try (the
+# 5 s holds ended it first under load: "nobody may status" saw the bench idle); nobody's
+# emergency stop ends it.
+sed 's/^duration = "5 s"/duration = "300 s"/' "$SRC/tests/daemon/data/smoke_plan.toml" >"$W/smoke.toml"
+grep -q '^duration = "300 s"' "$W/smoke.toml" || fail "smoke plan copy"
 chmod 0644 "$W/smoke.toml"
 
 # Root starts a plan; it runs while the others try.
