@@ -1132,8 +1132,7 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   res.unseparable = q.gate.unseparable;
   res.rejected = q.gate.rejected;
   res.notes = q.gate.notes;
-  res.refit = {q.fit.iterations, q.fit.converged, q.fit.last_step_sigma,
-               q.fit.chi2 / std::max(1, eval.rows() - q.fit.rank)};
+  res.refit = {q.fit.iterations, q.fit.converged, q.fit.last_step_sigma, q.fit.chi2_per_dof};
   if (!q.fit.converged) {
     char buf[240];
     std::snprintf(buf, sizeof(buf),

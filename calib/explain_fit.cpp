@@ -155,8 +155,8 @@ RefitResult refitJointly(ExplainEvaluator* eval, const ExplainState& start,
   }
   out.rank = L.rank;
   out.chi2 = r.squaredNorm();
-  const double dof = std::max(1, eval->rows() - out.rank);
-  const double scale = std::max(1.0, out.chi2 / dof);
+  out.chi2_per_dof = out.chi2 / std::max(1, eval->rows() - out.rank);
+  const double scale = std::max(1.0, out.chi2_per_dof);
   out.sigma.assign(names.size(), std::numeric_limits<double>::quiet_NaN());
   for (int j = 0; j < n; ++j) {
     if (L.d(j) > 0.0) out.sigma[static_cast<std::size_t>(j)] = std::sqrt(L.var(j) * scale) / L.d(j);

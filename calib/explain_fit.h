@@ -66,6 +66,7 @@ struct RefitResult {
   std::vector<double> sigma;  // per name, 1-sigma (NaN where the data cannot see it)
   double chi2 = 0.0;
   int rank = 0;
+  double chi2_per_dof = 1.0;  // chi2 / (rows - rank): the sigmas carry sqrt(max(1, this))
   // Termination: steps taken; converged (the next step below tolerance_sigma) or stopped at
   // max_iterations; the largest move of the step not taken (converged) or of the last step,
   // in sigmas of the coefficient it moves.
