@@ -342,6 +342,12 @@ calib::ExplainOptions analysisOptions(const ExplainCliOptions& o) {
   return eo;
 }
 
+void refuseTwoBaselines(const ExplainCliOptions& o) {
+  if (!o.coeffs.empty() && !o.direct.empty()) {
+    throw CommandFailed("--coeffs and --direct both give the baseline: choose one", 2);
+  }
+}
+
 // The baseline of a table recording (p->input holds its view): --coeffs, --direct, or
 // calibrated from the recording itself.
 void baselineOf(const ExplainCliOptions& o, const ResolvedRecording& src, Prepared* p) {
@@ -365,9 +371,7 @@ std::string describe(const ResolvedRecording& src) {
 }
 
 void runExplainTable(const ExplainCliOptions& o) {
-  if (!o.coeffs.empty() && !o.direct.empty()) {
-    throw CommandFailed("--coeffs and --direct both give the baseline: choose one", 2);
-  }
+  refuseTwoBaselines(o);
   const calib::ExplainOptions eo = analysisOptions(o);
   const ResolvedRecording src = loadRunOrDir(o.input, o.db);
   const io::CalibrationView view(src.recording);
@@ -434,9 +438,7 @@ void runExplainJoint(const ExplainCliOptions& o) {
     throw CommandFailed("--propose-plan takes one recording (the one whose groups it separates)",
                         2);
   }
-  if (!o.coeffs.empty() && !o.direct.empty()) {
-    throw CommandFailed("--coeffs and --direct both give the baseline: choose one", 2);
-  }
+  refuseTwoBaselines(o);
   const calib::ExplainOptions eo = analysisOptions(o);
   std::vector<std::unique_ptr<ResolvedRecording>> srcs;
   std::vector<std::unique_ptr<io::CalibrationView>> views;  // the inputs view their recordings
