@@ -437,6 +437,47 @@ bool addStaticRow(const RowContext& c, const Segment& seg, DirectRows* rows,
   return true;
 }
 
+// `a` with the angle of table axis `axis` set to `angle`.
+TableAngles withAxisAngle(TableAngles a, TableKind kind, int axis, double angle) {
+  if (axis == 0) {
+    a.outer = angle;
+  } else if (kind == TableKind::kThreeAxis && axis == 1) {
+    a.middle = angle;
+  } else {
+    a.inner = angle;
+  }
+  return a;
+}
+
+// The Earth rate a turn about one table axis adds to the gyro readings of samples
+// [first, last] (integrated, in B). The angle about the turning axis at each sample is placed
+// by the gyros' own integral along that axis (`turned`, its total dth_B), scaled to the
+// encoders' net turn `phi` from their rest angles `a0`: dense and on the IMU's clock. Encoder
+// samples taken while turning are not used: their stamps carry the table's reply latency,
+// and at 30 deg/s a stamp 0.4 s late turns the Earth rate's direction by 12 deg, which put
+// 0.1-6 arcsec into the gyro misalignments depending on the host's load.
+Vec3 earthRateDuringTurn(const RowContext& c, int axis, const TableAngles& a0, double phi,
+                         const Vec3& axis_B, std::size_t first, std::size_t last,
+                         const Vec3& dth) {
+  const TableKind kind = c.in.geometry.kind;
+  const double start = axisAngle(a0, kind, axis);
+  // The Earth rate along the turning axis is constant (the axis is fixed in L): taken out of
+  // the gyros' integral, which then follows the table's angle (its scale cancels).
+  const double w_along = axis_B.dot(c.table.C_LB(a0).transpose() * c.w_ie_L);
+  const double T = c.in.imu[last].t - c.startOf(first);
+  const double turned = axis_B.dot(dth) - w_along * T;
+  Vec3 earth = Vec3::Zero();
+  double so_far = 0.0;
+  for (std::size_t i = first; i <= last; ++i) {
+    const double step = axis_B.dot(c.in.imu[i].dtheta) - w_along * (c.in.imu[i].t - c.startOf(i));
+    const double fraction = turned != 0.0 ? (so_far + 0.5 * step) / turned : 0.0;
+    so_far += step;
+    const TableAngles at = withAxisAngle(a0, kind, axis, start + fraction * phi);
+    earth += c.table.C_LB(at).transpose() * c.w_ie_L * (c.in.imu[i].t - c.startOf(i));
+  }
+  return earth;
+}
+
 // One rotate segment -> a gyro row (false + note when unusable).
 bool addRotationRow(const RowContext& c, const Segment& seg, DirectRows* rows,
                     std::vector<std::string>* notes) {
@@ -474,15 +515,12 @@ bool addRotationRow(const RowContext& c, const Segment& seg, DirectRows* rows,
                      ", less than min_rotation_rad: skipped");
     return false;
   }
-  Vec3 dth = Vec3::Zero(), earth = Vec3::Zero();
-  for (std::size_t i = first; i <= last; ++i) {
-    dth += c.in.imu[i].dtheta;
-    const double tm = 0.5 * (c.startOf(i) + c.in.imu[i].t);
-    earth += c.table.C_LB(anglesAt(c.in.table, tm)).transpose() * c.w_ie_L *
-             (c.in.imu[i].t - c.startOf(i));
-  }
+  const Vec3 axis_B = axisInBody(c.table, a0, seg.axis);
+  Vec3 dth = Vec3::Zero();
+  for (std::size_t i = first; i <= last; ++i) dth += c.in.imu[i].dtheta;
+  const Vec3 earth = earthRateDuringTurn(c, seg.axis, a0, phi, axis_B, first, last, dth);
   const double T = tb - ta;
-  rows->gyr.input.push_back((axisInBody(c.table, a0, seg.axis) * phi + earth) / T);
+  rows->gyr.input.push_back((axis_B * phi + earth) / T);
   rows->gyr.reading.push_back(dth / T);
   rows->gyr.reading_se.push_back(Vec3::Zero());  // set by setRowNoise from the holds
   rows->rotation_samples.push_back(last - first + 1);

@@ -2,6 +2,9 @@
 // that cover the noise, refusals.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include "calib/direct_calibration.h"
 #include "test_direct_sim.h"
 
@@ -39,7 +42,9 @@ TEST_P(DirectPlans, RecoversTruthOnAPerfectTable) {
       << (est.gyro.scale - truth.gyro.scale).transpose() << " | bias "
       << (est.gyro.bias - truth.gyro.bias).transpose() << " | rms " << r.gyro_residual_rms;
   EXPECT_LT((est.gyro.bias - truth.gyro.bias).cwiseAbs().maxCoeff(), 1e-14);
-  EXPECT_LT(misDiff(est.gyro.mis, truth.gyro.mis), 1e-11);
+  // Gyro misalignments to 1e-10: the rate runs' Earth-rate input follows the turn as the gyros
+  // integrate it, which carries their bias along the axis (2e-6 rad/s: ~6e-11 rad here).
+  EXPECT_LT(misDiff(est.gyro.mis, truth.gyro.mis), 1e-10);
   EXPECT_LT(r.accel_residual_rms, 1e-8);
   EXPECT_LT(r.gyro_residual_rms, 1e-10);
   for (const auto& [name, u] : r.report.uncertainty)
@@ -138,8 +143,43 @@ TEST(DirectCalibration, GyroScalesDoNotDependOnEncoderAndImuRates) {
     EXPECT_LT((est.gyro.scale - truth.gyro.scale).cwiseAbs().maxCoeff(), 1e-12)
         << "imu " << imu_hz << " Hz, encoder " << table_hz
         << " Hz: " << (est.gyro.scale - truth.gyro.scale).transpose();
-    EXPECT_LT(misDiff(est.gyro.mis, truth.gyro.mis), 1e-11) << imu_hz << " / " << table_hz;
+    EXPECT_LT(misDiff(est.gyro.mis, truth.gyro.mis), 1e-10) << imu_hz << " / " << table_hz;
   }
+}
+
+TEST(DirectCalibration, GyroMisalignmentsDoNotDependOnTheEncoderReplyLatency) {
+  // A table controller answers while it turns with its reply latency: the daemon stamps each
+  // reading with the IMU time at the reply, late by 0.2-0.6 s here (a loaded host at 20x).
+  // The rate runs' Earth-rate input must not follow those stamps (interpolated, they put
+  // 0.1-6 arcsec into the gyro misalignments); at rest the stamps do not matter.
+  const SensorModel truth = exampleSensors();
+  DirectCalibrationInput in =
+      simulateDirect(libraryMotion("direct_two_axis"), truth, {}, NoiseModel::none(), 50.0, 20.0);
+  int late = 0;
+  for (std::size_t k = 1; k + 1 < in.table.size(); ++k) {
+    TableSample& s = in.table[k];
+    for (const Segment& seg : in.segments) {
+      const double latency = 0.4 + 0.2 * std::sin(0.7 * static_cast<double>(k));
+      const bool turning = in.table[k - 1].angles.outer != in.table[k + 1].angles.outer ||
+                           in.table[k - 1].angles.inner != in.table[k + 1].angles.inner;
+      if (seg.kind != SegmentKind::kRotate || s.t <= seg.t0 || s.t + latency >= seg.t1 ||
+          !turning) {
+        continue;
+      }
+      s.t += latency;
+      ++late;
+      break;
+    }
+  }
+  std::stable_sort(in.table.begin(), in.table.end(),
+                   [](const TableSample& a, const TableSample& b) { return a.t < b.t; });
+  ASSERT_GT(late, 1000);
+  const DirectCalibrationResult r = calibrateDirect(in);
+  ASSERT_TRUE(r.status.HasResult()) << r.status.message;
+  const SensorModel& est = r.report.values.sensors;
+  EXPECT_LT(misDiff(est.gyro.mis, truth.gyro.mis), 1e-10)
+      << misDiff(est.gyro.mis, truth.gyro.mis) / kArcsecToRad << " arcsec";
+  EXPECT_LT((est.gyro.scale - truth.gyro.scale).cwiseAbs().maxCoeff(), 1e-12);
 }
 
 TEST(DirectCalibration, RefusesARecordingWithoutStatics) {
