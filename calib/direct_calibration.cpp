@@ -457,8 +457,7 @@ TableAngles withAxisAngle(TableAngles a, TableKind kind, int axis, double angle)
 // and at 30 deg/s a stamp 0.4 s late turns the Earth rate's direction by 12 deg, which put
 // 0.1-6 arcsec into the gyro misalignments depending on the host's load.
 Vec3 earthRateDuringTurn(const RowContext& c, int axis, const TableAngles& a0, double phi,
-                         const Vec3& axis_B, std::size_t first, std::size_t last,
-                         const Vec3& dth) {
+                         const Vec3& axis_B, std::size_t first, std::size_t last, const Vec3& dth) {
   const TableKind kind = c.in.geometry.kind;
   const double start = axisAngle(a0, kind, axis);
   // The Earth rate along the turning axis is constant (the axis is fixed in L): taken out of
