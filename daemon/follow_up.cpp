@@ -152,7 +152,16 @@ json judgeWith(Store& store, const json& proposal, const io::Recording& follow_u
     direct = completeSegmentsOnly(std::move(dr.value), nullptr);
   }
   const RunCalibration c = calibrateRun(*method, origin_rec, direct ? &*direct : nullptr);
-  return jointFollowUp(proposal, origin_rec, c, follow_up, run_id, options);
+  if (!c.status.ok)
+    return jointFailure(origin, run_id, who + ": its calibration failed: " + c.status.message);
+  const io::CalibrationView origin_view(origin_rec), follow_view(follow_up);
+  calib::ExplainInput first, second;
+  first.recording() = origin_view.view();
+  first.baseline = c.coefficients;
+  first.baseline_method = c.baseline_method;
+  first.baseline_table_params = c.table_params;
+  second.recording() = follow_view.view();
+  return jointFollowUp(proposal, first, second, run_id, options);
 }
 
 }  // namespace
@@ -246,21 +255,11 @@ std::string followUpSummary(const json& f) {
          std::to_string(static_cast<long>(plan.value("duration_s", 0.0))) + " s) for " + groups;
 }
 
-json jointFollowUp(const json& proposal, const io::Recording& origin,
-                   const RunCalibration& origin_calibration, const io::Recording& follow_up,
-                   std::int64_t follow_up_run, const calib::ExplainOptions& options) {
+json jointFollowUp(const json& proposal, const calib::ExplainInput& origin,
+                   const calib::ExplainInput& follow_up, std::int64_t follow_up_run,
+                   const calib::ExplainOptions& options) {
   const json origin_run = proposal.value("run", json());
-  if (!origin_calibration.status.ok) {
-    return jointFailure(origin_run, follow_up_run,
-                        "the origin run's calibration failed: " + origin_calibration.status.message);
-  }
-  const io::CalibrationView origin_view(origin), follow_view(follow_up);
-  std::array<calib::ExplainInput, 2> inputs;
-  inputs[0].recording() = origin_view.view();
-  inputs[0].baseline = origin_calibration.coefficients;
-  inputs[0].baseline_method = origin_calibration.baseline_method;
-  inputs[0].baseline_table_params = origin_calibration.table_params;
-  inputs[1].recording() = follow_view.view();
+  const std::array<calib::ExplainInput, 2> inputs = {origin, follow_up};
   calib::ExplainResult r;
   try {
     r = calib::explainRecordings(std::span<const calib::ExplainInput>(inputs), options);

@@ -60,11 +60,12 @@ std::string followUpPlanName(std::int64_t run_id);
 // One line for the log and the event: "proposed: <plan> (<s> s) for <groups>" or "refused: ...".
 std::string followUpSummary(const nlohmann::json& follow_up);
 
-// The joint analysis of the origin run (its recording and final calibration: the baseline) and
-// the follow-up run, judged against the origin's stored proposal (its unseparable groups).
-nlohmann::json jointFollowUp(const nlohmann::json& proposal, const io::Recording& origin,
-                             const RunCalibration& origin_calibration,
-                             const io::Recording& follow_up, std::int64_t follow_up_run,
+// The joint analysis of the origin run (origin: its recording with its final calibration as
+// the baseline) and the follow-up run, judged against the origin's stored proposal (its
+// unseparable groups): resolved (the effects' values, achieved and predicted sigmas) or still
+// unseparable.
+nlohmann::json jointFollowUp(const nlohmann::json& proposal, const calib::ExplainInput& origin,
+                             const calib::ExplainInput& follow_up, std::int64_t follow_up_run,
                              const calib::ExplainOptions& options = {});
 
 // After run_id completed: when its plan is a stored proposal of this IMU (the newest
