@@ -1444,8 +1444,8 @@ void BenchDaemon::storeFollowUp(std::int64_t run_id, const FinalCalibration& f) 
   if (bench_.explain.follow_up != FollowUpPolicy::kQueue || proposal["status"] != "proposed")
     return;
   const Reply q = enqueueFollowUp(nullptr, run_id);
-  if (!q.ok) log_.warning("run " + std::to_string(run_id) + ": follow-up not queued: " +
-                          q.error.message);
+  if (!q.ok)
+    log_.warning("run " + std::to_string(run_id) + ": follow-up not queued: " + q.error.message);
 }
 
 Reply BenchDaemon::enqueueFollowUp(const json& id, std::int64_t run_id) {

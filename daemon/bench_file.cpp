@@ -323,7 +323,8 @@ void parseExplain(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
   checkKeys(*t, {"follow_up"}, "[explain]", diag);
   const auto v = strField(*t, "follow_up", diag, false);
   if (!v) return;
-  for (FollowUpPolicy p : {FollowUpPolicy::kOff, FollowUpPolicy::kPropose, FollowUpPolicy::kQueue}) {
+  for (FollowUpPolicy p :
+       {FollowUpPolicy::kOff, FollowUpPolicy::kPropose, FollowUpPolicy::kQueue}) {
     if (*v == followUpPolicyName(p)) {
       b.explain.follow_up = p;
       return;

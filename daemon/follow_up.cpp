@@ -38,10 +38,11 @@ json groupJson(const calib::ProposedGroup& g, const calib::ProposeResult& p) {
   const double limit = g.effects.size() > 1 ? p.angle_limit_rad : p.baseline_angle_limit_rad;
   json params = json::array();
   for (std::size_t k = 0; k < g.flat_names.size(); ++k) {
-    params.push_back({{"name", g.flat_names[k]},
-                      {"sigma_before", number(g.sigma_before[k])},
-                      {"sigma_after", number(g.sigma_after[k])},
-                      {"sigma_joint", k < g.sigma_joint.size() ? number(g.sigma_joint[k]) : json()}});
+    params.push_back(
+        {{"name", g.flat_names[k]},
+         {"sigma_before", number(g.sigma_before[k])},
+         {"sigma_after", number(g.sigma_after[k])},
+         {"sigma_joint", k < g.sigma_joint.size() ? number(g.sigma_joint[k]) : json()}});
   }
   return {{"effects", g.effects},
           {"unseparable", g.unseparable},
@@ -99,10 +100,11 @@ json jointGroup(const json& group, const calib::ExplainResult& joint) {
       continue;
     }
     for (std::size_t k = 0; k < a->values.size(); ++k) {
-      out["parameters"].push_back({{"name", a->flat_names[k]},
-                                   {"value", number(a->values[k])},
-                                   {"sigma", number(a->sigmas[k])},
-                                   {"sigma_predicted", number(predictedJoint(group, a->flat_names[k]))}});
+      out["parameters"].push_back(
+          {{"name", a->flat_names[k]},
+           {"value", number(a->values[k])},
+           {"sigma", number(a->sigmas[k])},
+           {"sigma_predicted", number(predictedJoint(group, a->flat_names[k]))}});
     }
   }
   return out;
@@ -221,9 +223,8 @@ std::optional<json> proposeFollowUp(const calib::ExplainInput& input,
   }
   for (const calib::ProposedGroup& g : p.groups) out["groups"].push_back(groupJson(g, p));
   out["notes"] = p.notes;
-  const bool any_resolved = std::any_of(p.groups.begin(), p.groups.end(), [](const auto& g) {
-    return g.unseparable && g.resolved;
-  });
+  const bool any_resolved = std::any_of(p.groups.begin(), p.groups.end(),
+                                        [](const auto& g) { return g.unseparable && g.resolved; });
   if (p.plan.blocks.empty() || !any_resolved) {
     out["status"] = "refused";
     out["reason"] = refusalReason(p);
@@ -266,7 +267,8 @@ json jointFollowUp(const json& proposal, const calib::ExplainInput& origin,
   } catch (const std::exception& e) {
     r.status = Status::Error(std::string("the analysis failed: ") + e.what());
   }
-  if (!r.status.ok) return jointFailure(origin_run, follow_up_run, "joint explain: " + r.status.message);
+  if (!r.status.ok)
+    return jointFailure(origin_run, follow_up_run, "joint explain: " + r.status.message);
   json out = jointFailure(origin_run, follow_up_run, "");
   out.erase("error");
   out["ok"] = true;

@@ -160,9 +160,9 @@ struct FinalCalibration {
   nlohmann::json coefficients;  // when calibrated
   nlohmann::json report;
   nlohmann::json verdict;
-  std::optional<nlohmann::json> explain;  // imubench-explain/1, when the analysis ran
-  std::string explain_summary;            // when it ran: one line (accepted effects, RMS)
-  std::string explain_error;              // when it did not: why
+  std::optional<nlohmann::json> explain;    // imubench-explain/1, when the analysis ran
+  std::string explain_summary;              // when it ran: one line (accepted effects, RMS)
+  std::string explain_error;                // when it did not: why
   std::optional<nlohmann::json> follow_up;  // daemon/follow_up.h, when proposed or refused
 };
 FinalCalibration finalCalibration(const OnlineSetup& setup);

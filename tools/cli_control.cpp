@@ -562,8 +562,8 @@ void runQueue(const QueueOptions& o, const std::string& cmd) {
 
 void addQueueCommands(CLI::App& app, const std::string& group) {
   auto o = std::make_shared<QueueOptions>();
-  CLI::App* q =
-      app.add_subcommand("queue", "the plan queue: list it (no subcommand), move, remove, resume, accept");
+  CLI::App* q = app.add_subcommand(
+      "queue", "the plan queue: list it (no subcommand), move, remove, resume, accept");
   q->group(group);
   q->require_subcommand(0, 1);
   q->fallthrough();  // --socket/--json also after move/remove/resume/accept

@@ -169,7 +169,8 @@ TEST(FollowUp, GroupsNoPlanCanSeparateAreRefusedWithTheReason) {
   e.nonorthogonality->inner_y = 30.0 * kArcsec;
   e.enable(calib::EffectId::kEncoderZero);
   e.encoder_zero->outer = 25.0 * kArcsec;
-  const std::string direct = std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/direct_two_axis.toml";
+  const std::string direct =
+      std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/direct_two_axis.toml";
   const SimulatedRecording rec = simulateWith(planMotion(direct), e, 21);
   const calib::ExplainInput input = calib::testing::simulatedExplainInput(rec);
   const calib::ExplainResult r = calib::explainRecording(input);
