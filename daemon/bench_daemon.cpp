@@ -1387,7 +1387,9 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
   keep("report", f.report);
   keep("verdict", f.verdict);
   if (f.explain) keep("explain", *f.explain);
-  if (f.follow_up) storeFollowUp(setup.run_id, f);
+  if (f.follow_up) {
+    if (const auto id = storeFollowUp(setup.run_id, f)) stored[kFollowUpKind] = *id;
+  }
   if (f.explain) {
     log_.info(who + ": " + f.explain_summary);
   } else {
@@ -1410,7 +1412,8 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
 
 // ---- the follow-up experiment (daemon/follow_up.h) -------------------------------------------
 
-void BenchDaemon::storeFollowUp(std::int64_t run_id, const FinalCalibration& f) {
+std::optional<std::int64_t> BenchDaemon::storeFollowUp(std::int64_t run_id,
+                                                       const FinalCalibration& f) {
   json proposal = *f.follow_up;
   std::string why;
   if (proposal.value("status", "") == "proposed" &&
@@ -1426,7 +1429,7 @@ void BenchDaemon::storeFollowUp(std::int64_t run_id, const FinalCalibration& f) 
       store_->storeResult(run_id, f.imu_serial, f.temperature_c, kFollowUpKind, proposal.dump());
   if (!r.status.ok) {
     log_.error("store: " + r.status.message);
-    return;
+    return std::nullopt;
   }
   const std::string summary = followUpSummary(proposal);
   json fields = {{"run", run_id}, {"status", proposal["status"]}, {"summary", summary}};
@@ -1441,11 +1444,12 @@ void BenchDaemon::storeFollowUp(std::int64_t run_id, const FinalCalibration& f) 
   }
   announce(run_id, EventSeverity::kInfo, "follow_up", fields);
   log_.info("run " + std::to_string(run_id) + ": " + summary);
-  if (bench_.explain.follow_up != FollowUpPolicy::kQueue || proposal["status"] != "proposed")
-    return;
-  const Reply q = enqueueFollowUp(nullptr, run_id);
-  if (!q.ok)
-    log_.warning("run " + std::to_string(run_id) + ": follow-up not queued: " + q.error.message);
+  if (bench_.explain.follow_up == FollowUpPolicy::kQueue && proposal["status"] == "proposed") {
+    const Reply q = enqueueFollowUp(nullptr, run_id);
+    if (!q.ok)
+      log_.warning("run " + std::to_string(run_id) + ": follow-up not queued: " + q.error.message);
+  }
+  return r.value;
 }
 
 Reply BenchDaemon::enqueueFollowUp(const json& id, std::int64_t run_id) {

@@ -125,7 +125,8 @@ class BenchDaemon {
   void storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f);
   // The follow-up proposal of a run (daemon/follow_up.h): checked against the bench, stored,
   // announced, and queued with [explain] follow_up = "queue".
-  void storeFollowUp(std::int64_t run_id, const FinalCalibration& f);
+  // Returns the stored result's id (nullopt: not stored).
+  std::optional<std::int64_t> storeFollowUp(std::int64_t run_id, const FinalCalibration& f);
   // A stored proposal into the queue (queue_accept, the "queue" policy); starts at once when
   // nothing runs and nothing else waits.
   Reply enqueueFollowUp(const nlohmann::json& id, std::int64_t run_id);

@@ -28,38 +28,9 @@ using nlohmann::json;
 constexpr double kArcsec = kPi / 180.0 / 3600.0;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-calib::Motion planMotion(const std::string& path) {
-  io::Diagnostics diag(path);
-  auto plan = plans::loadPlanFile(path, diag);
-  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
-  if (!plan) return {};
-  plans::ExpandResult r = plans::expand(*plan);
-  EXPECT_TRUE(r.status.ok) << r.status.message;
-  return r.motion;
-}
-
-// As tests/explain/test_explain_propose.cpp: the level recording cannot calibrate its sensor
-// coefficients, so they are given, and the given-coefficient check is opened for it.
-calib::ExplainInput givenBaseline(const SimulatedRecording& rec) {
-  calib::ExplainInput in;
-  in.geometry = rec.geometry;
-  in.site = rec.site;
-  in.imu = rec.sim.imu;
-  in.table = rec.sim.table;
-  in.segments = rec.sim.segments;
-  in.baseline.values.sensors = calib::testing::exampleSensors();
-  in.baseline.values.table_kind = rec.geometry.kind;
-  in.baseline_method = "given";
-  in.baseline_from_this_recording = false;
-  return in;
-}
-
-calib::ExplainOptions levelOptions() {
-  calib::ExplainOptions eo;
-  eo.given_max_scale = eo.given_max_misalignment = 1.0;
-  eo.given_max_accel_bias = eo.given_max_gyro_bias = 1.0;
-  return eo;
-}
+using calib::testing::givenBaseline;
+using calib::testing::levelOptions;
+using calib::testing::planFileMotion;
 
 calib::EffectSet concealedTiltAndNonorthogonality() {
   calib::EffectSet e;
@@ -103,7 +74,7 @@ TEST(FollowUp, NothingUnseparableIsNothingToFollowUp) {
 TEST(FollowUp, ProposalWithinTheBenchLimitsAndTheJointVerdictResolvesThePair) {
   const calib::EffectSet e = concealedTiltAndNonorthogonality();
   const std::string level = std::string(IMUBENCH_SOURCE_DIR) + "/tests/explain/level_headings.toml";
-  const SimulatedRecording rec = simulateWith(planMotion(level), e, 35);
+  const SimulatedRecording rec = simulateWith(planFileMotion(level), e, 35);
   const calib::ExplainInput input = givenBaseline(rec);
   const calib::ExplainResult r = calib::explainRecording(input, levelOptions());
   ASSERT_TRUE(r.status.ok) << r.status.message;
@@ -171,7 +142,7 @@ TEST(FollowUp, GroupsNoPlanCanSeparateAreRefusedWithTheReason) {
   e.encoder_zero->outer = 25.0 * kArcsec;
   const std::string direct =
       std::string(IMUBENCH_SOURCE_DIR) + "/plans/library/direct_two_axis.toml";
-  const SimulatedRecording rec = simulateWith(planMotion(direct), e, 21);
+  const SimulatedRecording rec = simulateWith(planFileMotion(direct), e, 21);
   const calib::ExplainInput input = calib::testing::simulatedExplainInput(rec);
   const calib::ExplainResult r = calib::explainRecording(input);
   ASSERT_TRUE(r.status.ok) << r.status.message;

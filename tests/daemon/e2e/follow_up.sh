@@ -6,20 +6,19 @@
 # (calibration = "pipeline") run at 20x; at each plan's end:
 #   - a `follow_up` event arrives and a "follow_up" result (imubench-follow-up/1) is stored with
 #     the run's results, designed within the bench file's [table] limits (30 deg/s, 10 deg/s^2);
-#   - the 12-run recording cannot separate the encoder zeros and the mounting from the baseline,
-#     and no motion of a two-axis table can (they need another reference or a change of the
-#     set-up): the stored follow-up is refused with that reason, groups marked "no plan";
-#   - so nothing is queued although the policy is "queue" (queue_list empty, no queued event),
-#     and `imubench queue accept 2` is refused saying the follow-up holds no plan; a run without
-#     a proposal is refused as not found;
-#   - `imubench results 2` shows the follow-up with the policy and the reason; `watch` renders
-#     the event (applyEvent is the CLI's; its text is checked in tests/tools).
-# What this does not show (docs/explain.md "In the daemon"): a follow-up that runs and a joint
-# verdict on vcan; no concealed pair in this bench's truth is both unseparable on the bundled
-# plans and separable by a plan of a two-axis table (checked offline: lever arm and size
-# effect, time and accel delay, g-sensitivity, harmonics, scale asymmetry are all separated by
-# the 12-run plan itself). The proposal -> recording -> joint verdict path is checked on
-# simulated recordings by imubench_follow_up_tests (FollowUp.*).
+#   - the encoder zeros and the mounting, which the recordings cannot separate from the
+#     baseline and no motion of a two-axis table can (they need another reference or a change
+#     of the set-up), are refused with that reason ("no plan");
+#   - a proposal holding a plan (on the direct run: the outer-axis harmonic, which its baseline
+#     absorbs) is queued at once, runs by itself next, and after it the joint analysis of both
+#     runs is stored with the follow-up's results ("follow_up_joint", event follow_up_verdict):
+#     each group the proposal separates "resolved", each it could not "still unseparable";
+#   - a refused proposal queues nothing and `imubench queue accept RUN` says it holds no plan; a
+#     run without a proposal is refused as not found;
+#   - `imubench results` shows the proposal on the origin run and the verdict on the follow-up.
+# Not shown here: a concealed PAIR of the truth resolved (docs/explain.md "In the daemon": no
+# pair found is both unseparable on the bundled plans and separable on a two-axis table). The
+# pair case of the same code is checked on simulated recordings by FollowUp.* .
 # Usage: follow_up.sh <imubench-virtual-bench> <imubenchd> <imubench> <source dir>
 set -euo pipefail
 source "$4/tests/daemon/e2e/lib.sh"
@@ -52,8 +51,60 @@ def imubench(*args):
     p = subprocess.run([cli, *args], capture_output=True, text=True)
     return p.returncode, p.stdout + p.stderr
 
-c = Client(work + "/control.sock", timeout=400.0)
+c = Client(work + "/control.sock", timeout=500.0)
 c.subscribe("run")
+
+def stored(run):
+    return {r["kind"]: r["json"] for r in c.reply({"cmd": "results", "run": run})["result"]["results"]}
+
+def check_follow_up(run, ev, f):
+    """The stored proposal of a plan's end: within the bench limits; the groups no table motion
+    separates (the truth's encoder zeros and mounting) refused with the reason."""
+    print("run %d follow-up: %s" % (run, ev["summary"]), flush=True)
+    check(f["format"] == "imubench-follow-up/1", "run %d: format %s" % (run, f.get("format")))
+    check(f["run"] == run and f["policy"] == "queue", "run %d: run and policy: %s" % (run, f))
+    lim = f["limits"]
+    check(abs(lim["max_rate_deg_s"] - 30) < 1e-9 and abs(lim["max_accel_deg_s2"] - 10) < 1e-9,
+          "run %d: designed within the bench file's limits: %s" % (run, lim))
+    check(ev["status"] == f["status"], "run %d: event and result agree: %s" % (run, ev))
+    groups = {" + ".join(g["effects"]): g for g in f["groups"]}
+    check(any("encoder_zero" in k for k in groups), "run %d: encoder_zero group: %s" % (run, list(groups)))
+    check("mounting" in groups, "run %d: mounting group: %s" % (run, list(groups)))
+    for k in [k for k in groups if "encoder_zero" in k or k == "mounting"]:
+        g = groups[k]
+        check(not g["resolved"] and not g["possible"] and "no plan within the bench limits" in g["why"],
+              "run %d: %s refused with the reason: %s" % (run, k, g["why"]))
+    if f["status"] == "proposed":
+        check(any(g["unseparable"] and g["resolved"] for g in f["groups"]),
+              "run %d: a proposal separates a group" % run)
+        check(f["plan"]["name"] == "follow_up_of_run_%d" % run and "[[step]]" in f["plan"]["toml"],
+              "run %d: plan %s" % (run, f["plan"]["name"]))
+    else:
+        check("plan" not in f and "no plan within the bench limits" in f["reason"],
+              "run %d: refused with the reason: %s" % (run, f.get("reason")))
+
+def check_verdict(origin, f):
+    """A proposal under follow_up = "queue" runs by itself next; after it the joint analysis of
+    both runs is stored with its results: each of the origin's groups resolved or not, those no
+    plan separates still unseparable, those the plan separates resolved."""
+    q = c.wait_event(lambda e: e["event"] == "queue_started" and e["plan"] == f["plan"]["name"],
+                     "the follow-up of run %d started by itself" % origin, limit=120)
+    run = q["run"]
+    v = c.wait_event(lambda e: e["event"] == "follow_up_verdict" and e.get("run") == run,
+                     "the joint verdict of run %d" % run, limit=500)
+    print("run %d (follow-up of %d): %s" % (run, origin, v["summary"]), flush=True)
+    check(v["ok"] and v["origin_run"] == origin, "run %d: verdict %s" % (run, v))
+    j = stored(run)["follow_up_joint"]
+    check(j["format"] == "imubench-follow-up-joint/1" and j["report"]["format"] == "imubench-explain/1",
+          "run %d: joint result formats" % run)
+    verdicts = {" + ".join(g["effects"]): g["verdict"] for g in j["groups"]}
+    for g in f["groups"]:
+        if not g["unseparable"]:
+            continue
+        k = " + ".join(g["effects"])
+        want = "resolved" if g["resolved"] else "still unseparable"
+        check(verdicts.get(k) == want, "run %d: %s %s (proposal: %s)" % (run, k, verdicts.get(k), want))
+    return run
 
 def run_plan(path):
     rc, out = imubench("start", path)
@@ -65,43 +116,38 @@ def run_plan(path):
     check("follow_up" in res["results"], "run %d: follow_up result stored: %s" % (run, res["results"]))
     ev = c.wait_event(lambda e: e.get("run") == run and e["event"] == "follow_up",
                       "follow_up of run %d" % run, limit=5)
-    stored = {r["kind"]: r["json"] for r in c.reply({"cmd": "results", "run": run})["result"]["results"]}
-    return run, ev, stored["follow_up"]
+    f = stored(run)["follow_up"]
+    check_follow_up(run, ev, f)
+    return run, f
 
+followed = []
 for path in (work + "/direct.toml", work + "/12run.toml"):
-    run, ev, f = run_plan(path)
-    print("run %d follow-up: %s" % (run, ev["summary"]), flush=True)
-    check(f["format"] == "imubench-follow-up/1", "run %d: format %s" % (run, f.get("format")))
-    check(f["run"] == run and f["policy"] == "queue", "run %d: run and policy: %s" % (run, f))
-    lim = f["limits"]
-    check(abs(lim["max_rate_deg_s"] - 30) < 1e-9 and abs(lim["max_accel_deg_s2"] - 10) < 1e-9,
-          "run %d: designed within the bench file's limits: %s" % (run, lim))
-    # The truth's encoder zeros and mounting: no plan of a two-axis table separates them.
-    check(f["status"] == "refused" and "plan" not in f, "run %d: refused, no plan: %s" % (run, f["status"]))
-    check(ev["status"] == "refused" and ev["summary"].startswith("follow-up refused: "),
-          "run %d: event %s" % (run, ev))
-    groups = {" + ".join(g["effects"]): g for g in f["groups"]}
-    check(any("encoder_zero" in k for k in groups), "run %d: encoder_zero group: %s" % (run, list(groups)))
-    check("mounting" in groups, "run %d: mounting group: %s" % (run, list(groups)))
-    for k, g in groups.items():
-        if g["unseparable"]:
-            check(not g["resolved"] and not g["possible"] and "no plan within the bench limits" in g["why"],
-                  "run %d: %s refused with the reason: %s" % (run, k, g["why"]))
-    check("mounting" in f["reason"] and "no plan within the bench limits" in f["reason"],
-          "run %d: reason %s" % (run, f["reason"]))
-
-check(not c.reply({"cmd": "queue_list"})["result"]["queue"], "nothing queued")
-check(not [e for e in c.events if e["event"] in ("queued", "queue_started")],
-      "no queued event: %s" % [e for e in c.events if e["event"] in ("queued", "queue_started")])
-rc, out = imubench("queue", "accept", "2")
-check(rc != 0 and "run 2's follow-up holds no plan" in out, "queue accept 2 refused: %s" % out)
-rc, out = imubench("queue", "accept", "7")
-check(rc != 0 and "run 7 has no stored follow-up proposal" in out, "queue accept 7: %s" % out)
+    run, f = run_plan(path)
+    if f["status"] == "proposed":
+        followed.append((run, check_verdict(run, f)))
+    else:
+        check(not c.reply({"cmd": "queue_list"})["result"]["queue"], "run %d: nothing queued" % run)
+        rc, out = imubench("queue", "accept", str(run))
+        check(rc != 0 and "run %d's follow-up holds no plan" % run in out,
+              "queue accept %d refused: %s" % (run, out))
+# The virtual bench's direct run at 20x leaves the outer-axis harmonic to the baseline, which a
+# plan separates (seen on every run of this test so far): at least one follow-up ran.
+check(followed, "a proposal was queued, ran and was judged")
+rc, out = imubench("queue", "accept", "99")
+check(rc != 0 and "run 99 has no stored follow-up proposal" in out, "queue accept 99: %s" % out)
+with open(work + "/followed", "w") as fh:
+    fh.write("%d %d\n" % followed[0])
 PY
 
-out=$("$CLI" results 2 --db "$W/imubench.db" 2>&1) || true
+read -r ORIGIN FOLLOWED <"$W/followed"
+out=$("$CLI" results "$ORIGIN" --db "$W/imubench.db" 2>&1) || true
 echo "$out"
-grep -q '^follow-up (policy queue): no plan: ' <<<"$out" || fail "results 2: the follow-up shown"
-grep -qE '^  mounting \(unseparable\): no plan: ' <<<"$out" || fail "results 2: the group's reason"
+grep -q '^follow-up (policy queue): ' <<<"$out" || fail "results $ORIGIN: the follow-up shown"
+grep -qE '^  mounting \(unseparable\): no plan: ' <<<"$out" || fail "results $ORIGIN: the group's reason"
+out=$("$CLI" results "$FOLLOWED" --db "$W/imubench.db" 2>&1) || true
+echo "$out"
+grep -q "^follow-up of run $ORIGIN: joint explain over both runs$" <<<"$out" ||
+  fail "results $FOLLOWED: the joint verdict shown"
+grep -qE '^  mounting: STILL UNSEPARABLE$' <<<"$out" || fail "results $FOLLOWED: mounting verdict"
 e2e_stop_daemon
 echo "PASS"
