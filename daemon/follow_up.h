@@ -48,7 +48,9 @@ struct FollowUpSetup {
 };
 
 // The proposal for `result` (the analysis of `input`, with `explain_options`); nullopt when the
-// analysis found no unseparable group (nothing to follow up).
+// analysis found no unseparable group (nothing to follow up). It holds a plan only when the plan
+// separates at least one unseparable group; a group the design sees separable on the recording
+// already (its angle before above the limit, against explain's verdict) is not claimed.
 std::optional<nlohmann::json> proposeFollowUp(const calib::ExplainInput& input,
                                               const calib::ExplainResult& result,
                                               const calib::ExplainOptions& explain_options,

@@ -204,12 +204,16 @@ void printFollowUp(long long run, const json& f) {
     std::cout << "no plan: " << f.value("reason", std::string("?")) << "\n";
   } else {
     const json& plan = f["plan"];
-    std::printf(
-        "plan '%s' (%.0f s, %zu blocks) within %.3g deg/s, %.3g deg/s^2; queue it: "
-        "imubench queue accept %lld\n",
-        plan.value("name", std::string()).c_str(), plan.value("duration_s", 0.0),
-        plan.value("blocks", json::array()).size(), f["limits"].value("max_rate_deg_s", 0.0),
-        f["limits"].value("max_accel_deg_s2", 0.0), run);
+    std::printf("plan '%s' (%.0f s, %zu blocks) within %.3g deg/s, %.3g deg/s^2; ",
+                plan.value("name", std::string()).c_str(), plan.value("duration_s", 0.0),
+                plan.value("blocks", json::array()).size(),
+                f["limits"].value("max_rate_deg_s", 0.0),
+                f["limits"].value("max_accel_deg_s2", 0.0));
+    if (f.value("policy", std::string()) == "queue") {
+      std::printf("queued when it was stored\n");
+    } else {
+      std::printf("queue it: imubench queue accept %lld\n", run);
+    }
   }
   for (const json& g : f.value("groups", json::array())) {
     std::printf("  %s (%s): %s\n", effectsText(g["effects"]).c_str(),

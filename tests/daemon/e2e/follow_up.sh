@@ -9,10 +9,13 @@
 #   - the encoder zeros and the mounting, which the recordings cannot separate from the
 #     baseline and no motion of a two-axis table can (they need another reference or a change
 #     of the set-up), are refused with that reason ("no plan");
-#   - a proposal holding a plan (on the direct run: the outer-axis harmonic, which its baseline
-#     absorbs) is queued at once, runs by itself next, and after it the joint analysis of both
-#     runs is stored with the follow-up's results ("follow_up_joint", event follow_up_verdict):
-#     each group the proposal separates "resolved", each it could not "still unseparable";
+#   - a proposal holding a plan is queued at once, runs by itself next, and after it the joint
+#     analysis of both runs is stored with the follow-up's results ("follow_up_joint", event
+#     follow_up_verdict): each group the proposal separates "resolved", each it could not "still
+#     unseparable". (On this bench the direct run's outer-axis harmonic was proposed as
+#     separated, ran, and came out still unseparable: the design had evaluated another harmonic
+#     than explain judged; such a group is no longer claimed, daemon/follow_up.h, so today both
+#     proposals are refused and this branch does not run);
 #   - a refused proposal queues nothing and `imubench queue accept RUN` says it holds no plan; a
 #     run without a proposal is refused as not found;
 #   - `imubench results` shows the proposal on the origin run and the verdict on the follow-up.
@@ -130,24 +133,25 @@ for path in (work + "/direct.toml", work + "/12run.toml"):
         rc, out = imubench("queue", "accept", str(run))
         check(rc != 0 and "run %d's follow-up holds no plan" % run in out,
               "queue accept %d refused: %s" % (run, out))
-# The virtual bench's direct run at 20x leaves the outer-axis harmonic to the baseline, which a
-# plan separates (seen on every run of this test so far): at least one follow-up ran.
-check(followed, "a proposal was queued, ran and was judged")
 rc, out = imubench("queue", "accept", "99")
 check(rc != 0 and "run 99 has no stored follow-up proposal" in out, "queue accept 99: %s" % out)
 with open(work + "/followed", "w") as fh:
-    fh.write("%d %d\n" % followed[0])
+    fh.write("".join("%d %d\n" % f for f in followed))
 PY
 
-read -r ORIGIN FOLLOWED <"$W/followed"
-out=$("$CLI" results "$ORIGIN" --db "$W/imubench.db" 2>&1) || true
+# The 12-run plan's stored follow-up as `results` shows it (run 2, or 3 after a follow-up).
+last=$(python3 -c 'import sqlite3, sys
+print(sqlite3.connect(sys.argv[1]).execute(
+    "SELECT max(run_id) FROM results WHERE kind = ?", ("follow_up",)).fetchone()[0])' "$W/imubench.db")
+out=$("$CLI" results "$last" --db "$W/imubench.db" 2>&1) || true
 echo "$out"
-grep -q '^follow-up (policy queue): ' <<<"$out" || fail "results $ORIGIN: the follow-up shown"
-grep -qE '^  mounting \(unseparable\): no plan: ' <<<"$out" || fail "results $ORIGIN: the group's reason"
-out=$("$CLI" results "$FOLLOWED" --db "$W/imubench.db" 2>&1) || true
-echo "$out"
-grep -q "^follow-up of run $ORIGIN: joint explain over both runs$" <<<"$out" ||
-  fail "results $FOLLOWED: the joint verdict shown"
-grep -qE '^  mounting: STILL UNSEPARABLE$' <<<"$out" || fail "results $FOLLOWED: mounting verdict"
+grep -q '^follow-up (policy queue): ' <<<"$out" || fail "results $last: the follow-up shown"
+grep -qE '^  mounting \(unseparable\): no plan: ' <<<"$out" || fail "results $last: the group's reason"
+while read -r origin followed; do
+  out=$("$CLI" results "$followed" --db "$W/imubench.db" 2>&1) || true
+  echo "$out"
+  grep -q "^follow-up of run $origin: joint explain over both runs$" <<<"$out" ||
+    fail "results $followed: the joint verdict shown"
+done <"$W/followed"
 e2e_stop_daemon
 echo "PASS"
