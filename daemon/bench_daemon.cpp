@@ -16,6 +16,7 @@
 #include <limits>
 #include <sstream>
 
+#include "daemon/follow_up.h"
 #include "daemon/imu_clock.h"
 #include "daemon/plan_check.h"
 #include "daemon/thermal_points.h"
@@ -885,6 +886,7 @@ void BenchDaemon::closeRun() {
   if (state == RunState::kFinished && hasTemperaturePoints(r.steps())) {
     startPointCalibrations(run_->id);
   }
+  if (state == RunState::kFinished) startFollowUpJudgement(run_->id);
   log_.info("run " + std::to_string(run_->id) + " closed: " + runStateName(state));
   run_.reset();
   notifier_.status("idle");
@@ -963,6 +965,8 @@ std::optional<Reply> BenchDaemon::handle(const Request& request, ClientId client
       return queueChange(request);
     case Command::kQueueResume:
       return startQueued(request.id);
+    case Command::kQueueAccept:
+      return enqueueFollowUp(request.id, std::get<QueueAcceptArgs>(request.args).run);
     case Command::kPing:
     case Command::kSubscribe:
     case Command::kUnsubscribe:
@@ -1258,6 +1262,12 @@ std::optional<OnlineSetup> BenchDaemon::calibrationSetup(const LoadedPlan& loade
   setup.method = plan.calibration;
   setup.db_path = db_path_;
   setup.acceptance = bench_.acceptance;
+  if (bench_.explain.follow_up != FollowUpPolicy::kOff) {
+    calib::ProposeOptions propose;  // the search's defaults within this bench's table limits
+    propose.limits.max_rate_rad_s = bench_.table.limits.max_rate;
+    propose.limits.max_accel_rad_s2 = bench_.table.limits.max_accel;
+    setup.follow_up = propose;
+  }
   io::Recording& meta = setup.meta;
   meta.latitude_deg = bench_.site.latitude_rad * kRadToDeg;
   meta.height_m = bench_.site.height_m;
@@ -1290,16 +1300,16 @@ std::optional<OnlineSetup> BenchDaemon::calibrationSetup(const LoadedPlan& loade
 
 // An estimate of the online engine: the run's event log, subscribers (topic "run"), the log.
 void BenchDaemon::publishEstimate(std::int64_t run, const json& fields) {
-  RunEvent stored;
-  stored.run_id = run;
-  stored.wall_unix_s = unixNow();
-  stored.severity = EventSeverity::kInfo;
-  stored.kind = "estimate";
-  stored.json = fields.dump();
-  if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
-  server_->broadcast(Topic::kRun, "estimate", fields);
+  announce(run, EventSeverity::kInfo, "estimate", fields);
   log_.info("run " + std::to_string(run) + ": estimate after " +
             fields.value("summary", std::string("a step")));
+}
+
+void BenchDaemon::announce(std::int64_t run, EventSeverity severity, const std::string& kind,
+                           const json& fields) {
+  const RunEvent stored{run, unixNow(), severity, kind, fields.dump()};
+  if (auto st = store_->addEvent(stored); !st.ok) log_.error("store: " + st.message);
+  server_->broadcast(Topic::kRun, kind, fields);
 }
 
 // The full calibration of a completed run, off the loop; the results are stored on the loop.
@@ -1377,6 +1387,9 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
   keep("report", f.report);
   keep("verdict", f.verdict);
   if (f.explain) keep("explain", *f.explain);
+  if (f.follow_up) {
+    if (const auto id = storeFollowUp(setup.run_id, f)) stored[kFollowUpKind] = *id;
+  }
   if (f.explain) {
     log_.info(who + ": " + f.explain_summary);
   } else {
@@ -1395,6 +1408,113 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
                       {"temperature_c", f.temperature_c},
                       {"explain", f.explain ? f.explain_summary : f.explain_error},
                       {"results", stored}});
+}
+
+// ---- the follow-up experiment (daemon/follow_up.h) -------------------------------------------
+
+std::optional<std::int64_t> BenchDaemon::storeFollowUp(std::int64_t run_id,
+                                                       const FinalCalibration& f) {
+  json proposal = *f.follow_up;
+  std::string why;
+  if (proposal.value("status", "") == "proposed" &&
+      !loadPlan(proposal["plan"].value("name", ""), proposal["plan"].value("toml", ""), bench_,
+                &why)) {
+    // Never stored as runnable what this bench would refuse (its limits, its table).
+    proposal["status"] = "refused";
+    proposal["reason"] = "the designed plan is refused by this bench: " + why;
+    proposal.erase("plan");
+  }
+  proposal["policy"] = followUpPolicyName(bench_.explain.follow_up);
+  const auto r =
+      store_->storeResult(run_id, f.imu_serial, f.temperature_c, kFollowUpKind, proposal.dump());
+  if (!r.status.ok) {
+    log_.error("store: " + r.status.message);
+    return std::nullopt;
+  }
+  const std::string summary = followUpSummary(proposal);
+  json fields = {{"run", run_id}, {"status", proposal["status"]}, {"summary", summary}};
+  if (proposal.contains("plan")) {
+    fields["plan"] = proposal["plan"]["name"];
+    fields["duration_s"] = proposal["plan"]["duration_s"];
+  }
+  fields["groups"] = json::array();
+  for (const json& g : proposal["groups"]) {
+    fields["groups"].push_back(
+        {{"effects", g["effects"]}, {"resolved", g["resolved"]}, {"why", g["why"]}});
+  }
+  announce(run_id, EventSeverity::kInfo, "follow_up", fields);
+  log_.info("run " + std::to_string(run_id) + ": " + summary);
+  if (bench_.explain.follow_up == FollowUpPolicy::kQueue && proposal["status"] == "proposed") {
+    const Reply q = enqueueFollowUp(nullptr, run_id);
+    if (!q.ok)
+      log_.warning("run " + std::to_string(run_id) + ": follow-up not queued: " + q.error.message);
+  }
+  return r.value;
+}
+
+Reply BenchDaemon::enqueueFollowUp(const json& id, std::int64_t run_id) {
+  ResultFilter filter;
+  filter.run_id = run_id;
+  const ResultListResult results = store_->results(filter);
+  if (!results.status.ok) return errorReply(id, ErrorCode::kInternal, results.status.message);
+  const std::string who = "run " + std::to_string(run_id);
+  std::optional<json> proposal;
+  for (const StoredResult& r : results.value) {
+    if (r.kind == kFollowUpKind) proposal = json::parse(r.json, nullptr, false);
+  }
+  if (!proposal || proposal->is_discarded())
+    return errorReply(id, ErrorCode::kNotFound, who + " has no stored follow-up proposal");
+  if (proposal->value("status", "") != "proposed") {
+    return errorReply(id, ErrorCode::kBadState,
+                      who + "'s follow-up holds no plan: " + proposal->value("reason", "?"));
+  }
+  const std::string name = (*proposal)["plan"].value("name", "");
+  std::string why;
+  const auto loaded = loadPlan(name, (*proposal)["plan"].value("toml", ""), bench_, &why);
+  if (!loaded) return errorReply(id, ErrorCode::kBadPlan, who + "'s follow-up: " + why);
+  QueueEntry entry;
+  entry.plan_name = loaded->plan.name;
+  entry.source = name;
+  entry.plan_toml = loaded->text;
+  entry.label = "follow-up of run " + std::to_string(run_id);
+  const QueueAddResult added = store_->queueAdd(entry);
+  if (!added.status.ok) return errorReply(id, ErrorCode::kInternal, added.status.message);
+  const QueuedEvent queued{added.value.entry_id, added.value.position, entry.plan_name};
+  log_.info("follow-up of " + who + " queued: entry " + std::to_string(added.value.entry_id) +
+            ", position " + std::to_string(added.value.position));
+  server_->broadcast(queued);
+  // Alone in the queue with the bench idle: it starts now (a held queue stays held).
+  if (!run_ && added.value.position == 1) loop_.post([this] { advanceQueue(); });
+  return okReply(id, toJson(QueuedReply{queued}));
+}
+
+void BenchDaemon::startFollowUpJudgement(std::int64_t run_id) {
+  auto job = [this, run_id, db = db_path_]() -> std::function<void()> {
+    std::optional<FollowUpJudged> j = judgeFollowUp(db, run_id);
+    return [this, run_id, j = std::move(j)] {
+      if (!j) return;  // not a follow-up
+      const auto r = store_->storeResult(run_id, j->imu_serial, j->temperature_c,
+                                         kFollowUpJointKind, j->joint.dump());
+      if (!r.status.ok) log_.error("store: " + r.status.message);
+      const bool ok = j->joint.value("ok", false);
+      json fields = {{"run", run_id},
+                     {"origin_run", j->joint["origin_run"]},
+                     {"ok", ok},
+                     {"summary", ok ? j->joint.value("summary", "") : j->joint.value("error", "")},
+                     {"groups", json::array()}};
+      for (const json& g : j->joint["groups"])
+        fields["groups"].push_back({{"effects", g["effects"]}, {"verdict", g["verdict"]}});
+      announce(run_id, ok ? EventSeverity::kInfo : EventSeverity::kWarning, "follow_up_verdict",
+               fields);
+      log_.info("run " + std::to_string(run_id) + " (follow-up of run " +
+                fields["origin_run"].dump() + "): " + fields["summary"].get<std::string>());
+    };
+  };
+  auto failed = [this, run_id](const std::string& what) {
+    log_.error("run " + std::to_string(run_id) + ": follow-up judgement failed: " + what);
+  };
+  std::string why;
+  if (!calibrations_->run(job, failed, &why)) failed(why);
 }
 
 // ---- the plan queue (stored: it survives a restart) -----------------------------------------

@@ -107,6 +107,9 @@ class BenchDaemon {
   std::optional<OnlineSetup> calibrationSetup(const LoadedPlan& loaded, std::string* why);
   void attachCalibration(ActiveRun& run, OnlineSetup setup);
   void publishEstimate(std::int64_t run, const nlohmann::json& fields);
+  // An event of a run: its stored event log and the subscribers of topic "run".
+  void announce(std::int64_t run, EventSeverity severity, const std::string& kind,
+                const nlohmann::json& fields);
   void startFinalCalibration(const OnlineSetup& setup);
   // A completed thermal run: one direct calibration per temperature point
   // (daemon/thermal_points.h), off the loop, stored as "point_coefficients" results.
@@ -120,6 +123,15 @@ class BenchDaemon {
   void recordGap(std::int64_t run_id, double from_t, double to_t, const std::string& cause,
                  const std::vector<RunStep>& steps, const GapRestart& restart);
   void storeFinalCalibration(const OnlineSetup& setup, const FinalCalibration& f);
+  // The follow-up proposal of a run (daemon/follow_up.h): checked against the bench, stored,
+  // announced, and queued with [explain] follow_up = "queue".
+  // Returns the stored result's id (nullopt: not stored).
+  std::optional<std::int64_t> storeFollowUp(std::int64_t run_id, const FinalCalibration& f);
+  // A stored proposal into the queue (queue_accept, the "queue" policy); starts at once when
+  // nothing runs and nothing else waits.
+  Reply enqueueFollowUp(const nlohmann::json& id, std::int64_t run_id);
+  // After a run completed: when it is a follow-up, the joint analysis with its origin.
+  void startFollowUpJudgement(std::int64_t run_id);
   Reply enqueue(const Request& request, const std::string& name, const LoadedPlan& loaded);
   Reply startQueued(const nlohmann::json& id);
   void advanceQueue();

@@ -316,7 +316,37 @@ void parseLab(const toml::table& root, const std::string& base_dir, BenchConfig&
   b.lab = lab;
 }
 
+// [explain]: follow_up = "off" | "propose" | "queue".
+void parseExplain(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
+  const toml::table* t = subTable(root, "explain", diag, false);
+  if (t == nullptr) return;
+  checkKeys(*t, {"follow_up"}, "[explain]", diag);
+  const auto v = strField(*t, "follow_up", diag, false);
+  if (!v) return;
+  for (FollowUpPolicy p :
+       {FollowUpPolicy::kOff, FollowUpPolicy::kPropose, FollowUpPolicy::kQueue}) {
+    if (*v == followUpPolicyName(p)) {
+      b.explain.follow_up = p;
+      return;
+    }
+  }
+  diag.error(t->get("follow_up")->source(),
+             "follow_up must be \"off\", \"propose\" or \"queue\", not \"" + *v + "\"");
+}
+
 }  // namespace
+
+const char* followUpPolicyName(FollowUpPolicy p) {
+  switch (p) {
+    case FollowUpPolicy::kOff:
+      return "off";
+    case FollowUpPolicy::kPropose:
+      return "propose";
+    case FollowUpPolicy::kQueue:
+      return "queue";
+  }
+  return "?";
+}
 
 std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_view file_name,
                                           const std::string& base_dir, Diagnostics& diag) {
@@ -325,7 +355,8 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
   BenchConfig b;
   b.file = std::string(file_name);
   checkKeys(*root,
-            {"bench", "site", "table", "chamber", "imu", "safety", "control", "acceptance", "lab"},
+            {"bench", "site", "table", "chamber", "imu", "safety", "control", "acceptance", "lab",
+             "explain"},
             "the top level", diag);
   parseBenchTable(*root, base_dir, b, diag);
   parseSite(*root, b, diag);
@@ -336,6 +367,7 @@ std::optional<BenchConfig> parseBenchFile(std::string_view text, std::string_vie
   parseControl(*root, base_dir, b, diag);
   parseAcceptance(*root, b, diag);
   parseLab(*root, base_dir, b, diag);
+  parseExplain(*root, b, diag);
   if (!diag.ok()) return std::nullopt;
   return b;
 }

@@ -72,6 +72,13 @@
 //   "accel.scale" = "100 ppm"        #   every parameter under it ("gyro.bias" = x, y, z);
 //   "accel.misalignment.xy" = "30 arcsec"   # scales are judged as |scale - 1|; the unit is
 //                                    #   the parameter's display unit: ppm, ug, deg/h, arcsec
+//   [explain]                 # optional: what the daemon does with the end-of-plan analysis
+//   follow_up = "propose"     # "off": nothing; "propose" (default): when the analysis finds
+//                             #   unseparable groups, the plan that separates them (within this
+//                             #   bench's [table] limits) is stored with the run's results
+//                             #   (`imubench queue accept RUN` queues it); "queue": it is also
+//                             #   appended to the plan queue and runs next (docs/explain.md
+//                             #   "In the daemon")
 //
 //   The control socket has 16 slots for every command and 2 reserved for stop, status and ping,
 //   given only to root, the daemon's user and command_group members (to everyone without a
@@ -161,6 +168,22 @@ struct BenchLab {
   std::string password_file;  // empty: libpq's password or service file
 };
 
+// [explain] follow_up: what the daemon does when a run's end-of-plan analysis reports groups
+// its recording cannot separate (daemon/follow_up.h).
+enum class FollowUpPolicy {
+  kOff,      // nothing beyond the analysis
+  kPropose,  // the separating plan is designed and stored with the run's results
+  kQueue,    // ... and appended to the plan queue (it runs next)
+};
+const char* followUpPolicyName(FollowUpPolicy p);
+
+struct BenchExplain {
+  // "propose": designing costs seconds of a worker and moves nothing, while the operator sees
+  // what would settle the groups; queueing a plan that moves the table is the bench owner's
+  // choice ("queue"), never the default.
+  FollowUpPolicy follow_up = FollowUpPolicy::kPropose;
+};
+
 struct BenchConfig {
   std::string file;  // the bench file as given
   std::string name;
@@ -191,6 +214,7 @@ struct BenchConfig {
   BenchControl control;
   std::vector<AcceptanceLimit> acceptance;  // empty: no verdict (results say so)
   std::optional<BenchLab> lab;              // unset: no lab mirror
+  BenchExplain explain;
 };
 
 // Parses bench text; device files are resolved against base_dir. file_name names the text in

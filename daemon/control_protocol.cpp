@@ -14,7 +14,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr std::array<io::Named<Command, std::string_view>, 18> kCommands{{
+constexpr std::array<io::Named<Command, std::string_view>, 19> kCommands{{
     {Command::kStart, "start"},
     {Command::kPause, "pause"},
     {Command::kResume, "resume"},
@@ -33,6 +33,7 @@ constexpr std::array<io::Named<Command, std::string_view>, 18> kCommands{{
     {Command::kQueueMove, "queue_move"},
     {Command::kQueueRemove, "queue_remove"},
     {Command::kQueueResume, "queue_resume"},
+    {Command::kQueueAccept, "queue_accept"},
 }};
 
 constexpr std::array<io::Named<Topic, std::string_view>, kTopicCount> kTopics{{
@@ -361,6 +362,13 @@ bool readArgs(const json& obj, Command c, RequestArgs* out, ProtocolError* err) 
     case Command::kQueueMove:
     case Command::kQueueRemove:
       return readQueueArgs(obj, c, owner, out, err);
+    case Command::kQueueAccept: {
+      if (!refuseUnknownFields(obj, {"id", "cmd", "run"}, "", owner, err)) return false;
+      std::optional<std::int64_t> run;
+      if (!readRunId(obj, "run", true, &run, err)) return false;
+      *out = QueueAcceptArgs{*run};
+      return true;
+    }
     case Command::kResume: {
       if (!refuseUnknownFields(obj, {"id", "cmd", "run"}, "", owner, err)) return false;
       ResumeArgs a;
@@ -456,6 +464,9 @@ std::optional<Topic> topicFromName(std::string_view name) {
 //   {"id":23,"cmd":"queue_remove","entry":6}               (replies the new queue)
 //   {"id":24,"cmd":"queue_resume"}   (no run going: start the head now; replies as start, plus
 //                                     "entry")
+//   {"id":25,"cmd":"queue_accept","run":41}  (queue the follow-up plan stored with run 41's
+//        results, daemon/follow_up.h; replies as a queued start; not_found: no proposal stored,
+//        bad_state: the proposal holds no plan, with its reason)
 // When a run ends completed, the queue's head starts by itself (event "queue_started" on topic
 // run; if it cannot start, e.g. the bench is in emergency stop, it stays queued: event
 // "queue_held" with the reason). After an abort, a fault, an emergency stop or a daemon restart

@@ -57,6 +57,7 @@ enum class Command {
   kQueueMove,     // move a queued plan to another position
   kQueueRemove,   // take a plan out of the queue
   kQueueResume,   // start the queue's head now (no run going; e.g. after an abort held it)
+  kQueueAccept,   // queue the follow-up plan explain proposed for a run (daemon/follow_up.h)
 };
 // The wire name ("start", "list_plans", ...).
 std::string_view commandName(Command c);
@@ -139,9 +140,12 @@ struct QueueMoveArgs {
 struct QueueRemoveArgs {
   std::int64_t entry = 0;
 };
+struct QueueAcceptArgs {
+  std::int64_t run = 0;  // the run whose stored follow-up proposal is queued
+};
 using RequestArgs =
     std::variant<NoArgs, StartArgs, SubscribeArgs, UnsubscribeArgs, ValidatePlanArgs, ResultsArgs,
-                 ExportArgs, QueueMoveArgs, QueueRemoveArgs, ResumeArgs>;
+                 ExportArgs, QueueMoveArgs, QueueRemoveArgs, ResumeArgs, QueueAcceptArgs>;
 
 struct Request {
   nlohmann::json id;  // null when the client sent none; echoed in the reply

@@ -73,6 +73,7 @@ CommandClass commandClass(Command c) {
     case Command::kQueueMove:
     case Command::kQueueRemove:
     case Command::kQueueResume:
+    case Command::kQueueAccept:
       return CommandClass::kCommand;
   }
   return CommandClass::kCommand;  // a command added without a class needs the most rights

@@ -6,7 +6,8 @@
 //   anyone   stop (the emergency stop), ping: every local user who can reach the socket
 //   read     status, subscribe/unsubscribe (watch), results, export, list_plans,
 //            validate_plan, queue_list
-//   command  start, pause, resume, abort, rearm, queue_move, queue_remove, queue_resume
+//   command  start, pause, resume, abort, rearm, queue_move, queue_remove, queue_resume,
+//            queue_accept
 // With no command group configured (the bench file's [control] has neither command_group nor
 // read_group) everyone who can reach the socket may do everything: the socket file's mode is
 // the only gate (today's behaviour). With a command group, command needs membership of it; read

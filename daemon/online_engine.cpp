@@ -308,7 +308,13 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
     out.report["outer_axis_heading_deg"] = run.value.outerAxisHeadingDeg();
   out.verdict = acceptanceVerdict(c, setup.acceptance);
   // The missing-physics analysis from the final coefficients, on this worker like them.
-  RunExplain e = explainRun(setup.method, run.value, c, setup.explain);
+  std::optional<FollowUpSetup> follow_up;
+  if (setup.follow_up) {
+    follow_up = FollowUpSetup{setup.run_id, setup.method, setup.direct_run, *setup.follow_up};
+  }
+  RunExplain e =
+      explainRun(setup.method, run.value, c, setup.explain, follow_up ? &*follow_up : nullptr);
+  out.follow_up = std::move(e.follow_up);
   if (e.status.ok) {
     out.explain = std::move(e.report);
     out.explain_summary = std::move(e.summary);

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "calib/explain.h"
+#include "calib/explain_propose.h"
 #include "calib/motion.h"
 #include "daemon/bench_file.h"
 #include "daemon/off_loop.h"
@@ -66,6 +67,9 @@ struct OnlineSetup {
   // The end-of-plan missing-physics analysis (daemon/run_explain.h): calib's defaults, which
   // its concealed-effect suite tunes; a field so a bench (or a test) can change them.
   calib::ExplainOptions explain;
+  // The follow-up proposal's search within the bench's limits (daemon/follow_up.h); unset: the
+  // bench's [explain] follow_up is "off".
+  std::optional<calib::ProposeOptions> follow_up;
 };
 
 class OnlineEngine {
@@ -156,9 +160,10 @@ struct FinalCalibration {
   nlohmann::json coefficients;  // when calibrated
   nlohmann::json report;
   nlohmann::json verdict;
-  std::optional<nlohmann::json> explain;  // imubench-explain/1, when the analysis ran
-  std::string explain_summary;            // when it ran: one line (accepted effects, RMS)
-  std::string explain_error;              // when it did not: why
+  std::optional<nlohmann::json> explain;    // imubench-explain/1, when the analysis ran
+  std::string explain_summary;              // when it ran: one line (accepted effects, RMS)
+  std::string explain_error;                // when it did not: why
+  std::optional<nlohmann::json> follow_up;  // daemon/follow_up.h, when proposed or refused
 };
 FinalCalibration finalCalibration(const OnlineSetup& setup);
 

@@ -25,7 +25,8 @@ std::string summaryOf(const calib::ExplainResult& r) {
 }  // namespace
 
 RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
-                      const RunCalibration& c, const calib::ExplainOptions& options) {
+                      const RunCalibration& c, const calib::ExplainOptions& options,
+                      const FollowUpSetup* follow_up) {
   RunExplain out;
   if (!c.status.ok) {
     out.status = Status::Error("no final calibration to start from (" + c.status.message + ")");
@@ -55,6 +56,7 @@ RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
         "refinement over this run)");
   }
   out.status = Status::Ok();
+  if (follow_up != nullptr) out.follow_up = proposeFollowUp(in, r, options, *follow_up);
   out.report = calib::toJson(r);
   out.summary = summaryOf(r);
   return out;

@@ -7,11 +7,13 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "calib/explain.h"
 #include "calib/status.h"
+#include "daemon/follow_up.h"
 #include "daemon/run_calibration.h"
 #include "io/recording.h"
 #include "plans/plan.h"
@@ -25,13 +27,17 @@ struct RunExplain {
   // One line for the log and the `results` event: the accepted effects, the whitened residual
   // RMS before and after (1 = the noise floor), the windows nothing explains.
   std::string summary;
+  // The follow-up proposal (daemon/follow_up.h "follow_up" result), when asked for and the
+  // analysis found unseparable groups.
+  std::optional<nlohmann::json> follow_up;
 };
 
 // The analysis of rec from c (the final calibration of rec with `method`): its baseline is
 // c's coefficients, with the method and the table parameters the calibration service
 // estimated (RunCalibration::baseline_method, table_params). !c.ok: no analysis (nothing to
-// start from), the error says why.
+// start from), the error says why. follow_up (not null): the proposal is designed too.
 RunExplain explainRun(plans::CalibrationMethod method, const io::Recording& rec,
-                      const RunCalibration& c, const calib::ExplainOptions& options = {});
+                      const RunCalibration& c, const calib::ExplainOptions& options = {},
+                      const FollowUpSetup* follow_up = nullptr);
 
 }  // namespace imubench::daemon

@@ -178,13 +178,33 @@ bool applyRunEvent(WatchState& s, const std::string& name, const json& event) {
   return true;
 }
 
+// The follow-up experiment's events (daemon/follow_up.h): the proposal stored at a plan's end,
+// and the joint verdict after the follow-up run. False: not one of them.
+bool followUpNote(const std::string& name, const json& event, std::vector<std::string>* notes) {
+  if (name != "follow_up" && name != "follow_up_verdict") return false;
+  const std::string run =
+      event.contains("run") && event["run"].is_number_integer() ? event["run"].dump() : "?";
+  const std::string summary = textField(event, "summary").value_or("?");
+  if (name == "follow_up") {
+    notes->push_back("run " + run + ": " + summary +
+                     (textField(event, "status").value_or("") == "proposed"
+                          ? " (imubench results " + run + "; imubench queue accept " + run + ")"
+                          : ""));
+    return true;
+  }
+  const std::string origin = event.contains("origin_run") ? event["origin_run"].dump() : "?";
+  notes->push_back("run " + run + " (follow-up of run " + origin + "): " +
+                   (event.value("ok", false) ? summary : "joint analysis failed: " + summary));
+  return true;
+}
+
 }  // namespace
 
 void applyEvent(WatchState& s, const json& event, std::vector<std::string>* notes) {
   if (!event.is_object() || !event.contains("event") || !event["event"].is_string()) return;
   const std::string name = event["event"].get<std::string>();
   if (applyRunEvent(s, name, event)) return;
-  if (notes == nullptr) return;
+  if (notes == nullptr || followUpNote(name, event, notes)) return;
   if (name == daemon::AlarmEvent::kEvent) {
     std::string why;
     const auto e = daemon::parseEvent<daemon::AlarmEvent>(event, &why);
@@ -542,11 +562,11 @@ void runQueue(const QueueOptions& o, const std::string& cmd) {
 
 void addQueueCommands(CLI::App& app, const std::string& group) {
   auto o = std::make_shared<QueueOptions>();
-  CLI::App* q =
-      app.add_subcommand("queue", "the plan queue: list it (no subcommand), move, remove, resume");
+  CLI::App* q = app.add_subcommand(
+      "queue", "the plan queue: list it (no subcommand), move, remove, resume, accept");
   q->group(group);
   q->require_subcommand(0, 1);
-  q->fallthrough();  // --socket/--json also after move/remove/resume
+  q->fallthrough();  // --socket/--json also after move/remove/resume/accept
   addControlOptions(*q, &o->ctl);
   CLI::App* move = q->add_subcommand("move", "move a queued plan to POSITION (1 = next)");
   move->add_option("ENTRY", o->entry, "queue entry id")->required()->check(CLI::PositiveNumber);
@@ -564,6 +584,16 @@ void addQueueCommands(CLI::App& app, const std::string& group) {
       if (o->ctl.json) return;
       std::cout << "started queue entry " << (r.entry ? std::to_string(*r.entry) : "?")
                 << " as run " << r.run << " (plan " << r.summary.plan << ")\n";
+    });
+  });
+  CLI::App* accept = q->add_subcommand(
+      "accept", "queue the follow-up plan explain proposed at RUN's end (imubench results RUN)");
+  accept->add_option("RUN", o->entry, "run id")->required()->check(CLI::PositiveNumber);
+  accept->callback([o] {
+    withClient(o->ctl, [&](ControlClient& c) {
+      const auto r = readReply<daemon::QueuedReply>(
+          exchange(o->ctl, c, {{"cmd", "queue_accept"}, {"run", o->entry}}), "queue accept");
+      if (!o->ctl.json) printQueued(r.queued);
     });
   });
   q->callback([o, q] {

@@ -183,6 +183,80 @@ void printExplain(const json& e) {
   std::printf("  unexplained windows: %zu\n", e.value("unexplained", json::array()).size());
 }
 
+std::string effectsText(const json& effects) {
+  std::string ids;
+  for (const json& e : effects) ids += (ids.empty() ? "" : " + ") + e.get<std::string>();
+  return ids;
+}
+
+// A number of a stored follow-up (null: held or not seen) as text.
+std::string sigmaText(const json& v) {
+  if (!v.is_number()) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v.get<double>());
+  return buf;
+}
+
+// The follow-up explain proposed at this run's end (daemon/follow_up.h "follow_up").
+void printFollowUp(long long run, const json& f) {
+  std::cout << "follow-up (policy " << f.value("policy", std::string("?")) << "): ";
+  if (f.value("status", std::string()) != "proposed") {
+    std::cout << "no plan: " << f.value("reason", std::string("?")) << "\n";
+  } else {
+    const json& plan = f["plan"];
+    std::printf("plan '%s' (%.0f s, %zu blocks) within %.3g deg/s, %.3g deg/s^2; ",
+                plan.value("name", std::string()).c_str(), plan.value("duration_s", 0.0),
+                plan.value("blocks", json::array()).size(),
+                f["limits"].value("max_rate_deg_s", 0.0),
+                f["limits"].value("max_accel_deg_s2", 0.0));
+    if (f.value("policy", std::string()) == "queue") {
+      std::printf("queued when it was stored\n");
+    } else {
+      std::printf("queue it: imubench queue accept %lld\n", run);
+    }
+  }
+  for (const json& g : f.value("groups", json::array())) {
+    std::printf("  %s (%s): %s\n", effectsText(g["effects"]).c_str(),
+                g.value("unseparable", false) ? "unseparable" : "short of the precision",
+                g.value("resolved", false) ? "separated by the plan"
+                                           : ("no plan: " + g.value("why", std::string())).c_str());
+    if (g.value("unseparable", false)) {
+      std::printf("    principal angle %.3g -> %.3g deg (limit %.3g deg)\n",
+                  g.value("angle_before_deg", 0.0), g.value("angle_after_deg", 0.0),
+                  g.value("limit_deg", 0.0));
+    }
+    for (const json& p : g.value("parameters", json::array())) {
+      std::printf("    %-36s predicted sigma %s -> %s (with this run: %s) (SI)\n",
+                  p.value("name", std::string()).c_str(), sigmaText(p["sigma_before"]).c_str(),
+                  sigmaText(p["sigma_after"]).c_str(), sigmaText(p["sigma_joint"]).c_str());
+    }
+  }
+}
+
+// The joint analysis of a follow-up run with its origin (daemon/follow_up.h
+// "follow_up_joint"): each group the origin could not separate resolved or not.
+void printFollowUpJoint(const json& j) {
+  std::cout << "follow-up of run " << j.value("origin_run", json()).dump()
+            << ": joint explain over both runs";
+  if (!j.value("ok", false)) {
+    std::cout << " FAILED: " << j.value("error", std::string("?")) << "\n";
+    return;
+  }
+  std::cout << "\n";
+  for (const json& g : j.value("groups", json::array())) {
+    const std::string verdict = g.value("verdict", std::string("?"));
+    std::printf("  %s: %s\n", effectsText(g["effects"]).c_str(),
+                verdict == "resolved" ? "resolved" : "STILL UNSEPARABLE");
+    for (const json& p : g.value("parameters", json::array())) {
+      std::printf("    %-36s %s  sigma %s (predicted %s) (SI)\n",
+                  p.value("name", std::string()).c_str(), sigmaText(p["value"]).c_str(),
+                  sigmaText(p["sigma"]).c_str(), sigmaText(p["sigma_predicted"]).c_str());
+    }
+    for (const json& e : g.value("not_warranted", json::array()))
+      std::printf("    %s: not warranted by both runs\n", e.get<std::string>().c_str());
+  }
+}
+
 void printEstimate(const json& estimate) {
   const json params =
       estimate.contains("parameters") ? estimate["parameters"] : json(json::value_t::object);
@@ -285,6 +359,12 @@ bool printPoints(const ResultsOptions& o, std::int64_t run,
 // The human report of one run's results (not its points); returns the verdict.
 Outcome printRun(const ResultsOptions& o, std::int64_t run, const StoredResultRow& last,
                  std::map<std::string, json>& k) {
+  if (k.count("follow_up_joint") && !k.count("report")) {  // a follow-up run: no calibration
+    std::printf("run %lld: IMU %s, follow-up run (no calibration of its own)\n",
+                static_cast<long long>(run), last.imu_serial.c_str());
+    printFollowUpJoint(k["follow_up_joint"]);
+    return Outcome::kUndetermined;
+  }
   const json report = k.count("report") ? k["report"] : json::object();
   const std::string method = report.value("method", std::string("?"));
   std::printf("run %lld: IMU %s at %.1f degC, %s calibration%s\n", static_cast<long long>(run),
@@ -294,6 +374,8 @@ Outcome printRun(const ResultsOptions& o, std::int64_t run, const StoredResultRo
   if (report.contains("estimate")) printEstimate(report["estimate"]);
   if (k.count("verdict")) printVerdict(k["verdict"]);
   if (k.count("explain")) printExplain(k["explain"]);
+  if (k.count("follow_up")) printFollowUp(static_cast<long long>(run), k["follow_up"]);
+  if (k.count("follow_up_joint")) printFollowUpJoint(k["follow_up_joint"]);
   if (!o.coefficients.empty()) std::cout << "coefficients written to " << o.coefficients << "\n";
   Outcome out = k.count("verdict") ? verdictOutcome(k["verdict"]) : Outcome::kUndetermined;
   if (!o.truth.empty()) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 
 #include "nav/rotation.h"
@@ -128,6 +129,33 @@ TEST(BenchFile, LabDatabaseWithoutCredentials) {
   EXPECT_FALSE(parse(kGood + "\n[lab]\ndatabase = \"postgresql:///lab\"\npassword = \"x\"\n", typo)
                    .has_value());
   EXPECT_NE(typo.str().find("unknown key \"password\" in [lab]"), std::string::npos) << typo.str();
+}
+
+// Issue 27 item 3: [explain] follow_up, default "propose"; another value is refused at its
+// line with the values it may take.
+TEST(BenchFile, ExplainFollowUpPolicy) {
+  io::Diagnostics diag("bench.toml");
+  auto b = parse(kGood, diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_EQ(b->explain.follow_up, FollowUpPolicy::kPropose);
+  for (const char* v : {"off", "propose", "queue"}) {
+    b = parse(kGood + "\n[explain]\nfollow_up = \"" + v + "\"\n", diag);
+    ASSERT_TRUE(b.has_value()) << diag.str();
+    EXPECT_STREQ(followUpPolicyName(b->explain.follow_up), v);
+  }
+  io::Diagnostics bad("bench.toml");
+  const std::string text = kGood + "\n[explain]\nfollow_up = \"always\"\n";
+  EXPECT_FALSE(parse(text, bad).has_value());
+  const int line = static_cast<int>(std::count(text.begin(), text.end(), '\n'));
+  EXPECT_NE(bad.str().find("bench.toml:" + std::to_string(line) + ":"), std::string::npos)
+      << bad.str();
+  EXPECT_NE(bad.str().find("follow_up must be \"off\", \"propose\" or \"queue\""),
+            std::string::npos)
+      << bad.str();
+  io::Diagnostics typo("bench.toml");
+  EXPECT_FALSE(parse(kGood + "\n[explain]\nfollowup = \"off\"\n", typo).has_value());
+  EXPECT_NE(typo.str().find("unknown key \"followup\" in [explain]"), std::string::npos)
+      << typo.str();
 }
 
 // Issue 28 item 7: the gap in the table readings that re-runs a step, default 0.2 s.

@@ -154,6 +154,9 @@ TEST(ControlProtocol, QueueCommands) {
   EXPECT_EQ(std::get<QueueMoveArgs>(r.args).position, 2);
   r = parseOk(R"({"cmd":"queue_remove","entry":3})");
   EXPECT_EQ(std::get<QueueRemoveArgs>(r.args).entry, 3);
+  r = parseOk(R"({"cmd":"queue_accept","run":41})");
+  EXPECT_EQ(r.command, Command::kQueueAccept);
+  EXPECT_EQ(std::get<QueueAcceptArgs>(r.args).run, 41);
   for (const auto& [name, cmd] : {std::pair{"queue_list", Command::kQueueList},
                                   std::pair{"queue_resume", Command::kQueueResume}}) {
     r = parseOk(std::string("{\"cmd\":\"") + name + "\"}");
@@ -174,6 +177,8 @@ TEST(ControlProtocol, QueueCommands) {
       {R"({"cmd":"queue_remove","entry":"3"})", "entry: must be an integer queue entry id"},
       {R"({"cmd":"queue_remove","entry":3,"position":1})", "position: unknown field of command"},
       {R"({"cmd":"queue_list","entry":3})", "entry: unknown field of command"},
+      {R"({"cmd":"queue_accept"})", "run: missing"},
+      {R"({"cmd":"queue_accept","run":2,"entry":3})", "entry: unknown field of command"},
   };
   expectBadArguments(cases);
 }

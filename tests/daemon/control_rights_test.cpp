@@ -34,9 +34,9 @@ std::vector<std::pair<PeerCredentials, std::vector<gid_t>>> membersOf(gid_t g) {
   return {{peer(kUser, g), {g}}, {peer(kUser, kOtherGid), {kOtherGid, g}}};
 }
 
-const Command kCommands[] = {Command::kStart,       Command::kPause,      Command::kResume,
-                             Command::kAbort,       Command::kRearm,      Command::kQueueMove,
-                             Command::kQueueRemove, Command::kQueueResume};
+const Command kCommands[] = {Command::kStart,       Command::kPause,       Command::kResume,
+                             Command::kAbort,       Command::kRearm,       Command::kQueueMove,
+                             Command::kQueueRemove, Command::kQueueResume, Command::kQueueAccept};
 const Command kReads[] = {Command::kStatus,       Command::kSubscribe, Command::kUnsubscribe,
                           Command::kResults,      Command::kExport,    Command::kListPlans,
                           Command::kValidatePlan, Command::kQueueList};

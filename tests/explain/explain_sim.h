@@ -10,6 +10,9 @@
 #include "calib/explain.h"
 #include "calib/explain_baseline.h"
 #include "calib/simulator.h"
+#include "plans/expand.h"
+#include "plans/plan.h"
+#include "plans/validator.h"
 #include "test_direct_sim.h"
 #include "test_indirect_plan_loader.h"
 
@@ -56,6 +59,42 @@ inline ExplainInput simulatedExplainInput(const SimulatedRecording& rec) {
 inline ExplainResult explainSimulated(const SimulatedRecording& rec,
                                       const ExplainOptions& options = {}) {
   return explainRecording(simulatedExplainInput(rec), options);
+}
+
+// A plan file validated and expanded (the test fails when it does not).
+inline Motion planFileMotion(const std::string& path) {
+  io::Diagnostics diag(path);
+  auto plan = plans::loadPlanFile(path, diag);
+  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
+  if (!plan) return {};
+  plans::ExpandResult r = plans::expand(*plan);
+  EXPECT_TRUE(r.status.ok) << r.status.message;
+  return r.motion;
+}
+
+// The analysis with the sensor coefficients given (a level recording cannot calibrate them).
+inline ExplainInput givenBaseline(const SimulatedRecording& rec) {
+  ExplainInput in;
+  in.geometry = rec.geometry;
+  in.site = rec.site;
+  in.imu = rec.sim.imu;
+  in.table = rec.sim.table;
+  in.segments = rec.sim.segments;
+  in.baseline.values.sensors = exampleSensors();
+  in.baseline.values.table_kind = rec.geometry.kind;
+  in.baseline_method = "given";
+  in.baseline_from_this_recording = false;
+  return in;
+}
+
+// The level recording sees the horizontal accelerometer and gyro terms only weakly (one axis
+// up): the joint refit wanders along them, beyond the given-coefficient check meant for
+// another unit's file. The check is opened for it; the proposal starts from the given values.
+inline ExplainOptions levelOptions() {
+  ExplainOptions eo;
+  eo.given_max_scale = eo.given_max_misalignment = 1.0;
+  eo.given_max_accel_bias = eo.given_max_gyro_bias = 1.0;
+  return eo;
 }
 
 inline std::string summary(const ExplainResult& r) {

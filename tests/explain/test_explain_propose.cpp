@@ -43,39 +43,7 @@ const ExplainAccepted* accepted(const ExplainResult& r, const std::string& id) {
 }
 
 Motion testPlanMotion(const std::string& name) {
-  const std::string path = std::string(IMUBENCH_TEST_PLAN_DIR) + "/" + name + ".toml";
-  io::Diagnostics diag(path);
-  auto plan = plans::loadPlanFile(path, diag);
-  EXPECT_TRUE(plan && plans::validatePlan(*plan, diag)) << diag.str();
-  if (!plan) return {};
-  plans::ExpandResult r = plans::expand(*plan);
-  EXPECT_TRUE(r.status.ok) << r.status.message;
-  return r.motion;
-}
-
-// The analysis with the sensor coefficients given (the level recording cannot calibrate them).
-ExplainInput givenBaseline(const SimulatedRecording& rec) {
-  ExplainInput in;
-  in.geometry = rec.geometry;
-  in.site = rec.site;
-  in.imu = rec.sim.imu;
-  in.table = rec.sim.table;
-  in.segments = rec.sim.segments;
-  in.baseline.values.sensors = exampleSensors();
-  in.baseline.values.table_kind = rec.geometry.kind;
-  in.baseline_method = "given";
-  in.baseline_from_this_recording = false;
-  return in;
-}
-
-// The level recording sees the horizontal accelerometer and gyro terms only weakly (one axis
-// up): the joint refit wanders along them, beyond the given-coefficient check meant for
-// another unit's file. The check is opened for it; the proposal starts from the given values.
-ExplainOptions levelOptions() {
-  ExplainOptions eo;
-  eo.given_max_scale = eo.given_max_misalignment = 1.0;
-  eo.given_max_accel_bias = eo.given_max_gyro_bias = 1.0;
-  return eo;
+  return planFileMotion(std::string(IMUBENCH_TEST_PLAN_DIR) + "/" + name + ".toml");
 }
 
 bool reportedPair(const ExplainResult& r, const std::string& a, const std::string& b) {

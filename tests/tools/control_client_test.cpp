@@ -381,6 +381,31 @@ json eventLine(const std::string& line) {
   return json::parse(line);
 }
 
+// Issue 27 item 3: the follow-up events (daemon/follow_up.h) as watch prints them.
+TEST(WatchState, ShowsTheFollowUpAndItsVerdict) {
+  WatchState s;
+  std::vector<std::string> notes;
+  applyEvent(s, json::parse(R"({"event":"follow_up","topic":"run","run":2,"status":"proposed",
+      "summary":"follow-up proposed: plan 'follow_up_of_run_2' (732 s) for base_tilt + nonorthogonality"})"),
+             &notes);
+  applyEvent(s, json::parse(R"({"event":"follow_up","topic":"run","run":3,"status":"refused",
+      "summary":"follow-up refused: mounting: no plan"})"),
+             &notes);
+  applyEvent(s, json::parse(R"({"event":"follow_up_verdict","topic":"run","run":4,"origin_run":2,
+      "ok":true,"summary":"base_tilt + nonorthogonality: resolved"})"),
+             &notes);
+  applyEvent(s, json::parse(R"({"event":"follow_up_verdict","topic":"run","run":5,"origin_run":2,
+      "ok":false,"summary":"joint explain: refused"})"),
+             &notes);
+  const std::vector<std::string> want = {
+      "run 2: follow-up proposed: plan 'follow_up_of_run_2' (732 s) for base_tilt + "
+      "nonorthogonality (imubench results 2; imubench queue accept 2)",
+      "run 3: follow-up refused: mounting: no plan",
+      "run 4 (follow-up of run 2): base_tilt + nonorthogonality: resolved",
+      "run 5 (follow-up of run 2): joint analysis failed: joint explain: refused"};
+  EXPECT_EQ(notes, want);
+}
+
 TEST(WatchState, FoldsStatusAndEvents) {
   WatchState s;
   applyStatus(s, runningStatus(3, 45, "run01_x_p1", 0.31, 812.5));

@@ -49,6 +49,7 @@ Replies (the "result" object):
     export                       {"run", "dir", "imu_samples"}
     queue_list, queue_move,      {"queue": [{"entry", "position", "plan", "name", "label",
       queue_remove                           "added_unix_s"}]}
+    queue_accept(run)            {"queued": {"entry", "position", "plan"}}
     TABLE = {"interlock": "closed"|"open"|"tripped", "estop", "fault", "state", ["error"],
              ["angles_deg"], ["moving"]}
 
@@ -69,6 +70,10 @@ Events ({"event": name, "topic": topic, ...fields}):
                                    "summary"}
                    results        {"run", "calibrated", "pass"}
                    resumed        {"run", "from_step"}
+                   follow_up      {"run", "status": "proposed"|"refused", "summary", ["plan"],
+                                   ["duration_s"], "groups": [{"effects", "resolved", "why"}]}
+                   follow_up_verdict {"run", "origin_run", "ok", "summary",
+                                   "groups": [{"effects", "verdict"}]}
     topic status:  progress       {"run", "state", "progress", "eta_s", "step", "label"}
 step is the 0-based step index; a run has ended when its state is finished (completed unless
 "exit" says otherwise), faulted, aborted or interrupted.
@@ -436,6 +441,11 @@ class Client:
     def queue_resume(self):
         """Starts the queue's head now (no run going): the start result plus "entry"."""
         return self.call("queue_resume")
+
+    def queue_accept(self, run):
+        """Queues the follow-up plan explain proposed at run's end (its "follow_up" result):
+        {"queued": {"entry", "position", "plan"}}."""
+        return self.call("queue_accept", run=run)
 
     def results(self, run=None):
         return self.call("results", run=run) if run is not None else self.call("results")
