@@ -25,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/model/motion.h"
 #include "drivers/device_errors.h"
 #include "drivers/table.h"
 

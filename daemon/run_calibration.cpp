@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "calib/calibration_result.h"
-#include "calib/calibration_service.h"
+#include "calib/service/calibration_service.h"
 #include "calib/truth_comparison.h"
 #include "io/sim_recording.h"
 #include "nav/rotation.h"

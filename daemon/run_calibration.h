@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/bench_truth.h"
 #include "calib/fit_quality.h"
-#include "calib/status.h"
 #include "daemon/bench_file.h"
 #include "io/recording.h"
 #include "plans/plan.h"

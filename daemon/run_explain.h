@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "calib/explain.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/explain/explain.h"
 #include "daemon/run_calibration.h"
 #include "io/recording.h"
 #include "plans/plan.h"

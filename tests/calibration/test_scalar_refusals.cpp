@@ -7,7 +7,7 @@
 
 #include <utility>
 
-#include "calib/scalar_calibration.h"
+#include "calib/scalar/scalar_calibration.h"
 #include "io/import_real.h"
 
 namespace imubench {

@@ -7,8 +7,8 @@
 #include <cstdio>
 #include <string>
 
-#include "calib/explain.h"
-#include "calib/explain_baseline.h"
+#include "calib/explain/explain.h"
+#include "calib/explain/explain_baseline.h"
 #include "calib/simulator.h"
 #include "test_direct_sim.h"
 #include "test_indirect_plan_loader.h"
