@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "calib/effects.h"
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "calib/sensor_model.h"
 #include "calib/table_model.h"
 

@@ -19,7 +19,7 @@
 #include "calib/bench_truth.h"
 #include "calib/calibration_result.h"
 #include "calib/fit_quality.h"
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "calib/recording_view.h"
 #include "calib/segment_check.h"
 #include "calib/simulator.h"
@@ -79,7 +79,7 @@ struct DirectCalibrationOptions {
   // sensors whose bias would otherwise absorb it pose by pose).
   bool use_earth_rate = true;
   // Table errors known beforehand (a certificate, or the navigation-based refinement's
-  // estimate of base tilt and nonorthogonality, calib/bench_calibration.h): the chain uses
+  // estimate of base tilt and nonorthogonality, calib/indirect/bench_calibration.h): the chain uses
   // them instead of the nominal table. Default: none (the seed's direct calibration).
   TableErrors known_table_errors;
   // Refusals of bad recordings: gaps, non-finite values, samples at the IMU's range.
@@ -131,7 +131,7 @@ SigmaCheck jackknifeDirect(const RecordingView& input, const DirectCalibrationOp
 // One row of the linear model above as calibrateDirect builds it: the mean reading of a static
 // position (an accelerometer and a gyro row) or of a rate run (a gyro row), the input it was
 // taken at and the standard error of the mean. For estimators that fit the rows otherwise
-// (the joint thermal fit, calib/thermal_fit.h: each row at its own temperature).
+// (the joint thermal fit, calib/thermal/thermal_fit.h: each row at its own temperature).
 struct DirectObservation {
   bool accel = false;     // accelerometer row (static); else gyro (static or rate run)
   bool rotation = false;  // rate run

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/bench_truth.h"
-#include "calib/status.h"
 
 namespace imubench::calib {
 
@@ -21,7 +21,7 @@ enum class FitStatusCode {
   kUnusable,  // a result exists but must not be used (see message and reasons)
 };
 
-// The one Status (calib/status.h) with the calibrators' code and evidence: ok exactly when
+// The one Status (base/status.h) with the calibrators' code and evidence: ok exactly when
 // the code is kUsable; message is one line saying why not ("" when usable).
 struct FitStatus : Status {
   FitStatusCode code = FitStatusCode::kUsable;

@@ -278,7 +278,7 @@ std::vector<T> measure(const PlanSegments& segs, TableKind kind, const T* x, con
     }
     return out;
   }
-  // Navigation-based, as calib/indirect_calibration.h measures: at every hold the solution
+  // Navigation-based, as calib/indirect/indirect_calibration.h measures: at every hold the solution
   // started from the nominal table setting resolves the specific force and the Earth rate in
   // L (horizontal apparent acceleration, vertical against gravity, rate against w_ie)...
   for (const TableAngles& a : segs.statics) {

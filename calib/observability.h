@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/model/motion.h"
 #include "nav/earth.h"
 
 namespace imubench::calib {

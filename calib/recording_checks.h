@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/recording_view.h"
 #include "calib/sensor_model.h"
 #include "calib/static_detection.h"
-#include "calib/status.h"
 
 namespace imubench::calib {
 

@@ -6,7 +6,7 @@
 
 #include <span>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "calib/simulator.h"
 #include "calib/table_model.h"
 #include "nav/earth.h"

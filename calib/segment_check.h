@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "calib/simulator.h"
 
 namespace imubench::calib {

@@ -37,12 +37,12 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/bench_truth.h"
 #include "calib/effects.h"
+#include "calib/model/motion.h"
 #include "calib/model/thermal_coefficients.h"
-#include "calib/motion.h"
 #include "calib/noise.h"
-#include "calib/status.h"
 #include "calib/table_model.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/model/motion.h"
 #include "nav/imu_sample.h"
 #include "nav/rotation.h"
 
@@ -54,7 +54,7 @@ enum class RecordingStatusCode {
 
 const char* recordingStatusName(RecordingStatusCode code);
 
-// The one Status (calib/status.h) with the recording checks' code: ok exactly when the code is
+// The one Status (base/status.h) with the recording checks' code: ok exactly when the code is
 // kOk; otherwise message names where (sample index / time) and why.
 struct RecordingCheck : Status {
   RecordingStatusCode code = RecordingStatusCode::kOk;

@@ -8,7 +8,7 @@
 // simulator's kinematics are exact. Set first_order_errors to evaluate the interchange chain
 // literally (C_LB is then not orthonormal; kinematics still use the exact rotations).
 //
-// Angles: the motion's axis angles are the encoder readings (nominal angles, calib/motion.h);
+// Angles: the motion's axis angles are the encoder readings (nominal angles, calib/model/motion.h);
 // the physical rotation is reading + encoder zero. Axis order: two-axis [outer, inner],
 // three-axis [outer, middle, inner]; `middle` is unused (0) for a two-axis table.
 #pragma once
@@ -16,8 +16,8 @@
 #include <array>
 #include <string>
 
+#include "calib/model/motion.h"
 #include "calib/model/table_chain.h"
-#include "calib/motion.h"
 #include "nav/rotation.h"
 
 namespace imubench::calib {
@@ -74,7 +74,7 @@ struct TableState {
   TableAngles angles() const { return {outer.angle, middle.angle, inner.angle}; }
 };
 
-// State of all axes of a Motion at time t (axis order of calib/motion.h mapped to names).
+// State of all axes of a Motion at time t (axis order of calib/model/motion.h mapped to names).
 TableState tableStateAt(const Motion& motion, double t);
 // The same from a per-axis array in motion.h order (2 or 3 entries).
 TableAngles tableAnglesFromAxes(TableKind kind, const double* axis_angles);

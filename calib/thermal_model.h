@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/model/thermal_coefficients.h"
 #include "calib/sensor_model.h"
-#include "calib/status.h"
 #include "nav/imu_sample.h"
 
 namespace imubench::calib {

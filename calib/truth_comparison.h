@@ -3,7 +3,7 @@
 //   misalignments, base tilt, nonorthogonality within 3 arcsec; scale factors within 10 ppm;
 //   biases within 2 sigma (a 95 % statement: about one bias in twenty lies outside by chance).
 // The truth must first be put into the frame the method's coefficients refer to (for the
-// navigation-based method toGyroReferenced(), calib/indirect_calibration.h): comparing raw
+// navigation-based method toGyroReferenced(), calib/indirect/indirect_calibration.h): comparing raw
 // misalignments with gyro-referenced ones would blame the calibration for the mounting.
 // Pure: value types in, value types out.
 #pragma once

@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/status.h"
+#include "base/status.h"
 #include "daemon/control_protocol.h"
 
 namespace imubench::daemon {

@@ -44,7 +44,7 @@
 #include <string>
 #include <string_view>
 
-#include "calib/status.h"
+#include "base/status.h"
 #include "daemon/control_protocol.h"
 #include "daemon/control_rights.h"
 #include "daemon/event_loop.h"

@@ -16,7 +16,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include "calib/status.h"
+#include "base/status.h"
 
 namespace imubench::daemon {
 

@@ -1,6 +1,6 @@
 // The follow-up experiment in the daemon (issue 27 item 3): when a run's end-of-plan analysis
 // (daemon/run_explain.h) reports groups its recording cannot separate, the plan that separates
-// them is designed (calib/explain_propose.h, within the bench's [table] limits) and stored with
+// them is designed (calib/explain/explain_propose.h, within the bench's [table] limits) and stored with
 // the run's results as a "follow_up" result; the bench file's [explain] follow_up policy says
 // whether it is also queued. When the follow-up run completes, one model over both runs
 // (calib::explainRecordings) says per group whether it is resolved, stored with the follow-up's
@@ -26,8 +26,8 @@
 #include <optional>
 #include <string>
 
-#include "calib/explain.h"
-#include "calib/explain_propose.h"
+#include "calib/explain/explain.h"
+#include "calib/explain/explain_propose.h"
 #include "daemon/run_calibration.h"
 #include "io/recording.h"
 #include "plans/plan.h"
@@ -43,7 +43,7 @@ struct FollowUpSetup {
   plans::CalibrationMethod method = plans::CalibrationMethod::kNone;
   std::optional<std::int64_t> direct_run;  // kPipeline: the direct plan's run
   // The bench's [table] max_rate / max_accel (never looser than the device's) and the search's
-  // defaults (calib/explain_propose.h).
+  // defaults (calib/explain/explain_propose.h).
   calib::ProposeOptions propose;
 };
 

@@ -23,9 +23,9 @@
 #include <string>
 #include <vector>
 
-#include "calib/explain.h"
-#include "calib/explain_propose.h"
-#include "calib/motion.h"
+#include "calib/explain/explain.h"
+#include "calib/explain/explain_propose.h"
+#include "calib/model/motion.h"
 #include "daemon/bench_file.h"
 #include "daemon/off_loop.h"
 #include "daemon/run_calibration.h"

@@ -10,8 +10,8 @@
 
 #include <string>
 
-#include "calib/motion.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/model/motion.h"
 #include "daemon/bench_file.h"
 #include "plans/plan.h"
 

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/status.h"
+#include "base/status.h"
 #include "daemon/event_loop.h"
 #include "daemon/off_loop.h"
 

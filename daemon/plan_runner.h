@@ -25,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/model/motion.h"
 #include "drivers/device_errors.h"
 #include "drivers/table.h"
 
@@ -94,7 +94,7 @@ int resumeStep(const std::vector<RunStep>& steps, int last_finished);
 // Where a run goes on after a gap in its recording (the daemon was down, the IMU restarted or
 // went silent) that came after the stored segment of step `last_kept` (-1: none stored yet).
 // No rotation may touch a gap: the calibrators integrate a rotation from inside the hold before
-// it to inside the hold after it (calib/indirect_calibration.h run_pad_s, adjacency_tolerance_s;
+// it to inside the hold after it (calib/indirect/indirect_calibration.h run_pad_s, adjacency_tolerance_s;
 // calib/static_detection.h checkIncrements refuses a gap next to a rotation). So
 //   - a rotation stored right before the gap is void (its hold after is lost): it runs again,
 //     and every step after it; first_void is the first step whose stored segment is discarded

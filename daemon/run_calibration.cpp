@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "calib/calibration_result.h"
-#include "calib/calibration_service.h"
+#include "calib/service/calibration_service.h"
 #include "calib/truth_comparison.h"
 #include "io/sim_recording.h"
 #include "nav/rotation.h"
@@ -42,7 +42,7 @@ json indirectReport(const calib::CalibrationResult& r) {
           {"warnings", r.warnings}};
 }
 
-// The plan's method as the calibration service's request (calib/calibration_service.h).
+// The plan's method as the calibration service's request (calib/service/calibration_service.h).
 calib::ServiceMethod serviceMethod(plans::CalibrationMethod method) {
   return method == plans::CalibrationMethod::kDirect ? calib::ServiceMethod::kDirect
                                                      : calib::ServiceMethod::kNavigation;

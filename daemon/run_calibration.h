@@ -1,6 +1,6 @@
 // The calibration of a bench run as the daemon runs it: the plan's method
 // (plans::CalibrationMethod) over the run's recording (and, for the pipeline, the recording of
-// the direct plan's run), through the one calibration service (calib/calibration_service.h)
+// the direct plan's run), through the one calibration service (calib/service/calibration_service.h)
 // the CLI and explain's baseline call too; then the pass/fail verdict against
 // the bench file's acceptance limits. Used for the online estimates during a run (on a part of
 // the recording) and for the full calibration at its end. Pure apart from nothing: value
@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/bench_truth.h"
 #include "calib/fit_quality.h"
-#include "calib/status.h"
 #include "daemon/bench_file.h"
 #include "io/recording.h"
 #include "plans/plan.h"

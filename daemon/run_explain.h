@@ -1,5 +1,5 @@
 // The missing-physics analysis of a completed run as the daemon runs it (issue 14 item 9,
-// issue 15 item 2): calib's explain (calib/explain.h) on the run's recording, starting from the
+// issue 15 item 2): calib's explain (calib/explain/explain.h) on the run's recording, starting from the
 // run's final calibration — the coefficients the plan's method estimated, and the table errors
 // it estimated — so the report says what that calibration left in the residuals. Runs on a
 // worker thread with the final calibration (daemon/online_engine.h finalCalibration). Pure:
@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "calib/explain.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/explain/explain.h"
 #include "daemon/follow_up.h"
 #include "daemon/run_calibration.h"
 #include "io/recording.h"

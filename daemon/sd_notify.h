@@ -8,7 +8,7 @@
 #include <optional>
 #include <string_view>
 
-#include "calib/status.h"
+#include "base/status.h"
 
 namespace imubench::daemon {
 

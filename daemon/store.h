@@ -22,7 +22,7 @@
 #include <string_view>
 #include <vector>
 
-#include "calib/status.h"
+#include "base/status.h"
 #include "io/recording.h"
 
 namespace imubench::daemon {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/status.h"
+#include "base/status.h"
 #include "daemon/plan_runner.h"
 #include "io/recording.h"
 

@@ -1,12 +1,12 @@
 // Device state shared by every device family. A driver call returns imubench::Status
-// (calib/status.h) naming the device, the request and why, so callers check it instead of
+// (base/status.h) naming the device, the request and why, so callers check it instead of
 // catching exceptions. External input never crashes. unixTimeS stamps readings.
 #pragma once
 
 #include <functional>
 #include <string>
 
-#include "calib/status.h"
+#include "base/status.h"
 
 namespace imubench::drivers {
 

@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "io/toml_diagnostics.h"
 
 namespace imubench::drivers {

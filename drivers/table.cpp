@@ -2,8 +2,6 @@
 
 #include <cmath>
 
-#include "drivers/table_modbus.h"
-#include "drivers/table_serial.h"
 #include "io/enum_names.h"
 #include "nav/rotation.h"
 
@@ -17,13 +15,6 @@ constexpr io::Named<AxisMode> kAxisModeNames[] = {
 
 const char* axisModeName(AxisMode m) {
   return io::nameOf(kAxisModeNames, m, "?");
-}
-
-std::unique_ptr<TableDriver> makeTableDriver(const TableDeviceSpec& spec, EventSink sink) {
-  if (spec.transport.kind == TransportKind::kSerialScpi) {
-    return std::make_unique<SerialTable>(spec, std::move(sink));
-  }
-  return std::make_unique<ModbusTable>(spec, std::move(sink));
 }
 
 Status checkTableMotion(const TableDeviceSpec& spec, uint32_t raw, const EventSink& sink,

@@ -84,7 +84,8 @@ class TableDriver {
   virtual void setSingleAttempt(bool on) = 0;
 };
 
-// Makes the driver the device file's transport asks for (not yet connected).
+// Makes the driver the device file's transport asks for (not yet connected;
+// drivers/table_factory.cpp, the one file that knows both implementations).
 std::unique_ptr<TableDriver> makeTableDriver(const TableDeviceSpec& spec, EventSink sink);
 
 // Shared argument checks (axis index, limits) used by every implementation.

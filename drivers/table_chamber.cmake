@@ -8,6 +8,7 @@ target_sources(imubench_drivers PRIVATE
   serial_port.cpp
   serial_pty.cpp
   table.cpp
+  table_factory.cpp
   table_modbus.cpp
   table_serial.cpp
   chamber_modbus.cpp

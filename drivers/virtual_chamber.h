@@ -9,8 +9,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "calib/model/motion.h"
 #include "calib/model/thermal_lag.h"
-#include "calib/motion.h"
 #include "drivers/device_file.h"
 
 namespace imubench::drivers {

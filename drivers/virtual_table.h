@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "drivers/device_file.h"
 #include "drivers/table.h"
 

@@ -8,7 +8,7 @@
 #include <mutex>
 #include <utility>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "drivers/virtual_chamber.h"
 #include "drivers/virtual_table.h"
 

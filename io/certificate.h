@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/bench_truth.h"
-#include "calib/status.h"
 #include "nav/imu_sample.h"
 
 namespace imubench::io {

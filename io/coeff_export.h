@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/bench_truth.h"
-#include "calib/status.h"
 #include "io/thermal_file.h"
 
 namespace imubench::io {

@@ -13,7 +13,7 @@
 #include <string>
 #include <string_view>
 
-#include "calib/status.h"
+#include "base/status.h"
 
 namespace imubench::io {
 

@@ -13,8 +13,8 @@
 
 #include <string>
 
-#include "calib/explain.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/explain/explain.h"
 
 namespace imubench::io {
 

@@ -6,7 +6,7 @@
 #include <functional>
 #include <string>
 
-#include "calib/status.h"
+#include "base/status.h"
 
 namespace imubench::io {
 

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "calib/status.h"
+#include "base/status.h"
 
 namespace imubench::io {
 

@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "calib/static_detection.h"
-#include "calib/status.h"
 
 namespace imubench::io {
 

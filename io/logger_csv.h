@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/status.h"
+#include "base/status.h"
 #include "io/recording.h"
 
 namespace imubench::io {

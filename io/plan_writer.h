@@ -1,13 +1,13 @@
-// Plan TOML (docs/plan-format.md) of a generated plan (calib/explain_propose.h ProposedPlan):
-// [plan], [table] with the limits the plan asks for, and every block's steps under a comment
-// saying what the block is for. The text passes `imubench plan check` when the plan's moves
+// Plan TOML (docs/plan-format.md) of a generated plan (calib/explain/explain_propose.h
+// ProposedPlan): [plan], [table] with the limits the plan asks for, and every block's steps under a
+// comment saying what the block is for. The text passes `imubench plan check` when the plan's moves
 // avoid 180 deg (ProposedPlan's generator splits them).
 #pragma once
 
 #include <optional>
 #include <string>
 
-#include "calib/explain_propose.h"
+#include "calib/explain/explain_propose.h"
 #include "io/toml_diagnostics.h"
 
 namespace imubench::io {

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/model/motion.h"
 #include "nav/earth.h"
 #include "nav/imu_sample.h"
 
@@ -26,8 +26,8 @@ inline constexpr const char* kRecordingFormat = "imubench-csv/1";
 
 struct TableSample {
   double t = 0.0;  // s
-  // Encoder angles, deg, in the axis order of calib/motion.h: two-axis [outer, inner, unused],
-  // three-axis [outer, middle, inner].
+  // Encoder angles, deg, in the axis order of calib/model/motion.h: two-axis [outer, inner,
+  // unused], three-axis [outer, middle, inner].
   std::array<double, 3> angles_deg{0.0, 0.0, 0.0};
 };
 

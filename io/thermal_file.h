@@ -12,8 +12,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "base/status.h"
 #include "calib/model/thermal_coefficients.h"
-#include "calib/status.h"
 
 namespace imubench::io {
 

@@ -14,8 +14,8 @@
 
 #include <string>
 
-#include "calib/status.h"
-#include "calib/thermal_fit.h"
+#include "base/status.h"
+#include "calib/thermal/thermal_fit.h"
 
 namespace imubench::io {
 

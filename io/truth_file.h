@@ -4,8 +4,8 @@
 
 #include <string>
 
+#include "base/status.h"
 #include "calib/bench_truth.h"
-#include "calib/status.h"
 
 namespace imubench::io {
 

@@ -12,7 +12,7 @@
 #include <memory>
 #include <string>
 
-#include "calib/status.h"
+#include "base/status.h"
 
 namespace imubench::lab {
 

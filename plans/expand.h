@@ -41,9 +41,9 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
+#include "calib/model/motion.h"
 #include "calib/model/thermal_lag.h"
-#include "calib/motion.h"
-#include "calib/status.h"
 #include "plans/plan.h"
 
 namespace imubench::plans {

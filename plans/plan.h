@@ -17,7 +17,7 @@
 #include <string_view>
 #include <vector>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "io/toml_diagnostics.h"
 
 namespace imubench::plans {
@@ -139,8 +139,9 @@ struct Step {
 enum class CalibrationMethod {
   kNone,      // no calibration (key absent): the run only records
   kDirect,    // direct calibration of this run (calib/direct_calibration.h)
-  kIndirect,  // navigation-based calibration of this run alone (calib/indirect_calibration.h)
-  kPipeline,  // the production pipeline (calib/bench_calibration.h): this run's navigation
+  kIndirect,  // navigation-based calibration of this run alone
+              // (calib/indirect/indirect_calibration.h)
+  kPipeline,  // the production pipeline (calib/indirect/bench_calibration.h): this run's navigation
               // refinement with the direct part from a completed run of plan `direct_plan`
 };
 const char* calibrationMethodName(CalibrationMethod m);  // "none" | "direct" | ...
@@ -160,7 +161,7 @@ struct Plan {
   std::vector<Step> steps;
 };
 
-// Axis names of a table kind, in the axis order of calib/motion.h.
+// Axis names of a table kind, in the axis order of calib/model/motion.h.
 std::vector<std::string_view> axisNames(calib::TableKind kind);
 std::optional<int> axisIndex(calib::TableKind kind, std::string_view name);
 const char* tableKindName(calib::TableKind kind);  // "two-axis" | "three-axis"

@@ -1,11 +1,11 @@
-// A generated plan (calib/explain_propose.h ProposedPlan) through the one plan path: written
-// as plan TOML (io/plan_writer.h), parsed, validated and expanded like any plan file, so what
-// the proposer evaluates is what `imubench plan check` and the daemon see.
+// A generated plan (calib/explain/explain_propose.h ProposedPlan) through the one plan path:
+// written as plan TOML (io/plan_writer.h), parsed, validated and expanded like any plan file, so
+// what the proposer evaluates is what `imubench plan check` and the daemon see.
 #pragma once
 
-#include "calib/explain_propose.h"
-#include "calib/motion.h"
-#include "calib/status.h"
+#include "base/status.h"
+#include "calib/explain/explain_propose.h"
+#include "calib/model/motion.h"
 
 namespace imubench::plans {
 

@@ -15,7 +15,7 @@
 #include <string_view>
 #include <vector>
 
-#include "calib/status.h"
+#include "base/status.h"
 #include "io/toml_diagnostics.h"
 #include "plans/plan.h"
 

@@ -18,19 +18,20 @@
 // recording's IMU serial and mean temperature (IMU temperature, else the chamber's).
 // Reads an imubench-csv/1 recording (or, with --format, a third-party recording without table
 // angles: scalar calibration only) and calibrates it through the one calibration service
-// (calib/calibration_service.h), which the daemon and explain's baseline call too. Without
+// (calib/service/calibration_service.h), which the daemon and explain's baseline call too. Without
 // --method the service picks what the motion supports and says why: holds only -> direct;
 // holds and rotation runs -> direct when the direct calibration determines every coefficient
 // and is usable, else the navigation-based calibration, which estimates the table errors the
 // direct calibration takes as nominal. The methods:
 //   direct    the table-based direct calibration (calib/direct_calibration.h);
-//   indirect  the navigation-based calibration (calib/indirect_calibration.h), started from the
+//   indirect  the navigation-based calibration (calib/indirect/indirect_calibration.h), started
+//   from the
 //             direct calibration of the same recording (or --start FILE, a coefficient file);
 //             with --direct DIRECT_DIR (the direct plan's recording of the same device on the
-//             same table) the production pipeline of calib/bench_calibration.h: direct
+//             same table) the production pipeline of calib/indirect/bench_calibration.h: direct
 //             calibration of DIRECT_DIR, refinement over both recordings, second pass when the
 //             table's axes are nonorthogonal;
-//   scalar    the table-free field calibration (calib/scalar_calibration.h).
+//   scalar    the table-free field calibration (calib/scalar/scalar_calibration.h).
 // --method indirect without --start runs the pipeline with DIR as its own direct recording.
 // --table-errors FILE (a coefficient/truth file's "table": the table's certification data)
 // gives the table errors known beforehand to every method: direct calibration takes the
@@ -49,11 +50,11 @@
 #include <memory>
 #include <optional>
 
-#include "calib/calibration_service.h"
 #include "calib/fit_quality.h"
-#include "calib/scalar_calibration.h"
-#include "calib/scalar_consistency.h"
+#include "calib/scalar/scalar_calibration.h"
+#include "calib/scalar/scalar_consistency.h"
 #include "calib/segment_check.h"
+#include "calib/service/calibration_service.h"
 #include "calib/truth_comparison.h"
 #include "io/import_real.h"
 #include "io/recording.h"
@@ -406,8 +407,9 @@ calib::ServiceMethod serviceMethod(const std::string& method) {
   return calib::ServiceMethod::kAuto;
 }
 
-// Every table-based method through the one calibration service (calib/calibration_service.h).
-// direct: the direct plan's recording when it is another recording than src.
+// Every table-based method through the one calibration service
+// (calib/service/calibration_service.h). direct: the direct plan's recording when it is another
+// recording than src.
 void runService(const CalibrateOptions& o, const ResolvedRecording& src,
                 const ResolvedRecording* direct) {
   std::ostream& info = o.json ? std::cerr : std::cout;

@@ -8,7 +8,7 @@
 #include <sstream>
 #include <vector>
 
-#include "calib/indirect_calibration.h"
+#include "calib/indirect/indirect_calibration.h"
 #include "calib/recording_checks.h"
 #include "io/truth_file.h"
 

@@ -23,7 +23,7 @@
 #include "calib/fit_quality.h"
 #include "calib/noise.h"
 #include "calib/recording_view.h"
-#include "calib/scalar_calibration.h"
+#include "calib/scalar/scalar_calibration.h"
 #include "calib/table_model.h"
 #include "calib/truth_comparison.h"
 #include "io/import_real.h"

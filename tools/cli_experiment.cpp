@@ -1,8 +1,8 @@
 // imubench experiment validation [--benches N] [--seed S] [--out DIR] [--rate HZ]
 //
-// The seed paper's validation experiment (calib/validation_experiment.h): N random simulated
-// benches (table errors 10-60 arcsec, navigation-grade sensors), each calibrated directly (0),
-// refined on the two-axis 12-run plan (2) and on the three-axis plan (3), then navigated
+// The seed paper's validation experiment (calib/indirect/validation_experiment.h): N random
+// simulated benches (table errors 10-60 arcsec, navigation-grade sensors), each calibrated directly
+// (0), refined on the two-axis 12-run plan (2) and on the three-axis plan (3), then navigated
 // through the 8-heading validation with each coefficient set. Prints per bench and aggregate
 // the normalised maxima of eqs. 2-3 and the mean total position error S relative to the
 // direct solution; --out DIR writes per-bench SVG plots of the three S curves, the curves as
@@ -13,7 +13,7 @@
 #include <iostream>
 #include <memory>
 
-#include "calib/validation_experiment.h"
+#include "calib/indirect/validation_experiment.h"
 #include "plans/expand.h"
 #include "plans/plan.h"
 #include "plans/validator.h"
@@ -129,7 +129,7 @@ void runValidation(const ExperimentOptions& o) {
                   b.base_tilt_estimate[i].y() * kRadToArcsec);
     }
     // What the refinements estimate: the base tilt, plus the two-axis outer encoder zero
-    // (a tilt about the outer axis, calib/indirect_calibration.h).
+    // (a tilt about the outer axis, calib/indirect/indirect_calibration.h).
     const Vec2 tilt2 =
         calib::toGyroReferenced(b.truth_two_axis, {calib::TableKind::kTwoAxis, kPi / 2.0})
             .base_tilt;

@@ -14,9 +14,9 @@
 //   imubench explain ../shared/data/real/imutk_xsens_acc.txt --format imutk
 //       --gyro ../shared/data/real/imutk_xsens_gyro.txt --latitude 45.4 --height 12
 //
-// The model-discrepancy analysis (calib/explain.h, docs/explain.md): where the bench's forward
-// model misses the recording, which physics it left out, how much, and how much better the fit
-// is with it. The baseline it starts from:
+// The model-discrepancy analysis (calib/explain/explain.h, docs/explain.md): where the bench's
+// forward model misses the recording, which physics it left out, how much, and how much better the
+// fit is with it. The baseline it starts from:
 //   --coeffs FILE    given coefficients (interchange coefficient file); the recording refits
 //                    them jointly with any accepted effect; a file far from what the recording
 //                    shows (another IMU, another range setting) is refused;
@@ -24,9 +24,9 @@
 //                    navigation-based refinement over both): base tilt and nonorthogonality
 //                    are then part of the baseline;
 //   neither          calibrated from the recording itself with the method its motion supports
-//                    (calib/explain_baseline.h), said on the first lines.
+//                    (calib/explain/explain_baseline.h), said on the first lines.
 // --format imutk|imucal|mikov: a recording without table angles (static poses of unknown attitude):
-// the scalar model (calib/explain_scalar.h) on its static poses.
+// the scalar model (calib/explain/explain_scalar.h) on its static poses.
 // --gyro-range DPS / --accel-range G (every --format): samples whose calibrated rate or
 // specific force reaches the IMU's range are clipped: refused (exit 1, the sample named).
 // Exit codes (the same as `imubench calibrate`): 0 the analysis ran (whether or not it found
@@ -54,9 +54,9 @@
 #include <string>
 #include <vector>
 
-#include "calib/explain.h"
-#include "calib/explain_baseline.h"
-#include "calib/explain_scalar.h"
+#include "calib/explain/explain.h"
+#include "calib/explain/explain_baseline.h"
+#include "calib/explain/explain_scalar.h"
 #include "calib/recording_checks.h"
 #include "io/explain_report.h"
 #include "io/import_real.h"

@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <fstream>
 
-#include "calib/explain_propose.h"
+#include "calib/explain/explain_propose.h"
 #include "io/plan_writer.h"
 #include "plans/proposal.h"
 #include "plans/validator.h"

@@ -1,12 +1,12 @@
 // `imubench explain RUN_OR_DIR --propose-plan OUT.toml [--bench BENCH.toml] [--max-duration S]
 // [--precision F]` (issue 27 item 1): after the analysis, the plan that separates what it could
-// not (calib/explain_propose.h), printed per group and written as plan TOML.
+// not (calib/explain/explain_propose.h), printed per group and written as plan TOML.
 #pragma once
 
 #include <optional>
 #include <string>
 
-#include "calib/explain.h"
+#include "calib/explain/explain.h"
 
 namespace imubench::tools {
 

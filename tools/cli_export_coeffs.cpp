@@ -12,7 +12,7 @@
 #include <memory>
 #include <string>
 
-#include "calib/explain_noise.h"
+#include "calib/explain/explain_noise.h"
 #include "io/coeff_export.h"
 #include "io/recording.h"
 #include "io/thermal_file.h"

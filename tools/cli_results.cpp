@@ -33,7 +33,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "calib/indirect_calibration.h"
+#include "calib/indirect/indirect_calibration.h"
 #include "calib/truth_comparison.h"
 #include "io/truth_file.h"
 #include "nav/rotation.h"

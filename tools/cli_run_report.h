@@ -6,14 +6,14 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "nav/imu_sample.h"
 
 namespace imubench::tools {
 
 struct RotationSummary {
   std::string label;
-  int axis = -1;           // table axis index (calib/motion.h order)
+  int axis = -1;           // table axis index (calib/model/motion.h order)
   double angle_rad = 0.0;  // commanded signed table rotation
   double duration_s = 0.0;
   Vec3 gyro_angle_rad = Vec3::Zero();  // sum of dtheta over the rotation, per IMU axis

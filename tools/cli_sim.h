@@ -6,7 +6,7 @@
 #include <string>
 
 #include "calib/bench_truth.h"
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "calib/noise.h"
 #include "calib/simulator.h"
 #include "io/recording.h"

@@ -9,8 +9,8 @@
 //     per-point fit (bench/calibration/bench_thermal.cpp);
 //   points: the recording split into temperature points at its soak segments, at each
 //     repetition of a continuous-ramp plan ("up/rep03/..." labels) or into windows spanning at
-//     most --max-span degC (calib/thermal_fit.h), each calibrated directly, the points fitted,
-//     then re-made through that fit --refinements times (calib::fitThermalRuns).
+//     most --max-span degC (calib/thermal/thermal_fit.h), each calibrated directly, the points
+//     fitted, then re-made through that fit --refinements times (calib::fitThermalRuns).
 // Both write an imubench-thermal/1 file; --report DIR also DIR/report.html (io/thermal_report.h):
 // a plot per coefficient against temperature and the calibrated range flagged.
 // Table errors (constant over temperature): joint estimates every one the motion makes
@@ -21,7 +21,7 @@
 //   "observable") to the imubench-thermal/1 file; --method points takes them as given.
 // Refusals (exit 1, naming the file): a recording without temperatures, a single temperature
 // point, recordings of different IMU serials. The gate (exit 3, nothing written, the findings
-// and the `imubench explain` hint): the joint fit unusable (calib/thermal_fit.h: a triad's
+// and the `imubench explain` hint): the joint fit unusable (calib/thermal/thermal_fit.h: a triad's
 // normalised residual far above the noise floor, a coefficient or table error not determined,
 // implausible values).
 #include <algorithm>
@@ -33,8 +33,8 @@
 #include <string>
 #include <vector>
 
-#include "calib/calibration_service.h"
-#include "calib/thermal_fit.h"
+#include "calib/service/calibration_service.h"
+#include "calib/thermal/thermal_fit.h"
 #include "io/recording.h"
 #include "io/sim_recording.h"
 #include "io/thermal_file.h"

@@ -1,9 +1,9 @@
 // Model-discrepancy analysis (`imubench explain`, issue 14) of a 2 kHz recording of the
 // bundled two-axis 12-run plan (plans/library/two_axis_12run.toml, ~30 min): what the CLI does
 // without --coeffs — the baseline calibration the recording's motion supports
-// (calib/explain_baseline.h), the analysis (calib/explain.h), the interchange report. Target:
-// < 10 s on one core. Reports seconds per analysis, its ratio to the 10 s target, and the
-// seconds of each step (baseline_s, bins_s: cutting and predicting the bins alone,
+// (calib/explain/explain_baseline.h), the analysis (calib/explain/explain.h), the interchange
+// report. Target: < 10 s on one core. Reports seconds per analysis, its ratio to the 10 s target,
+// and the seconds of each step (baseline_s, bins_s: cutting and predicting the bins alone,
 // analysis_s: explainRecording in full, json_s) so a slow run says where its time goes, and
 // the process CPU time of the whole (explain_cpu_s, cpu_fraction_of_10s_target): on a shared
 // machine the wall time counts other work too.
@@ -15,9 +15,9 @@
 #include "bench/calibration/plan_fixture.h"
 #include "bench/peak_rss.h"
 #include "calib/effects.h"
-#include "calib/explain.h"
-#include "calib/explain_baseline.h"
-#include "calib/explain_model.h"
+#include "calib/explain/explain.h"
+#include "calib/explain/explain_baseline.h"
+#include "calib/explain/explain_model.h"
 
 namespace {
 

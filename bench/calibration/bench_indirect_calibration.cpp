@@ -2,15 +2,15 @@
 // plan (plans/library/two_axis_12run.toml), navigation-grade noise and table errors. Target:
 // the full calibration in < 10 s on one core. Reports seconds per calibration, the ratio to
 // the recording's duration and to the 10 s target.
-// Also the whole production pipeline (calib/bench_calibration.h) at 2 kHz: direct calibration
-// of the direct plan's recording, refinement over both recordings, and the second pass a
-// nonorthogonal table needs.
+// Also the whole production pipeline (calib/indirect/bench_calibration.h) at 2 kHz: direct
+// calibration of the direct plan's recording, refinement over both recordings, and the second pass
+// a nonorthogonal table needs.
 #include <benchmark/benchmark.h>
 
 #include "bench/calibration/plan_fixture.h"
 #include "bench/peak_rss.h"
-#include "calib/bench_calibration.h"
-#include "calib/indirect_calibration.h"
+#include "calib/indirect/bench_calibration.h"
+#include "calib/indirect/indirect_calibration.h"
 
 namespace {
 

@@ -28,7 +28,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/thermal_fit.h"
+#include "calib/thermal/thermal_fit.h"
 #include "plans/expand.h"
 #include "plans/plan.h"
 #include "plans/validator.h"

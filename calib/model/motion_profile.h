@@ -21,7 +21,7 @@
 #include <cmath>
 #include <vector>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 
 namespace imubench::calib::model {
 

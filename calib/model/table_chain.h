@@ -13,8 +13,8 @@
 // Angles: encoder readings; the physical joint angle is reading + encoder zero.
 #pragma once
 
+#include "calib/model/motion.h"
 #include "calib/model/scalar.h"
-#include "calib/motion.h"
 
 namespace imubench::calib::model {
 

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <random>
 
-#include "calib/bench_calibration.h"
+#include "calib/indirect/bench_calibration.h"
 
 namespace imubench::calib {
 namespace {

@@ -1,4 +1,4 @@
-// The one calibration policy (calib/calibration_service.h): the method the motion supports,
+// The one calibration policy (calib/service/calibration_service.h): the method the motion supports,
 // the start values, what is done with every table error, one gate; and the three-axis
 // schedule whose runs follow a move after a short settle only (no hold before them), on a
 // table with realistic errors.
@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "calib/calibration_service.h"
+#include "calib/service/calibration_service.h"
 #include "calib/simulator.h"
 #include "nav/rotation.h"
 #include "test_direct_sim.h"
@@ -181,8 +181,8 @@ TEST(CalibrationService, ThreeAxisRunsAfterOnlyASettleAreUsedOnARealisticTable) 
   for (const std::string& w : c.refined->warnings) {
     EXPECT_EQ(w.find("no usable hold"), std::string::npos) << w;
   }
-  // The frame-independent truth (calib/indirect_calibration.h): tilt, nonorthogonality with
-  // the middle encoder zero in middle_x.
+  // The frame-independent truth (calib/indirect/indirect_calibration.h): tilt, nonorthogonality
+  // with the middle encoder zero in middle_x.
   BenchTruth truth;
   truth.sensors = exampleSensors();
   truth.table = table;

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <random>
 
-#include "calib/indirect_calibration.h"
+#include "calib/indirect/indirect_calibration.h"
 #include "calib/simulator.h"
 #include "test_indirect_common.h"
 #include "test_indirect_motions.h"

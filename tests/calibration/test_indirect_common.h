@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/indirect_calibration.h"
+#include "calib/indirect/indirect_calibration.h"
 #include "calib/simulator.h"
 
 namespace imubench::calib::testing {

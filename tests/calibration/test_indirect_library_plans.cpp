@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/bench_calibration.h"
+#include "calib/indirect/bench_calibration.h"
 #include "test_indirect_common.h"
 #include "test_indirect_plan_loader.h"
 
@@ -39,7 +39,7 @@ Simulation simulateLibrary(const Bench& bench, const char* plan, std::uint64_t s
 // recording of the same bench (same table, same mounting), so that the parameters the
 // navigation plan never shows (e.g. x up in the 12-run plan) are still estimated with the
 // base tilt modelled.
-// The production pipeline on one table (calib/bench_calibration.h): direct plan -> direct
+// The production pipeline on one table (calib/indirect/bench_calibration.h): direct plan -> direct
 // calibration (0) -> navigation-based refinement over the navigation plan's recording AND the
 // direct plan's recording of the same bench (same table, same mounting), so that the
 // parameters the navigation plan never shows (e.g. x up in the 12-run plan) are still estimated

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "nav/rotation.h"
 
 namespace imubench::calib::testing {

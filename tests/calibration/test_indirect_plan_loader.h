@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "calib/motion.h"
+#include "calib/model/motion.h"
 #include "plans/expand.h"
 #include "plans/plan.h"
 #include "plans/validator.h"

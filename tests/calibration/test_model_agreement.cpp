@@ -5,7 +5,7 @@
 // the three-axis plan.
 #include <gtest/gtest.h>
 
-#include "calib/indirect_calibration.h"
+#include "calib/indirect/indirect_calibration.h"
 #include "calib/observability.h"
 #include "test_direct_sim.h"
 

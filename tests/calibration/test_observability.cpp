@@ -4,7 +4,7 @@
 
 #include <set>
 
-#include "calib/indirect_calibration.h"
+#include "calib/indirect/indirect_calibration.h"
 #include "calib/observability.h"
 #include "test_direct_sim.h"
 

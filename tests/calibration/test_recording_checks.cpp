@@ -8,8 +8,8 @@
 #include <cmath>
 
 #include "calib/recording_checks.h"
-#include "calib/scalar_calibration.h"
-#include "calib/scalar_consistency.h"
+#include "calib/scalar/scalar_calibration.h"
+#include "calib/scalar/scalar_consistency.h"
 #include "calib/truth_comparison.h"
 #include "io/import_real.h"
 

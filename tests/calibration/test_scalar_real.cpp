@@ -7,8 +7,8 @@
 #include <cstdio>
 #include <iostream>
 
-#include "calib/scalar_calibration.h"
-#include "calib/scalar_consistency.h"
+#include "calib/scalar/scalar_calibration.h"
+#include "calib/scalar/scalar_consistency.h"
 #include "io/import_real.h"
 #include "nav/earth.h"
 

@@ -7,7 +7,7 @@
 
 #include <utility>
 
-#include "calib/scalar_calibration.h"
+#include "calib/scalar/scalar_calibration.h"
 #include "io/import_real.h"
 
 namespace imubench {
@@ -60,6 +60,11 @@ TEST(ScalarRefusals, OneOrientationIsRefused) {
   }
   const calib::ScalarCalibrationResult r = calibrate(d);
   ASSERT_FALSE(r.status.ok) << "coefficients from one orientation";
+  // Refused for the geometry: the spliced repeats are one quiet span, one pose where the
+  // accelerometer's 3 scales and 3 biases need six (not a gap, a bad option or a solver failure).
+  EXPECT_EQ(r.status.code, calib::RecordingStatusCode::kTooFewStatics) << r.status.message;
+  EXPECT_NE(r.status.message.find("found 1 static poses, need >= 6"), std::string::npos)
+      << r.status.message;
 }
 
 TEST(ScalarRefusals, FewTiltsDoNotDetermineAnAxis) {
@@ -75,6 +80,11 @@ TEST(ScalarRefusals, FewTiltsDoNotDetermineAnAxis) {
   }
   const calib::ScalarCalibrationResult r = calibrate(d);
   ASSERT_FALSE(r.status.ok) << "coefficients from two faces";
+  // Refused for the poses: the samples kept (z up or down) hold four static poses, fewer
+  // than the six the accelerometer's scales and biases need (not a gap or a solver failure).
+  EXPECT_EQ(r.status.code, calib::RecordingStatusCode::kTooFewStatics) << r.status.message;
+  EXPECT_NE(r.status.message.find("found 4 static poses, need >= 6"), std::string::npos)
+      << r.status.message;
 }
 
 TEST(ScalarRefusals, SixColumnMpuLogCalibrates) {

@@ -6,8 +6,8 @@
 #include <cstdio>
 #include <random>
 
-#include "calib/scalar_calibration.h"
-#include "calib/scalar_consistency.h"
+#include "calib/scalar/scalar_calibration.h"
+#include "calib/scalar/scalar_consistency.h"
 #include "calib/static_detection.h"
 #include "nav/earth.h"
 

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <vector>
 
-#include "calib/validation_experiment.h"
+#include "calib/indirect/validation_experiment.h"
 #include "test_indirect_plan_loader.h"
 
 namespace imubench::calib {

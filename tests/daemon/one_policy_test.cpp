@@ -1,9 +1,9 @@
-// One calibration policy (calib/calibration_service.h): the same recording, written as an
+// One calibration policy (calib/service/calibration_service.h): the same recording, written as an
 // imubench-csv/1 directory, gives identical coefficients through the three front ends that
 // calibrate it: `imubench calibrate DIR --json` (the real CLI process), the daemon's
 // end-of-plan calibration (daemon/run_calibration.h calibrateRun, on the recording read back
-// from the directory) and explain's baseline (calib/explain_baseline.h). Identical means the
-// same values to the last bit the JSON carries (17 significant digits) and the same
+// from the directory) and explain's baseline (calib/explain/explain_baseline.h). Identical means
+// the same values to the last bit the JSON carries (17 significant digits) and the same
 // unobservable flags.
 #include <gtest/gtest.h>
 #include <stdio.h>
@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "calib/explain_baseline.h"
+#include "calib/explain/explain_baseline.h"
 #include "calib/simulator.h"
 #include "daemon/run_calibration.h"
 #include "io/recording.h"

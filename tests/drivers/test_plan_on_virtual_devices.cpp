@@ -9,8 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "calib/model/motion.h"
 #include "calib/model/thermal_lag.h"
-#include "calib/motion.h"
 #include "drivers/virtual_chamber.h"
 #include "drivers/virtual_table.h"
 #include "nav/rotation.h"

@@ -7,8 +7,8 @@
 #include <cstdio>
 #include <string>
 
-#include "calib/explain.h"
-#include "calib/explain_baseline.h"
+#include "calib/explain/explain.h"
+#include "calib/explain/explain_baseline.h"
 #include "calib/simulator.h"
 #include "plans/expand.h"
 #include "plans/plan.h"

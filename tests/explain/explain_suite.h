@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/explain_fit.h"
+#include "calib/explain/explain_fit.h"
 #include "explain_sim.h"
 
 namespace imubench::calib::testing {

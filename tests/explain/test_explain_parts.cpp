@@ -4,9 +4,9 @@
 
 #include <cmath>
 
-#include "calib/explain_fit.h"
-#include "calib/explain_model.h"
-#include "calib/explain_noise.h"
+#include "calib/explain/explain_fit.h"
+#include "calib/explain/explain_model.h"
+#include "calib/explain/explain_noise.h"
 #include "calib/noise.h"
 
 namespace imubench::calib {

@@ -1,5 +1,5 @@
-// explain --propose-plan (calib/explain_propose.h, issue 27 item 1): the proposed plan for what
-// a recording could not separate, checked by explaining a simulated recording of it.
+// explain --propose-plan (calib/explain/explain_propose.h, issue 27 item 1): the proposed plan for
+// what a recording could not separate, checked by explaining a simulated recording of it.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,7 +8,7 @@
 #include <iostream>
 #include <map>
 
-#include "calib/explain_propose.h"
+#include "calib/explain/explain_propose.h"
 #include "explain_sim.h"
 #include "io/plan_writer.h"
 #include "plans/proposal.h"

@@ -1,5 +1,5 @@
-// explain's joint refit (calib/explain_fit.h refitJointly): its Gauss-Newton reaches the same
-// optimum and sigmas as Ceres' Levenberg-Marquardt on the same residuals, and it reports how
+// explain's joint refit (calib/explain/explain_fit.h refitJointly): its Gauss-Newton reaches the
+// same optimum and sigmas as Ceres' Levenberg-Marquardt on the same residuals, and it reports how
 // it ended (converged, or stopped at the iteration limit).
 #include <ceres/ceres.h>
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/explain_fit.h"
+#include "calib/explain/explain_fit.h"
 #include "calib/noise.h"
 
 namespace imubench::calib {

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <iostream>
 
-#include "calib/thermal_fit.h"
+#include "calib/thermal/thermal_fit.h"
 #include "calib/thermal_model.h"
 #include "tests/calibration/test_indirect_plan_loader.h"
 #include "tests/thermal/thermal_sim.h"

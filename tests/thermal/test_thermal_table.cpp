@@ -11,7 +11,7 @@
 #include <cmath>
 #include <string>
 
-#include "calib/thermal_fit.h"
+#include "calib/thermal/thermal_fit.h"
 #include "tests/calibration/test_indirect_plan_loader.h"
 #include "tests/thermal/thermal_sim.h"
 

@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "calib/direct_calibration.h"
+#include "calib/model/motion.h"
 #include "calib/model/thermal_coefficients.h"
 #include "calib/model/thermal_lag.h"
-#include "calib/motion.h"
 #include "calib/sensor_model.h"
 #include "calib/simulator.h"
 #include "calib/thermal_model.h"
