@@ -455,7 +455,7 @@ TableAngles withAxisAngle(TableAngles a, TableKind kind, int axis, double angle)
 // encoders' net turn `phi` from their rest angles `a0`: dense and on the IMU's clock. Encoder
 // samples taken while turning are not used: their stamps carry the table's reply latency,
 // and at 30 deg/s a stamp 0.4 s late turns the Earth rate's direction by 12 deg, which put
-// 0.1-6 arcsec into the gyro misalignments depending on the host's load.
+// 0.06-0.3 arcsec (2-4 sigma) into the gyro misalignments of the e2e runs and this test.
 Vec3 earthRateDuringTurn(const RowContext& c, int axis, const TableAngles& a0, double phi,
                          const Vec3& axis_B, std::size_t first, std::size_t last, const Vec3& dth) {
   const TableKind kind = c.in.geometry.kind;

@@ -152,7 +152,7 @@ TEST(DirectCalibration, GyroMisalignmentsDoNotDependOnTheEncoderReplyLatency) {
   // reading with the IMU time at the reply, late by 0.2-0.6 s here (a loaded host at 20x),
   // and a stalled poll leaves seconds without a reading.
   // The rate runs' Earth-rate input must not follow those stamps (interpolated, they put
-  // 0.1-6 arcsec into the gyro misalignments); at rest the stamps do not matter.
+  // 0.28 arcsec into the gyro misalignments here); at rest the stamps do not matter.
   const SensorModel truth = exampleSensors();
   DirectCalibrationInput in =
       simulateDirect(libraryMotion("direct_two_axis"), truth, {}, NoiseModel::none(), 50.0, 20.0);
