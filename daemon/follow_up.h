@@ -1,7 +1,7 @@
 // The follow-up experiment in the daemon (issue 27 item 3): when a run's end-of-plan analysis
 // (daemon/run_explain.h) reports groups its recording cannot separate, the plan that separates
-// them is designed (calib/explain/explain_propose.h, within the bench's [table] limits) and stored with
-// the run's results as a "follow_up" result; the bench file's [explain] follow_up policy says
+// them is designed (calib/explain/explain_propose.h, within the bench's [table] limits) and stored
+// with the run's results as a "follow_up" result; the bench file's [explain] follow_up policy says
 // whether it is also queued. When the follow-up run completes, one model over both runs
 // (calib::explainRecordings) says per group whether it is resolved, stored with the follow-up's
 // results as a "follow_up_joint" result. proposeFollowUp and jointFollowUp are pure (value types

@@ -94,8 +94,9 @@ int resumeStep(const std::vector<RunStep>& steps, int last_finished);
 // Where a run goes on after a gap in its recording (the daemon was down, the IMU restarted or
 // went silent) that came after the stored segment of step `last_kept` (-1: none stored yet).
 // No rotation may touch a gap: the calibrators integrate a rotation from inside the hold before
-// it to inside the hold after it (calib/indirect/indirect_calibration.h run_pad_s, adjacency_tolerance_s;
-// calib/static_detection.h checkIncrements refuses a gap next to a rotation). So
+// it to inside the hold after it (calib/indirect/indirect_calibration.h run_pad_s,
+// adjacency_tolerance_s; calib/static_detection.h checkIncrements refuses a gap next to a
+// rotation). So
 //   - a rotation stored right before the gap is void (its hold after is lost): it runs again,
 //     and every step after it; first_void is the first step whose stored segment is discarded
 //     (last_kept + 1 when none is);

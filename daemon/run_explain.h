@@ -1,6 +1,6 @@
 // The missing-physics analysis of a completed run as the daemon runs it (issue 14 item 9,
-// issue 15 item 2): calib's explain (calib/explain/explain.h) on the run's recording, starting from the
-// run's final calibration — the coefficients the plan's method estimated, and the table errors
+// issue 15 item 2): calib's explain (calib/explain/explain.h) on the run's recording, starting from
+// the run's final calibration — the coefficients the plan's method estimated, and the table errors
 // it estimated — so the report says what that calibration left in the residuals. Runs on a
 // worker thread with the final calibration (daemon/online_engine.h finalCalibration). Pure:
 // value types in, value types out.
