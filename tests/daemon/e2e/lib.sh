@@ -150,6 +150,20 @@ e2e_py() {
   PYTHONPATH="$SRC/tests/daemon/e2e${PYTHONPATH:+:$PYTHONPATH}" python3 - "$W" "$@"
 }
 
+# The navigation-grade bench of the calibrating e2e tests: the IMU layout at 5 ms (E2E_IMU_LAYOUT),
+# its truth (TRUTH), and the bundled plans with the calibration they feed in $W/direct.toml
+# (direct) and $W/12run.toml (pipeline, its direct part direct_two_axis).
+e2e_navgrade_bench() {
+  sed 's/^sample_period = "1 ms"/sample_period = "5 ms"/' "$DEV/imus/navgrade_fd.toml" >"$W/imu.toml"
+  grep -q '^sample_period = "5 ms"' "$W/imu.toml" || fail "IMU layout copy"
+  E2E_IMU_LAYOUT=$W/imu.toml
+  TRUTH=$SRC/tests/tools/data/truth_nav_grade.json
+  sed 's/^name = "direct_two_axis"/&\ncalibration = "direct"/' \
+    "$SRC/plans/library/direct_two_axis.toml" >"$W/direct.toml"
+  sed 's/^name = "two_axis_12run"/&\ncalibration = "pipeline"\ndirect_plan = "direct_two_axis"/' \
+    "$SRC/plans/library/two_axis_12run.toml" >"$W/12run.toml"
+}
+
 # The plan's table limits stay below the bench file's (30 deg/s, 10 deg/s^2).
 e2e_plan_head() {
   cat <<TOML

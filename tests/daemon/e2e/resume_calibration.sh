@@ -23,14 +23,7 @@ e2e_init "$@"
 [[ -n ${E2E_KEEP:-} ]] && trap 'cp "$W"/imubench.db* "$W"/d*.out "$E2E_KEEP/" 2>/dev/null; e2e_cleanup' EXIT
 
 SCALE=${E2E_ONLINE_TIME_SCALE:-20}
-sed 's/^sample_period = "1 ms"/sample_period = "5 ms"/' "$DEV/imus/navgrade_fd.toml" >"$W/imu.toml"
-grep -q '^sample_period = "5 ms"' "$W/imu.toml" || fail "IMU layout copy"
-E2E_IMU_LAYOUT=$W/imu.toml
-TRUTH=$SRC/tests/tools/data/truth_nav_grade.json
-sed 's/^name = "direct_two_axis"/&\ncalibration = "direct"/' \
-  "$SRC/plans/library/direct_two_axis.toml" >"$W/direct.toml"
-sed 's/^name = "two_axis_12run"/&\ncalibration = "pipeline"\ndirect_plan = "direct_two_axis"/' \
-  "$SRC/plans/library/two_axis_12run.toml" >"$W/12run.toml"
+e2e_navgrade_bench
 e2e_bench_file "$(cat "$SRC/tools/demo_bench_limits.toml")"
 e2e_start_vb --time-scale "$SCALE" --truth "$TRUTH" --noise nav-grade --seed 3
 e2e_start_daemon

@@ -25,12 +25,7 @@ e2e_init "$@"
 SCALE=${5:?time scale}
 [[ -n ${E2E_KEEP:-} ]] && trap 'cp "$W"/imubench.db* "$W"/d.out "$E2E_KEEP/" 2>/dev/null; e2e_cleanup' EXIT
 
-sed 's/^sample_period = "1 ms"/sample_period = "5 ms"/' "$DEV/imus/navgrade_fd.toml" >"$W/imu.toml"
-grep -q '^sample_period = "5 ms"' "$W/imu.toml" || fail "IMU layout copy"
-E2E_IMU_LAYOUT=$W/imu.toml
-TRUTH=$SRC/tests/tools/data/truth_nav_grade.json
-sed 's/^name = "direct_two_axis"/&\ncalibration = "direct"/' \
-  "$SRC/plans/library/direct_two_axis.toml" >"$W/direct.toml"
+e2e_navgrade_bench
 if [[ $SCALE == 1 ]]; then
   sed -i -e 's/^duration = "30 s"/duration = "10 s"/' -e 's/^duration = "120 s"/duration = "30 s"/' \
     -e 's/^duration = "33 s"/duration = "9 s"/' "$W/direct.toml"
