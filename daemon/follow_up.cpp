@@ -11,14 +11,13 @@
 #include "daemon/store.h"
 #include "io/plan_writer.h"
 #include "io/sim_recording.h"
+#include "nav/rotation.h"
 #include "plans/proposal.h"
 
 namespace imubench::daemon {
 namespace {
 
 using nlohmann::json;
-
-constexpr double kRadToDeg = 180.0 / kPi;
 
 // A joint judgement that could not be made, and why.
 json jointFailure(const json& origin_run, std::int64_t run, const std::string& error) {
@@ -36,7 +35,7 @@ json number(double v) {
 }
 
 json groupJson(const calib::ProposedGroup& g, const calib::ProposeResult& p) {
-  const double limit = g.effects.size() > 1 ? p.angle_limit_rad : p.baseline_angle_limit_rad;
+  const double limit = p.angleLimitFor(g);
   json params = json::array();
   for (std::size_t k = 0; k < g.flat_names.size(); ++k) {
     params.push_back(
@@ -76,7 +75,7 @@ std::string refusalReason(const calib::ProposeResult& p) {
 // (41 -> 70 deg) and still unseparable in the joint analysis after the follow-up ran.
 void distrustDisagreements(calib::ProposeResult* p) {
   for (calib::ProposedGroup& g : p->groups) {
-    const double limit = g.effects.size() > 1 ? p->angle_limit_rad : p->baseline_angle_limit_rad;
+    const double limit = p->angleLimitFor(g);
     if (!g.unseparable || !g.resolved || g.angle_before_rad < limit) continue;
     g.resolved = false;
     char why[240];

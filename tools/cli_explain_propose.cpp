@@ -6,14 +6,13 @@
 
 #include "calib/explain/explain_propose.h"
 #include "io/plan_writer.h"
+#include "nav/rotation.h"
 #include "plans/proposal.h"
 #include "plans/validator.h"
 #include "tools/cli_common.h"
 
 namespace imubench::tools {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / kPi;
 
 calib::ProposeOptions proposeOptions(const ProposeCliOptions& o) {
   calib::ProposeOptions po;
@@ -41,7 +40,7 @@ void printSigmas(const calib::ProposedGroup& g) {
 }
 
 void printGroup(const calib::ProposedGroup& g, const calib::ProposeResult& p) {
-  const double limit = g.effects.size() > 1 ? p.angle_limit_rad : p.baseline_angle_limit_rad;
+  const double limit = p.angleLimitFor(g);
   std::string names;
   for (const std::string& e : g.effects) names += (names.empty() ? "" : " + ") + e;
   std::printf(

@@ -130,6 +130,11 @@ struct ProposeResult {
   double baseline_angle_limit_rad = 0.0;  // one effect against the baseline
   std::vector<ProposedGroup> groups;
   std::vector<std::string> notes;
+
+  // The principal-angle limit that judges `g`: a pair's, or one effect's against the baseline.
+  double angleLimitFor(const ProposedGroup& g) const {
+    return g.effects.size() > 1 ? angle_limit_rad : baseline_angle_limit_rad;
+  }
 };
 
 // The groups and the plan. `input` is the recording explain analysed, `result` its analysis
