@@ -70,11 +70,15 @@ void listGroups(const ExplainInput& in, const ExplainResult& res, const ExplainO
     if (known) groups->push_back(g);
   }
   for (const ExplainAccepted& a : res.accepted) {
+    // Only the fitted parameters: one without a sigma is held in the refit (angle_harmonic's
+    // axis and order, a parameter explain could not determine), and no plan gives it one.
     double norm = 0.0;
-    for (double v : a.values) norm += v * v;
+    for (std::size_t k = 0; k < a.values.size(); ++k) {
+      if (std::isfinite(a.sigmas[k])) norm += a.values[k] * a.values[k];
+    }
     const double target = po.relative_precision * std::sqrt(norm);
     bool short_of = false;
-    for (double s : a.sigmas) short_of = short_of || !(s <= target);
+    for (double s : a.sigmas) short_of = short_of || (std::isfinite(s) && s > target);
     if (!short_of) continue;
     Group g;
     g.effects.push_back(effects->size());

@@ -230,6 +230,31 @@ TEST(ExplainPropose, CleanRecordingHasNothingToPropose) {
   EXPECT_TRUE(p.plan.blocks.empty());
 }
 
+// An accepted encoder harmonic determined to about 1 %: its axis and order are held (no sigma),
+// and they must not count as short of the precision. Before, they did, and a plan of only the
+// calibration base (588 s, nothing for the harmonic) was proposed.
+TEST(ExplainPropose, HeldAxisAndOrderOfAPreciseHarmonicAskForNoPlan) {
+  EffectSet e;
+  e.enable(EffectId::kAngleHarmonic);
+  *e.angle_harmonic = {static_cast<double>(kTableAxisOuter), 1.0, 6.0 * kArcsec, -4.0 * kArcsec};
+  const SimulatedRecording rec = simulateWith(libraryMotion("two_axis_12run"), e, 61);
+  const ExplainInput input = simulatedExplainInput(rec);
+  ExplainOptions eo;
+  eo.candidates = {"angle_harmonic"};
+  const ExplainResult r = explainRecording(input, eo);
+  ASSERT_TRUE(r.status.ok) << r.status.message;
+  const ExplainAccepted* a = accepted(r, "angle_harmonic");
+  ASSERT_NE(a, nullptr) << summary(r);
+  ASSERT_EQ(a->sigmas.size(), 4u);
+  EXPECT_TRUE(std::isnan(a->sigmas[0]) && std::isnan(a->sigmas[1]));  // axis, order: held
+  for (int k : {2, 3}) EXPECT_LT(a->sigmas[k], 0.1 * 6.0 * kArcsec) << a->flat_names[k];
+  const ProposeResult p = proposePlan(input, r, eo, ProposeOptions{}, plans::expandProposedPlan);
+  ASSERT_TRUE(p.status.ok) << p.status.message;
+  printProposal(p);
+  EXPECT_TRUE(p.nothing_to_propose);
+  EXPECT_TRUE(p.plan.blocks.empty());
+}
+
 // A duration too short for a plan (the calibration base that lets the proposal be explained
 // alone takes ~590 s): no plan, and the result says which group stays unseparable.
 TEST(ExplainPropose, TooShortMaxDurationLeavesTheGroupUnseparable) {
