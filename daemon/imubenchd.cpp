@@ -15,6 +15,7 @@
 #pragma GCC diagnostic pop
 
 #include "daemon/bench_daemon.h"
+#include "imubench_build_id.h"
 
 namespace {
 
@@ -54,9 +55,11 @@ int main(int argc, char** argv) {
   app.add_option("--socket", options.socket_path, "control socket path (default: bench file's)");
   app.add_option("--db", options.storage_path, "SQLite store (default: bench file's)");
   app.add_flag("--stderr", to_stderr, "also log to stderr (foreground runs)");
+  app.set_version_flag("--version", IMUBENCH_BUILD_ID);
   CLI11_PARSE(app, argc, argv);
 
   Logger log("imubenchd", to_stderr);
+  log.info(std::string("imubenchd: ") + IMUBENCH_BUILD_ID);
   imubench::io::Diagnostics diag(bench_file);
   auto bench = loadBenchFile(bench_file, diag);
   if (!bench) {

@@ -5,6 +5,7 @@
 #include "calib/calibration_result.h"
 #include "calib/service/calibration_service.h"
 #include "calib/truth_comparison.h"
+#include "imubench_build_id.h"
 #include "io/sim_recording.h"
 #include "nav/rotation.h"
 
@@ -64,6 +65,7 @@ json outcomeReport(const char* method, const calib::CalibrationOutcome& c) {
     table.push_back({{"name", d.name}, {"estimated", d.estimated}, {"reason", d.reason}});
   }
   report["table"] = table;
+  report["software"] = IMUBENCH_BUILD_ID;
   report["notes"] = c.notes;
   return report;
 }

@@ -287,7 +287,11 @@ std::string verdictSection(const CertificateInput& in) {
 
 std::string softwareSection(const CertificateInput& in) {
   std::string t = "<table>\n";
-  t += row2("Software", orDash(in.software_version));
+  t += row2("Calibrated by", in.calibrated_by.empty()
+                                 ? std::string("not recorded (an offline recording, or a run "
+                                               "stored before reports carried the software)")
+                                 : in.calibrated_by);
+  t += row2("Certificate by", orDash(in.certificate_by));
   t += row2("Certificate generated (UTC)", orDash(in.generated_utc));
   t += "</table>\n<table class=\"sign\"><tr><th class=\"l\">Checked by</th><td></td>"
        "<th class=\"l\">Date</th><td></td></tr></table>\n";

@@ -13,7 +13,7 @@
 //   findings      the missing-physics analysis (imubench-explain/1): accepted effects,
 //                 residuals against the noise floor, unexplained windows
 //   verdict       the verdict against the bench's acceptance limits, row by row
-//   software      the software that made the calibration and this page
+//   software      the software (version and commit) that calibrated and that wrote this page
 // A section without data says so ("not stored", "not recorded"); nothing is left out silently.
 #pragma once
 
@@ -78,9 +78,13 @@ struct CertificateInput {
   std::optional<calib::CoefficientReport> coefficients;
   std::vector<std::string> unobservable;  // parameters the plan could not observe (stored report)
   TemperatureEnvelope envelope;
-  nlohmann::json explain;        // imubench-explain/1, or null when none
-  nlohmann::json verdict;        // the stored acceptance verdict (results RUN), or null when none
-  std::string software_version;  // "imubench 0.1.0"
+  nlohmann::json explain;  // imubench-explain/1, or null when none
+  nlohmann::json verdict;  // the stored acceptance verdict (results RUN), or null when none
+  // The software that calibrated (the daemon's build, from the stored report; empty for an
+  // offline recording or a run stored before reports carried it) and the one writing the page;
+  // each "imubench VERSION (git COMMIT)".
+  std::string calibrated_by;
+  std::string certificate_by;
   std::string generated_utc;
 };
 

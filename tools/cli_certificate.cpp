@@ -25,14 +25,11 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "imubench_build_id.h"
 #include "io/certificate.h"
 #include "io/truth_file.h"
 #include "tools/cli_common.h"
 #include "tools/cli_store.h"
-
-#ifndef IMUBENCH_VERSION
-#define IMUBENCH_VERSION "unknown"
-#endif
 
 namespace imubench::tools {
 namespace {
@@ -105,6 +102,7 @@ io::CertificateInput fromStore(const CertificateOptions& o, std::int64_t id) {
     in.coefficients = coefficientsOf(k["coefficients"], in.source + ": stored coefficients");
   if (k.count("report")) {
     in.method = k["report"].value("method", std::string());
+    in.calibrated_by = k["report"].value("software", std::string());
     in.unobservable = unobservableOf(k["report"]);
   }
   if (k.count("explain")) in.explain = k["explain"];
@@ -150,7 +148,7 @@ void runCertificate(const CertificateOptions& o) {
         "takes them from the store",
         2);
   io::CertificateInput in = id ? fromStore(o, *id) : fromDirectory(o);
-  in.software_version = std::string("imubench ") + IMUBENCH_VERSION;
+  in.certificate_by = IMUBENCH_BUILD_ID;
   in.generated_utc = utcTime(static_cast<double>(std::time(nullptr)));
   if (const Status st = io::writeCertificate(o.out, io::certificateHtml(in)); !st.ok)
     throw CommandFailed(st.message);

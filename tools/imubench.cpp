@@ -9,6 +9,7 @@
 #include <iostream>
 #include <string>
 
+#include "imubench_build_id.h"
 #include "tools/cli11.h"
 #include "tools/cli_common.h"
 #include "tools/cli_store.h"
@@ -16,6 +17,7 @@
 int main(int argc, char** argv) {
   using namespace imubench::tools;
   CLI::App app{"imubench: IMU calibration test-bench controller"};
+  app.set_version_flag("--version", IMUBENCH_BUILD_ID);
   app.require_subcommand(1);
   app.fallthrough(false);
   addRunCommand(app);
@@ -39,6 +41,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     app.exit(e);  // prints the message

@@ -70,15 +70,19 @@ io::Recording writtenRecording(const std::string& plan_name, const calib::TableE
 }
 
 // `imubench calibrate DIR [--direct DIRECT] --json`: its coefficient JSON (exit code in *rc).
-nlohmann::json cliCoefficients(const std::string& dir, const std::string& direct, int* rc) {
-  const std::string cmd = std::string(IMUBENCH_CLI) + " calibrate " + dir +
-                          (direct.empty() ? "" : " --direct " + direct) + " --json 2>/dev/null";
+std::string commandOutput(const std::string& cmd, int* rc) {
   std::unique_ptr<FILE, int (*)(FILE*)> p(popen(cmd.c_str(), "r"), pclose);
   std::string out;
   std::array<char, 4096> buf{};
   while (p && fgets(buf.data(), buf.size(), p.get())) out += buf.data();
   *rc = p ? pclose(p.release()) : -1;
-  nlohmann::json j = nlohmann::json::parse(out, nullptr, false);
+  return out;
+}
+
+nlohmann::json cliCoefficients(const std::string& dir, const std::string& direct, int* rc) {
+  const std::string cmd = std::string(IMUBENCH_CLI) + " calibrate " + dir +
+                          (direct.empty() ? "" : " --direct " + direct) + " --json 2>/dev/null";
+  nlohmann::json j = nlohmann::json::parse(commandOutput(cmd, rc), nullptr, false);
   if (j.is_object()) j.erase("calibration");  // the method's report beside the coefficients
   return j;
 }
@@ -132,6 +136,13 @@ TEST(OnePolicy, DirectPlanGivesIdenticalCoefficientsInCliDaemonAndExplainBaselin
   EXPECT_EQ(base.table_params, daemon.table_params);
   expectSame(cli, daemon.coefficients, "CLI vs daemon");
   expectSame(cli, base.coefficients, "CLI vs explain baseline");
+  // The stored report names the software that calibrated (the certificate's "calibrated by"):
+  // the same build as the CLI's --version, with its commit.
+  std::string version = commandOutput(std::string(IMUBENCH_CLI) + " --version", &rc);
+  ASSERT_EQ(rc, 0) << "imubench --version exit status";
+  while (!version.empty() && version.back() == '\n') version.pop_back();
+  EXPECT_NE(version.find("imubench "), std::string::npos) << version;
+  EXPECT_EQ(daemon.report.value("software", std::string()), version);
 }
 
 // The production pipeline on a table with 30 arcsec errors: `calibrate NAV --direct DIRECT`,

@@ -92,6 +92,8 @@ layout = "$W/imu.toml"
 interface = "$can"
 serial = "LAB-SN-7"
 $(cat "$SRC/tools/demo_bench_limits.toml")
+[explain]
+follow_up = "off"
 [lab]
 database = "postgresql://bench$i@127.0.0.1:$PORT/lab"
 password_file = "$PG/c/secrets/bench$i.pass"

@@ -50,6 +50,7 @@ def result(run, kind, doc):
     db.execute("INSERT INTO results(run_id, imu_serial, temperature_c, kind, json, created_unix_s)"
                " VALUES (?, 'SN-CERT-7', 25.0, ?, ?, ?)", (run, kind, json.dumps(doc), time.time()))
 result(1, "explain", json.load(open(sys.argv[2])))
+result(1, "report", {"method": "direct", "software": "imubench 0.0.9 (git 0123456789ab)"})
 result(1, "verdict", {"pass": True, "rows": [{"parameter": "gyro.bias.x", "limit": 0.05,
        "unit": "deg/h", "value": 0.0012, "pass": True}]})
 db.commit()
@@ -74,7 +75,10 @@ grep -q "<b>PASS</b>" "$work/dom.html" || fail "verdict PASS missing"
 grep -q "gyro.misalignment.xy" "$work/dom.html" || fail "coefficients missing"
 grep -q "table.base_tilt.x" "$work/dom.html" || fail "table errors missing"
 grep -q "imubench-explain\|Normalised residual RMS" "$work/dom.html" || fail "explain findings missing"
-grep -Eq "imubench [0-9]+\.[0-9]+\.[0-9]+" "$work/dom.html" || fail "software version missing"
+# The software that calibrated (the stored report's) and the one that wrote the page (this
+# build's --version, with its commit).
+grep -q "imubench 0.0.9 (git 0123456789ab)" "$work/dom.html" || fail "calibrating software missing"
+grep -qF "$("$bin" --version)" "$work/dom.html" || fail "certificate software ($("$bin" --version)) missing"
 # The checksums are those of the recording as `imubench export` writes it.
 "$bin" export 1 --db "$db" --csv "$work/exported" > /dev/null
 (cd "$work/exported" && sha256sum *) > "$work/sums.txt"
