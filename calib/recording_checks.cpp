@@ -6,11 +6,10 @@
 
 #include "calib/table_model.h"
 #include "nav/earth.h"
+#include "nav/rotation.h"
 
 namespace imubench::calib {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / kPi;
 
 // Accumulates attitudes and rotation increments into a MotionSupport.
 class SupportBuilder {

@@ -3,10 +3,10 @@
 #include <cstdio>
 #include <sstream>
 
+#include "nav/rotation.h"
+
 namespace imubench::io {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / kPi;
 
 std::string deg(double rad) {
   char buf[64];

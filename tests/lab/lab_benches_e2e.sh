@@ -27,7 +27,7 @@ cleanup() {
 }
 trap cleanup EXIT
 fail() {
-  echo "FAIL: $*"
+  echo "FAIL ($SECONDS s): $*"
   for i in 1 2 3; do
     echo "--- daemon $i"
     tail -15 "$W/b$i/d.out" 2>/dev/null || true
@@ -120,6 +120,7 @@ def status(path):
 PY
 export PYTHONPATH=$W
 
+echo "$SECONDS s: three benches and their daemons up"
 PLAN=$W/direct.toml
 for i in 1 2 3; do
   IMUBENCH_SOCKET=$W/b$i/control.sock "$CLI" start "$PLAN" >/dev/null || fail "start on bench $i"
@@ -142,7 +143,7 @@ wait "${DPID[2]}" 2>/dev/null || true
 rm -f "$W/b2/control.sock"
 start_daemon 2
 IMUBENCH_SOCKET=$W/b2/control.sock "$CLI" resume 1 >/dev/null || fail "resume run 1 on bench 2"
-echo "bench 2 killed with SIGKILL mid-run, restarted, its run resumed"
+echo "$SECONDS s: bench 2 killed with SIGKILL mid-run, restarted, its run resumed"
 
 # Wait until every bench is idle with an empty outbox.
 python3 - "$W" <<'PY' || fail "benches did not finish and drain their outboxes"
@@ -153,7 +154,7 @@ while time.time() < end:
     st = [status("%s/b%d/control.sock" % (sys.argv[1], i)) for i in (1, 2, 3)]
     if all(s["state"] == "idle" and s["lab"]["state"] == "ok" and s["lab"]["backlog"] == 0
            for s in st):
-        print("all idle, outboxes empty:", [s["lab"] for s in st]); sys.exit(0)
+        print("all idle, outboxes empty:", [s["lab"] for s in st], flush=True); sys.exit(0)
     time.sleep(1)
 print([(s["state"], s["lab"]) for s in st]); sys.exit(1)
 PY
@@ -176,6 +177,7 @@ while time.time() < end:
 sys.exit(1)
 PY
 
+echo "$SECONDS s: every bench's results in the lab, outboxes empty"
 runs=$("$CLI" runs --db "$LAB") || fail "runs --db postgresql://"
 echo "$runs"
 for i in 1 2 3; do grep -q "^bench$i " <<<"$runs" || fail "runs: bench$i missing"; done
@@ -213,4 +215,4 @@ assert not diff, "payload differs: %s" % diff[:3]
 print("%s: %d items, checksum %s (SQLite) = %s (lab)" % (sys.argv[3], len(want), digest(want), digest(got)))
 PY
 done
-echo "PASS"
+echo "PASS ($SECONDS s)"
