@@ -19,6 +19,10 @@ Physics (interchange.md):
   reading over the sample interval (Gauss-Legendre quadrature of the smooth motion).
 
 Usage: write_recording.py OUT_DIR --case NAME   (names: see CASES at the bottom)
+       write_recording.py OUT_DIR --case NAME --plan PLAN.toml [--seed N]: the case's IMU,
+         table errors and extras on the plan's motion (docs/plan-format.md steps move, rotate,
+         rate, hold, repeat, record on; read with tomllib, the writer's own cosine-ramp
+         profile within each step's rate and acceleration, its own timing grid)
 """
 import argparse
 import json
@@ -170,6 +174,21 @@ class Schedule:
         self.kinds.append("settle")
         self.t += dur
 
+    def motion(self, legs, kind="move"):
+        """Several axes starting together (a plan's move): legs = [(axis, delta_rad, rate_rad_s,
+        ramp_s, flat_s)], each a cosine-ramp profile of its own; the step ends when the last
+        axis arrives (the others hold at their targets)."""
+        legs = [leg for leg in legs if abs(leg[1]) > 0.0]
+        if not legs:
+            return
+        dur = max(2 * leg[3] + leg[4] for leg in legs)
+        self.steps.append((self.t, self.t + dur, legs[0][0], self.q.copy(), legs, 0.0, 0.0))
+        self.kinds.append("multi")
+        self.t += dur
+        for axis, d, *_ in legs:
+            self.q[axis] += d
+            self.last_axis = axis
+
     def move(self, axis, delta_deg, rate_dps=20.0, ramp_s=1.0):
         d = delta_deg * DEG
         w = min(rate_dps * DEG, abs(d) / ramp_s)
@@ -197,24 +216,36 @@ class Schedule:
                 q[sel, axis] += env * (1 - np.cos(ph))
                 qd[sel, axis] = env * (2 * np.pi * w * np.sin(ph) - (1 - np.cos(ph)) / Tr)
                 continue
+            if self.kinds[k] == "multi":  # d: the legs
+                for ax, dl, wl, Trl, flat in d:
+                    a, r = ramp_profile(t[sel] - t0, abs(dl), wl, Trl, 2 * Trl + flat)
+                    q[sel, ax] += np.sign(dl) * a
+                    qd[sel, ax] = np.sign(dl) * r
+                continue
             if axis < 0:
                 continue
-            tau = np.clip(t[sel] - t0, 0.0, t1 - t0)
-            T = t1 - t0
-            sgn = np.sign(d)
-            # rate: w (1 - cos(pi tau / Tr)) / 2 up, w flat, mirrored down
-            up = w / 2 * (tau - Tr / np.pi * np.sin(np.pi * tau / Tr))
-            r_up = w / 2 * (1 - np.cos(np.pi * tau / Tr))
-            a_ramp = w * Tr / 2
-            flat = a_ramp + w * (tau - Tr)
-            td = T - tau  # time to the end
-            down = abs(d) - w / 2 * (td - Tr / np.pi * np.sin(np.pi * td / Tr))
-            r_down = w / 2 * (1 - np.cos(np.pi * td / Tr))
-            ang = np.where(tau < Tr, up, np.where(td < Tr, down, flat))
-            rate = np.where(tau < Tr, r_up, np.where(td < Tr, r_down, w))
-            q[sel, axis] += sgn * ang
-            qd[sel, axis] = sgn * rate
+            ang, rate = ramp_profile(t[sel] - t0, abs(d), w, Tr, t1 - t0)
+            q[sel, axis] += np.sign(d) * ang
+            qd[sel, axis] = np.sign(d) * rate
         return q, qd
+
+
+def ramp_profile(tau, dist, w, Tr, T):
+    """Angle and rate at tau of a turn of dist (> 0) in T: the rate rises as w (1 - cos(pi tau /
+    Tr)) / 2 for Tr, stays w, and falls mirrored to 0 at T (zero rate and acceleration at both
+    ends; peak acceleration w pi / (2 Tr))."""
+    tau = np.clip(tau, 0.0, T)
+    # rate: w (1 - cos(pi tau / Tr)) / 2 up, w flat, mirrored down
+    up = w / 2 * (tau - Tr / np.pi * np.sin(np.pi * tau / Tr))
+    r_up = w / 2 * (1 - np.cos(np.pi * tau / Tr))
+    a_ramp = w * Tr / 2
+    flat = a_ramp + w * (tau - Tr)
+    td = T - tau  # time to the end
+    down = dist - w / 2 * (td - Tr / np.pi * np.sin(np.pi * td / Tr))
+    r_down = w / 2 * (1 - np.cos(np.pi * td / Tr))
+    ang = np.where(tau < Tr, up, np.where(td < Tr, down, flat))
+    rate = np.where(tau < Tr, r_up, np.where(td < Tr, r_down, w))
+    return ang, rate
 
 
 # ---- the recording ----
@@ -296,6 +327,8 @@ def write_case(out, spec):
     else:
         accel = random_triad(rng, 500.0, 1e-3, 2e-4)
         gyro = random_triad(rng, 300.0, 5e-7, 2e-4)
+    if "noise_seed" in spec:  # the same IMU (drawn above), another noise realisation
+        rng = np.random.default_rng(spec["noise_seed"])
     sched = Schedule(table.naxes, spec.get("t0", 1000.0))
     spec["schedule"](sched, spec)
     rate = spec["rate_hz"]
@@ -532,6 +565,122 @@ def three_axis_natural(s, spec):
     P.goto((0.0, 0.0, 0.0))
 
 
+# ---- plan files (docs/plan-format.md): the writer's own reading of a plan's steps ----
+
+UNITS = {"deg": DEG, "rad": 1.0, "arcsec": ARCSEC, "deg/s": DEG, "rad/s": 1.0,
+         "deg/h": DEG / 3600.0, "deg/s^2": DEG, "rad/s^2": 1.0, "s": 1.0, "ms": 1e-3,
+         "min": 60.0, "h": 3600.0}
+
+
+def quantity(text):
+    """'10 deg/s' -> SI (rad/s); the plan's units are mandatory (docs/plan-format.md)."""
+    value, unit = text.split()
+    return float(value) * UNITS[unit]
+
+
+class PlanAxes:
+    """Per-axis limits of a plan's [table]: max_rate, max_accel (the table's, overridden by
+    [table.AXIS]), and min_angle/max_angle (both given: a limited axis)."""
+
+    def __init__(self, table):
+        self.names = ["outer", "inner"] if table["kind"] == "two-axis" else ["outer", "middle",
+                                                                             "inner"]
+        self.rate, self.accel, self.limited = [], [], []
+        for n in self.names:
+            ax = table.get(n, {})
+            self.rate.append(quantity(ax.get("max_rate", table.get("max_rate"))))
+            self.accel.append(quantity(ax.get("max_accel", table.get("max_accel"))))
+            self.limited.append("min_angle" in ax and "max_angle" in ax)
+
+
+def cosine_leg(axis, delta, rate, accel, flat_extra_s=0.0):
+    """One axis' turn by delta (rad) with the cosine-ramp profile (ramp_profile) at most `rate`
+    and peak acceleration at most `accel`: ramp time Tr = pi w / (2 accel); a turn too short to
+    reach `rate` peaks lower. flat_extra_s: time at the rate on top of the turn's own (none for
+    a turn of a given angle)."""
+    dist = abs(delta)
+    if dist == 0.0:
+        return (axis, 0.0, 0.0, 0.0, 0.0)  # dropped by Schedule.motion
+    w = min(rate, np.sqrt(2.0 * accel * dist / np.pi))
+    Tr = np.pi * w / (2.0 * accel)
+    flat = (dist - w * Tr) / w + flat_extra_s
+    return (axis, delta, w, Tr, max(flat, 0.0))
+
+
+def signed_step_value(step, key):
+    v = quantity(step[key])
+    d = step.get("direction")
+    if d is not None:
+        v = abs(v) * (1.0 if d in ("+", "ccw") else -1.0)
+    return v
+
+
+def plan_step(s, axes, step):
+    """Append one plan step (docs/plan-format.md semantics) to the schedule s."""
+    kind = step["type"]
+    if kind == "hold":
+        s.hold(quantity(step["duration"]))
+    elif kind == "repeat":
+        for _ in range(int(step["count"])):
+            for sub in step["steps"]:
+                plan_step(s, axes, sub)
+    elif kind == "record":
+        if step["state"] != "on":
+            raise ValueError("write_recording.py: 'record off' spans are not written (a "
+                             "recording with gaps)")
+    elif kind in ("move", "rotate", "rate"):
+        legs = []
+        for j, name in enumerate(axes.names):
+            if kind == "move" and name not in step:
+                continue
+            if kind != "move" and step["axis"] != name:
+                continue
+            rate = min(quantity(step["rate"]) if "rate" in step else axes.rate[j], axes.rate[j])
+            rate = abs(rate)
+            accel = quantity(step["accel"]) if "accel" in step else axes.accel[j]
+            if kind == "move":  # absolute target: shortest way (continuous), direct (limited)
+                d = quantity(step[name]) - s.q[j]
+                if not axes.limited[j]:
+                    d = (d + np.pi) % (2 * np.pi) - np.pi
+                legs.append(cosine_leg(j, d, rate, accel))
+            elif kind == "rotate":
+                legs.append(cosine_leg(j, signed_step_value(step, "angle"), rate, accel))
+            else:  # rate run: the documented angle rate (duration + rate / accel); the ramps
+                # are the writer's cosine ramps within accel, the time at the rate makes it up
+                w = signed_step_value(step, "rate")
+                dur = quantity(step["duration"])
+                legs.append(cosine_leg(j, w * (dur + abs(w) / accel), abs(w), accel))
+        s.motion(legs)
+    else:
+        raise ValueError("write_recording.py: plan step type '%s' is not written (no chamber or "
+                         "thermal model in this writer)" % kind)
+
+
+def plan_schedule(s, spec):
+    """The schedule of the plan file spec["plan_file"] (read with tomllib)."""
+    axes = PlanAxes(spec["plan"]["table"])
+    for step in spec["plan"].get("step", []):
+        plan_step(s, axes, step)
+
+
+def with_plan(spec, plan_path, seed):
+    """The case spec recording plan_path instead of its own schedule: the same IMU, table errors
+    and extras, another noise seed (the IMU's coefficients are drawn first from the case's
+    seed, then the noise: both the same IMU)."""
+    import tomllib
+    with open(plan_path, "rb") as f:
+        plan = tomllib.load(f)
+    table = plan["table"]
+    if table["kind"] != spec["kind"]:
+        raise ValueError("%s: a %s plan for a %s case" % (plan_path, table["kind"], spec["kind"]))
+    if table["kind"] == "two-axis":
+        heading = quantity(table.get("outer_axis_heading", "90 deg")) / DEG
+        if abs(heading - spec.get("heading_deg", 90.0)) > 1e-9:
+            raise ValueError("%s: outer_axis_heading %g deg, the case's bench %g deg" % (
+                plan_path, heading, spec.get("heading_deg", 90.0)))
+    return dict(spec, schedule=plan_schedule, plan=plan, noise_seed=seed)
+
+
 def table_errors(kind, big_tilt=False):
     a = ARCSEC
     theta = (1.0 * DEG, -0.4 * DEG) if big_tilt else (35 * a, -22 * a)
@@ -637,8 +786,14 @@ def main():
     ap.add_argument("out")
     cases = {**make_cases(), **make_explain_cases(), **make_calibrate_cases()}
     ap.add_argument("--case", required=True, choices=sorted(cases))
+    ap.add_argument("--plan", help="record this plan file (docs/plan-format.md) instead of the "
+                    "case's schedule: the case's IMU, table errors and extras")
+    ap.add_argument("--seed", type=int, default=1001, help="noise seed with --plan")
     args = ap.parse_args()
-    write_case(args.out, cases[args.case])
+    spec = cases[args.case]
+    if args.plan:
+        spec = with_plan(spec, args.plan, args.seed)
+    write_case(args.out, spec)
 
 
 if __name__ == "__main__":
