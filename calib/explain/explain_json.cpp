@@ -3,6 +3,7 @@
 #include <limits>
 
 #include "calib/explain/explain.h"
+#include "calib/explain/explain_propose.h"
 
 namespace imubench::calib {
 namespace {
@@ -155,6 +156,29 @@ nlohmann::json toJson(const ExplainResult& r) {
   j["coefficients"] = toJson(r.coefficients);
   j["notes"] = r.notes;
   return j;
+}
+
+nlohmann::json toJson(const ProposedGroup& g, const ProposeResult& p) {
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  nlohmann::json params = nlohmann::json::array();
+  for (std::size_t k = 0; k < g.flat_names.size(); ++k) {
+    params.push_back(
+        {{"name", g.flat_names[k]},
+         {"sigma_before", numberOrNull(g.sigma_before[k])},
+         {"sigma_after", numberOrNull(g.sigma_after[k])},
+         {"sigma_joint", k < g.sigma_joint.size() ? numberOrNull(g.sigma_joint[k])
+                                                  : nlohmann::json(nullptr)}});
+  }
+  return {{"effects", g.effects},
+          {"unseparable", g.unseparable},
+          {"resolved", g.resolved},
+          {"possible", g.possible},
+          {"why", g.why},
+          {"angle_before_deg", g.angle_before_rad * kDeg},
+          {"angle_after_deg", g.angle_after_rad * kDeg},
+          {"limit_deg", p.angleLimitFor(g) * kDeg},
+          {"added", g.added},
+          {"parameters", params}};
 }
 
 }  // namespace imubench::calib

@@ -781,10 +781,43 @@ def make_explain_cases():
     return c
 
 
+def level_headings(s, spec):
+    """A poor schedule (written from the physics): the outer axis never turns (inner axis
+    vertical), holds at eight inner angles 45 degrees apart and one inner turn each way. A base
+    tilt about the outer axis' perpendicular and the inner axis' nonorthogonality then tilt the
+    inner axis the same way; the x and y accelerometers never see gravity along them."""
+    H = spec.get("hold_s", 50.0)
+    for _ in range(8):
+        s.hold(H)
+        s.move(1, 45.0, rate_dps=10.0)
+    s.hold(H)
+    for d in (360.0, -360.0):
+        s.move(1, d, rate_dps=30.0, ramp_s=2.0)
+        s.hold(H)
+
+
+def make_propose_cases():
+    """Recordings A whose motion leaves a pair of effects concealed (propose_cases.py): explain
+    proposes the plan, the writer records it (--plan) with the same IMU and truth."""
+    a = ARCSEC
+    level_errors = {"theta": (0.0, -20 * a), "nu": (30 * a,), "mu": (0.0, 0.0), "zero": (0, 0, 0)}
+
+    def lvl(**kw):
+        return {**dict(kind="two-axis", schedule=level_headings, rate_hz=100.0, graded=True,
+                       noise_density=NAV_NOISE, table_errors=level_errors), **kw}
+    c = {
+        "pair_level_tilt_nonorth": lvl(seed=41),
+    }
+    for name, spec in c.items():
+        spec["name"] = name
+    return c
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out")
-    cases = {**make_cases(), **make_explain_cases(), **make_calibrate_cases()}
+    cases = {**make_cases(), **make_explain_cases(), **make_calibrate_cases(),
+             **make_propose_cases()}
     ap.add_argument("--case", required=True, choices=sorted(cases))
     ap.add_argument("--plan", help="record this plan file (docs/plan-format.md) instead of the "
                     "case's schedule: the case's IMU, table errors and extras")
