@@ -41,12 +41,15 @@ nlohmann::json shaped(ParamShape shape, const double* v) {
 }
 
 // {"parameters": .., "sigma": ..} of an accepted effect: the registry's parameter names and
-// shapes, or {component: value} for the table's error groups.
+// shapes, or {component: value} for the table's error groups, named by their flat names (their
+// order is the table kind's: three-axis nonorthogonality is middle_x, middle_y, inner_y, not
+// the registry's inner_y, middle_x, middle_y).
 void parametersJson(const ExplainAccepted& a, nlohmann::json* values, nlohmann::json* sigmas) {
   *values = nlohmann::json::object();
   *sigmas = nlohmann::json::object();
   const std::optional<EffectId> id = effectFromName(a.effect);
-  if (!id || a.flat_names.size() != static_cast<std::size_t>(flatSize(*id))) {
+  if (!id || a.flat_names.size() != static_cast<std::size_t>(flatSize(*id)) ||
+      model::kUnitInfos[static_cast<std::size_t>(*id)].stage == model::Stage::kTable) {
     for (std::size_t k = 0; k < a.flat_names.size(); ++k) {
       const std::string comp = a.flat_names[k].substr(a.flat_names[k].rfind('.') + 1);
       (*values)[comp] = numberOrNull(a.values[k]);

@@ -319,5 +319,42 @@ TEST(ExplainPropose, PrecisionRequestAddsBlocksUntilThePredictedSigmaIsBelowTheT
   EXPECT_NE(short_plan.groups[0].why.find("above the requested precision"), std::string::npos);
 }
 
+// A level recording cannot determine the horizontal accelerometers' scale, bias and
+// misalignment (nor the vertical one's scale apart from its bias): with the default given-file
+// tolerances (not levelOptions) explain holds those at the given values instead of letting the
+// refit wander along them and then refusing its own IMU's file as another unit's.
+TEST(ExplainGiven, LevelRecordingKeepsWhatItCannotDetermineAtTheGivenValues) {
+  const EffectSet e = concealedTiltAndNonorthogonality();
+  const SimulatedRecording rec = simulateWith(testPlanMotion("level_headings"), e, 39);
+  const ExplainResult r = explainRecording(givenBaseline(rec), ExplainOptions{});
+  ASSERT_TRUE(r.status.ok) << r.status.message;
+  EXPECT_TRUE(reportedPair(r, "base_tilt", "nonorthogonality"));
+  const bool held_noted = std::any_of(r.notes.begin(), r.notes.end(), [](const std::string& n) {
+    return n.find("given coefficients held") != std::string::npos &&
+           n.find("accel.scale.x") != std::string::npos;
+  });
+  EXPECT_TRUE(held_noted);
+}
+
+// The report's parameters of a three-axis table group are named by their flat names: the
+// nonorthogonality (middle_x, middle_y, inner_y) was labelled in the registry's order
+// (inner_y, middle_x, middle_y), one name off.
+TEST(ExplainJson, ThreeAxisNonorthogonalityKeepsItsNames) {
+  ExplainResult r;
+  r.status = Status::Ok();
+  ExplainAccepted a;
+  a.effect = "nonorthogonality";
+  a.flat_names = {"table.nonorthogonality.middle_x", "table.nonorthogonality.middle_y",
+                  "table.nonorthogonality.inner_y"};
+  a.values = {1e-4, 2e-4, 3e-4};
+  a.sigmas = {1e-6, 2e-6, 3e-6};
+  r.accepted.push_back(a);
+  const nlohmann::json j = toJson(r)["accepted"][0];
+  EXPECT_DOUBLE_EQ(j["parameters"]["middle_x"].get<double>(), 1e-4);
+  EXPECT_DOUBLE_EQ(j["parameters"]["middle_y"].get<double>(), 2e-4);
+  EXPECT_DOUBLE_EQ(j["parameters"]["inner_y"].get<double>(), 3e-4);
+  EXPECT_DOUBLE_EQ(j["sigma"]["inner_y"].get<double>(), 3e-6);
+}
+
 }  // namespace
 }  // namespace imubench::calib::testing

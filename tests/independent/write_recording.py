@@ -128,6 +128,11 @@ class Triad:
     def reading(self, inp):
         return (inp @ self.M.T - self.bias) * self.scale
 
+    def reading_at_points(self, inp_x, inp_y, inp_z):
+        """Axis k senses the input at its own point (interchange.md size_effect): inp_k (n, 3)."""
+        u = np.stack([inp_x @ self.M[0], inp_y @ self.M[1], inp_z @ self.M[2]], axis=-1)
+        return (u - self.bias) * self.scale
+
     def json(self):
         return {"scale": list(self.scale), "bias": list(self.bias), "misalignment": self.mis}
 
@@ -280,8 +285,9 @@ def lever_arm_force(table, sched, tt, w_LB_B, r, extra, h=1e-4):
 
 def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2, extra=None):
     """Increments over (t_end - dt, t_end] by Gauss-Legendre (sub sub-intervals x 3 nodes).
-    extra (interchange.md effect ids): "lever_arm" r_m (m, B); "time_delay" tau_s (a sample
-    stamped t was taken at t - tau_s); "angle_harmonic" (axis, k, cos_rad, sin_rad)."""
+    extra (interchange.md effect ids): "lever_arm" r_m (m, B); "size_effect" (d_y_m, d_z_m):
+    the y and z accelerometers' points relative to the x one's (r_m); "time_delay" tau_s (a
+    sample stamped t was taken at t - tau_s); "angle_harmonic" (axis, k, cos_rad, sin_rad)."""
     extra = extra or {}
     tau = extra.get("time_delay", 0.0)
     n = len(t_end)
@@ -302,11 +308,19 @@ def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2,
         C_LB, w_LB_B = table.kinematics(q, qd)
         C_BL = np.transpose(C_LB, (0, 2, 1))
         f_B = C_BL @ np.array([0.0, 0.0, g])
+        r = np.array(extra.get("lever_arm", (0.0, 0.0, 0.0)), float)
         if "lever_arm" in extra:
-            f_B = f_B + lever_arm_force(table, sched, tt, w_LB_B, np.array(extra["lever_arm"]),
-                                          extra)
+            f_x = f_B + lever_arm_force(table, sched, tt, w_LB_B, r, extra)
+        else:
+            f_x = f_B
         w_IB_B = C_BL @ w_ie_L + w_LB_B
-        ra = accel.reading(f_B).reshape(-1, len(offs), 3)
+        if "size_effect" in extra:  # the y and z accelerometers at r + d_y, r + d_z
+            d_y, d_z = (np.array(v, float) for v in extra["size_effect"])
+            f_y = f_B + lever_arm_force(table, sched, tt, w_LB_B, r + d_y, extra)
+            f_z = f_B + lever_arm_force(table, sched, tt, w_LB_B, r + d_z, extra)
+            ra = accel.reading_at_points(f_x, f_y, f_z).reshape(-1, len(offs), 3)
+        else:
+            ra = accel.reading(f_x).reshape(-1, len(offs), 3)
         rg = gyro.reading(w_IB_B).reshape(-1, len(offs), 3)
         dv[a:a + chunk] = np.einsum("nkj,k->nj", ra, wts)
         dth[a:a + chunk] = np.einsum("nkj,k->nj", rg, wts)
@@ -386,6 +400,8 @@ def extra_json(effect, v):
     """An effect of the spec in interchange.md's parameter names."""
     if effect == "lever_arm":
         return {"r_m": list(v)}
+    if effect == "size_effect":
+        return {"d_y_m": list(v[0]), "d_z_m": list(v[1])}
     if effect == "angle_harmonic":
         return {"axis": v[0], "order": v[1], "cos_rad": v[2], "sin_rad": v[3]}
     return {"tau_s": v}
@@ -796,6 +812,46 @@ def level_headings(s, spec):
         s.hold(H)
 
 
+def outer_turns_only(s, spec):
+    """A poor schedule: the inner axis stays at 0 (x_B along the horizontal outer axis), holds at
+    eight outer angles 45 degrees apart and three outer turns each way at 30 deg/s. Every
+    rotation is about x_B: the centripetal force a lever arm and the accelerometers' own
+    positions add is -w^2 (0, y, z) of the point, so the y accelerometer's y offset and the z
+    accelerometer's z offset act as the lever arm's y and z."""
+    H = spec.get("hold_s", 50.0)
+    for _ in range(8):
+        s.hold(H)
+        s.move(0, 45.0, rate_dps=10.0)
+    s.hold(H)
+    for d in (1080.0, -1080.0):
+        s.move(0, d, rate_dps=30.0, ramp_s=3.0)
+        s.hold(H)
+
+
+def three_axis_outer_fixed(s, spec):
+    """A poor three-axis schedule: the vertical outer axis never turns. Holds with each body axis
+    up and down (middle 0 and 180; middle 90 at four inner angles), turns about the inner and
+    middle axes each way. A base tilt, the middle axis' nonorthogonality nu1 and the middle
+    encoder zero then all tilt the middle axis alike: they are told apart only when the outer
+    axis turns (nu1 and the middle zero turn with it, the base tilt does not)."""
+    H, OUT, MID, INN = spec.get("hold_s", 40.0), 0, 1, 2
+    s.hold(H)
+    s.move(INN, 360.0)
+    s.hold(H)
+    s.move(MID, 180.0)
+    s.hold(H)
+    s.move(MID, -90.0)
+    for _ in range(4):
+        s.hold(H)
+        s.move(INN, 90.0)
+    s.hold(H)
+    s.move(MID, -360.0)
+    s.hold(H)
+    s.move(INN, -360.0)
+    s.hold(H)
+    assert OUT == 0
+
+
 def make_propose_cases():
     """Recordings A whose motion leaves a pair of effects concealed (propose_cases.py): explain
     proposes the plan, the writer records it (--plan) with the same IMU and truth."""
@@ -807,6 +863,12 @@ def make_propose_cases():
                        noise_density=NAV_NOISE, table_errors=level_errors), **kw}
     c = {
         "pair_level_tilt_nonorth": lvl(seed=41),
+        "pair_outer_lever_size": lvl(
+            seed=42, schedule=outer_turns_only, table_errors=table_errors("two-axis"),
+            extra={"lever_arm": (0.05, -0.03, 0.04),
+                   "size_effect": ((0.01, 0.02, -0.01), (-0.02, 0.01, 0.015))}),
+        "pair_three_outer_fixed": lvl(seed=43, kind="three-axis", schedule=three_axis_outer_fixed,
+                                      table_errors=three_axis_errors()),
     }
     for name, spec in c.items():
         spec["name"] = name
