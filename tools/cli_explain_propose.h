@@ -4,6 +4,7 @@
 #pragma once
 
 #include <optional>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "calib/explain/explain.h"
@@ -21,8 +22,9 @@ struct ProposeCliOptions {
 // one. Throws CommandFailed on a bad bench file or options (exit 2) and a refused plan (1).
 // Returns the proposal in JSON for the --json report's "proposal" (docs/explain.md): "plan"
 // (the file written, or null), "duration_s", "groups" (calib::toJson of each), "notes".
-nlohmann::json proposeFromExplain(const ProposeCliOptions& options, const calib::ExplainInput& input,
-                        const calib::ExplainResult& result,
-                        const calib::ExplainOptions& explain_options);
+nlohmann::json proposeFromExplain(const ProposeCliOptions& options,
+                                  const calib::ExplainInput& input,
+                                  const calib::ExplainResult& result,
+                                  const calib::ExplainOptions& explain_options);
 
 }  // namespace imubench::tools

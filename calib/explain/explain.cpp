@@ -623,7 +623,8 @@ std::vector<std::string> undeterminedGiven(const ExplainProblem& p, const Explai
       if (unseen && std::abs(V(j, k)) > 1e-3) var = std::numeric_limits<double>::infinity();
       if (!unseen) var += V(j, k) * V(j, k) / (s(k) * s(k));
     }
-    const double sigma = d(j) > 0.0 ? std::sqrt(var) / d(j) : std::numeric_limits<double>::infinity();
+    const double sigma =
+        d(j) > 0.0 ? std::sqrt(var) / d(j) : std::numeric_limits<double>::infinity();
     if (!(sigma <= givenTolerance(name, o))) held.push_back(name);
   }
   return held;
@@ -1183,8 +1184,10 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   if (!held_given.empty()) {
     std::string names;
     for (const std::string& n : held_given) names += (names.empty() ? "" : ", ") + n;
-    res.notes.push_back("given coefficients held at their values (this recording cannot "
-                        "determine them to within the given-file tolerance): " + names);
+    res.notes.push_back(
+        "given coefficients held at their values (this recording cannot "
+        "determine them to within the given-file tolerance): " +
+        names);
   }
   res.refit = {q.fit.iterations, q.fit.converged, q.fit.last_step_sigma, q.fit.chi2_per_dof};
   if (!q.fit.converged) {

@@ -165,12 +165,11 @@ nlohmann::json toJson(const ProposedGroup& g, const ProposeResult& p) {
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   nlohmann::json params = nlohmann::json::array();
   for (std::size_t k = 0; k < g.flat_names.size(); ++k) {
-    params.push_back(
-        {{"name", g.flat_names[k]},
-         {"sigma_before", numberOrNull(g.sigma_before[k])},
-         {"sigma_after", numberOrNull(g.sigma_after[k])},
-         {"sigma_joint", k < g.sigma_joint.size() ? numberOrNull(g.sigma_joint[k])
-                                                  : nlohmann::json(nullptr)}});
+    params.push_back({{"name", g.flat_names[k]},
+                      {"sigma_before", numberOrNull(g.sigma_before[k])},
+                      {"sigma_after", numberOrNull(g.sigma_after[k])},
+                      {"sigma_joint", k < g.sigma_joint.size() ? numberOrNull(g.sigma_joint[k])
+                                                               : nlohmann::json(nullptr)}});
   }
   return {{"effects", g.effects},
           {"unseparable", g.unseparable},
