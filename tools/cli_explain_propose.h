@@ -3,8 +3,8 @@
 // not (calib/explain/explain_propose.h), printed per group and written as plan TOML.
 #pragma once
 
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "calib/explain/explain.h"
