@@ -797,35 +797,26 @@ def make_explain_cases():
     return c
 
 
-def level_headings(s, spec):
-    """A poor schedule (written from the physics): the outer axis never turns (inner axis
-    vertical), holds at eight inner angles 45 degrees apart and one inner turn each way. A base
-    tilt about the outer axis' perpendicular and the inner axis' nonorthogonality then tilt the
-    inner axis the same way; the x and y accelerometers never see gravity along them."""
-    H = spec.get("hold_s", 50.0)
-    for _ in range(8):
+def one_axis_only(axis, turn_deg, ramp_s):
+    """A poor schedule turning one two-axis table axis only: holds at eight angles of it 45
+    degrees apart, then a turn of turn_deg each way at 30 deg/s (ramps ramp_s).
+      axis 1 (inner; outer at 0, inner axis vertical): a level recording. A base tilt about the
+        outer axis' perpendicular and the inner axis' nonorthogonality tilt the inner axis the
+        same way; the x and y accelerometers never see gravity along them.
+      axis 0 (outer; inner at 0, x_B along the horizontal outer axis): every rotation is about
+        x_B, and the centripetal force a lever arm and the accelerometers' own positions add is
+        -w^2 (0, y, z) of the point: the y accelerometer's y offset and the z accelerometer's z
+        offset act as the lever arm's y and z."""
+    def schedule(s, spec):
+        H = spec.get("hold_s", 50.0)
+        for _ in range(8):
+            s.hold(H)
+            s.move(axis, 45.0, rate_dps=10.0)
         s.hold(H)
-        s.move(1, 45.0, rate_dps=10.0)
-    s.hold(H)
-    for d in (360.0, -360.0):
-        s.move(1, d, rate_dps=30.0, ramp_s=2.0)
-        s.hold(H)
-
-
-def outer_turns_only(s, spec):
-    """A poor schedule: the inner axis stays at 0 (x_B along the horizontal outer axis), holds at
-    eight outer angles 45 degrees apart and three outer turns each way at 30 deg/s. Every
-    rotation is about x_B: the centripetal force a lever arm and the accelerometers' own
-    positions add is -w^2 (0, y, z) of the point, so the y accelerometer's y offset and the z
-    accelerometer's z offset act as the lever arm's y and z."""
-    H = spec.get("hold_s", 50.0)
-    for _ in range(8):
-        s.hold(H)
-        s.move(0, 45.0, rate_dps=10.0)
-    s.hold(H)
-    for d in (1080.0, -1080.0):
-        s.move(0, d, rate_dps=30.0, ramp_s=3.0)
-        s.hold(H)
+        for d in (turn_deg, -turn_deg):
+            s.move(axis, d, rate_dps=30.0, ramp_s=ramp_s)
+            s.hold(H)
+    return schedule
 
 
 def three_axis_outer_fixed(s, spec):
@@ -859,12 +850,12 @@ def make_propose_cases():
     level_errors = {"theta": (0.0, -20 * a), "nu": (30 * a,), "mu": (0.0, 0.0), "zero": (0, 0, 0)}
 
     def lvl(**kw):
-        return {**dict(kind="two-axis", schedule=level_headings, rate_hz=100.0, graded=True,
-                       noise_density=NAV_NOISE, table_errors=level_errors), **kw}
+        return {**dict(kind="two-axis", schedule=one_axis_only(1, 360.0, 2.0), rate_hz=100.0,
+                       graded=True, noise_density=NAV_NOISE, table_errors=level_errors), **kw}
     c = {
         "pair_level_tilt_nonorth": lvl(seed=41),
         "pair_outer_lever_size": lvl(
-            seed=42, schedule=outer_turns_only, table_errors=table_errors("two-axis"),
+            seed=42, schedule=one_axis_only(0, 1080.0, 3.0), table_errors=table_errors("two-axis"),
             extra={"lever_arm": (0.05, -0.03, 0.04),
                    "size_effect": ((0.01, 0.02, -0.01), (-0.02, 0.01, 0.015))}),
         "pair_three_outer_fixed": lvl(seed=43, kind="three-axis", schedule=three_axis_outer_fixed,
