@@ -858,8 +858,11 @@ def make_propose_cases():
             seed=42, schedule=one_axis_only(0, 1080.0, 3.0), table_errors=table_errors("two-axis"),
             extra={"lever_arm": (0.05, -0.03, 0.04),
                    "size_effect": ((0.01, 0.02, -0.01), (-0.02, 0.01, 0.015))}),
-        "pair_three_outer_fixed": lvl(seed=43, kind="three-axis", schedule=three_axis_outer_fixed,
-                                      table_errors=three_axis_errors()),
+        "pair_three_outer_fixed": lvl(
+            seed=43, kind="three-axis", schedule=three_axis_outer_fixed,
+            table_errors=three_axis_errors(),
+            extra={"lever_arm": (0.04, 0.03, -0.05),
+                   "size_effect": ((0.015, -0.01, 0.02), (0.01, 0.02, -0.015))}),
     }
     for name, spec in c.items():
         spec["name"] = name
