@@ -34,28 +34,6 @@ json number(double v) {
   return std::isfinite(v) ? json(v) : json();
 }
 
-json groupJson(const calib::ProposedGroup& g, const calib::ProposeResult& p) {
-  const double limit = p.angleLimitFor(g);
-  json params = json::array();
-  for (std::size_t k = 0; k < g.flat_names.size(); ++k) {
-    params.push_back(
-        {{"name", g.flat_names[k]},
-         {"sigma_before", number(g.sigma_before[k])},
-         {"sigma_after", number(g.sigma_after[k])},
-         {"sigma_joint", k < g.sigma_joint.size() ? number(g.sigma_joint[k]) : json()}});
-  }
-  return {{"effects", g.effects},
-          {"unseparable", g.unseparable},
-          {"resolved", g.resolved},
-          {"possible", g.possible},
-          {"why", g.why},
-          {"angle_before_deg", g.angle_before_rad * kRadToDeg},
-          {"angle_after_deg", g.angle_after_rad * kRadToDeg},
-          {"limit_deg", limit * kRadToDeg},
-          {"added", g.added},
-          {"parameters", params}};
-}
-
 // Why no plan: the groups no plan within the limits separates, each with its reason.
 std::string refusalReason(const calib::ProposeResult& p) {
   std::string why;
@@ -242,7 +220,7 @@ std::optional<json> proposeFollowUp(const calib::ExplainInput& input,
     return out;
   }
   distrustDisagreements(&p);
-  for (const calib::ProposedGroup& g : p.groups) out["groups"].push_back(groupJson(g, p));
+  for (const calib::ProposedGroup& g : p.groups) out["groups"].push_back(calib::toJson(g, p));
   out["notes"] = p.notes;
   const bool any_resolved = std::any_of(p.groups.begin(), p.groups.end(),
                                         [](const auto& g) { return g.unseparable && g.resolved; });

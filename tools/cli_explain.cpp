@@ -317,10 +317,13 @@ void printSummary(const Prepared& p, const calib::ExplainResult& r) {
   for (const std::string& n : r.notes) std::printf("note: %s\n", n.c_str());
 }
 
+// extra: keys added to the report JSON (the --propose-plan proposal).
 void writeOutputs(const ExplainCliOptions& o, const std::string& label,
-                  const calib::ExplainResult& r) {
+                  const calib::ExplainResult& r, const nlohmann::json& extra = {}) {
   if (!o.json_out.empty()) {
-    const Status s = io::writeJsonFile(o.json_out, calib::toJson(r));
+    nlohmann::json j = calib::toJson(r);
+    if (extra.is_object()) j.update(extra);
+    const Status s = io::writeJsonFile(o.json_out, j);
     if (!s.ok) throw CommandFailed(s.message);
     std::printf("report JSON written to %s\n", o.json_out.c_str());
   }
@@ -385,8 +388,9 @@ void runExplainTable(const ExplainCliOptions& o) {
                         r.unusable ? kExitUnusable : 1);
   }
   printSummary(p, r);
-  writeOutputs(o, src.label, r);
-  if (!o.propose.out.empty()) proposeFromExplain(o.propose, p.input, r, eo);
+  nlohmann::json extra = nlohmann::json::object();
+  if (!o.propose.out.empty()) extra["proposal"] = proposeFromExplain(o.propose, p.input, r, eo);
+  writeOutputs(o, src.label, r, extra);
 }
 
 const calib::ExplainAccepted* acceptedEffect(const calib::ExplainResult& r, const std::string& id) {

@@ -70,8 +70,21 @@ void writePlan(const std::string& path, const calib::ProposedPlan& plan) {
 
 }  // namespace
 
-void proposeFromExplain(const ProposeCliOptions& o, const calib::ExplainInput& input,
-                        const calib::ExplainResult& result, const calib::ExplainOptions& eo) {
+// The proposal for the --json report: the plan file (null when none was written), its
+// duration, each group with its predicted sigmas, the notes.
+nlohmann::json proposalJson(const calib::ProposeResult& p, const std::string& written) {
+  nlohmann::json groups = nlohmann::json::array();
+  for (const calib::ProposedGroup& g : p.groups) groups.push_back(calib::toJson(g, p));
+  return {{"plan", written.empty() ? nlohmann::json(nullptr) : nlohmann::json(written)},
+          {"duration_s", p.duration_s},
+          {"nothing_to_propose", p.nothing_to_propose},
+          {"groups", groups},
+          {"notes", p.notes}};
+}
+
+nlohmann::json proposeFromExplain(const ProposeCliOptions& o, const calib::ExplainInput& input,
+                                  const calib::ExplainResult& result,
+                                  const calib::ExplainOptions& eo) {
   const calib::ProposeOptions po = proposeOptions(o);
   const calib::ProposeResult p =
       calib::proposePlan(input, result, eo, po, plans::expandProposedPlan);
@@ -81,7 +94,7 @@ void proposeFromExplain(const ProposeCliOptions& o, const calib::ExplainInput& i
         "propose: nothing to propose (no unseparable group, every accepted effect within "
         "%.3g of its size); no plan written\n",
         po.relative_precision);
-    return;
+    return proposalJson(p, "");
   }
   std::printf("propose (limits %.3g deg/s, %.3g deg/s^2, at most %.0f s):\n",
               po.limits.max_rate_rad_s * kRadToDeg, po.limits.max_accel_rad_s2 * kRadToDeg,
@@ -90,11 +103,12 @@ void proposeFromExplain(const ProposeCliOptions& o, const calib::ExplainInput& i
   for (const std::string& n : p.notes) std::printf("  note: %s\n", n.c_str());
   if (p.plan.blocks.empty()) {
     std::printf("propose: no plan written (why: the groups and notes above)\n");
-    return;
+    return proposalJson(p, "");
   }
   writePlan(o.out, p.plan);
   std::printf("propose: plan written to %s (%zu blocks, %.0f s); it passes imubench plan check\n",
               o.out.c_str(), p.plan.blocks.size(), p.duration_s);
+  return proposalJson(p, o.out);
 }
 
 }  // namespace imubench::tools

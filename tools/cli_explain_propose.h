@@ -3,6 +3,7 @@
 // not (calib/explain/explain_propose.h), printed per group and written as plan TOML.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 
@@ -19,8 +20,11 @@ struct ProposeCliOptions {
 
 // Prints the proposal; writes the plan (checked like `imubench plan check`) when there is
 // one. Throws CommandFailed on a bad bench file or options (exit 2) and a refused plan (1).
-void proposeFromExplain(const ProposeCliOptions& options, const calib::ExplainInput& input,
-                        const calib::ExplainResult& result,
-                        const calib::ExplainOptions& explain_options);
+// Returns the proposal in JSON for the --json report's "proposal" (docs/explain.md): "plan"
+// (the file written, or null), "duration_s", "groups" (calib::toJson of each), "notes".
+nlohmann::json proposeFromExplain(const ProposeCliOptions& options,
+                                  const calib::ExplainInput& input,
+                                  const calib::ExplainResult& result,
+                                  const calib::ExplainOptions& explain_options);
 
 }  // namespace imubench::tools

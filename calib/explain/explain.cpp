@@ -564,6 +564,14 @@ void fillBins(const std::vector<ExplainBin>& bins, const std::vector<double>& be
   }
 }
 
+// The given-file tolerance of baseline coefficient n (ExplainOptions::given_max_*).
+double givenTolerance(const std::string& n, const ExplainOptions& o) {
+  if (n.find(".scale.") != std::string::npos) return o.given_max_scale;
+  if (n.rfind("accel.bias.", 0) == 0) return o.given_max_accel_bias;
+  if (n.rfind("gyro.bias.", 0) == 0) return o.given_max_gyro_bias;
+  return o.given_max_misalignment;
+}
+
 // Given coefficients that the recording moves beyond the physical tolerances are not this
 // IMU's: the first such coefficient, or "".
 std::string givenMismatch(const ExplainProblem& p, const ExplainOptions& o, const BenchTruth& fit) {
@@ -571,10 +579,7 @@ std::string givenMismatch(const ExplainProblem& p, const ExplainOptions& o, cons
   const BenchTruth& given = p.start.model;
   for (const std::string& n : p.baseline_names) {
     if (n.rfind("nuisance.", 0) == 0) continue;
-    double tol = o.given_max_misalignment;
-    if (n.find(".scale.") != std::string::npos) tol = o.given_max_scale;
-    if (n.rfind("accel.bias.", 0) == 0) tol = o.given_max_accel_bias;
-    if (n.rfind("gyro.bias.", 0) == 0) tol = o.given_max_gyro_bias;
+    const double tol = givenTolerance(n, o);
     const double d = stateValue({fit, {}}, n) - stateValue({given, {}}, n);
     if (std::abs(d) > tol) {
       char buf[240];
@@ -587,6 +592,42 @@ std::string givenMismatch(const ExplainProblem& p, const ExplainOptions& o, cons
     }
   }
   return "";
+}
+
+// A given baseline's coefficients this recording cannot determine to within their given-file
+// tolerance: the sigma at the given values (whitened regressors, columns normalised, singular
+// directions below 1e-7 of the largest unseen) above the tolerance. They are held at the given
+// values: refitted, they would wander along directions the data barely see (a level recording:
+// the horizontal accelerometers' scale, bias and misalignment trade against each other) and the
+// given-file check would call the file another IMU's.
+std::vector<std::string> undeterminedGiven(const ExplainProblem& p, const ExplainOptions& o,
+                                           ExplainEvaluator* eval) {
+  constexpr double kUnseen = 1e-7;
+  Eigen::MatrixXd J = eval->jacobian(p.start, p.baseline_names);
+  const int n = static_cast<int>(J.cols());
+  Eigen::VectorXd d(n);
+  for (int j = 0; j < n; ++j) {
+    d(j) = J.col(j).norm();
+    if (d(j) > 0.0) J.col(j) /= d(j);
+  }
+  const Eigen::BDCSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeThinV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  const Eigen::MatrixXd& V = svd.matrixV();
+  std::vector<std::string> held;
+  for (int j = 0; j < n; ++j) {
+    const std::string& name = p.baseline_names[static_cast<std::size_t>(j)];
+    if (name.rfind("nuisance.", 0) == 0) continue;
+    double var = 0.0;
+    for (int k = 0; k < s.size(); ++k) {
+      const bool unseen = s(k) <= kUnseen * s(0);
+      if (unseen && std::abs(V(j, k)) > 1e-3) var = std::numeric_limits<double>::infinity();
+      if (!unseen) var += V(j, k) * V(j, k) / (s(k) * s(k));
+    }
+    const double sigma =
+        d(j) > 0.0 ? std::sqrt(var) / d(j) : std::numeric_limits<double>::infinity();
+    if (!(sigma <= givenTolerance(name, o))) held.push_back(name);
+  }
+  return held;
 }
 
 }  // namespace
@@ -1113,6 +1154,11 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   res.noise = p.noise;
   ExplainEvaluator eval(p.bins, p.forward, p.sigma, o.fd_step);
   const double log_n = std::log(static_cast<double>(eval.rows()));
+  std::vector<std::string> held_given;
+  if (p.baseline_method == "given") held_given = undeterminedGiven(p, o, &eval);
+  for (const std::string& n : held_given) {
+    p.baseline_names.erase(std::find(p.baseline_names.begin(), p.baseline_names.end(), n));
+  }
   Pass q = selectAndRefit(&p, o, &eval, p.start, log_n, o.passes == 1);
   const Linearised first = q.L;  // residuals before: about the given baseline
   res.baseline_normalised_rms = std::sqrt(first.rperp.squaredNorm() / std::max(1, first.dof_b));
@@ -1130,8 +1176,19 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   res.scale = q.scale;
   res.correlation = q.correlation;
   res.unseparable = q.gate.unseparable;
+  for (const ExplainCandidateSpec& spec : p.candidates) {
+    if (!spec.variants.empty()) res.judged_fixed.emplace_back(spec.id, spec.fixed);
+  }
   res.rejected = q.gate.rejected;
   res.notes = q.gate.notes;
+  if (!held_given.empty()) {
+    std::string names;
+    for (const std::string& n : held_given) names += (names.empty() ? "" : ", ") + n;
+    res.notes.push_back(
+        "given coefficients held at their values (this recording cannot "
+        "determine them to within the given-file tolerance): " +
+        names);
+  }
   res.refit = {q.fit.iterations, q.fit.converged, q.fit.last_step_sigma, q.fit.chi2_per_dof};
   if (!q.fit.converged) {
     char buf[240];

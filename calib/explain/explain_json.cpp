@@ -3,6 +3,7 @@
 #include <limits>
 
 #include "calib/explain/explain.h"
+#include "calib/explain/explain_propose.h"
 
 namespace imubench::calib {
 namespace {
@@ -40,12 +41,15 @@ nlohmann::json shaped(ParamShape shape, const double* v) {
 }
 
 // {"parameters": .., "sigma": ..} of an accepted effect: the registry's parameter names and
-// shapes, or {component: value} for the table's error groups.
+// shapes, or {component: value} for the table's error groups, named by their flat names (their
+// order is the table kind's: three-axis nonorthogonality is middle_x, middle_y, inner_y, not
+// the registry's inner_y, middle_x, middle_y).
 void parametersJson(const ExplainAccepted& a, nlohmann::json* values, nlohmann::json* sigmas) {
   *values = nlohmann::json::object();
   *sigmas = nlohmann::json::object();
   const std::optional<EffectId> id = effectFromName(a.effect);
-  if (!id || a.flat_names.size() != static_cast<std::size_t>(flatSize(*id))) {
+  if (!id || a.flat_names.size() != static_cast<std::size_t>(flatSize(*id)) ||
+      model::kUnitInfos[static_cast<std::size_t>(*id)].stage == model::Stage::kTable) {
     for (std::size_t k = 0; k < a.flat_names.size(); ++k) {
       const std::string comp = a.flat_names[k].substr(a.flat_names[k].rfind('.') + 1);
       (*values)[comp] = numberOrNull(a.values[k]);
@@ -155,6 +159,28 @@ nlohmann::json toJson(const ExplainResult& r) {
   j["coefficients"] = toJson(r.coefficients);
   j["notes"] = r.notes;
   return j;
+}
+
+nlohmann::json toJson(const ProposedGroup& g, const ProposeResult& p) {
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  nlohmann::json params = nlohmann::json::array();
+  for (std::size_t k = 0; k < g.flat_names.size(); ++k) {
+    params.push_back({{"name", g.flat_names[k]},
+                      {"sigma_before", numberOrNull(g.sigma_before[k])},
+                      {"sigma_after", numberOrNull(g.sigma_after[k])},
+                      {"sigma_joint", k < g.sigma_joint.size() ? numberOrNull(g.sigma_joint[k])
+                                                               : nlohmann::json(nullptr)}});
+  }
+  return {{"effects", g.effects},
+          {"unseparable", g.unseparable},
+          {"resolved", g.resolved},
+          {"possible", g.possible},
+          {"why", g.why},
+          {"angle_before_deg", g.angle_before_rad * kDeg},
+          {"angle_after_deg", g.angle_after_rad * kDeg},
+          {"limit_deg", p.angleLimitFor(g) * kDeg},
+          {"added", g.added},
+          {"parameters", params}};
 }
 
 }  // namespace imubench::calib

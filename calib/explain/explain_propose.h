@@ -137,6 +137,12 @@ struct ProposeResult {
   }
 };
 
+// One group in JSON (the daemon's stored follow-up and `explain --propose-plan --json`):
+// effects, unseparable / resolved / possible / why, the principal angles before and after and
+// their limit (deg), the blocks added, and per parameter the predicted sigmas before (the
+// recording), after (the plan alone) and joint (both analysed together); null = held.
+nlohmann::json toJson(const ProposedGroup& group, const ProposeResult& proposal);
+
 // The groups and the plan. `input` is the recording explain analysed, `result` its analysis
 // (status ok), `explain_options` the ones it ran with.
 ProposeResult proposePlan(const ExplainInput& input, const ExplainResult& result,

@@ -19,6 +19,10 @@ Physics (interchange.md):
   reading over the sample interval (Gauss-Legendre quadrature of the smooth motion).
 
 Usage: write_recording.py OUT_DIR --case NAME   (names: see CASES at the bottom)
+       write_recording.py OUT_DIR --case NAME --plan PLAN.toml [--seed N]: the case's IMU,
+         table errors and extras on the plan's motion (docs/plan-format.md steps move, rotate,
+         rate, hold, repeat, record on; read with tomllib, the writer's own cosine-ramp
+         profile within each step's rate and acceleration, its own timing grid)
 """
 import argparse
 import json
@@ -124,6 +128,11 @@ class Triad:
     def reading(self, inp):
         return (inp @ self.M.T - self.bias) * self.scale
 
+    def reading_at_points(self, inp_x, inp_y, inp_z):
+        """Axis k senses the input at its own point (interchange.md size_effect): inp_k (n, 3)."""
+        u = np.stack([inp_x @ self.M[0], inp_y @ self.M[1], inp_z @ self.M[2]], axis=-1)
+        return (u - self.bias) * self.scale
+
     def json(self):
         return {"scale": list(self.scale), "bias": list(self.bias), "misalignment": self.mis}
 
@@ -170,6 +179,21 @@ class Schedule:
         self.kinds.append("settle")
         self.t += dur
 
+    def motion(self, legs, kind="move"):
+        """Several axes starting together (a plan's move): legs = [(axis, delta_rad, rate_rad_s,
+        ramp_s, flat_s)], each a cosine-ramp profile of its own; the step ends when the last
+        axis arrives (the others hold at their targets)."""
+        legs = [leg for leg in legs if abs(leg[1]) > 0.0]
+        if not legs:
+            return
+        dur = max(2 * leg[3] + leg[4] for leg in legs)
+        self.steps.append((self.t, self.t + dur, legs[0][0], self.q.copy(), legs, 0.0, 0.0))
+        self.kinds.append("multi")
+        self.t += dur
+        for axis, d, *_ in legs:
+            self.q[axis] += d
+            self.last_axis = axis
+
     def move(self, axis, delta_deg, rate_dps=20.0, ramp_s=1.0):
         d = delta_deg * DEG
         w = min(rate_dps * DEG, abs(d) / ramp_s)
@@ -197,24 +221,36 @@ class Schedule:
                 q[sel, axis] += env * (1 - np.cos(ph))
                 qd[sel, axis] = env * (2 * np.pi * w * np.sin(ph) - (1 - np.cos(ph)) / Tr)
                 continue
+            if self.kinds[k] == "multi":  # d: the legs
+                for ax, dl, wl, Trl, flat in d:
+                    a, r = ramp_profile(t[sel] - t0, abs(dl), wl, Trl, 2 * Trl + flat)
+                    q[sel, ax] += np.sign(dl) * a
+                    qd[sel, ax] = np.sign(dl) * r
+                continue
             if axis < 0:
                 continue
-            tau = np.clip(t[sel] - t0, 0.0, t1 - t0)
-            T = t1 - t0
-            sgn = np.sign(d)
-            # rate: w (1 - cos(pi tau / Tr)) / 2 up, w flat, mirrored down
-            up = w / 2 * (tau - Tr / np.pi * np.sin(np.pi * tau / Tr))
-            r_up = w / 2 * (1 - np.cos(np.pi * tau / Tr))
-            a_ramp = w * Tr / 2
-            flat = a_ramp + w * (tau - Tr)
-            td = T - tau  # time to the end
-            down = abs(d) - w / 2 * (td - Tr / np.pi * np.sin(np.pi * td / Tr))
-            r_down = w / 2 * (1 - np.cos(np.pi * td / Tr))
-            ang = np.where(tau < Tr, up, np.where(td < Tr, down, flat))
-            rate = np.where(tau < Tr, r_up, np.where(td < Tr, r_down, w))
-            q[sel, axis] += sgn * ang
-            qd[sel, axis] = sgn * rate
+            ang, rate = ramp_profile(t[sel] - t0, abs(d), w, Tr, t1 - t0)
+            q[sel, axis] += np.sign(d) * ang
+            qd[sel, axis] = np.sign(d) * rate
         return q, qd
+
+
+def ramp_profile(tau, dist, w, Tr, T):
+    """Angle and rate at tau of a turn of dist (> 0) in T: the rate rises as w (1 - cos(pi tau /
+    Tr)) / 2 for Tr, stays w, and falls mirrored to 0 at T (zero rate and acceleration at both
+    ends; peak acceleration w pi / (2 Tr))."""
+    tau = np.clip(tau, 0.0, T)
+    # rate: w (1 - cos(pi tau / Tr)) / 2 up, w flat, mirrored down
+    up = w / 2 * (tau - Tr / np.pi * np.sin(np.pi * tau / Tr))
+    r_up = w / 2 * (1 - np.cos(np.pi * tau / Tr))
+    a_ramp = w * Tr / 2
+    flat = a_ramp + w * (tau - Tr)
+    td = T - tau  # time to the end
+    down = dist - w / 2 * (td - Tr / np.pi * np.sin(np.pi * td / Tr))
+    r_down = w / 2 * (1 - np.cos(np.pi * td / Tr))
+    ang = np.where(tau < Tr, up, np.where(td < Tr, down, flat))
+    rate = np.where(tau < Tr, r_up, np.where(td < Tr, r_down, w))
+    return ang, rate
 
 
 # ---- the recording ----
@@ -249,8 +285,9 @@ def lever_arm_force(table, sched, tt, w_LB_B, r, extra, h=1e-4):
 
 def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2, extra=None):
     """Increments over (t_end - dt, t_end] by Gauss-Legendre (sub sub-intervals x 3 nodes).
-    extra (interchange.md effect ids): "lever_arm" r_m (m, B); "time_delay" tau_s (a sample
-    stamped t was taken at t - tau_s); "angle_harmonic" (axis, k, cos_rad, sin_rad)."""
+    extra (interchange.md effect ids): "lever_arm" r_m (m, B); "size_effect" (d_y_m, d_z_m):
+    the y and z accelerometers' points relative to the x one's (r_m); "time_delay" tau_s (a
+    sample stamped t was taken at t - tau_s); "angle_harmonic" (axis, k, cos_rad, sin_rad)."""
     extra = extra or {}
     tau = extra.get("time_delay", 0.0)
     n = len(t_end)
@@ -271,11 +308,19 @@ def integrate_increments(table, sched, accel, gyro, g, w_ie_L, t_end, dt, sub=2,
         C_LB, w_LB_B = table.kinematics(q, qd)
         C_BL = np.transpose(C_LB, (0, 2, 1))
         f_B = C_BL @ np.array([0.0, 0.0, g])
+        r = np.array(extra.get("lever_arm", (0.0, 0.0, 0.0)), float)
         if "lever_arm" in extra:
-            f_B = f_B + lever_arm_force(table, sched, tt, w_LB_B, np.array(extra["lever_arm"]),
-                                          extra)
+            f_x = f_B + lever_arm_force(table, sched, tt, w_LB_B, r, extra)
+        else:
+            f_x = f_B
         w_IB_B = C_BL @ w_ie_L + w_LB_B
-        ra = accel.reading(f_B).reshape(-1, len(offs), 3)
+        if "size_effect" in extra:  # the y and z accelerometers at r + d_y, r + d_z
+            d_y, d_z = (np.array(v, float) for v in extra["size_effect"])
+            f_y = f_B + lever_arm_force(table, sched, tt, w_LB_B, r + d_y, extra)
+            f_z = f_B + lever_arm_force(table, sched, tt, w_LB_B, r + d_z, extra)
+            ra = accel.reading_at_points(f_x, f_y, f_z).reshape(-1, len(offs), 3)
+        else:
+            ra = accel.reading(f_x).reshape(-1, len(offs), 3)
         rg = gyro.reading(w_IB_B).reshape(-1, len(offs), 3)
         dv[a:a + chunk] = np.einsum("nkj,k->nj", ra, wts)
         dth[a:a + chunk] = np.einsum("nkj,k->nj", rg, wts)
@@ -296,6 +341,8 @@ def write_case(out, spec):
     else:
         accel = random_triad(rng, 500.0, 1e-3, 2e-4)
         gyro = random_triad(rng, 300.0, 5e-7, 2e-4)
+    if "noise_seed" in spec:  # the same IMU (drawn above), another noise realisation
+        rng = np.random.default_rng(spec["noise_seed"])
     sched = Schedule(table.naxes, spec.get("t0", 1000.0))
     spec["schedule"](sched, spec)
     rate = spec["rate_hz"]
@@ -353,6 +400,8 @@ def extra_json(effect, v):
     """An effect of the spec in interchange.md's parameter names."""
     if effect == "lever_arm":
         return {"r_m": list(v)}
+    if effect == "size_effect":
+        return {"d_y_m": list(v[0]), "d_z_m": list(v[1])}
     if effect == "angle_harmonic":
         return {"axis": v[0], "order": v[1], "cos_rad": v[2], "sin_rad": v[3]}
     return {"tau_s": v}
@@ -532,6 +581,122 @@ def three_axis_natural(s, spec):
     P.goto((0.0, 0.0, 0.0))
 
 
+# ---- plan files (docs/plan-format.md): the writer's own reading of a plan's steps ----
+
+UNITS = {"deg": DEG, "rad": 1.0, "arcsec": ARCSEC, "deg/s": DEG, "rad/s": 1.0,
+         "deg/h": DEG / 3600.0, "deg/s^2": DEG, "rad/s^2": 1.0, "s": 1.0, "ms": 1e-3,
+         "min": 60.0, "h": 3600.0}
+
+
+def quantity(text):
+    """'10 deg/s' -> SI (rad/s); the plan's units are mandatory (docs/plan-format.md)."""
+    value, unit = text.split()
+    return float(value) * UNITS[unit]
+
+
+class PlanAxes:
+    """Per-axis limits of a plan's [table]: max_rate, max_accel (the table's, overridden by
+    [table.AXIS]), and min_angle/max_angle (both given: a limited axis)."""
+
+    def __init__(self, table):
+        self.names = ["outer", "inner"] if table["kind"] == "two-axis" else ["outer", "middle",
+                                                                             "inner"]
+        self.rate, self.accel, self.limited = [], [], []
+        for n in self.names:
+            ax = table.get(n, {})
+            self.rate.append(quantity(ax.get("max_rate", table.get("max_rate"))))
+            self.accel.append(quantity(ax.get("max_accel", table.get("max_accel"))))
+            self.limited.append("min_angle" in ax and "max_angle" in ax)
+
+
+def cosine_leg(axis, delta, rate, accel, flat_extra_s=0.0):
+    """One axis' turn by delta (rad) with the cosine-ramp profile (ramp_profile) at most `rate`
+    and peak acceleration at most `accel`: ramp time Tr = pi w / (2 accel); a turn too short to
+    reach `rate` peaks lower. flat_extra_s: time at the rate on top of the turn's own (none for
+    a turn of a given angle)."""
+    dist = abs(delta)
+    if dist == 0.0:
+        return (axis, 0.0, 0.0, 0.0, 0.0)  # dropped by Schedule.motion
+    w = min(rate, np.sqrt(2.0 * accel * dist / np.pi))
+    Tr = np.pi * w / (2.0 * accel)
+    flat = (dist - w * Tr) / w + flat_extra_s
+    return (axis, delta, w, Tr, max(flat, 0.0))
+
+
+def signed_step_value(step, key):
+    v = quantity(step[key])
+    d = step.get("direction")
+    if d is not None:
+        v = abs(v) * (1.0 if d in ("+", "ccw") else -1.0)
+    return v
+
+
+def plan_step(s, axes, step):
+    """Append one plan step (docs/plan-format.md semantics) to the schedule s."""
+    kind = step["type"]
+    if kind == "hold":
+        s.hold(quantity(step["duration"]))
+    elif kind == "repeat":
+        for _ in range(int(step["count"])):
+            for sub in step["steps"]:
+                plan_step(s, axes, sub)
+    elif kind == "record":
+        if step["state"] != "on":
+            raise ValueError("write_recording.py: 'record off' spans are not written (a "
+                             "recording with gaps)")
+    elif kind in ("move", "rotate", "rate"):
+        legs = []
+        for j, name in enumerate(axes.names):
+            if kind == "move" and name not in step:
+                continue
+            if kind != "move" and step["axis"] != name:
+                continue
+            rate = min(quantity(step["rate"]) if "rate" in step else axes.rate[j], axes.rate[j])
+            rate = abs(rate)
+            accel = quantity(step["accel"]) if "accel" in step else axes.accel[j]
+            if kind == "move":  # absolute target: shortest way (continuous), direct (limited)
+                d = quantity(step[name]) - s.q[j]
+                if not axes.limited[j]:
+                    d = (d + np.pi) % (2 * np.pi) - np.pi
+                legs.append(cosine_leg(j, d, rate, accel))
+            elif kind == "rotate":
+                legs.append(cosine_leg(j, signed_step_value(step, "angle"), rate, accel))
+            else:  # rate run: the documented angle rate (duration + rate / accel); the ramps
+                # are the writer's cosine ramps within accel, the time at the rate makes it up
+                w = signed_step_value(step, "rate")
+                dur = quantity(step["duration"])
+                legs.append(cosine_leg(j, w * (dur + abs(w) / accel), abs(w), accel))
+        s.motion(legs)
+    else:
+        raise ValueError("write_recording.py: plan step type '%s' is not written (no chamber or "
+                         "thermal model in this writer)" % kind)
+
+
+def plan_schedule(s, spec):
+    """The schedule of the plan file spec["plan_file"] (read with tomllib)."""
+    axes = PlanAxes(spec["plan"]["table"])
+    for step in spec["plan"].get("step", []):
+        plan_step(s, axes, step)
+
+
+def with_plan(spec, plan_path, seed):
+    """The case spec recording plan_path instead of its own schedule: the same IMU, table errors
+    and extras, another noise seed (the IMU's coefficients are drawn first from the case's
+    seed, then the noise: both the same IMU)."""
+    import tomllib
+    with open(plan_path, "rb") as f:
+        plan = tomllib.load(f)
+    table = plan["table"]
+    if table["kind"] != spec["kind"]:
+        raise ValueError("%s: a %s plan for a %s case" % (plan_path, table["kind"], spec["kind"]))
+    if table["kind"] == "two-axis":
+        heading = quantity(table.get("outer_axis_heading", "90 deg")) / DEG
+        if abs(heading - spec.get("heading_deg", 90.0)) > 1e-9:
+            raise ValueError("%s: outer_axis_heading %g deg, the case's bench %g deg" % (
+                plan_path, heading, spec.get("heading_deg", 90.0)))
+    return dict(spec, schedule=plan_schedule, plan=plan, noise_seed=seed)
+
+
 def table_errors(kind, big_tilt=False):
     a = ARCSEC
     theta = (1.0 * DEG, -0.4 * DEG) if big_tilt else (35 * a, -22 * a)
@@ -632,13 +797,92 @@ def make_explain_cases():
     return c
 
 
+def one_axis_only(axis, turn_deg, ramp_s):
+    """A poor schedule turning one two-axis table axis only: holds at eight angles of it 45
+    degrees apart, then a turn of turn_deg each way at 30 deg/s (ramps ramp_s).
+      axis 1 (inner; outer at 0, inner axis vertical): a level recording. A base tilt about the
+        outer axis' perpendicular and the inner axis' nonorthogonality tilt the inner axis the
+        same way; the x and y accelerometers never see gravity along them.
+      axis 0 (outer; inner at 0, x_B along the horizontal outer axis): every rotation is about
+        x_B, and the centripetal force a lever arm and the accelerometers' own positions add is
+        -w^2 (0, y, z) of the point: the y accelerometer's y offset and the z accelerometer's z
+        offset act as the lever arm's y and z."""
+    def schedule(s, spec):
+        H = spec.get("hold_s", 50.0)
+        for _ in range(8):
+            s.hold(H)
+            s.move(axis, 45.0, rate_dps=10.0)
+        s.hold(H)
+        for d in (turn_deg, -turn_deg):
+            s.move(axis, d, rate_dps=30.0, ramp_s=ramp_s)
+            s.hold(H)
+    return schedule
+
+
+def three_axis_outer_fixed(s, spec):
+    """A poor three-axis schedule: the vertical outer axis never turns. Holds with each body axis
+    up and down (middle 0 and 180; middle 90 at four inner angles), turns about the inner and
+    middle axes each way. A base tilt, the middle axis' nonorthogonality nu1 and the middle
+    encoder zero then all tilt the middle axis alike: they are told apart only when the outer
+    axis turns (nu1 and the middle zero turn with it, the base tilt does not)."""
+    H, OUT, MID, INN = spec.get("hold_s", 40.0), 0, 1, 2
+    s.hold(H)
+    s.move(INN, 360.0)
+    s.hold(H)
+    s.move(MID, 180.0)
+    s.hold(H)
+    s.move(MID, -90.0)
+    for _ in range(4):
+        s.hold(H)
+        s.move(INN, 90.0)
+    s.hold(H)
+    s.move(MID, -360.0)
+    s.hold(H)
+    s.move(INN, -360.0)
+    s.hold(H)
+    assert OUT == 0
+
+
+def make_propose_cases():
+    """Recordings A whose motion leaves a pair of effects concealed (propose_cases.py): explain
+    proposes the plan, the writer records it (--plan) with the same IMU and truth."""
+    a = ARCSEC
+    level_errors = {"theta": (0.0, -20 * a), "nu": (30 * a,), "mu": (0.0, 0.0), "zero": (0, 0, 0)}
+
+    def lvl(**kw):
+        return {**dict(kind="two-axis", schedule=one_axis_only(1, 360.0, 2.0), rate_hz=100.0,
+                       graded=True, noise_density=NAV_NOISE, table_errors=level_errors), **kw}
+    c = {
+        "pair_level_tilt_nonorth": lvl(seed=41),
+        "pair_outer_lever_size": lvl(
+            seed=42, schedule=one_axis_only(0, 1080.0, 3.0), table_errors=table_errors("two-axis"),
+            extra={"lever_arm": (0.05, -0.03, 0.04),
+                   "size_effect": ((0.01, 0.02, -0.01), (-0.02, 0.01, 0.015))}),
+        "pair_three_outer_fixed": lvl(
+            seed=43, kind="three-axis", schedule=three_axis_outer_fixed,
+            table_errors=three_axis_errors(),
+            extra={"lever_arm": (0.04, 0.03, -0.05),
+                   "size_effect": ((0.015, -0.01, 0.02), (0.01, 0.02, -0.015))}),
+    }
+    for name, spec in c.items():
+        spec["name"] = name
+    return c
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out")
-    cases = {**make_cases(), **make_explain_cases(), **make_calibrate_cases()}
+    cases = {**make_cases(), **make_explain_cases(), **make_calibrate_cases(),
+             **make_propose_cases()}
     ap.add_argument("--case", required=True, choices=sorted(cases))
+    ap.add_argument("--plan", help="record this plan file (docs/plan-format.md) instead of the "
+                    "case's schedule: the case's IMU, table errors and extras")
+    ap.add_argument("--seed", type=int, default=1001, help="noise seed with --plan")
     args = ap.parse_args()
-    write_case(args.out, cases[args.case])
+    spec = cases[args.case]
+    if args.plan:
+        spec = with_plan(spec, args.plan, args.seed)
+    write_case(args.out, spec)
 
 
 if __name__ == "__main__":
