@@ -7,7 +7,7 @@ translation unit, system headers included, so even a small TU that includes Eige
 CPU, far beyond the minutes CI can spend (docs/ci.md has the measurements). So CI checks the
 TUs whose code changed since the commit recorded in tools/tidy_base.txt (the diff of that
 commit against the working tree, untracked sources included; a changed header is checked
-through the TU of the same name or else the first TU that includes it). Lines that only move
+through the TU of the same name, else through the including TU that includes the fewest files). Lines that only move
 an #include (a file moved to another folder) do not count as a change. More than --max-tus
 TUs fail rather than blowing the CI budget: check them locally (--all or FILEs) and advance
 tools/tidy_base.txt.
@@ -82,9 +82,38 @@ def load_database(build):
     return sorted({os.path.realpath(os.path.join(e["directory"], e["file"])) for e in entries})
 
 
-def translation_units(root, files, database):
-    """The TUs that check FILES: a source file itself, a header through an including TU."""
-    units, missing = [], []
+def header_costs(build, database):
+    """For each TU, its set of included files and their count, from the build's ninja
+    dependency log (ninja -t deps); empty when the build has none."""
+    by_object = {}
+    with open(os.path.join(build, "compile_commands.json"), encoding="utf-8") as f:
+        for e in json.load(f):
+            m = re.search(r"\s-o\s+(\S+)", e["command"]) if "command" in e else None
+            if m:
+                tu = os.path.realpath(os.path.join(e["directory"], e["file"]))
+                by_object[os.path.normpath(os.path.join(e["directory"], m.group(1)))] = tu
+    try:
+        out = subprocess.run(["ninja", "-C", build, "-t", "deps"], capture_output=True,
+                             text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return {}
+    deps, current = {}, None
+    for line in out.splitlines():
+        if line and not line[0].isspace():
+            obj = os.path.normpath(os.path.join(build, line.split(":")[0]))
+            current = by_object.get(obj)
+            if current:
+                deps[current] = set()
+        elif current and line.strip():
+            deps[current].add(os.path.realpath(os.path.join(build, line.strip())))
+    return deps
+
+
+def translation_units(root, build, files, database):
+    """The TUs that check FILES: a source file itself; a header through its own .cpp, else
+    through the including TU with the fewest included files (the cheapest to parse, by the
+    build's dependency log; else the first TU naming it in an #include)."""
+    units, missing, deps = [], [], None
     in_db = set(database)
     for f in files:
         path = os.path.realpath(f if os.path.isabs(f) else os.path.join(root, f))
@@ -96,7 +125,13 @@ def translation_units(root, files, database):
             continue
         rel = os.path.relpath(path, root)
         stem = path[:-2] + ".cpp"
-        includer = stem if stem in in_db else next(
+        if stem in in_db:
+            units.append(stem)
+            continue
+        if deps is None:
+            deps = header_costs(build, database)
+        includers = sorted((len(d), tu) for tu, d in deps.items() if path in d)
+        includer = includers[0][1] if includers else next(
             (tu for tu in database if _includes(tu, rel)), None)
         if includer:
             units.append(includer)
@@ -156,7 +191,7 @@ def main():
                     base = f.read().split()[0]
             files = changed_files(root, base)
             print("clang-tidy: %d project source(s) changed since %s" % (len(files), base[:12]))
-        units = translation_units(root, files, database)
+        units = translation_units(root, args.build, files, database)
         if len(units) > args.max_tus:
             fail("%d TUs to check, more than --max-tus %d (the CI time budget): check them "
                  "locally (tools/tidy_check.py -p BUILD --all), then set tools/tidy_base.txt "
