@@ -25,6 +25,7 @@ import os
 import re
 import sys
 
+# The project's own C++ sources (tools/tidy_check.py uses these too).
 SOURCE_DIRS = ["base", "bench", "calib", "daemon", "drivers", "io", "lab", "nav", "plans",
                "tests", "tools"]
 # Not ours to restyle: third-party code kept in the tree.
