@@ -6,7 +6,8 @@
 #    that grows, and an allowlist entry that no longer matches, fail;
 #  - tools/tidy_check.py: a file with a bugprone-use-after-move finding fails naming
 #    file:line and the check, in the changed-since-base mode CI uses and for a named file;
-#    the clean version passes; a change of #include lines only is not a change.
+#    the clean version passes; a change of #include lines only is not a change; more TUs
+#    than the cap and a base missing from the clone fail with a message saying so.
 # Usage: static_checks_planted.sh SOURCE_DIR
 set -euo pipefail
 src=$(cd "${1:?usage: static_checks_planted.sh SOURCE_DIR}" && pwd)
@@ -104,6 +105,10 @@ sed -i 's/return static_cast<int>(b.size());/return static_cast<int>(a.size() + 
 expect_fail "clang-tidy since the base on a planted use after move" \
   "nav/planted\.cpp:7:[0-9]+: (error|warning): 'a' used after it was moved \[bugprone-use-after-move" \
   "1 project source\(s\) changed" -- "${tidy_check[@]}" --root "$t" -p "$t"
+expect_fail "clang-tidy over the TU cap (the CI time budget)" "1 TUs to check, more than --max-tus 0" \
+  -- "${tidy_check[@]}" --root "$t" -p "$t" --max-tus 0
+expect_fail "clang-tidy since a base the clone lacks" "is not in this clone's history" \
+  -- "${tidy_check[@]}" --root "$t" -p "$t" --base 0123456789abcdef0123456789abcdef01234567
 expect_fail "clang-tidy on the planted file named" "planted\.cpp:7:.*bugprone-use-after-move" \
   -- "${tidy_check[@]}" --root "$t" -p "$t" nav/planted.cpp
 echo "static checks: every planted violation caught, every clean version passed"
