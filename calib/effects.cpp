@@ -313,7 +313,7 @@ bool EffectSet::setParam(EffectId id, std::string_view name, std::span<const dou
     for (double v : values) {
       const std::string problem = valueProblem(spec, v);
       if (!problem.empty()) {
-        if (why) *why = where + ": " + problem;
+        if (why) *why = std::string(where).append(": ").append(problem);
         return false;
       }
     }
@@ -429,8 +429,9 @@ ForwardModel& ForwardModel::operator=(const ForwardModel& other) {
   return {s.accel, s.gyro};
 }
 
-Readings forwardReadings(const SensorModel& sensors, const EffectSet& fx, const PhysicsPoint& p) {
-  return ForwardModel(sensors, fx).readings(p);
+Readings forwardReadings(const SensorModel& sensors, const EffectSet& effects,
+                         const PhysicsPoint& p) {
+  return ForwardModel(sensors, effects).readings(p);
 }
 
 Readings effectTerm(EffectId id, const SensorModel& sensors, const EffectSet& effects,

@@ -3,7 +3,7 @@
 # Idempotent; needs root (or sudo). Why each package is here: README.md "Dependencies".
 set -euo pipefail
 pkgs=(
-  cmake ninja-build g++ pkg-config ccache git clang-format
+  cmake ninja-build g++ pkg-config ccache git clang-format clang-tidy
   libeigen3-dev libceres-dev libmodbus-dev libsystemd-dev libtomlplusplus-dev
   nlohmann-json3-dev libfast-float-dev libcli11-dev libsqlite3-dev libssl-dev libgtest-dev libgmock-dev libbenchmark-dev
   libpq-dev postgresql-15 postgresql-client-15

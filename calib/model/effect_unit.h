@@ -52,9 +52,9 @@ enum class ParamShape { kScalar, kVec3, kMat3 };  // 1, 3 or 9 (row-major) numbe
 // 0 outer, 1 middle, 2 inner (JSON "outer" | "middle" | "inner").
 enum class ParamKind { kReal, kInteger, kTableAxis };
 struct ParamSpec {
-  const char* name;  // JSON key, e.g. "r_m"
-  ParamShape shape;
-  const char* unit;  // SI unit, for reports
+  const char* name = nullptr;  // JSON key, e.g. "r_m"
+  ParamShape shape = ParamShape::kScalar;
+  const char* unit = nullptr;  // SI unit, for reports
   ParamKind kind = ParamKind::kReal;
 };
 

@@ -69,11 +69,11 @@ struct UnitInfo {
 // entries have no name).
 inline constexpr int kMaxUnitParams = 4;
 struct UnitRow {
-  EffectId id;
-  const char* name;
-  Stage stage;
-  const char* term;
-  std::array<ParamSpec, kMaxUnitParams> params;
+  EffectId id{};
+  const char* name = nullptr;
+  Stage stage{};
+  const char* term = nullptr;
+  std::array<ParamSpec, kMaxUnitParams> params{};
 };
 
 // THE metadata of every unit, in EffectId order (checked below); the unit's header holds its

@@ -199,8 +199,8 @@ void siteProbe(EffectId id) {
 void tableProbe(EffectId id) {
   const auto [x, n] = probePoint(id, {0.7, -1.1, 2.3, 0.4, -0.3, 0.9, 0.2, 0.5, -0.6});
   const auto body = [id]<typename T>(const std::vector<T>& block, const T* a) {
-    std::array<T, kTableAxesSize> axes;
-    std::array<T, kTableDeviceSize> device;
+    std::array<T, kTableAxesSize> axes{};
+    std::array<T, kTableDeviceSize> device{};
     axes.fill(T(0.0));
     device.fill(T(0.0));
     addTableEffects(only(id, block), axes.data(), device.data());
