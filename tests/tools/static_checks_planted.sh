@@ -111,4 +111,13 @@ expect_fail "clang-tidy since a base the clone lacks" "is not in this clone's hi
   -- "${tidy_check[@]}" --root "$t" -p "$t" --base 0123456789abcdef0123456789abcdef01234567
 expect_fail "clang-tidy on the planted file named" "planted\.cpp:7:.*bugprone-use-after-move" \
   -- "${tidy_check[@]}" --root "$t" -p "$t" nav/planted.cpp
+# A shallow clone without the base (whether CI clones shallow is CI's choice): said, not failed.
+git -C "$t" add -A && git -C "$t" -c user.name=t -c user.email=t@t commit -qm next
+git clone -q --depth 1 "file://$t" "$t.shallow"
+if ! out=$("${tidy_check[@]}" --root "$t.shallow" -p "$t" 2>&1) ||
+  ! grep -q "NOT RUN: this clone is shallow" <<<"$out"; then
+  printf 'FAIL: clang-tidy in a shallow clone: %s\n' "$out" >&2; rm -rf "$t.shallow"; exit 1
+fi
+rm -rf "$t.shallow"
+echo "ok: clang-tidy in a shallow clone says it did not run"
 echo "static checks: every planted violation caught, every clean version passed"
