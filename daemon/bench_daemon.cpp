@@ -901,7 +901,9 @@ void BenchDaemon::closeRun() {
 std::optional<LabStatus> BenchDaemon::labStatus() const {
   if (!lab_) return std::nullopt;
   const lab::MirrorStatus m = lab_->status();
-  LabStatus s{m.state, lab::labFaultName(m.fault), m.message, m.backlog, m.shipped};
+  LabStatus s{
+      m.state,     lab::labFaultName(m.fault), m.message, m.backlog, m.shipped, std::nullopt,
+      std::nullopt};
   if (m.mirror_samples) {
     s.samples_backlog = m.samples_backlog;
     s.samples_shipped = m.samples_shipped;

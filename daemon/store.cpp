@@ -224,15 +224,14 @@ struct StreamSql {
   std::span<const char* const> columns;
 };
 constexpr const char* kImuColumns[] = {"dthx", "dthy", "dthz", "dvx", "dvy", "dvz", "temp_c"};
-constexpr const char* kTableColumns[] = {"angle0_deg", "angle1_deg", "angle2_deg",
-                                         "round_trip_s"};
+constexpr const char* kTableColumns[] = {"angle0_deg", "angle1_deg", "angle2_deg", "round_trip_s"};
 constexpr const char* kChamberColumns[] = {"setpoint_c", "temp_c"};
 const StreamSql& streamSql(SampleStream stream) {
-  static const StreamSql kImu{
-      "imu", kLastImuTSql,
-      "SELECT t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c FROM imu_samples "
-      "WHERE run_id = ?1 AND t > ?2 ORDER BY t LIMIT ?3",
-      "SELECT count(*) FROM imu_samples WHERE run_id = ?1 AND t > ?2", kImuColumns};
+  static const StreamSql kImu{"imu", kLastImuTSql,
+                              "SELECT t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c FROM imu_samples "
+                              "WHERE run_id = ?1 AND t > ?2 ORDER BY t LIMIT ?3",
+                              "SELECT count(*) FROM imu_samples WHERE run_id = ?1 AND t > ?2",
+                              kImuColumns};
   static const StreamSql kTable{
       "table", "SELECT max(t) FROM table_samples WHERE run_id = ?1",
       "SELECT t, angle0_deg, angle1_deg, angle2_deg, round_trip_s FROM table_samples "
@@ -673,9 +672,9 @@ Status Store::Impl::requireAfterStored(std::int64_t run_id, const RunBatch& b) {
     std::optional<double> newest;
     if (auto st = lastTime(streamSql(stream).newest_t, run_id, &newest); !st.ok) return st;
     if (newest && !(*first > *newest)) {
-      return error(runLabel(run_id) + ": batch refused: " + sampleStreamName(stream) +
-                   " sample 0: time does not increase past the stored t=" +
-                   std::to_string(*newest));
+      return error(
+          runLabel(run_id) + ": batch refused: " + sampleStreamName(stream) +
+          " sample 0: time does not increase past the stored t=" + std::to_string(*newest));
     }
   }
   return Status::Ok();
@@ -1532,8 +1531,8 @@ SampleRowsResult Store::readSamples(std::int64_t run_id, SampleStream stream,
     }
   }
   if (rc != SQLITE_DONE) {
-    r.status = impl_->sqlError("cannot read " + std::string(sql.name) + " samples of " +
-                               runLabel(run_id));
+    r.status =
+        impl_->sqlError("cannot read " + std::string(sql.name) + " samples of " + runLabel(run_id));
   }
   return r;
 }

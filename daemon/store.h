@@ -201,7 +201,7 @@ struct QueuePlace {
 using QueueAddResult = Result<QueuePlace>;
 using QueueListResult = Result<std::vector<QueueEntry>>;  // in queue order, the next first
 using CountResult = Result<int>;
-using OutboxListResult = Result<std::vector<OutboxItem>>;  // by seq
+using OutboxListResult = Result<std::vector<OutboxItem>>;   // by seq
 using SampleTailsResult = Result<std::vector<SampleTail>>;  // by run, then stream
 using SampleRowsResult = Result<SampleRows>;
 using SampleCountResult = Result<std::int64_t>;

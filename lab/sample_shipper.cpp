@@ -32,7 +32,8 @@ StreamStatements statementsFor(SampleStream stream) {
   }
   StreamStatements s;
   // Temporary: not WAL-logged, private to the connection, emptied at every commit.
-  s.create_stage = "CREATE TEMP TABLE IF NOT EXISTS " + stage + "(" + typed + ") ON COMMIT DELETE ROWS";
+  s.create_stage =
+      "CREATE TEMP TABLE IF NOT EXISTS " + stage + "(" + typed + ") ON COMMIT DELETE ROWS";
   s.copy = "COPY " + stage + "(" + cols + ") FROM STDIN (FORMAT binary)";
   s.insert = "INSERT INTO lab." + name + "_samples(bench_id, run_id, " + cols +
              ") SELECT current_user, $1::bigint, " + cols + " FROM " + stage +
@@ -92,7 +93,8 @@ std::vector<char> binaryCopy(const daemon::SampleRows& rows) {
   for (std::size_t i = 0; i < rows.size(); ++i) {
     putInt16(out, static_cast<std::int16_t>(rows.columns + 1));
     putDouble(out, rows.t[i]);
-    for (std::size_t c = 0; c < rows.columns; ++c) putDouble(out, rows.values[i * rows.columns + c]);
+    for (std::size_t c = 0; c < rows.columns; ++c)
+      putDouble(out, rows.values[i * rows.columns + c]);
   }
   putInt16(out, -1);
   return out;

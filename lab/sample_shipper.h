@@ -60,8 +60,8 @@ class SampleShipper {
   daemon::Store* store_;
   SampleShipOptions options_;
   bool marks_known_ = false;
-  bool ever_known_ = false;              // the last marks read (or shipped) stand for the backlog
-  std::map<Key, double> marks_;          // shipped_t per run and stream
+  bool ever_known_ = false;      // the last marks read (or shipped) stand for the backlog
+  std::map<Key, double> marks_;  // shipped_t per run and stream
   std::int64_t backlog_ = -1;
   double backlog_at_s_ = -1e300;
 };

@@ -28,7 +28,9 @@ double nowUnixS() {
 bool ShipperOptions::IsValid(std::string* why) const {
   if (batch_items < 1 || samples.batch_rows < 1 || !(idle_poll_s > 0.0) || !(retry_min_s > 0.0) ||
       !(retry_max_s >= retry_min_s)) {
-    *why = "batch_items >= 1, samples.batch_rows >= 1, idle_poll_s > 0 and 0 < retry_min_s <= retry_max_s are required";
+    *why =
+        "batch_items >= 1, samples.batch_rows >= 1, idle_poll_s > 0 and 0 < retry_min_s <= "
+        "retry_max_s are required";
     return false;
   }
   return true;
@@ -114,8 +116,7 @@ ShipStep Shipper::step() {
   if (auto b = store_->outboxBacklog(); b.ok()) s.backlog = b.value;
   if (options_.mirror_samples) {
     s.samples_backlog = samples_.backlog(
-        std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-            .count());
+        std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count());
   }
   return s;
 }

@@ -46,9 +46,9 @@ struct ShipperOptions {
 
 // One step's outcome.
 struct ShipStep {
-  LabError error;             // fault of this step (none: shipped or nothing to ship)
-  int shipped = 0;            // entries committed and acknowledged
-  std::int64_t backlog = -1;  // entries still waiting (-1: unknown)
+  LabError error;                     // fault of this step (none: shipped or nothing to ship)
+  int shipped = 0;                    // entries committed and acknowledged
+  std::int64_t backlog = -1;          // entries still waiting (-1: unknown)
   std::int64_t samples_shipped = 0;   // raw sample rows committed (mirror_samples)
   std::int64_t samples_backlog = -1;  // raw sample rows still waiting (-1: unknown or off)
 };
@@ -76,13 +76,13 @@ class Shipper {
 struct MirrorStatus {
   std::string state = "starting";  // starting, ok, fault
   LabFault fault = LabFault::kNone;
-  std::string message;              // the fault, one line (no credentials)
-  std::int64_t backlog = -1;        // outbox entries waiting (-1: not yet known)
-  std::int64_t shipped = 0;         // entries shipped since start
-  bool mirror_samples = false;      // raw samples are mirrored too (the two fields below)
+  std::string message;                // the fault, one line (no credentials)
+  std::int64_t backlog = -1;          // outbox entries waiting (-1: not yet known)
+  std::int64_t shipped = 0;           // entries shipped since start
+  bool mirror_samples = false;        // raw samples are mirrored too (the two fields below)
   std::int64_t samples_backlog = -1;  // raw sample rows waiting (-1: not yet known)
   std::int64_t samples_shipped = 0;   // raw sample rows shipped since start
-  double fault_since_unix_s = 0.0;  // when the current fault began (0: none)
+  double fault_since_unix_s = 0.0;    // when the current fault began (0: none)
 };
 
 // The shipper on its own thread, over its own connection to the bench's SQLite store.

@@ -7,11 +7,15 @@
 //             1 Hz chamber) -> samples/s
 //   backlog   B benches (default 20) draining their sample backlogs at once into the one
 //             database -> aggregate samples/s
-//   realtime  B benches writing 2 kHz IMU + 100 Hz table (+ 1 Hz chamber) through RunWriter
-//             for D s (default 30) while their LabMirrors ship: the writers' append latency
-//             (what the daemon's loop would wait: p50/p99/max), the backlog left when the
-//             writers stop, and after the drain: no sample lost or doubled (lab rows ==
-//             SQLite rows, per bench)
+//   loop      one bench writing at 2 kHz through RunWriter for 20 s, first without a mirror,
+//             then while its LabMirror drains a 600 s backlog flat out: the append latency
+//             percentiles (what the daemon's loop waits for its store)
+//   baseline, realtime
+//             B benches writing 2 kHz IMU + 100 Hz table (+ 1 Hz chamber) through RunWriter
+//             for D s (default 30), without and then with their LabMirrors shipping: the
+//             writers' append latency, how far the lab was behind when the writers stopped and
+//             when it had everything, and then: no sample lost or doubled (lab rows == SQLite
+//             rows, per bench)
 //
 // Target (issue 30): 20 benches' 2 kHz samples in real time into one local PostgreSQL on this
 // machine: 20 x (2000 IMU + 100 table + 1 chamber) = 42,020 rows/s. Printed as ratios (> 1:
@@ -48,8 +52,8 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 constexpr double kImuHz = 2000.0;
-constexpr int kImuBatch = 20;   // 10 ms of IMU per append, as the IMU reader hands them over
-constexpr int kTableEvery = 20; // one table reading per 20 IMU samples: 100 Hz
+constexpr int kImuBatch = 20;    // 10 ms of IMU per append, as the IMU reader hands them over
+constexpr int kTableEvery = 20;  // one table reading per 20 IMU samples: 100 Hz
 constexpr int kChamberEvery = 2000;
 constexpr double kTargetBenches = 20.0;
 constexpr double kTargetRowsPerS = kTargetBenches * (2000.0 + 100.0 + 1.0);
@@ -144,19 +148,24 @@ bool itemsPhase(const Cluster& cluster, const std::string& root) {
   auto store = openStore(root + "/items.db");
   const lab::LabEndpoint ep = cluster.addBench("items_bench");
   if (!store || !store->enableOutbox().ok) return false;
+  // 20 runs of 1000 segments (one outbox item each, one transaction per run), an event and a
+  // result each: 20,080 items.
   for (int r = 0; r < 20; ++r) {
     const std::int64_t run = beginRun(*store);
-    for (int e = 0; e < 1000; ++e) {
-      if (!store->addEvent({run, 0.0, daemon::EventSeverity::kInfo, "step_finished",
-                            "{\"step\":" + std::to_string(e) + "}"})
-               .ok) {
-        return false;
-      }
+    daemon::RunBatch batch;
+    for (int k = 0; k < 1000; ++k) {
+      imubench::calib::Segment seg;
+      seg.t0 = 10.0 * k;
+      seg.t1 = seg.t0 + 5.0;
+      seg.label = "step " + std::to_string(k);
+      batch.segments.push_back(seg);
     }
-    if (!store->storeResult(run, "SN-BENCH", 25.0, "coefficients", "{\"bias\":[1,2,3]}").ok()) {
+    if (!store->appendBatch(run, batch).ok) return false;
+    if (!store->addEvent({run, 0.0, daemon::EventSeverity::kInfo, "step_finished", "{}"}).ok ||
+        !store->storeResult(run, "SN-BENCH", 25.0, "coefficients", "{\"bias\":[1,2,3]}").ok() ||
+        !store->finishRun(run, daemon::RunState::kFinished, "").ok) {
       return false;
     }
-    if (!store->finishRun(run, daemon::RunState::kFinished, "").ok) return false;
   }
   const auto items = store->outboxBacklog();
   lab::Shipper shipper(ep, *store);
@@ -198,8 +207,8 @@ std::unique_ptr<daemon::Store> filledStore(const std::string& path, double secon
 }
 
 // B benches' sample backlogs drained at once (B = 1: one bench), each shipper on its thread.
-bool backlogPhase(const Cluster& cluster, const std::string& root, int benches,
-                  double backlog_s, const char* name) {
+bool backlogPhase(const Cluster& cluster, const std::string& root, int benches, double backlog_s,
+                  const char* name) {
   std::vector<std::unique_ptr<daemon::Store>> stores;
   std::vector<lab::LabEndpoint> eps;
   for (int b = 0; b < benches; ++b) {
@@ -229,10 +238,11 @@ bool backlogPhase(const Cluster& cluster, const std::string& root, int benches,
   for (auto& t : threads) t.join();
   const double dt = secondsSince(t0);
   const double rows = static_cast<double>(benches) * rowsOf(static_cast<long>(backlog_s * kImuHz));
-  std::printf("%-9s %d bench(es) x %.0f s of samples (%.0f rows) shipped in %.2f s: %.0f samples/s"
-              " (%.2f x the 20-bench target of %.0f rows/s)\n",
-              (std::string(name) + ":").c_str(), benches, backlog_s, rows, dt, rows / dt,
-              rows / dt / kTargetRowsPerS, kTargetRowsPerS);
+  std::printf(
+      "%-9s %d bench(es) x %.0f s of samples (%.0f rows) shipped in %.2f s: %.0f samples/s"
+      " (%.2f x the 20-bench target of %.0f rows/s)\n",
+      (std::string(name) + ":").c_str(), benches, backlog_s, rows, dt, rows / dt,
+      rows / dt / kTargetRowsPerS, kTargetRowsPerS);
   return !failed;
 }
 
@@ -275,25 +285,88 @@ struct RealTimeBench {
   long imu = 0;
 };
 
+// Rows of the benches named PREFIX<n> in the lab (all three streams).
+long labRows(const Cluster& cluster, const std::string& bench_like) {
+  std::string sql = "SELECT 0";
+  for (const char* t : {"lab.imu_samples", "lab.table_samples", "lab.chamber_samples"}) {
+    sql +=
+        std::string(" + (SELECT count(*) FROM ") + t + " WHERE bench_id LIKE '" + bench_like + "')";
+  }
+  return std::atol(cluster.psql(sql).c_str());
+}
+
 // Every bench's lab rows equal its SQLite rows (the PK forbids doubles; counts find losses).
 bool compareCounts(const Cluster& cluster, const std::vector<RealTimeBench>& benches) {
   bool same = true;
   for (std::size_t b = 0; b < benches.size(); ++b) {
     const std::string name = "rt" + std::to_string(b);
     const long want = rowsOf(benches[b].imu);
-    const long got = std::atol(
-        cluster
-            .psql("SELECT (SELECT count(*) FROM lab.imu_samples WHERE bench_id = '" + name +
-                  "') + (SELECT count(*) FROM lab.table_samples WHERE bench_id = '" + name +
-                  "') + (SELECT count(*) FROM lab.chamber_samples WHERE bench_id = '" + name +
-                  "')")
-            .c_str());
+    const long got = labRows(cluster, name);
     if (got != want) {
       std::printf("realtime: %s: %ld rows in the lab, %ld in SQLite\n", name.c_str(), got, want);
       same = false;
     }
   }
   return same;
+}
+
+void printLatency(const char* what, std::vector<double>& all) {
+  std::printf(
+      "%-9s writer append latency (RunWriter, 10 ms of samples, SQLite commit every 0.5 s)"
+      " over %zu appends: p50 %.3f ms, p99 %.3f ms, p99.9 %.3f ms, max %.3f ms\n",
+      what, all.size(), 1e3 * percentile(all, 0.5), 1e3 * percentile(all, 0.99),
+      1e3 * percentile(all, 0.999), 1e3 * percentile(all, 1.0));
+}
+
+// The daemon's loop while its mirror ships flat out: one bench writes at 2 kHz for `seconds`
+// while its LabMirror drains a 600 s backlog (mirror) or without a mirror (baseline).
+bool loopPhase(const Cluster& cluster, const std::string& root, double seconds, bool mirror) {
+  const std::string name = mirror ? "loop_mirror" : "loop_base";
+  auto store = filledStore(root + "/" + name + ".db", 600.0, 7);
+  if (!store) return false;
+  std::unique_ptr<lab::LabMirror> m;
+  if (mirror) {
+    auto started = lab::LabMirror::start(store->path(), cluster.addBench(name), sampleOptions());
+    if (!started.ok()) return false;
+    m = std::move(started.value);
+    while (m->status().samples_shipped == 0)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::vector<double> latency;
+  const std::int64_t before = m ? m->status().samples_shipped : 0;
+  const long imu = writeRealTime(*store, seconds, 8, &latency);
+  if (m) {
+    const lab::MirrorStatus st = m->status();
+    std::printf(
+        "loop:     one bench at 2 kHz for %.0f s while its mirror shipped %lld rows "
+        "(%.0f rows/s; %lld still waiting: shipping throughout)\n",
+        seconds, static_cast<long long>(st.samples_shipped - before),
+        static_cast<double>(st.samples_shipped - before) / seconds,
+        static_cast<long long>(st.samples_backlog));
+  } else {
+    std::printf("loop:     one bench at 2 kHz for %.0f s, no mirror\n", seconds);
+  }
+  printLatency(mirror ? "loop:" : "loop base:", latency);
+  return imu > 0;
+}
+
+// The benches' writers alone, without a mirror: the latency the loop has without shipping.
+bool baselinePhase(const std::string& root, int benches, double seconds) {
+  std::vector<RealTimeBench> rt(static_cast<std::size_t>(benches));
+  std::vector<std::thread> writers;
+  for (int b = 0; b < benches; ++b) {
+    auto& r = rt[static_cast<std::size_t>(b)];
+    r.store = openStore(root + "/base" + std::to_string(b) + ".db");
+    if (!r.store) return false;
+    writers.emplace_back(
+        [&r, seconds, b] { r.imu = writeRealTime(*r.store, seconds, b, &r.latency_s); });
+  }
+  for (auto& t : writers) t.join();
+  std::vector<double> all;
+  for (auto& r : rt) all.insert(all.end(), r.latency_s.begin(), r.latency_s.end());
+  std::printf("baseline: %d benches x %.0f s at 2 kHz, no lab mirror\n", benches, seconds);
+  printLatency("baseline:", all);
+  return std::all_of(rt.begin(), rt.end(), [](const RealTimeBench& r) { return r.imu > 0; });
 }
 
 bool realTimePhase(const Cluster& cluster, const std::string& root, int benches, double seconds) {
@@ -317,38 +390,34 @@ bool realTimePhase(const Cluster& cluster, const std::string& root, int benches,
   }
   for (auto& t : writers) t.join();
   const auto stopped = Clock::now();
-  std::int64_t left = 0;
+  long produced = 0;
   std::vector<double> all;
-  bool wrote = true;
   for (auto& r : rt) {
-    left += std::max<std::int64_t>(0, r.mirror->status().samples_backlog);
+    produced += rowsOf(std::max(0L, r.imu));
     all.insert(all.end(), r.latency_s.begin(), r.latency_s.end());
-    wrote = wrote && r.imu > 0;
   }
-  // Drained: every backlog 0 twice, a recount (SampleShipOptions::backlog_every_s) apart.
-  for (int seen = 0; seen < 2 && secondsSince(stopped) < 600;) {
-    bool empty = true;
-    for (auto& r : rt) empty = empty && r.mirror->status().samples_backlog == 0;
-    seen = empty ? seen + 1 : 0;
-    std::this_thread::sleep_for(std::chrono::milliseconds(empty ? 1100 : 50));
+  // How far the lab was behind when the writers stopped, and when it had everything (each
+  // count is a psql run of ~0.3 s on this machine: the times include it).
+  const long lag = produced - labRows(cluster, "rt%");
+  const double lag_at_s = secondsSince(stopped);
+  while (labRows(cluster, "rt%") < produced && secondsSince(stopped) < 600) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  const double drain_s = secondsSince(stopped) - 1.1;
+  const double complete_at_s = secondsSince(stopped);
   for (auto& r : rt) r.mirror->stop();
-  const double rows = static_cast<double>(benches) * rowsOf(rt[0].imu);
-  const double rate = rows / (seconds + drain_s);
-  const double target = kTargetRowsPerS * benches / kTargetBenches;
-  std::printf("realtime: %d benches x %.0f s at 2 kHz (%.0f rows): backlog when the writers "
-              "stopped %lld rows (%.2f s of their input), drained %.2f s later; the lab took "
-              "%.0f rows/s = %.2f x their input rate (%.0f rows/s)\n",
-              benches, seconds, rows, static_cast<long long>(left),
-              static_cast<double>(left) / (rows / seconds), drain_s, rate, rate / target, target);
-  std::printf("realtime: writer append latency (RunWriter, 10 ms of samples, commits every "
-              "0.5 s) over %zu appends: p50 %.3f ms, p99 %.3f ms, p99.9 %.3f ms, max %.3f ms\n",
-              all.size(), 1e3 * percentile(all, 0.5), 1e3 * percentile(all, 0.99),
-              1e3 * percentile(all, 0.999), 1e3 * percentile(all, 1.0));
+  const double input = static_cast<double>(produced) / seconds;
+  std::printf(
+      "realtime: %d benches x %.0f s at 2 kHz (%ld rows, %.0f rows/s = %.2f x the target's "
+      "input) with mirror_samples: %ld rows (%.2f s of input) not yet in the lab %.2f s "
+      "after the writers stopped, every row there %.2f s after: %s\n",
+      benches, seconds, produced, input, input / kTargetRowsPerS, lag,
+      static_cast<double>(lag) / input, lag_at_s, complete_at_s,
+      lag_at_s < 1.0 && lag < input ? "KEPT UP in real time" : "did NOT keep up");
+  printLatency("realtime:", all);
   const bool same = compareCounts(cluster, rt);
   std::printf("realtime: samples lost or doubled: %s\n", same ? "none" : "YES (above)");
-  return wrote && same;
+  return same &&
+         std::all_of(rt.begin(), rt.end(), [](const RealTimeBench& r) { return r.imu > 0; });
 }
 
 }  // namespace
@@ -374,12 +443,14 @@ int main(int argc, char** argv) {
       std::cerr << "cannot start a PostgreSQL cluster: see " << root << "/init.log\n";
       return 1;
     }
-    std::printf("target: %.0f benches x (2000 IMU + 100 table + 1 chamber rows/s) = %.0f rows/s "
-                "into one local PostgreSQL\n",
-                kTargetBenches, kTargetRowsPerS);
+    std::printf(
+        "target: %.0f benches x (2000 IMU + 100 table + 1 chamber rows/s) = %.0f rows/s "
+        "into one local PostgreSQL\n",
+        kTargetBenches, kTargetRowsPerS);
     ok = itemsPhase(cluster, root) && backlogPhase(cluster, root, 1, 120.0, "samples") &&
          backlogPhase(cluster, root, benches, backlog_s, "backlog") &&
-         realTimePhase(cluster, root, benches, seconds);
+         loopPhase(cluster, root, 20.0, false) && loopPhase(cluster, root, 20.0, true) &&
+         baselinePhase(root, benches, seconds) && realTimePhase(cluster, root, benches, seconds);
   }
   std::error_code ec;
   fs::remove_all(root, ec);

@@ -2,6 +2,7 @@
 // store arrives exactly once (counts and checksums against the store's own lab_item_* views)
 // through an outage, a kill -9 of the shipper, a wrong password and a read-only role; hostile
 // text arrives verbatim. Each test starts its own throwaway cluster (lab_cluster.h).
+#include <endian.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
@@ -11,7 +12,6 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
-#include <endian.h>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -430,8 +430,14 @@ constexpr StreamCols kStreams[] = {
 
 // Awkward but finite values: signed zeros, subnormals, extremes, and ordinary noise.
 double awkward(std::mt19937_64& rng) {
-  static constexpr double kSpecial[] = {-0.0, 0.0, 4.9406564584124654e-324, -2.2250738585072014e-308,
-                                        1.7976931348623157e308, -1e-300, 0.1, 1.0 / 3.0};
+  static constexpr double kSpecial[] = {-0.0,
+                                        0.0,
+                                        4.9406564584124654e-324,
+                                        -2.2250738585072014e-308,
+                                        1.7976931348623157e308,
+                                        -1e-300,
+                                        0.1,
+                                        1.0 / 3.0};
   const std::uint64_t k = rng();
   if (k % 16 == 0) return kSpecial[(k >> 8) % std::size(kSpecial)];
   return std::normal_distribution<double>(0.0, 1e-3)(rng);
@@ -544,8 +550,7 @@ std::int64_t labRows(const LabCluster& cluster, const std::string& bench) {
       cluster
           .admin("SELECT (SELECT count(*) FROM lab.imu_samples WHERE bench_id = '" + bench +
                  "') + (SELECT count(*) FROM lab.table_samples WHERE bench_id = '" + bench +
-                 "') + (SELECT count(*) FROM lab.chamber_samples WHERE bench_id = '" + bench +
-                 "')")
+                 "') + (SELECT count(*) FROM lab.chamber_samples WHERE bench_id = '" + bench + "')")
           .c_str());
 }
 
@@ -686,8 +691,9 @@ TEST_F(LabMirrorTest, SampleShipperKilledMidBatchThenRestartedLosesAndDuplicates
   drain(again, 1000);
   expectSamplesMirrored(cluster_, "bench_x", store->path());
   // The marks account for every row exactly once: no batch was applied twice.
-  EXPECT_EQ(std::atoll(cluster_.admin("SELECT sum(shipped_rows) FROM lab.sample_marks "
-                                      "WHERE bench_id = 'bench_x'")
+  EXPECT_EQ(std::atoll(cluster_
+                           .admin("SELECT sum(shipped_rows) FROM lab.sample_marks "
+                                  "WHERE bench_id = 'bench_x'")
                            .c_str()),
             total);
 }
