@@ -339,10 +339,11 @@ bool loopPhase(const Cluster& cluster, const std::string& root, double seconds, 
     const lab::MirrorStatus st = m->status();
     std::printf(
         "loop:     one bench at 2 kHz for %.0f s while its mirror shipped %lld rows "
-        "(%.0f rows/s; %lld still waiting: shipping throughout)\n",
+        "(%.0f rows/s; %lld still waiting: %s)\n",
         seconds, static_cast<long long>(st.samples_shipped - before),
         static_cast<double>(st.samples_shipped - before) / seconds,
-        static_cast<long long>(st.samples_backlog));
+        static_cast<long long>(st.samples_backlog),
+        st.samples_backlog > 0 ? "shipping throughout" : "the backlog ran out before the end");
   } else {
     std::printf("loop:     one bench at 2 kHz for %.0f s, no mirror\n", seconds);
   }
