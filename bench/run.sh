@@ -123,6 +123,8 @@ run "online engine on the loop per IMU sample at 2 kHz (target < 5 % of one core
   "$build/bench/daemon/imubench_online_engine_bench"
 run "thermal calibration over -40..+60 degC: continuous-ramp vs soak-point plan (target: ramp chamber time <= 0.5 x soak, both within 2x noise floor and 5 % bias tempco; exit 1 when not)" \
   "$build/bench/calibration/imubench_bench_thermal" || true
+run "lab mirror into a throwaway PostgreSQL: items/s, samples/s, 20 benches at 2 kHz in real time (target 42,020 rows/s into one database; ratios > 1 meet it)" \
+  "$build/bench/lab/imubench_lab_bench" || true
 echo "== peak memory of imubench calibrate and explain on 1 h at 2 kHz (target < 1 GiB each) =="
 "$here/bench/peak_rss_1h.sh" "$build" || true
 "$here/bench/can_bench.sh" "$build"

@@ -356,10 +356,13 @@ Status BenchDaemon::start() {
     lab::LabEndpoint endpoint;
     endpoint.conninfo = bench_.lab->database;
     endpoint.password_file = bench_.lab->password_file;
-    auto mirror = lab::LabMirror::start(db, endpoint);
+    lab::ShipperOptions shipping;
+    shipping.mirror_samples = bench_.lab->mirror_samples;
+    auto mirror = lab::LabMirror::start(db, endpoint, shipping);
     if (!mirror.ok()) return Status::Error("lab mirror: " + mirror.status.message);
     lab_ = std::move(mirror.value);
-    log_.info("lab mirror: shipping the store's outbox to the [lab] database");
+    log_.info(std::string("lab mirror: shipping the store's outbox") +
+              (shipping.mirror_samples ? " and raw samples" : "") + " to the [lab] database");
   }
 
   // The drivers report every retry and fault: on a dead link that is every poll.
@@ -898,7 +901,14 @@ void BenchDaemon::closeRun() {
 std::optional<LabStatus> BenchDaemon::labStatus() const {
   if (!lab_) return std::nullopt;
   const lab::MirrorStatus m = lab_->status();
-  return LabStatus{m.state, lab::labFaultName(m.fault), m.message, m.backlog, m.shipped};
+  LabStatus s{
+      m.state,     lab::labFaultName(m.fault), m.message, m.backlog, m.shipped, std::nullopt,
+      std::nullopt};
+  if (m.mirror_samples) {
+    s.samples_backlog = m.samples_backlog;
+    s.samples_shipped = m.samples_shipped;
+  }
+  return s;
 }
 
 // An alarm (log and topic status) when the mirror goes into a fault or its fault changes, and

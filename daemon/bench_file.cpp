@@ -302,7 +302,7 @@ void parseLab(const toml::table& root, const std::string& base_dir, BenchConfig&
               Diagnostics& diag) {
   const toml::table* t = subTable(root, "lab", diag, false);
   if (t == nullptr) return;
-  checkKeys(*t, {"database", "password_file"}, "[lab]", diag);
+  checkKeys(*t, {"database", "password_file", "mirror_samples"}, "[lab]", diag);
   BenchLab lab;
   lab.database = strField(*t, "database", diag, true).value_or("");
   if (t->get("database") != nullptr) {
@@ -313,6 +313,7 @@ void parseLab(const toml::table& root, const std::string& base_dir, BenchConfig&
     }
   }
   lab.password_file = resolve(base_dir, strField(*t, "password_file", diag, false).value_or(""));
+  lab.mirror_samples = io::boolField(*t, "mirror_samples", diag).value_or(false);
   b.lab = lab;
 }
 

@@ -66,6 +66,8 @@
 //   password_file = "/etc/imubench/lab.pass"  # optional: the password (first line), owned by the
 //                             #   daemon's user, mode 0600; else libpq's ~/.pgpass or service file
 //                             #   The SQLite store stays the source of truth (lab/shipper.h).
+//   mirror_samples = true     # optional, default false: also the raw IMU, table and chamber
+//                             #   samples (COPY batches, lab/sample_shipper.h)
 //   [acceptance]              # optional: the IMU's pass/fail limits, checked after a plan's
 //                             #   calibration (daemon/run_calibration.h): |estimate| <= limit
 //   "gyro.bias" = "0.01 deg/h"       # a parameter's flat name (interchange.md), or a group:
@@ -166,6 +168,9 @@ struct AcceptanceLimit {
 struct BenchLab {
   std::string database;       // libpq connection URI or key=value string, without a password
   std::string password_file;  // empty: libpq's password or service file
+  // Also mirror the raw IMU, table and chamber samples (COPY batches, lab/sample_shipper.h).
+  // Default false: a 2 kHz IMU adds ~7 million rows an hour to the lab database.
+  bool mirror_samples = false;
 };
 
 // [explain] follow_up: what the daemon does when a run's end-of-plan analysis reports groups

@@ -695,6 +695,10 @@ struct LabStatus {
   std::string message;        // the fault in one line (never credentials); empty when ok
   std::int64_t backlog = -1;  // outbox items not yet in the lab (-1: not known yet)
   std::int64_t shipped = 0;   // items shipped since the daemon started
+  // [lab] mirror_samples only (absent otherwise): raw sample rows waiting (-1: not known yet,
+  // the lab was never reached) and shipped since the daemon started.
+  std::optional<std::int64_t> samples_backlog;
+  std::optional<std::int64_t> samples_shipped;
   bool operator==(const LabStatus&) const = default;
   template <class V>
   void fields(V& v) {
@@ -703,6 +707,8 @@ struct LabStatus {
     v("message", message);
     v("backlog", backlog);
     v("shipped", shipped);
+    v("samples_backlog", samples_backlog);
+    v("samples_shipped", samples_shipped);
   }
 };
 

@@ -213,6 +213,46 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // The newest stored IMU sample of run ?1 (NULL: none).
 constexpr const char* kLastImuTSql = "SELECT max(t) FROM imu_samples WHERE run_id = ?1";
 
+// A raw sample stream's SQL (SampleStream): its newest row of run ?1, its rows of run ?1 after
+// time ?2 (-inf: all) in time order up to ?3, and how many those are. Literals, so the
+// statement cache (keyed by the SQL's address) prepares each once.
+struct StreamSql {
+  const char* name;
+  const char* newest_t;
+  const char* read;
+  const char* count;
+  std::span<const char* const> columns;
+};
+constexpr const char* kImuColumns[] = {"dthx", "dthy", "dthz", "dvx", "dvy", "dvz", "temp_c"};
+constexpr const char* kTableColumns[] = {"angle0_deg", "angle1_deg", "angle2_deg", "round_trip_s"};
+constexpr const char* kChamberColumns[] = {"setpoint_c", "temp_c"};
+const StreamSql& streamSql(SampleStream stream) {
+  static const StreamSql kImu{"imu", kLastImuTSql,
+                              "SELECT t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c FROM imu_samples "
+                              "WHERE run_id = ?1 AND t > ?2 ORDER BY t LIMIT ?3",
+                              "SELECT count(*) FROM imu_samples WHERE run_id = ?1 AND t > ?2",
+                              kImuColumns};
+  static const StreamSql kTable{
+      "table", "SELECT max(t) FROM table_samples WHERE run_id = ?1",
+      "SELECT t, angle0_deg, angle1_deg, angle2_deg, round_trip_s FROM table_samples "
+      "WHERE run_id = ?1 AND t > ?2 ORDER BY t LIMIT ?3",
+      "SELECT count(*) FROM table_samples WHERE run_id = ?1 AND t > ?2", kTableColumns};
+  static const StreamSql kChamber{
+      "chamber", "SELECT max(t) FROM chamber_samples WHERE run_id = ?1",
+      "SELECT t, setpoint_c, temp_c FROM chamber_samples "
+      "WHERE run_id = ?1 AND t > ?2 ORDER BY t LIMIT ?3",
+      "SELECT count(*) FROM chamber_samples WHERE run_id = ?1 AND t > ?2", kChamberColumns};
+  switch (stream) {
+    case SampleStream::kTable:
+      return kTable;
+    case SampleStream::kChamber:
+      return kChamber;
+    case SampleStream::kImu:
+      break;
+  }
+  return kImu;
+}
+
 // All runs (?1 NULL) or one; read by Store::Impl::readRun.
 constexpr const char* kSelectRunsSql =
     "SELECT id, plan_name, plan_toml, bench_name, imu_serial, imu_rate_hz, latitude_deg, "
@@ -467,6 +507,8 @@ struct Store::Impl {
   // A one-value query on run ?1 (a max(...)); NULL leaves *out unset.
   Status lastTime(const char* sql, std::int64_t run_id, std::optional<double>* out);
   Status requireRunning(std::int64_t run_id);
+  // Each stream's first row of `batch` comes after the stream's newest stored row.
+  Status requireAfterStored(std::int64_t run_id, const RunBatch& batch);
   Status insertRun(const RunStart& start, RunState state, std::int64_t* run_id);
   Status insertEvent(const RunEvent& event);
   Status insertRows(std::int64_t run_id, const RunBatch& batch);
@@ -616,6 +658,25 @@ Status Store::Impl::lastTime(const char* sql, std::int64_t run_id, std::optional
   q.bind(1, run_id);
   if (q.step() != SQLITE_ROW) return sqlError("cannot read the end of " + runLabel(run_id));
   *out = q.optReal(0);
+  return Status::Ok();
+}
+
+Status Store::Impl::requireAfterStored(std::int64_t run_id, const RunBatch& b) {
+  const std::pair<SampleStream, std::optional<double>> firsts[] = {
+      {SampleStream::kImu, b.imu.empty() ? std::nullopt : std::optional(b.imu.front().t)},
+      {SampleStream::kTable, b.table.empty() ? std::nullopt : std::optional(b.table.front().t)},
+      {SampleStream::kChamber,
+       b.chamber.empty() ? std::nullopt : std::optional(b.chamber.front().t)}};
+  for (const auto& [stream, first] : firsts) {
+    if (!first) continue;
+    std::optional<double> newest;
+    if (auto st = lastTime(streamSql(stream).newest_t, run_id, &newest); !st.ok) return st;
+    if (newest && !(*first > *newest)) {
+      return error(
+          runLabel(run_id) + ": batch refused: " + sampleStreamName(stream) +
+          " sample 0: time does not increase past the stored t=" + std::to_string(*newest));
+    }
+  }
   return Status::Ok();
 }
 
@@ -1150,6 +1211,7 @@ Status Store::appendBatch(std::int64_t run_id, const RunBatch& batch) {
   }
   return impl_->transaction("cannot store samples of " + runLabel(run_id), [&]() {
     if (auto st = impl_->requireRunning(run_id); !st.ok) return st;
+    if (auto st = impl_->requireAfterStored(run_id, batch); !st.ok) return st;
     return impl_->insertRows(run_id, batch);
   });
 }
@@ -1417,6 +1479,77 @@ CountResult Store::outboxBacklog() {
   std::int64_t n = 0;
   r.status = impl_->queryInt("SELECT count(*) FROM lab_outbox", "cannot count the lab outbox", &n);
   r.value = static_cast<int>(n);
+  return r;
+}
+
+const char* sampleStreamName(SampleStream stream) {
+  return streamSql(stream).name;
+}
+
+std::span<const char* const> sampleColumns(SampleStream stream) {
+  return streamSql(stream).columns;
+}
+
+SampleTailsResult Store::sampleTails() {
+  SampleTailsResult r;
+  // One index seek per run and stream (a GROUP BY would scan every row).
+  Bound q = impl_->use(
+      "SELECT id, (SELECT max(t) FROM imu_samples WHERE run_id = runs.id), "
+      "(SELECT max(t) FROM table_samples WHERE run_id = runs.id), "
+      "(SELECT max(t) FROM chamber_samples WHERE run_id = runs.id) FROM runs ORDER BY id",
+      &r.status);
+  if (!q) return r;
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    for (int k = 0; k < 3; ++k) {
+      if (!q.isNull(1 + k)) {
+        r.value.push_back({q.integer(0), kSampleStreams[k], q.real(1 + k)});
+      }
+    }
+  }
+  if (rc != SQLITE_DONE) r.status = impl_->sqlError("cannot read the runs' newest samples");
+  return r;
+}
+
+SampleRowsResult Store::readSamples(std::int64_t run_id, SampleStream stream,
+                                    std::optional<double> after_t, std::size_t limit) {
+  SampleRowsResult r;
+  const StreamSql& sql = streamSql(stream);
+  r.value.stream = stream;
+  r.value.columns = sql.columns.size();
+  Bound q = impl_->use(sql.read, &r.status);
+  if (!q) return r;
+  q.bindAll(run_id, after_t.value_or(-std::numeric_limits<double>::infinity()),
+            static_cast<std::int64_t>(limit));
+  r.value.t.reserve(limit);
+  r.value.values.reserve(limit * sql.columns.size());
+  int rc;
+  while ((rc = q.step()) == SQLITE_ROW) {
+    r.value.t.push_back(q.real(0));
+    for (std::size_t c = 0; c < sql.columns.size(); ++c) {
+      r.value.values.push_back(q.realOrNaN(static_cast<int>(c) + 1));
+    }
+  }
+  if (rc != SQLITE_DONE) {
+    r.status =
+        impl_->sqlError("cannot read " + std::string(sql.name) + " samples of " + runLabel(run_id));
+  }
+  return r;
+}
+
+SampleCountResult Store::countSamples(std::int64_t run_id, SampleStream stream,
+                                      std::optional<double> after_t) {
+  SampleCountResult r;
+  const StreamSql& sql = streamSql(stream);
+  Bound q = impl_->use(sql.count, &r.status);
+  if (!q) return r;
+  q.bindAll(run_id, after_t.value_or(-std::numeric_limits<double>::infinity()));
+  if (q.step() != SQLITE_ROW) {
+    r.status = impl_->sqlError("cannot count " + std::string(sql.name) + " samples of " +
+                               runLabel(run_id));
+  } else {
+    r.value = q.integer(0);
+  }
   return r;
 }
 

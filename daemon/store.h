@@ -154,6 +154,36 @@ struct OutboxItem {
   std::string payload;      // JSON object
 };
 
+// The raw sample streams the lab mirror may copy (issue 30, [lab] mirror_samples): the tables
+// imu_samples, table_samples and chamber_samples. Each stream's rows of a run are keyed by
+// their time t, strictly increasing; Store::appendBatch appends only after a stream's newest
+// stored row, so "every row after t" is a complete, stable description of what is new.
+enum class SampleStream { kImu, kTable, kChamber };
+inline constexpr SampleStream kSampleStreams[] = {SampleStream::kImu, SampleStream::kTable,
+                                                  SampleStream::kChamber};
+const char* sampleStreamName(SampleStream stream);  // "imu", "table", "chamber"
+// The stream's value columns after t, in stored order (their lab columns have the same names):
+// imu dthx, dthy, dthz, dvx, dvy, dvz, temp_c; table angle0_deg, angle1_deg, angle2_deg,
+// round_trip_s; chamber setpoint_c, temp_c.
+std::span<const char* const> sampleColumns(SampleStream stream);
+
+// Rows of one stream of one run (Store::readSamples): row i is t[i] and
+// values[i * columns .. + columns) (sampleColumns order; NaN where the store holds NULL).
+struct SampleRows {
+  SampleStream stream = SampleStream::kImu;
+  std::size_t columns = 0;
+  std::vector<double> t;
+  std::vector<double> values;
+  std::size_t size() const { return t.size(); }
+};
+
+// The newest stored row of one stream of one run.
+struct SampleTail {
+  std::int64_t run_id = 0;
+  SampleStream stream = SampleStream::kImu;
+  double newest_t = 0.0;
+};
+
 class Store;
 
 // What the store's calls return: the status and, when ok(), the payload in `value`.
@@ -171,7 +201,10 @@ struct QueuePlace {
 using QueueAddResult = Result<QueuePlace>;
 using QueueListResult = Result<std::vector<QueueEntry>>;  // in queue order, the next first
 using CountResult = Result<int>;
-using OutboxListResult = Result<std::vector<OutboxItem>>;  // by seq
+using OutboxListResult = Result<std::vector<OutboxItem>>;   // by seq
+using SampleTailsResult = Result<std::vector<SampleTail>>;  // by run, then stream
+using SampleRowsResult = Result<SampleRows>;
+using SampleCountResult = Result<std::int64_t>;
 struct TableRoundTrip {
   double t = 0.0;                      // the reading's time (table_samples.t)
   std::optional<double> round_trip_s;  // unset: unknown
@@ -232,8 +265,9 @@ class Store {
   RunListResult listRuns();
   RunInfoResult runInfo(std::int64_t run_id);
 
-  // Commits the rows in one transaction. Refuses (nothing written) non-finite values, naming
-  // the row; IMU temp_c may be NaN (not reported).
+  // Commits the rows in one transaction. Refuses (nothing written) non-finite values and rows
+  // not after their stream's newest stored row (times only grow: what the lab mirror's sample
+  // shipping relies on), naming the row; IMU temp_c may be NaN (not reported).
   Status appendBatch(std::int64_t run_id, const RunBatch& batch);
 
   Status addEvent(const RunEvent& event);  // json must be valid JSON
@@ -270,6 +304,18 @@ class Store {
   OutboxListResult outboxPeek(std::size_t limit);  // the oldest `limit` entries
   Status outboxAck(std::int64_t up_to_seq);        // the lab committed every seq <= up_to_seq
   CountResult outboxBacklog();                     // entries not yet acknowledged
+
+  // The raw samples for the lab mirror (SampleStream). Read-only: what was shipped is recorded
+  // in the lab database, in the transaction that ships it (lab/sample_shipper.h).
+  // Every run's and stream's newest row (streams without rows left out).
+  SampleTailsResult sampleTails();
+  // Up to `limit` rows of the stream after time `after_t` (all when unset), in time order, read
+  // in one statement (one snapshot).
+  SampleRowsResult readSamples(std::int64_t run_id, SampleStream stream,
+                               std::optional<double> after_t, std::size_t limit);
+  // How many rows of the stream come after `after_t` (all when unset).
+  SampleCountResult countSamples(std::int64_t run_id, SampleStream stream,
+                                 std::optional<double> after_t);
 
   // PRAGMA integrity_check: ok, or the problems it lists.
   Status integrityCheck();

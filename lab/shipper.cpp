@@ -26,22 +26,32 @@ double nowUnixS() {
 }  // namespace
 
 bool ShipperOptions::IsValid(std::string* why) const {
-  if (batch_items < 1 || !(idle_poll_s > 0.0) || !(retry_min_s > 0.0) ||
+  if (batch_items < 1 || samples.batch_rows < 1 || !(idle_poll_s > 0.0) || !(retry_min_s > 0.0) ||
       !(retry_max_s >= retry_min_s)) {
-    *why = "batch_items >= 1, idle_poll_s > 0 and 0 < retry_min_s <= retry_max_s are required";
+    *why =
+        "batch_items >= 1, samples.batch_rows >= 1, idle_poll_s > 0 and 0 < retry_min_s <= "
+        "retry_max_s are required";
     return false;
   }
   return true;
 }
 
 Shipper::Shipper(LabEndpoint endpoint, daemon::Store& store, ShipperOptions options)
-    : endpoint_(std::move(endpoint)), store_(&store), options_(options) {}
+    : endpoint_(std::move(endpoint)),
+      store_(&store),
+      options_(options),
+      samples_(store, options.samples) {}
+
+void Shipper::disconnect() {
+  conn_.reset();
+  samples_.forget();
+}
 
 LabError Shipper::ensureConnected() {
   if (conn_ && PQstatus(conn_.get()) == CONNECTION_OK) return {};
   if (LabError e = connectLab(endpoint_, "imubenchd", &conn_); !e.ok()) return e;
   if (LabError e = checkLabSchema(conn_.get()); !e.ok()) {
-    conn_.reset();
+    disconnect();
     return e;
   }
   return {};
@@ -86,7 +96,7 @@ ShipStep Shipper::step() {
   if (!items.value.empty()) {
     if (s.error = ensureConnected(); s.error.ok()) s.error = shipBatch(items.value);
     if (!s.error.ok()) {
-      conn_.reset();  // a fixed password, role or server is picked up by the next connection
+      disconnect();  // a fixed password, role or server is picked up by the next connection
     } else if (Status st = store_->outboxAck(items.value.back().seq); !st.ok) {
       // Committed in the lab but not acknowledged: shipped again later, without effect.
       s.error = {LabFault::kOther, st.message};
@@ -94,7 +104,20 @@ ShipStep Shipper::step() {
       s.shipped = static_cast<int>(items.value.size());
     }
   }
+  // Then one batch of raw samples: results and events go first, samples fill the rest.
+  if (options_.mirror_samples && s.error.ok()) {
+    if (s.error = ensureConnected(); s.error.ok()) {
+      const SampleStep ss = samples_.step(conn_.get());
+      s.error = ss.error;
+      s.samples_shipped = ss.shipped;
+    }
+    if (!s.error.ok()) disconnect();
+  }
   if (auto b = store_->outboxBacklog(); b.ok()) s.backlog = b.value;
+  if (options_.mirror_samples) {
+    s.samples_backlog = samples_.backlog(
+        std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count());
+  }
   return s;
 }
 
@@ -144,13 +167,16 @@ void LabMirror::run() {
     std::unique_lock<std::mutex> lock(mutex_);
     if (s.backlog >= 0) status_.backlog = s.backlog;
     status_.shipped += s.shipped;
+    status_.mirror_samples = options_.mirror_samples;
+    status_.samples_backlog = s.samples_backlog;
+    status_.samples_shipped += s.samples_shipped;
     if (s.error.ok()) {
       status_.state = "ok";
       status_.fault = LabFault::kNone;
       status_.message.clear();
       status_.fault_since_unix_s = 0.0;
       retry_s = options_.retry_min_s;
-      wait_s = s.shipped > 0 ? 0.0 : options_.idle_poll_s;
+      wait_s = s.shipped > 0 || s.samples_shipped > 0 ? 0.0 : options_.idle_poll_s;
     } else {
       if (status_.state != "fault") status_.fault_since_unix_s = nowUnixS();
       status_.state = "fault";

@@ -22,6 +22,7 @@
 
 #include "daemon/store.h"
 #include "lab/lab_connection.h"
+#include "lab/sample_shipper.h"
 
 namespace imubench::lab {
 
@@ -35,15 +36,21 @@ struct ShipperOptions {
   // 10 s at most and a short outage recovers within a second.
   double retry_min_s = 0.5;
   double retry_max_s = 10.0;
+  // [lab] mirror_samples: also copy the raw IMU, table and chamber rows (lab/sample_shipper.h).
+  // Off by default: a 2 kHz IMU is ~7 million rows a hour, which a lab must plan for.
+  bool mirror_samples = false;
+  SampleShipOptions samples;
 
   bool IsValid(std::string* why) const;
 };
 
 // One step's outcome.
 struct ShipStep {
-  LabError error;             // fault of this step (none: shipped or nothing to ship)
-  int shipped = 0;            // entries committed and acknowledged
-  std::int64_t backlog = -1;  // entries still waiting (-1: unknown)
+  LabError error;                     // fault of this step (none: shipped or nothing to ship)
+  int shipped = 0;                    // entries committed and acknowledged
+  std::int64_t backlog = -1;          // entries still waiting (-1: unknown)
+  std::int64_t samples_shipped = 0;   // raw sample rows committed (mirror_samples)
+  std::int64_t samples_backlog = -1;  // raw sample rows still waiting (-1: unknown or off)
 };
 
 // Ships one batch per step() over one libpq connection (reconnecting after any fault). Not
@@ -56,21 +63,26 @@ class Shipper {
  private:
   LabError ensureConnected();
   LabError shipBatch(const std::vector<daemon::OutboxItem>& items);
+  void disconnect();
 
   LabEndpoint endpoint_;
   daemon::Store* store_;
   ShipperOptions options_;
   PgConn conn_;
+  SampleShipper samples_;
 };
 
 // What the daemon's `status` shows and its alarm says.
 struct MirrorStatus {
   std::string state = "starting";  // starting, ok, fault
   LabFault fault = LabFault::kNone;
-  std::string message;              // the fault, one line (no credentials)
-  std::int64_t backlog = -1;        // outbox entries waiting (-1: not yet known)
-  std::int64_t shipped = 0;         // entries shipped since start
-  double fault_since_unix_s = 0.0;  // when the current fault began (0: none)
+  std::string message;                // the fault, one line (no credentials)
+  std::int64_t backlog = -1;          // outbox entries waiting (-1: not yet known)
+  std::int64_t shipped = 0;           // entries shipped since start
+  bool mirror_samples = false;        // raw samples are mirrored too (the two fields below)
+  std::int64_t samples_backlog = -1;  // raw sample rows waiting (-1: not yet known)
+  std::int64_t samples_shipped = 0;   // raw sample rows shipped since start
+  double fault_since_unix_s = 0.0;    // when the current fault began (0: none)
 };
 
 // The shipper on its own thread, over its own connection to the bench's SQLite store.

@@ -400,7 +400,14 @@ void printStatus(const json& r) {
       std::cout << " (" << st.lab->fault << ": " << st.lab->message << ")";
     std::cout << ", outbox "
               << (st.lab->backlog < 0 ? std::string("?") : std::to_string(st.lab->backlog))
-              << " waiting, " << st.lab->shipped << " shipped\n";
+              << " waiting, " << st.lab->shipped << " shipped";
+    if (st.lab->samples_backlog) {
+      std::cout << "; samples "
+                << (*st.lab->samples_backlog < 0 ? std::string("?")
+                                                 : std::to_string(*st.lab->samples_backlog))
+                << " waiting, " << st.lab->samples_shipped.value_or(0) << " shipped";
+    }
+    std::cout << "\n";
   }
 }
 

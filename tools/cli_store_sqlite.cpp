@@ -203,9 +203,12 @@ void runExport(const ExportOptions& o) {
   if (!id) throw CommandFailed("'" + o.run + "' is not a run id (N or run:N, N >= 1)", 2);
   if (lab::isLabUri(o.db)) {
     throw CommandFailed(
-        "export: the lab database holds runs, events, segments and results but no samples "
-        "(mirror_samples is not built yet): export the recording from the bench's own store "
-        "(--db PATH); `results RUN --db postgresql://... --bench B --json` gives its results");
+        "export: exporting a recording from the lab database is not built: its raw samples "
+        "are there bit-exact (from benches with [lab] mirror_samples = true: lab.imu_samples, "
+        "lab.table_samples, lab.chamber_samples), but a run's meta data and segments travel as "
+        "SQLite JSON, which keeps 15 significant digits and drops the sign of -0.0, so the "
+        "recording would not be the bench's: export it from the bench's own store (--db PATH); "
+        "`results RUN --db postgresql://... --bench B --json` gives its results");
   }
   const std::unique_ptr<daemon::Store> store = openStoreOrFail(o.db, StoreAccess::kExisting);
   const io::RecordingReadResult rec = store->loadRecording(*id);

@@ -131,6 +131,24 @@ TEST(BenchFile, LabDatabaseWithoutCredentials) {
   EXPECT_NE(typo.str().find("unknown key \"password\" in [lab]"), std::string::npos) << typo.str();
 }
 
+// [lab] mirror_samples: default false; true or false only, refused at its line otherwise.
+TEST(BenchFile, LabMirrorSamples) {
+  const std::string lab = kGood + "\n[lab]\ndatabase = \"postgresql://bench1@127.0.0.1/lab\"\n";
+  io::Diagnostics diag("bench.toml");
+  auto off = parse(lab, diag);
+  ASSERT_TRUE(off.has_value()) << diag.str();
+  EXPECT_FALSE(off->lab->mirror_samples);
+  auto on = parse(lab + "mirror_samples = true\n", diag);
+  ASSERT_TRUE(on.has_value()) << diag.str();
+  EXPECT_TRUE(on->lab->mirror_samples);
+  io::Diagnostics bad("bench.toml");
+  EXPECT_FALSE(parse(lab + "mirror_samples = \"yes\"\n", bad).has_value());
+  const std::string line =
+      "bench.toml:" + std::to_string(std::count(lab.begin(), lab.end(), '\n') + 1) + ":";
+  EXPECT_NE(bad.str().find(line), std::string::npos) << bad.str();
+  EXPECT_NE(bad.str().find("mirror_samples"), std::string::npos) << bad.str();
+}
+
 // Issue 27 item 3: [explain] follow_up, default "propose"; another value is refused at its
 // line with the values it may take.
 TEST(BenchFile, ExplainFollowUpPolicy) {

@@ -612,7 +612,11 @@ TEST(ControlProtocol, EveryReplyRoundTrips) {
   running.progress = 0.31;
   running.eta_s = 812.5;
   running.step = StatusStep{3, "run01_x_p1", "rotate", 45};
-  running.lab = LabStatus{"fault", "authentication", "password authentication failed", 42, 7};
+  running.lab = LabStatus{"fault",      "authentication", "password authentication failed", 42, 7,
+                          std::nullopt, std::nullopt};
+  expectReplyRoundTrip(running);
+  running.lab->samples_backlog = 120000;  // [lab] mirror_samples
+  running.lab->samples_shipped = 4000;
   expectReplyRoundTrip(running);
   expectReplyRoundTrip(PlanListReply{"/etc/imubench/plans", {"a.toml", "sub/b.toml"}});
   expectReplyRoundTrip(ValidatePlanReply{plan});

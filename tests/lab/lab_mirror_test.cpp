@@ -2,6 +2,7 @@
 // store arrives exactly once (counts and checksums against the store's own lab_item_* views)
 // through an outage, a kill -9 of the shipper, a wrong password and a read-only role; hostile
 // text arrives verbatim. Each test starts its own throwaway cluster (lab_cluster.h).
+#include <endian.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
@@ -10,10 +11,12 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <thread>
 
 #include "daemon/store.h"
@@ -408,6 +411,291 @@ TEST_F(LabMirrorTest, SchemaNewerOrMissingIsAFaultNotAMisWrite) {
   s = shipper.step();
   EXPECT_TRUE(s.error.ok()) << s.error.message;
   EXPECT_GT(s.shipped, 0);
+}
+
+// ---------------------------------------------------------------------------------------
+// Raw samples ([lab] mirror_samples): every row of every stream once, bit-exact.
+
+// The streams as the test knows them (written here, not taken from the code under test).
+struct StreamCols {
+  const char* sqlite_table;
+  const char* lab_table;
+  const char* columns;
+};
+constexpr StreamCols kStreams[] = {
+    {"imu_samples", "lab.imu_samples", "t, dthx, dthy, dthz, dvx, dvy, dvz, temp_c"},
+    {"table_samples", "lab.table_samples", "t, angle0_deg, angle1_deg, angle2_deg, round_trip_s"},
+    {"chamber_samples", "lab.chamber_samples", "t, setpoint_c, temp_c"},
+};
+
+// Awkward but finite values: signed zeros, subnormals, extremes, and ordinary noise.
+double awkward(std::mt19937_64& rng) {
+  static constexpr double kSpecial[] = {-0.0,
+                                        0.0,
+                                        4.9406564584124654e-324,
+                                        -2.2250738585072014e-308,
+                                        1.7976931348623157e308,
+                                        -1e-300,
+                                        0.1,
+                                        1.0 / 3.0};
+  const std::uint64_t k = rng();
+  if (k % 16 == 0) return kSpecial[(k >> 8) % std::size(kSpecial)];
+  return std::normal_distribution<double>(0.0, 1e-3)(rng);
+}
+
+// Samples of a 2 kHz IMU, a 100 Hz table and a 1 Hz chamber from t0 for n IMU rows.
+daemon::RunBatch sampleBatch(std::mt19937_64& rng, std::int64_t first_imu, int n) {
+  daemon::RunBatch b;
+  for (std::int64_t i = first_imu; i < first_imu + n; ++i) {
+    nav::ImuSample s;
+    s.t = 0.0005 * static_cast<double>(i + 1);
+    for (int a = 0; a < 3; ++a) {
+      s.dtheta[a] = awkward(rng);
+      s.dvel[a] = awkward(rng);
+    }
+    s.temp_c = i % 7 == 0 ? std::numeric_limits<double>::quiet_NaN() : 25.0 + awkward(rng);
+    b.imu.push_back(s);
+    if (i % 20 == 0) {
+      b.table.push_back({s.t, {awkward(rng), 90.0 + awkward(rng), -0.0}});
+      b.table_round_trip_s.push_back(i % 40 == 0 ? std::numeric_limits<double>::quiet_NaN()
+                                                 : 0.002 + std::abs(awkward(rng)));
+    }
+    if (i % 2000 == 0) b.chamber.push_back({s.t, 40.0, 40.0 + awkward(rng)});
+  }
+  return b;
+}
+
+std::int64_t beginSampleRun(Store& store, const std::string& serial) {
+  daemon::RunStart start;
+  start.plan_name = "samples";
+  start.plan_toml = "[plan]";
+  start.bench_name = "samples";
+  start.imu_serial = serial;
+  start.imu_rate_hz = 2000.0;
+  const auto id = store.beginRun(start);
+  EXPECT_TRUE(id.ok()) << id.status.message;
+  return id.value;
+}
+
+void mixDouble(std::uint64_t& h, double v, bool null) {
+  std::uint64_t bits = 0x4e554c4cULL;  // "NULL"
+  if (!null) std::memcpy(&bits, &v, 8);
+  for (int k = 0; k < 8; ++k) h = (h ^ ((bits >> (8 * k)) & 0xff)) * 1099511628211ULL;
+}
+
+struct StreamSum {
+  std::int64_t rows = 0;
+  std::uint64_t hash = 1469598103934665603ULL;
+  bool operator==(const StreamSum&) const = default;
+};
+
+// FNV-1a over (run, every value's bits or NULL) of the bench's SQLite rows in (run, t) order.
+StreamSum sqliteSum(const std::string& path, const StreamCols& s) {
+  StreamSum sum;
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* q = nullptr;
+  const std::string sql = std::string("SELECT run_id, ") + s.columns + " FROM " + s.sqlite_table +
+                          " ORDER BY run_id, t";
+  EXPECT_EQ(sqlite3_prepare_v2(db, sql.c_str(), -1, &q, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
+  while (sqlite3_step(q) == SQLITE_ROW) {
+    ++sum.rows;
+    mixDouble(sum.hash, static_cast<double>(sqlite3_column_int64(q, 0)), false);
+    for (int c = 1; c < sqlite3_column_count(q); ++c) {
+      mixDouble(sum.hash, sqlite3_column_double(q, c), sqlite3_column_type(q, c) == SQLITE_NULL);
+    }
+  }
+  sqlite3_finalize(q);
+  sqlite3_close(db);
+  return sum;
+}
+
+// The same over the lab's rows of one bench (binary results: the doubles as stored).
+StreamSum labSum(const LabCluster& cluster, const std::string& bench, const StreamCols& s) {
+  StreamSum sum;
+  PgConn c(PQconnectdb(cluster.adminConninfo().c_str()));
+  const std::string sql = std::string("SELECT run_id::float8, ") + s.columns + " FROM " +
+                          s.lab_table + " WHERE bench_id = $1 ORDER BY run_id, t";
+  const char* params[] = {bench.c_str()};
+  PgResult r(PQexecParams(c.get(), sql.c_str(), 1, nullptr, params, nullptr, nullptr, 1));
+  EXPECT_EQ(PQresultStatus(r.get()), PGRES_TUPLES_OK) << PQresultErrorMessage(r.get());
+  for (int i = 0; i < PQntuples(r.get()); ++i) {
+    ++sum.rows;
+    for (int col = 0; col < PQnfields(r.get()); ++col) {
+      std::uint64_t bits = 0;
+      const bool null = PQgetisnull(r.get(), i, col) != 0;
+      if (!null) std::memcpy(&bits, PQgetvalue(r.get(), i, col), 8);
+      bits = be64toh(bits);
+      double v = 0.0;
+      std::memcpy(&v, &bits, 8);
+      mixDouble(sum.hash, v, null);
+    }
+  }
+  return sum;
+}
+
+void expectSamplesMirrored(const LabCluster& cluster, const std::string& bench,
+                           const std::string& store_path) {
+  for (const StreamCols& s : kStreams) {
+    const StreamSum want = sqliteSum(store_path, s);
+    const StreamSum got = labSum(cluster, bench, s);
+    EXPECT_GT(want.rows, 0) << s.sqlite_table;
+    EXPECT_EQ(got.rows, want.rows) << s.lab_table << " rows";
+    EXPECT_EQ(got.hash, want.hash) << s.lab_table << " checksum";
+  }
+}
+
+std::int64_t labRows(const LabCluster& cluster, const std::string& bench) {
+  return std::atoll(
+      cluster
+          .admin("SELECT (SELECT count(*) FROM lab.imu_samples WHERE bench_id = '" + bench +
+                 "') + (SELECT count(*) FROM lab.table_samples WHERE bench_id = '" + bench +
+                 "') + (SELECT count(*) FROM lab.chamber_samples WHERE bench_id = '" + bench + "')")
+          .c_str());
+}
+
+ShipperOptions withSamples(ShipperOptions o, std::size_t batch_rows) {
+  o.mirror_samples = true;
+  o.samples.batch_rows = batch_rows;
+  o.samples.backlog_every_s = 0.0;  // the tests read the backlog after every step
+  return o;
+}
+
+// Ships until both backlogs are empty; every step must succeed.
+void drain(Shipper& shipper, int max_steps) {
+  for (int i = 0; i < max_steps; ++i) {
+    const ShipStep s = shipper.step();
+    ASSERT_TRUE(s.error.ok()) << s.error.message;
+    if (s.backlog == 0 && s.samples_backlog == 0) return;
+  }
+  FAIL() << "the backlog did not drain in " << max_steps << " steps";
+}
+
+TEST_F(LabMirrorTest, SamplesAreMirroredExactlyOnceWithEqualCountsAndChecksums) {
+  auto store = openStore("m");
+  std::mt19937_64 rng(30);
+  const std::int64_t done = beginSampleRun(*store, "SN-M1");
+  ASSERT_TRUE(store->appendBatch(done, sampleBatch(rng, 0, 7001)).ok);
+  ASSERT_TRUE(store->finishRun(done, daemon::RunState::kFinished, "").ok);
+  const std::int64_t running = beginSampleRun(*store, "SN-M2");
+  ASSERT_TRUE(store->appendBatch(running, sampleBatch(rng, 0, 3000)).ok);
+  ASSERT_TRUE(store->enableOutbox().ok);
+  const LabEndpoint ep = cluster_.addBench("bench_m");
+  Shipper shipper(ep, *store, withSamples({}, 2500));
+  drain(shipper, 100);
+  expectSamplesMirrored(cluster_, "bench_m", store->path());
+  // The running run goes on: only the new rows follow, once.
+  ASSERT_TRUE(store->appendBatch(running, sampleBatch(rng, 3000, 4321)).ok);
+  drain(shipper, 100);
+  expectSamplesMirrored(cluster_, "bench_m", store->path());
+  // What the design rests on: a stream only grows after its newest stored row.
+  const Status late = store->appendBatch(running, sampleBatch(rng, 10, 5));
+  EXPECT_FALSE(late.ok);
+  EXPECT_NE(late.message.find("time does not increase past the stored"), std::string::npos)
+      << late.message;
+  // A mark lost in the lab (deleted by hand): the rows are shipped again, never duplicated.
+  cluster_.admin("DELETE FROM lab.sample_marks WHERE bench_id = 'bench_m'");
+  Shipper again(ep, *store, withSamples({}, 2500));
+  drain(again, 100);
+  expectSamplesMirrored(cluster_, "bench_m", store->path());
+  // The readers' views, as the read-only role sees them.
+  PgConn reader;
+  ASSERT_TRUE(connectLab(cluster_.reader(), "test", &reader).ok());
+  PgResult r(PQexec(reader.get(), "SELECT count(*) FROM lab.imu WHERE imu_serial = 'SN-M2'"));
+  ASSERT_EQ(PQresultStatus(r.get()), PGRES_TUPLES_OK) << PQresultErrorMessage(r.get());
+  EXPECT_STREQ(PQgetvalue(r.get(), 0, 0), "7321");
+}
+
+// The database stops while samples ship, the bench writes on at 2 kHz (never waiting), the
+// status counts the waiting rows; after the restart every row is there once.
+TEST_F(LabMirrorTest, SamplesThroughADatabaseStoppedMidShippingArriveOnce) {
+  const char* env = std::getenv("IMUBENCH_LAB_OUTAGE_S");
+  const double outage_s = env != nullptr ? std::atof(env) : 20.0;
+  auto store = openStore("o");
+  std::mt19937_64 rng(31);
+  const std::int64_t run = beginSampleRun(*store, "SN-O");
+  std::int64_t next = 0;
+  for (; next < 120000; next += 4000) {
+    ASSERT_TRUE(store->appendBatch(run, sampleBatch(rng, next, 4000)).ok);
+  }
+  const LabEndpoint ep = cluster_.addBench("bench_o");
+  auto mirror = LabMirror::start(store->path(), ep, withSamples(fastRetry(), 2000));
+  ASSERT_TRUE(mirror.ok()) << mirror.status.message;
+  ASSERT_TRUE(waitFor([&] { return mirror.value->status().samples_shipped > 0; }, 30));
+  ASSERT_GT(mirror.value->status().samples_backlog, 0) << "shipped before the stop: proves nothing";
+  ASSERT_EQ(cluster_.stop(), 0);
+  ASSERT_TRUE(waitFor([&] { return mirror.value->status().state == "fault"; }, 30));
+  EXPECT_EQ(mirror.value->status().fault, LabFault::kUnreachable);
+  double worst_write_s = 0.0;
+  const double until = now() + outage_s;
+  while (now() < until) {  // 2 kHz in batches of 100 every 50 ms
+    const double t0 = now();
+    ASSERT_TRUE(store->appendBatch(run, sampleBatch(rng, next, 100)).ok);
+    next += 100;
+    worst_write_s = std::max(worst_write_s, now() - t0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_LT(worst_write_s, 0.25) << "a bench write waited on the lab mirror";
+  const MirrorStatus down = mirror.value->status();
+  EXPECT_EQ(down.state, "fault");
+  EXPECT_GT(down.samples_backlog, static_cast<std::int64_t>(outage_s * 1000)) << down.message;
+  ASSERT_EQ(cluster_.start(), 0);
+  ASSERT_TRUE(waitFor(
+      [&] {
+        const MirrorStatus s = mirror.value->status();
+        return s.state == "ok" && s.samples_backlog == 0;
+      },
+      120))
+      << mirror.value->status().message;
+  mirror.value->stop();
+  expectSamplesMirrored(cluster_, "bench_o", store->path());
+}
+
+// kill -9 of a process shipping samples, mid-batch: the next shipper resumes after what the
+// lab committed (its marks), so nothing is lost and nothing arrives twice.
+TEST_F(LabMirrorTest, SampleShipperKilledMidBatchThenRestartedLosesAndDuplicatesNothing) {
+  auto store = openStore("x");
+  std::mt19937_64 rng(32);
+  for (int r = 0; r < 2; ++r) {
+    const std::int64_t run = beginSampleRun(*store, "SN-X");
+    for (std::int64_t i = 0; i < 100000; i += 5000) {
+      ASSERT_TRUE(store->appendBatch(run, sampleBatch(rng, i, 5000)).ok);
+    }
+  }
+  const std::int64_t total = sqliteSum(store->path(), kStreams[0]).rows +
+                             sqliteSum(store->path(), kStreams[1]).rows +
+                             sqliteSum(store->path(), kStreams[2]).rows;
+  const LabEndpoint ep = cluster_.addBench("bench_x");
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    auto own = Store::open(store->path());
+    if (!own.ok()) _exit(3);
+    Shipper shipper(ep, *own.value, withSamples({}, 3000));
+    for (;;) {
+      const ShipStep s = shipper.step();
+      if (!s.error.ok()) _exit(4);
+      if (s.samples_backlog == 0) _exit(0);
+    }
+  }
+  waitFor([&] { return labRows(cluster_, "bench_x") >= total / 3; }, 120);
+  ::kill(child, SIGKILL);
+  int wstatus = 0;
+  ASSERT_EQ(::waitpid(child, &wstatus, 0), child);
+  ASSERT_TRUE(WIFSIGNALED(wstatus)) << "the shipper ended (exit " << WEXITSTATUS(wstatus)
+                                    << ") before the kill: the test proves nothing";
+  const std::int64_t arrived = labRows(cluster_, "bench_x");
+  EXPECT_GT(arrived, 0);
+  EXPECT_LT(arrived, total);
+  Shipper again(ep, *store, withSamples({}, 3000));
+  drain(again, 1000);
+  expectSamplesMirrored(cluster_, "bench_x", store->path());
+  // The marks account for every row exactly once: no batch was applied twice.
+  EXPECT_EQ(std::atoll(cluster_
+                           .admin("SELECT sum(shipped_rows) FROM lab.sample_marks "
+                                  "WHERE bench_id = 'bench_x'")
+                           .c_str()),
+            total);
 }
 
 TEST(LabConfig, PasswordInTheUriOrAnOpenPasswordFileIsRefused) {
