@@ -351,18 +351,7 @@ Status BenchDaemon::start() {
     log_.warning(std::to_string(cut.value) + " run(s) cut off by a crash marked interrupted");
   }
   if (bench_.lab) {
-    // Never blocks the bench: the mirror connects and ships from its own thread, and reports
-    // faults through status and the lab_alarm event.
-    lab::LabEndpoint endpoint;
-    endpoint.conninfo = bench_.lab->database;
-    endpoint.password_file = bench_.lab->password_file;
-    lab::ShipperOptions shipping;
-    shipping.mirror_samples = bench_.lab->mirror_samples;
-    auto mirror = lab::LabMirror::start(db, endpoint, shipping);
-    if (!mirror.ok()) return Status::Error("lab mirror: " + mirror.status.message);
-    lab_ = std::move(mirror.value);
-    log_.info(std::string("lab mirror: shipping the store's outbox") +
-              (shipping.mirror_samples ? " and raw samples" : "") + " to the [lab] database");
+    if (auto st = startLabMirror(db); !st.ok) return st;
   }
 
   // The drivers report every retry and fault: on a dead link that is every poll.
@@ -423,6 +412,22 @@ Status BenchDaemon::start() {
   notifier_.status("idle");
   log_.info("bench '" + bench_.name + "' ready: control socket " + socket_path + ", store " + db +
             ", IMU on " + bench_.imu.interface);
+  return Status::Ok();
+}
+
+// The [lab] mirror of store db. Never blocks the bench: it connects and ships from its own
+// thread, and reports faults through status and the lab_alarm event.
+Status BenchDaemon::startLabMirror(const std::string& db) {
+  lab::LabEndpoint endpoint;
+  endpoint.conninfo = bench_.lab->database;
+  endpoint.password_file = bench_.lab->password_file;
+  lab::ShipperOptions shipping;
+  shipping.mirror_samples = bench_.lab->mirror_samples;
+  auto mirror = lab::LabMirror::start(db, endpoint, shipping);
+  if (!mirror.ok()) return Status::Error("lab mirror: " + mirror.status.message);
+  lab_ = std::move(mirror.value);
+  log_.info(std::string("lab mirror: shipping the store's outbox") +
+            (shipping.mirror_samples ? " and raw samples" : "") + " to the [lab] database");
   return Status::Ok();
 }
 

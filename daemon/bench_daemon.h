@@ -91,8 +91,9 @@ class BenchDaemon {
   // What a request does with its plan's text; name is what diagnostics call the plan.
   using PlanUse = std::function<Reply(const std::string& name, const std::string& text)>;
 
-  // nullopt: the reply follows through the server (a plan read from the plan library).
+  Status startLabMirror(const std::string& db);
   Status startControl(std::string* socket_path);
+  // nullopt: the reply follows through the server (a plan read from the plan library).
   std::optional<Reply> handle(const Request& request, ClientId client);
   std::optional<Reply> withPlanText(const Request& request, ClientId client,
                                     const PlanSource& source, const PlanUse& use);
