@@ -1176,9 +1176,6 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   res.scale = q.scale;
   res.correlation = q.correlation;
   res.unseparable = q.gate.unseparable;
-  for (const ExplainCandidateSpec& spec : p.candidates) {
-    if (!spec.variants.empty()) res.judged_fixed.emplace_back(spec.id, spec.fixed);
-  }
   res.rejected = q.gate.rejected;
   res.notes = q.gate.notes;
   if (!held_given.empty()) {

@@ -212,10 +212,6 @@ struct ExplainResult {
   std::vector<ExplainAccepted> accepted;
   std::vector<ExplainRejected> rejected;
   std::vector<ExplainUnseparable> unseparable;
-  // The discrete parameters (angle_harmonic's axis and order: flat name, value) each candidate
-  // with variants was judged at (the reported pass's choice): the gate's verdicts, unseparable
-  // ones included, are about these. The plan design (explain_propose.h) evaluates the same.
-  std::vector<std::pair<std::string, std::vector<std::pair<std::string, double>>>> judged_fixed;
   std::vector<ExplainWindow> located;      // before the refit
   std::vector<ExplainWindow> unexplained;  // after it
   CoefficientReport coefficients;          // after the joint refit; accepted effects in extra

@@ -36,24 +36,14 @@ struct Group {
   std::string impossible;
 };
 
-// The discrete parameters explain judged effect `id` at (angle_harmonic's axis and order: the
-// variant its pass kept, ExplainResult::judged_fixed), else `fallback` (the registry default).
-ExplainCandidateSpec::Fixed judgedFixed(const ExplainResult& res, const std::string& id,
-                                        const ExplainCandidateSpec::Fixed& fallback) {
-  for (const auto& [effect, fixed] : res.judged_fixed) {
-    if (effect == id) return fixed;
-  }
-  return fallback;
-}
-
 std::size_t effectIndex(const std::string& id, const std::vector<ExplainCandidateSpec>& specs,
-                        const ExplainResult& res, std::vector<EffectColumns>* effects) {
+                        std::vector<EffectColumns>* effects) {
   for (std::size_t k = 0; k < effects->size(); ++k) {
     if ((*effects)[k].id == id) return k;
   }
   for (const ExplainCandidateSpec& s : specs) {
     if (s.id != id) continue;
-    effects->push_back({s.id, s.names, judgedFixed(res, id, s.fixed)});
+    effects->push_back({s.id, s.names, s.fixed});
     return effects->size() - 1;
   }
   return std::numeric_limits<std::size_t>::max();
@@ -74,7 +64,7 @@ void listGroups(const ExplainInput& in, const ExplainResult& res, const ExplainO
     g.unseparable = true;
     bool known = true;
     for (const std::string& id : u.effects) {
-      g.effects.push_back(effectIndex(id, specs, res, effects));
+      g.effects.push_back(effectIndex(id, specs, effects));
       known = known && g.effects.back() < effects->size();
     }
     if (known) groups->push_back(g);
@@ -92,7 +82,7 @@ void listGroups(const ExplainInput& in, const ExplainResult& res, const ExplainO
     if (!short_of) continue;
     Group g;
     g.effects.push_back(effects->size());
-    effects->push_back({a.effect, a.flat_names, judgedFixed(res, a.effect, {})});
+    effects->push_back({a.effect, a.flat_names, {}});
     g.target.assign(a.flat_names.size(), target);
     groups->push_back(g);
   }

@@ -336,48 +336,6 @@ TEST(ExplainGiven, LevelRecordingKeepsWhatItCannotDetermineAtTheGivenValues) {
   EXPECT_TRUE(held_noted);
 }
 
-// The design evaluates angle_harmonic at the axis and order explain judged (the variant its
-// pass kept), not at the registry default (outer, order 1): an inner order-2 harmonic asked to
-// a tighter precision gets predicted sigmas (on the recording itself) that match the ones
-// explain achieved.
-TEST(ExplainPropose, HarmonicDesignedAtTheVariantExplainJudged) {
-  EffectSet e;
-  e.enable(EffectId::kAngleHarmonic);
-  e.angle_harmonic->axis = kTableAxisInner;
-  e.angle_harmonic->order = 2.0;
-  e.angle_harmonic->cos_rad = 6.0e-5;
-  e.angle_harmonic->sin_rad = -4.5e-5;
-  const SimulatedRecording rec = simulateWith(testPlanMotion("direct_two_axis_rates"), e, 41);
-  const ExplainInput input = simulatedExplainInput(rec);
-  const ExplainResult r = explainRecording(input, ExplainOptions{});
-  ASSERT_TRUE(r.status.ok) << r.status.message;
-  const ExplainAccepted* h = accepted(r, "angle_harmonic");
-  ASSERT_NE(h, nullptr) << summary(r);
-  ProposeOptions po;
-  po.relative_precision = 1e-4;  // every accepted effect short of it: a group each
-  const ProposeResult p = proposePlan(input, r, ExplainOptions{}, po, plans::expandProposedPlan);
-  ASSERT_TRUE(p.status.ok) << p.status.message;
-  printProposal(p);
-  const ProposedGroup* g = nullptr;
-  for (const ProposedGroup& x : p.groups) {
-    if (x.effects == std::vector<std::string>{"angle_harmonic"}) g = &x;
-  }
-  ASSERT_NE(g, nullptr);
-  const double misfit = std::sqrt(std::max(1.0, r.refit.chi2_per_dof));
-  int compared = 0;
-  for (std::size_t k = 0; k < h->flat_names.size(); ++k) {
-    if (!std::isfinite(h->sigmas[k])) continue;
-    const auto it = std::find(g->flat_names.begin(), g->flat_names.end(), h->flat_names[k]);
-    ASSERT_NE(it, g->flat_names.end()) << h->flat_names[k];
-    const double predicted = g->sigma_before[static_cast<std::size_t>(it - g->flat_names.begin())];
-    const double achieved = h->sigmas[k] / misfit;
-    EXPECT_GT(predicted, achieved / 1.5) << h->flat_names[k];
-    EXPECT_LT(predicted, achieved * 1.5) << h->flat_names[k];
-    ++compared;
-  }
-  EXPECT_EQ(compared, 2);
-}
-
 // The report's parameters of a three-axis table group are named by their flat names: the
 // nonorthogonality (middle_x, middle_y, inner_y) was labelled in the registry's order
 // (inner_y, middle_x, middle_y), one name off.
