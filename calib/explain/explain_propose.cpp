@@ -49,6 +49,24 @@ std::size_t effectIndex(const std::string& id, const std::vector<ExplainCandidat
   return std::numeric_limits<std::size_t>::max();
 }
 
+bool hasVariants(const std::string& id, const std::vector<ExplainCandidateSpec>& specs) {
+  for (const ExplainCandidateSpec& s : specs) {
+    if (s.id == id) return !s.fixed.empty() || !s.variants.empty();  // discrete parameters
+  }
+  return false;
+}
+
+// An effect with discrete variants (angle_harmonic: axis and order) is judged at the variant
+// each analysis finds best. Unseparable, its variant is arbitrary, and the analysis of the
+// follow-up may judge another than the design evaluated: on the virtual bench a plan designed
+// for one ran and was judged "still unseparable". No claim is made for such a group.
+std::string variantReason(const std::string& id) {
+  return "no plan within the bench limits can be designed for it with confidence: " + id +
+         "'s variant (axis, order) is chosen by each analysis, and an unseparable one is "
+         "arbitrary, so the analysis of a follow-up may judge another variant than the design "
+         "evaluated";
+}
+
 // Unseparable pairs (the ones between two effects: an effect unseparable from the baseline is
 // a single id) and accepted effects whose reported sigma is above the precision.
 void listGroups(const ExplainInput& in, const ExplainResult& res, const ExplainOptions& eo,
@@ -66,6 +84,7 @@ void listGroups(const ExplainInput& in, const ExplainResult& res, const ExplainO
     for (const std::string& id : u.effects) {
       g.effects.push_back(effectIndex(id, specs, effects));
       known = known && g.effects.back() < effects->size();
+      if (g.impossible.empty() && hasVariants(id, specs)) g.impossible = variantReason(id);
     }
     if (known) groups->push_back(g);
   }
@@ -524,6 +543,7 @@ void markImpossible(const Eigen::MatrixXd& J_all, int nb, const Layout& lay, dou
   const Assessment a = assess(J_all, nb, *groups, lay, limit, eo.baseline_collinear);
   for (std::size_t k = 0; k < groups->size(); ++k) {
     Group& g = (*groups)[k];
+    if (!g.impossible.empty()) continue;  // decided when listed (variantReason)
     if (g.unseparable && g.effects.size() == 1 && lay.active[g.effects[0]].empty()) {
       g.impossible = "no plan within the bench limits separates it: " + effects[g.effects[0]].id +
                      " mimics the baseline coefficients on every candidate motion (it needs "

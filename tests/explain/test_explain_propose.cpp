@@ -255,6 +255,29 @@ TEST(ExplainPropose, HeldAxisAndOrderOfAPreciseHarmonicAskForNoPlan) {
   EXPECT_TRUE(p.plan.blocks.empty());
 }
 
+// A group with angle_harmonic (axis and order chosen by each analysis; unseparable, the variant
+// is arbitrary): no plan is claimed for it, with the reason. On the virtual bench the design
+// claimed accel_k2 + angle_harmonic resolved, the follow-up ran and its joint analysis judged
+// "still unseparable" (daemon.e2e.follow_up).
+TEST(ExplainPropose, GroupsWithAnAngleHarmonicAreNotClaimed) {
+  const SimulatedRecording rec = simulateWith(libraryMotion("direct_two_axis"), EffectSet{}, 71);
+  const ExplainInput input = simulatedExplainInput(rec);
+  ExplainOptions eo;
+  eo.candidates = {"accel_k2", "angle_harmonic"};
+  ExplainResult r = explainRecording(input, eo);
+  ASSERT_TRUE(r.status.ok) << r.status.message;
+  r.unseparable.push_back({{"accel_k2", "angle_harmonic"}, "as the daemon's run reported it"});
+  const ProposeResult p = proposePlan(input, r, eo, ProposeOptions{}, plans::expandProposedPlan);
+  ASSERT_TRUE(p.status.ok) << p.status.message;
+  printProposal(p);
+  const ProposedGroup* g = group(p, "accel_k2", "angle_harmonic");
+  ASSERT_NE(g, nullptr);
+  EXPECT_FALSE(g->possible);
+  EXPECT_FALSE(g->resolved);
+  EXPECT_NE(g->why.find("variant (axis, order) is chosen by each analysis"), std::string::npos)
+      << g->why;
+}
+
 // A duration too short for a plan (the calibration base that lets the proposal be explained
 // alone takes ~590 s): no plan, and the result says which group stays unseparable.
 TEST(ExplainPropose, TooShortMaxDurationLeavesTheGroupUnseparable) {
