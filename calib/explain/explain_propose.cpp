@@ -49,13 +49,6 @@ std::size_t effectIndex(const std::string& id, const std::vector<ExplainCandidat
   return std::numeric_limits<std::size_t>::max();
 }
 
-bool hasVariants(const std::string& id, const std::vector<ExplainCandidateSpec>& specs) {
-  for (const ExplainCandidateSpec& s : specs) {
-    if (s.id == id) return !s.fixed.empty() || !s.variants.empty();  // discrete parameters
-  }
-  return false;
-}
-
 // An effect with discrete variants (angle_harmonic: axis and order) is judged at the variant
 // each analysis finds best. Unseparable, its variant is arbitrary, and the analysis of the
 // follow-up may judge another than the design evaluated: on the virtual bench a plan designed
@@ -84,7 +77,10 @@ void listGroups(const ExplainInput& in, const ExplainResult& res, const ExplainO
     for (const std::string& id : u.effects) {
       g.effects.push_back(effectIndex(id, specs, effects));
       known = known && g.effects.back() < effects->size();
-      if (g.impossible.empty() && hasVariants(id, specs)) g.impossible = variantReason(id);
+      // Discrete parameters held (fixed): the effect has variants.
+      if (known && g.impossible.empty() && !(*effects)[g.effects.back()].fixed.empty()) {
+        g.impossible = variantReason(id);
+      }
     }
     if (known) groups->push_back(g);
   }
