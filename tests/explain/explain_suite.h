@@ -82,9 +82,17 @@ inline void comparePhysicalParam(const ExplainAccepted& a, const std::vector<dou
   if (!(within_sigma || (t2 > 0.0 && pct <= 10.0))) o->params_ok = false;
 }
 
+// The value of an environment switch ("" when unset). Only the main thread reads them, before
+// any worker starts, and nothing in the tests calls setenv.
+inline std::string envText(const char* name) {
+  const char* v = std::getenv(name);  // NOLINT(concurrency-mt-unsafe): see above
+  return v != nullptr ? std::string(v) : std::string();
+}
+
 // Simulates the case along `motion` (the plan's, possibly with a temperature history) and
-// analyses it with no hint of the concealed effects.
-inline CaseOutcome runCase(const ConcealedCase& c, const Motion& motion) {
+// analyses it with no hint of the concealed effects; `verbose` prints the analysis
+// (EXPLAIN_VERBOSE, read by the caller).
+inline CaseOutcome runCase(const ConcealedCase& c, const Motion& motion, bool verbose = false) {
   const auto start = std::chrono::steady_clock::now();
   CaseOutcome o;
   o.label = c.label;
@@ -93,7 +101,7 @@ inline CaseOutcome runCase(const ConcealedCase& c, const Motion& motion) {
   const ExplainResult r = explainSimulated(rec);
   o.ok = r.status.ok;
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (std::getenv("EXPLAIN_VERBOSE")) std::printf("%s", summary(r).c_str());
+  if (verbose) std::printf("%s", summary(r).c_str());
   if (!r.status.ok) return o;
   for (const ExplainUnseparable& u : r.unseparable) {
     for (const std::string& id : u.effects) o.unseparable.push_back(id);

@@ -34,8 +34,8 @@ namespace imubench::calib::testing {
 namespace {
 
 bool fullSuite() {
-  const char* v = std::getenv("IMUBENCH_SUITE");
-  return v != nullptr && std::string(v) == "full";
+  static const bool full = envText("IMUBENCH_SUITE") == "full";  // main thread (buildCases)
+  return full;
 }
 
 // Every suite recording sweeps the IMU's temperature by 30 degC (5 -> 35 degC, linear over the
@@ -194,9 +194,10 @@ std::vector<SuiteCase> buildCases() {
       // Quick: the low magnitude positive and the high one negative (both ends of the range
       // and both signs per plan, within the CI budget); full: every magnitude with both signs.
       std::vector<double> mags = f.magnitudes;
-      if (full)
+      if (full) {
         mags = {f.magnitudes.front(), 0.5 * (f.magnitudes.front() + f.magnitudes.back()),
                 f.magnitudes.back()};
+      }
       for (double m : mags) {
         for (double sign : {1.0, -1.0}) {
           if (!full && (sign > 0) != (m == f.magnitudes.front())) continue;
@@ -274,12 +275,20 @@ bool invisibleReported(const CaseOutcome& o, const SuiteCase& sc) {
 std::vector<CaseOutcome> runAll(const std::vector<SuiteCase>& cases,
                                 const std::map<std::string, Motion>& motions) {
   int threads = 2;
-  if (const char* v = std::getenv("IMUBENCH_SUITE_THREADS")) threads = std::max(1, std::atoi(v));
+  const std::string threads_text = envText("IMUBENCH_SUITE_THREADS");
+  if (!threads_text.empty()) {
+    char* end = nullptr;
+    const long n = std::strtol(threads_text.c_str(), &end, 10);
+    EXPECT_TRUE(end != nullptr && *end == '\0' && n >= 1 && n <= 64)
+        << "IMUBENCH_SUITE_THREADS=" << threads_text << ": a whole number 1..64";
+    if (end != nullptr && *end == '\0' && n >= 1 && n <= 64) threads = static_cast<int>(n);
+  }
+  const bool verbose = !envText("EXPLAIN_VERBOSE").empty();
   std::vector<CaseOutcome> out(cases.size());
   std::atomic<std::size_t> next{0};
   auto work = [&] {
     for (std::size_t i = next++; i < cases.size(); i = next++) {
-      out[i] = runCase(cases[i].c, motions.at(cases[i].c.plan));
+      out[i] = runCase(cases[i].c, motions.at(cases[i].c.plan), verbose);
     }
   };
   std::vector<std::thread> pool;
@@ -298,8 +307,8 @@ TEST(ExplainSuite, ConcealedEffects) {
   for (SuiteCase& c : pairCases()) cases.push_back(std::move(c));
   for (SuiteCase& c : cleanCases()) cases.push_back(std::move(c));
   // IMUBENCH_SUITE_FILTER=text keeps the cases whose "plan label" contains it (development).
-  if (const char* f = std::getenv("IMUBENCH_SUITE_FILTER")) {
-    std::erase_if(cases, [f](const SuiteCase& c) {
+  if (const std::string f = envText("IMUBENCH_SUITE_FILTER"); !f.empty()) {
+    std::erase_if(cases, [&f](const SuiteCase& c) {
       return (c.c.plan + " " + c.c.label).find(f) == std::string::npos;
     });
   }
