@@ -7,7 +7,8 @@
 #  - tools/tidy_check.py: a file with a bugprone-use-after-move finding fails naming
 #    file:line and the check, in the changed-since-base mode CI uses and for a named file;
 #    the clean version passes; a change of #include lines only is not a change; more TUs
-#    than the cap and a base missing from the clone fail with a message saying so.
+#    than the cap and a base missing from the clone fail with a message saying so; a finding
+#    in an unchanged header a changed TU includes is listed, not counted, until it changes.
 # Usage: static_checks_planted.sh SOURCE_DIR
 set -euo pipefail
 src=$(cd "${1:?usage: static_checks_planted.sh SOURCE_DIR}" && pwd)
@@ -120,4 +121,37 @@ if ! out=$("${tidy_check[@]}" --root "$t.shallow" -p "$t" 2>&1) ||
 fi
 rm -rf "$t.shallow"
 echo "ok: clang-tidy in a shallow clone says it did not run"
+# A finding in an unchanged header that a changed TU includes is listed, not counted (not the
+# change's to fix); once the header itself changes, it counts.
+h=$tmp/tidy_header
+mkdir -p "$h/tools" "$h/nav"
+cp "$src/.clang-tidy" "$h/.clang-tidy"
+cat >"$h/nav/old.h" <<'EOF'
+#pragma once
+#include <string>
+#include <utility>
+
+inline int oldHeader() {
+  std::string a = "imu";
+  std::string b = std::move(a);
+  return static_cast<int>(a.size() + b.size());
+}
+EOF
+printf '#include "nav/old.h"\n\nint user() { return oldHeader(); }\n' >"$h/nav/user.cpp"
+printf '[{"directory": "%s", "file": "%s", "command": "c++ -std=gnu++20 -I%s -c %s"}]\n' \
+  "$h" "$h/nav/user.cpp" "$h" "$h/nav/user.cpp" >"$h/compile_commands.json"
+git -C "$h" init -q
+git -C "$h" -c user.name=t -c user.email=t@t add -A
+git -C "$h" -c user.name=t -c user.email=t@t commit -qm base
+git -C "$h" rev-parse HEAD >"$h/tools/tidy_base.txt"
+printf 'int userToo() { return 2; }\n' >>"$h/nav/user.cpp"
+if ! out=$("${tidy_check[@]}" --root "$h" -p "$h" 2>&1) ||
+  ! grep -q "in unchanged headers these TUs include, not counted" <<<"$out" ||
+  ! grep -q "nav/old.h:8:.*bugprone-use-after-move" <<<"$out"; then
+  printf 'FAIL: clang-tidy with a finding in an unchanged header: %s\n' "$out" >&2; exit 1
+fi
+echo "ok: clang-tidy lists an unchanged header's finding without counting it"
+sed -i 's/"imu"/"imu2"/' "$h/nav/old.h"
+expect_fail "clang-tidy once that header changed" "nav/old\.h:8:.*bugprone-use-after-move" \
+  -- "${tidy_check[@]}" --root "$h" -p "$h"
 echo "static checks: every planted violation caught, every clean version passed"
