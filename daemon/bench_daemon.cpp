@@ -370,6 +370,7 @@ Status BenchDaemon::start() {
 
   drivers::ImuCanReaderOptions imu_options;
   imu_options.interface = bench_.imu.interface;
+  imu_options.decoder.max_clock_ratio = bench_.imu.max_clock_ratio;
   imu_ = std::make_unique<drivers::ImuCanReader>(bench_.imu.layout, imu_options);
   if (auto st = imu_->open(); !st.ok) return Status::Error("IMU: " + st.message);
   if (auto st = loop_.add(imu_->socket().fd(), EPOLLIN, [this](std::uint32_t) { onImuReadable(); });
@@ -1104,6 +1105,44 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   return okReply(id, toJson(StartReply{run_->id, summary, std::nullopt}));
 }
 
+// The newest wall time the run's stored events vouch for as no later than its last stored
+// sample (+ the writer's unflushed tail): the run's start, every event but the "interrupted"
+// one a restarted daemon adds at start-up. Unknown events: the run's start alone.
+double BenchDaemon::timeSinceLastStoredSample(const RunInfo& run) {
+  double last_wall = run.started_unix_s;
+  const EventListResult events = store_->events(run.id);
+  if (events.status.ok) {
+    for (const RunEvent& e : events.value) {
+      if (e.kind != "interrupted") last_wall = std::max(last_wall, e.wall_unix_s);
+    }
+  } else {
+    log_.warning("run " + std::to_string(run.id) + ": " + events.status.message);
+  }
+  // A kill -9 loses the rows still buffered: the last stored sample may precede the newest
+  // event by up to the writer's unflushed span (of sample time; the IMU's clock runs no
+  // slower than the receive clock).
+  return unixNow() - last_wall + store_->options().max_unflushed_s;
+}
+
+std::string BenchDaemon::continueImuTimeAxis(const RunInfo& run, const ResumePoint& point) {
+  if (!imu_last_t_) return "the IMU is silent; resume when it streams";
+  if (!point.last_imu_t || *imu_last_t_ > *point.last_imu_t) return "";
+  const drivers::ImuDecoder& decoder = imu_->decoder();
+  const double elapsed = timeSinceLastStoredSample(run);
+  const drivers::TimeWrapResolution wraps = drivers::resolveTimeWraps(
+      *imu_last_t_, *point.last_imu_t, decoder.timeWrapPeriod(), elapsed, decoder.options());
+  if (!wraps.wraps) {
+    return wraps.why + " since the run was interrupted; start a new run";
+  }
+  const double shift = static_cast<double>(*wraps.wraps) * *decoder.timeWrapPeriod();
+  imu_->shiftTimeWraps(*wraps.wraps);
+  imu_last_t_ = *imu_last_t_ + shift;
+  log_.info("run " + std::to_string(run.id) + ": the IMU time stamp wrapped " +
+            std::to_string(*wraps.wraps) + " time(s) since the run's last sample; its time " +
+            "axis goes on " + std::to_string(shift) + " s later");
+  return "";
+}
+
 // Crash resume: run `run_id` (interrupted by a crash, a power loss or a stop, or aborted or
 // faulted) goes on from the step after its last finished one (the start of its temperature
 // point in a thermal plan: plan_runner.h resumeStep), on the same bench and IMU and one time axis;
@@ -1133,14 +1172,8 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   ResumePoint point = store_->resumePoint(run_id);
   if (!point.status.ok) return errorReply(id, ErrorCode::kInternal, point.status.message);
   // One time axis: the IMU must still count on from where the run's samples end.
-  if (!imu_last_t_ || (point.last_imu_t && !(*imu_last_t_ > *point.last_imu_t))) {
-    return errorReply(
-        id, ErrorCode::kBadState,
-        which + ": the IMU " +
-            (imu_last_t_ ? "time restarted since the run was interrupted (" +
-                               std::to_string(*imu_last_t_) + " s, the run ends at " +
-                               std::to_string(*point.last_imu_t) + " s); start a new run"
-                         : std::string("is silent; resume when it streams")));
+  if (const std::string axis = continueImuTimeAxis(run, point); !axis.empty()) {
+    return errorReply(id, ErrorCode::kBadState, which + ": " + axis);
   }
   why.clear();
   std::optional<OnlineSetup> calibration = calibrationSetup(*loaded, &why);

@@ -179,9 +179,11 @@ void parseImu(const toml::table& root, const std::string& base_dir, BenchConfig&
               Diagnostics& diag) {
   const toml::table* t = subTable(root, "imu", diag, true);
   if (t == nullptr) return;
-  checkKeys(*t, {"layout", "interface", "serial"}, "[imu]", diag);
+  checkKeys(*t, {"layout", "interface", "serial", "max_clock_ratio"}, "[imu]", diag);
   b.imu.interface = strField(*t, "interface", diag, true).value_or("");
   b.imu.serial = strField(*t, "serial", diag, false).value_or("");
+  if (auto ratio = io::intField(*t, "max_clock_ratio", diag, false, 1, kMaxClockRatio))
+    b.imu.max_clock_ratio = static_cast<double>(*ratio);
   const auto layout = strField(*t, "layout", diag, true);
   if (!layout) return;
   b.imu.layout_file = resolve(base_dir, *layout);

@@ -52,6 +52,51 @@ bool ImuDecoderOptions::IsValid(std::string* why) const {
   return true;
 }
 
+TimeWrapResolution resolveTimeWraps(double t_now_s, double t_end_s,
+                                    std::optional<double> wrap_period_s, double elapsed_s,
+                                    const ImuDecoderOptions& options) {
+  TimeWrapResolution r;
+  if (t_now_s > t_end_s) {
+    r.wraps = 0;
+    return r;
+  }
+  const double elapsed = std::max(elapsed_s, 0.0);
+  const double limit = options.max_clock_ratio * elapsed + options.max_jitter_s;
+  char buf[320];
+  const int head = std::snprintf(buf, sizeof buf, "the IMU time is %.3f s, the run ends at %.3f s",
+                                 t_now_s, t_end_s);
+  const auto tail = [&](const char* fmt, auto... args) {
+    std::snprintf(buf + head, sizeof buf - static_cast<std::size_t>(head), fmt, args...);
+    r.why = buf;
+    return r;
+  };
+  if (!wrap_period_s || !(*wrap_period_s > 0.0)) {
+    return tail("; its time stamp does not wrap: the IMU restarted");
+  }
+  if (!std::isfinite(elapsed_s)) {
+    return tail("; the time since the run's last sample is unknown: the wrap count is too");
+  }
+  const double w = *wrap_period_s;
+  // Smallest k >= 1 with a forward step, largest with a step the elapsed time explains.
+  const double behind = t_end_s - t_now_s;  // >= 0
+  const double k_lo = std::floor(behind / w) + 1.0;
+  const double k_hi = std::floor((limit + behind) / w);
+  if (k_hi < k_lo) {
+    return tail(
+        "; no whole number of %.3f s wraps fits the %.1f s since the run's last sample (at "
+        "most %.1f s of IMU time at clock ratio %.3g): the IMU restarted",
+        w, elapsed, limit, options.max_clock_ratio);
+  }
+  if (k_hi > k_lo) {
+    return tail(
+        "; %.0f to %.0f wraps of %.3f s all fit the %.1f s since the run's last sample (at "
+        "most %.1f s of IMU time at clock ratio %.3g): the wrap count is ambiguous",
+        k_lo, k_hi, w, elapsed, limit, options.max_clock_ratio);
+  }
+  r.wraps = static_cast<std::uint64_t>(k_lo);
+  return r;
+}
+
 ImuDecoder::ImuDecoder(ImuLayout layout, ImuDecoderOptions options)
     : layout_(std::move(layout)), options_(options) {
   [[maybe_unused]] std::string why;
@@ -97,6 +142,29 @@ void ImuDecoder::Unwrapper::restart(std::uint64_t raw) {
   have = true;
   last = raw;
   epoch = 0;
+}
+
+std::optional<double> ImuDecoder::timeWrapPeriod() const {
+  if (has_time_) {
+    if (!time_is_integer_ || time_unwrap_.bits >= 64) return std::nullopt;
+    return std::ldexp(std::abs(time_coding_.factor), time_unwrap_.bits);
+  }
+  if (seq_quantity_ != q(ImuQuantity::kCounter) || counter_unwrap_.bits >= 64) return std::nullopt;
+  return std::ldexp(layout_.sample_period_s, counter_unwrap_.bits);
+}
+
+void ImuDecoder::shiftTimeWraps(std::uint64_t wraps) {
+  const std::optional<double> period = timeWrapPeriod();
+  assert(period);
+  if (!period || wraps == 0) return;
+  time_base_ += static_cast<double>(wraps) * *period;
+  // The sequence counts the wrapping quantity itself (a time stamp without a counter, or the
+  // counter that is the time axis): it continues by the same wraps.
+  const Unwrapper& wrapping = has_time_ ? time_unwrap_ : counter_unwrap_;
+  const int wrapping_q = has_time_ ? q(ImuQuantity::kTime) : q(ImuQuantity::kCounter);
+  if (seq_quantity_ == wrapping_q) {
+    seq_base_ += static_cast<std::int64_t>(wraps << static_cast<unsigned>(wrapping.bits));
+  }
 }
 
 void ImuDecoder::problem(std::string what) {
