@@ -1132,7 +1132,7 @@ std::string BenchDaemon::continueImuTimeAxis(const RunInfo& run, const ResumePoi
   const drivers::TimeWrapResolution wraps = drivers::resolveTimeWraps(
       *imu_last_t_, *point.last_imu_t, decoder.timeWrapPeriod(), elapsed, decoder.options());
   if (!wraps.wraps) {
-    return wraps.why + " since the run was interrupted; start a new run";
+    return wraps.why + "; start a new run";
   }
   const double shift = static_cast<double>(*wraps.wraps) * *decoder.timeWrapPeriod();
   imu_->shiftTimeWraps(*wraps.wraps);

@@ -211,7 +211,7 @@ void parseSafety(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
 }
 
 // getgrnam_r's buffer when sysconf has no hint.
-constexpr long kDefaultGrBuffer = 64 * 1024;
+constexpr long kDefaultGrBuffer = 64L * 1024L;
 
 // A group named by key, resolved now (the group database as the daemon starts).
 std::optional<NamedGroup> groupField(const toml::table& t, std::string_view key,
@@ -244,15 +244,17 @@ void parseControl(const toml::table& root, const std::string& base_dir, BenchCon
     b.control.max_connections_per_uid = static_cast<std::size_t>(*n);
   if (auto stop = strField(*t, "stop_socket", diag, false)) {
     b.control.stop_socket = resolve(base_dir, *stop);
-    if (stop->empty() || b.control.stop_socket == b.control_socket)
+    if (stop->empty() || b.control.stop_socket == b.control_socket) {
       diag.error(t->get("stop_socket")->source(),
                  "stop_socket must be a path other than [bench] control_socket");
+    }
   }
   b.control.command_group = groupField(*t, "command_group", diag);
   b.control.read_group = groupField(*t, "read_group", diag);
-  if (b.control.read_group && !b.control.command_group && t->get("command_group") == nullptr)
+  if (b.control.read_group && !b.control.command_group && t->get("command_group") == nullptr) {
     diag.error(t->get("read_group")->source(),
                "read_group needs command_group (who may command the bench)");
+  }
   if (auto v = quantityField(*t, "idle_timeout", Dimension::kTime, diag, false)) {
     if (*v >= 0.0 && *v <= kMaxIdleTimeoutS) {
       b.control.idle_timeout_s = *v;

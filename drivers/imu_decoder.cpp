@@ -74,7 +74,7 @@ TimeWrapResolution resolveTimeWraps(double t_now_s, double t_end_s,
     return tail("; its time stamp does not wrap: the IMU restarted");
   }
   if (!std::isfinite(elapsed_s)) {
-    return tail("; the time since the run's last sample is unknown: the wrap count is too");
+    return tail("; the time since the run's last sample is unknown, and so is the wrap count");
   }
   const double w = *wrap_period_s;
   // Smallest k >= 1 with a forward step, largest with a step the elapsed time explains.
@@ -328,11 +328,15 @@ FrameVerdict ImuDecoder::finish(double rx_time, std::vector<DecodedImuSample>* o
   }
   d.sample.t = has_time_ || seq_quantity_ >= 0 ? next.t + time_base_ : rx_time;
   const double dt = layout_.sample_period_s;
+  // The x, y, z quantities of a kind follow one another in ImuQuantity.
+  const auto axisOf = [this](ImuQuantity x_quantity, int axis) {
+    return pending_[static_cast<std::size_t>(q(x_quantity)) + static_cast<std::size_t>(axis)];
+  };
   for (int axis = 0; axis < 3; ++axis) {
-    const double th = pending_[static_cast<std::size_t>(q(ImuQuantity::kDthetaX) + axis)];
-    const double rate = pending_[static_cast<std::size_t>(q(ImuQuantity::kRateX) + axis)];
-    const double dv = pending_[static_cast<std::size_t>(q(ImuQuantity::kDvelX) + axis)];
-    const double acc = pending_[static_cast<std::size_t>(q(ImuQuantity::kAccelX) + axis)];
+    const double th = axisOf(ImuQuantity::kDthetaX, axis);
+    const double rate = axisOf(ImuQuantity::kRateX, axis);
+    const double dv = axisOf(ImuQuantity::kDvelX, axis);
+    const double acc = axisOf(ImuQuantity::kAccelX, axis);
     d.sample.dtheta[axis] = std::isnan(th) ? rate * dt : th;
     d.sample.dvel[axis] = std::isnan(dv) ? acc * dt : dv;
   }

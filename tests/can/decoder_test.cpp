@@ -332,7 +332,8 @@ TEST(ImuDecoder, WrapConsistentWithTheReceiveClockStaysAWrap) {
   std::vector<CanFrame> frames;
   appendStream(layout, samples, 0xFFFFFFFFULL - 2999, kRx0, 0.0, &frames);
   for (std::size_t i = 0; i < frames.size(); ++i) {
-    frames[i].rx_time_s = kRx0 + 0.005 * static_cast<double>(i / 25);
+    const std::size_t batch = i / 25;  // 25 samples' frames per receive time
+    frames[i].rx_time_s = kRx0 + 0.005 * static_cast<double>(batch);
   }
   ImuDecoder dec(layout);
   std::vector<DecodedImuSample> out = decodeAll(dec, frames);

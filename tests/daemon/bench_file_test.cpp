@@ -207,7 +207,8 @@ TEST(BenchFile, ImuMaxClockRatio) {
   b = parse(with("max_clock_ratio = 25"), diag);
   ASSERT_TRUE(b.has_value()) << diag.str();
   EXPECT_DOUBLE_EQ(b->imu.max_clock_ratio, 25.0);
-  for (const char* bad : {"max_clock_ratio = 0", "max_clock_ratio = 2.5", "max_clock_ratio = 5000"}) {
+  for (const char* bad :
+       {"max_clock_ratio = 0", "max_clock_ratio = 2.5", "max_clock_ratio = 5000"}) {
     io::Diagnostics d("bench.toml");
     EXPECT_FALSE(parse(with(bad), d).has_value()) << bad;
     EXPECT_NE(d.str().find("max_clock_ratio"), std::string::npos) << d.str();
