@@ -50,6 +50,13 @@ double unixNow() {
   return drivers::unixTimeS();
 }
 
+// errno in words: strerror_r (GNU: returns the text, in buf or static), not strerror, which
+// may share its buffer with the off-loop threads.
+std::string errnoWords(int err) {
+  char buf[256];
+  return ::strerror_r(err, buf, sizeof buf);
+}
+
 std::chrono::nanoseconds seconds(double s) {
   return std::chrono::nanoseconds(static_cast<std::int64_t>(s * 1e9));
 }
@@ -106,7 +113,7 @@ Status chmodDatabaseFiles(const std::string& db, const std::optional<NamedGroup>
 
 Status createDatabaseFile(const std::string& db, const std::optional<NamedGroup>& group) {
   const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, kDatabaseMode);
-  if (fd < 0) return Status::Error(db + ": cannot open: " + std::strerror(errno));
+  if (fd < 0) return Status::Error(db + ": cannot open: " + errnoWords(errno));
   ::close(fd);
   return chmodDatabaseFiles(db, group);
 }
@@ -120,7 +127,7 @@ Status exportRoot(const std::string& db, const std::optional<NamedGroup>& group,
   *root = (fs::absolute(fs::path(db), ec).parent_path() / "exports").string();
   if (ec) return Status::Error(db + ": " + ec.message());
   if (::mkdir(root->c_str(), 0750) != 0 && errno != EEXIST)
-    return Status::Error(*root + ": cannot create: " + std::strerror(errno));
+    return Status::Error(*root + ": cannot create: " + errnoWords(errno));
   struct stat st {};
   if (::lstat(root->c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
     return Status::Error(*root + ": not a directory");
@@ -143,7 +150,7 @@ Reply exportToStateDir(const std::string& db, std::int64_t run, const std::strin
     const bool exists = errno == EEXIST;
     return errorReply(id, exists ? ErrorCode::kBadArgument : ErrorCode::kInternal,
                       dir + (exists ? ": exists already; name another export directory (dir)"
-                                    : ": cannot create: " + std::string(std::strerror(errno))));
+                                    : ": cannot create: " + errnoWords(errno)));
   }
   if (auto st = io::writeRecording(dir, rec.value); !st.ok)
     return errorReply(id, ErrorCode::kInternal, st.message);
@@ -999,7 +1006,7 @@ std::optional<Reply> BenchDaemon::withPlanText(const Request& request, ClientId 
     return use(source.name.empty() ? "inline plan" : source.name, source.text);
   if (auto why = refuseLibraryPath(source.text, plans_->options().plan_dir))
     return errorReply(request.id, ErrorCode::kBadArgument, "plan.path: " + *why);
-  auto done = [this, request, client, path = source.text, use](PlanFile file) {
+  auto done = [this, request, client, path = source.text, use](const PlanFile& file) {
     if (!server_->connected(client)) {
       log_.info("plan " + path + " read for a client that has gone; dropped");
       return;
@@ -1648,10 +1655,11 @@ Reply BenchDaemon::queueChange(const Request& request) {
   Status st;
   if (move) {
     const int position = std::get<QueueMoveArgs>(request.args).position;
-    if (static_cast<std::size_t>(position) > list.value.size())
+    if (static_cast<std::size_t>(position) > list.value.size()) {
       return errorReply(request.id, ErrorCode::kBadArgument,
                         "position: " + std::to_string(position) + " is beyond the queue's " +
                             std::to_string(list.value.size()) + " entries");
+    }
     st = store_->queueMove(entry, position);
   } else {
     st = store_->queueRemove(entry);
@@ -1771,7 +1779,8 @@ Reply BenchDaemon::status() const {
 // The plan library's directory is read off the loop too (it may sit on a network share).
 std::optional<Reply> BenchDaemon::listPlans(const Request& request, ClientId client) {
   auto done = [this, client, id = request.id](std::vector<std::string> files) {
-    server_->sendReply(client, okReply(id, toJson(PlanListReply{bench_.plan_dir, files})));
+    server_->sendReply(client,
+                       okReply(id, toJson(PlanListReply{bench_.plan_dir, std::move(files)})));
   };
   std::string why;
   if (!plans_->list(done, &why)) return errorReply(request.id, ErrorCode::kBusy, why);
