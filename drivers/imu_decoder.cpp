@@ -63,10 +63,12 @@ TimeWrapResolution resolveTimeWraps(double t_now_s, double t_end_s,
   const double elapsed = std::max(elapsed_s, 0.0);
   const double limit = options.max_clock_ratio * elapsed + options.max_jitter_s;
   char buf[320];
-  const int head = std::snprintf(buf, sizeof buf, "the IMU time is %.3f s, the run ends at %.3f s",
-                                 t_now_s, t_end_s);
+  // snprintf returns the length it would have written: clamped to what the buffer holds.
+  const int wanted = std::snprintf(
+      buf, sizeof buf, "the IMU time is %.3f s, the run ends at %.3f s", t_now_s, t_end_s);
+  const std::size_t head = std::min(static_cast<std::size_t>(std::max(wanted, 0)), sizeof buf - 1);
   const auto tail = [&](const char* fmt, auto... args) {
-    std::snprintf(buf + head, sizeof buf - static_cast<std::size_t>(head), fmt, args...);
+    std::snprintf(buf + head, sizeof buf - head, fmt, args...);
     r.why = buf;
     return r;
   };
@@ -77,6 +79,11 @@ TimeWrapResolution resolveTimeWraps(double t_now_s, double t_end_s,
     return tail("; the time since the run's last sample is unknown, and so is the wrap count");
   }
   const double w = *wrap_period_s;
+  // Beyond 2^53 wraps a count is no longer whole in a double (and no IMU gets there).
+  constexpr double kMaxWraps = 9007199254740992.0;
+  if (!std::isfinite(t_now_s) || !std::isfinite(t_end_s) || (t_end_s - t_now_s) / w > kMaxWraps) {
+    return tail("; no wrap count can join them");
+  }
   // Smallest k >= 1 with a forward step, largest with a step the elapsed time explains.
   const double behind = t_end_s - t_now_s;  // >= 0
   const double k_lo = std::floor(behind / w) + 1.0;

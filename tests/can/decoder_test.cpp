@@ -428,6 +428,8 @@ TEST(ResolveTimeWraps, AmbiguousCountRefused) {
   fast.max_clock_ratio = 1000.0;
   EXPECT_FALSE(resolveTimeWraps(100.0, 4200.0, kWrap32us, 10.0, fast).wraps);
   EXPECT_FALSE(resolveTimeWraps(100.0, 4200.0, kWrap32us, std::nan(""), {}).wraps);
+  EXPECT_FALSE(resolveTimeWraps(std::nan(""), 4200.0, kWrap32us, 10.0, {}).wraps);
+  EXPECT_FALSE(resolveTimeWraps(100.0, 1e300, kWrap32us, 1e300, {}).wraps);
 }
 
 // The decoder's time axis shifted by whole wraps continues the old one: a stream that began
