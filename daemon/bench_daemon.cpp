@@ -50,6 +50,13 @@ double unixNow() {
   return drivers::unixTimeS();
 }
 
+// errno in words: strerror_r (GNU: returns the text, in buf or static), not strerror, which
+// may share its buffer with the off-loop threads.
+std::string errnoWords(int err) {
+  char buf[256];
+  return ::strerror_r(err, buf, sizeof buf);
+}
+
 std::chrono::nanoseconds seconds(double s) {
   return std::chrono::nanoseconds(static_cast<std::int64_t>(s * 1e9));
 }
@@ -106,7 +113,7 @@ Status chmodDatabaseFiles(const std::string& db, const std::optional<NamedGroup>
 
 Status createDatabaseFile(const std::string& db, const std::optional<NamedGroup>& group) {
   const int fd = ::open(db.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, kDatabaseMode);
-  if (fd < 0) return Status::Error(db + ": cannot open: " + std::strerror(errno));
+  if (fd < 0) return Status::Error(db + ": cannot open: " + errnoWords(errno));
   ::close(fd);
   return chmodDatabaseFiles(db, group);
 }
@@ -120,7 +127,7 @@ Status exportRoot(const std::string& db, const std::optional<NamedGroup>& group,
   *root = (fs::absolute(fs::path(db), ec).parent_path() / "exports").string();
   if (ec) return Status::Error(db + ": " + ec.message());
   if (::mkdir(root->c_str(), 0750) != 0 && errno != EEXIST)
-    return Status::Error(*root + ": cannot create: " + std::strerror(errno));
+    return Status::Error(*root + ": cannot create: " + errnoWords(errno));
   struct stat st {};
   if (::lstat(root->c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
     return Status::Error(*root + ": not a directory");
@@ -143,7 +150,7 @@ Reply exportToStateDir(const std::string& db, std::int64_t run, const std::strin
     const bool exists = errno == EEXIST;
     return errorReply(id, exists ? ErrorCode::kBadArgument : ErrorCode::kInternal,
                       dir + (exists ? ": exists already; name another export directory (dir)"
-                                    : ": cannot create: " + std::string(std::strerror(errno))));
+                                    : ": cannot create: " + errnoWords(errno)));
   }
   if (auto st = io::writeRecording(dir, rec.value); !st.ok)
     return errorReply(id, ErrorCode::kInternal, st.message);
@@ -370,6 +377,7 @@ Status BenchDaemon::start() {
 
   drivers::ImuCanReaderOptions imu_options;
   imu_options.interface = bench_.imu.interface;
+  imu_options.decoder.max_clock_ratio = bench_.imu.max_clock_ratio;
   imu_ = std::make_unique<drivers::ImuCanReader>(bench_.imu.layout, imu_options);
   if (auto st = imu_->open(); !st.ok) return Status::Error("IMU: " + st.message);
   if (auto st = loop_.add(imu_->socket().fd(), EPOLLIN, [this](std::uint32_t) { onImuReadable(); });
@@ -998,7 +1006,7 @@ std::optional<Reply> BenchDaemon::withPlanText(const Request& request, ClientId 
     return use(source.name.empty() ? "inline plan" : source.name, source.text);
   if (auto why = refuseLibraryPath(source.text, plans_->options().plan_dir))
     return errorReply(request.id, ErrorCode::kBadArgument, "plan.path: " + *why);
-  auto done = [this, request, client, path = source.text, use](PlanFile file) {
+  auto done = [this, request, client, path = source.text, use](const PlanFile& file) {
     if (!server_->connected(client)) {
       log_.info("plan " + path + " read for a client that has gone; dropped");
       return;
@@ -1104,6 +1112,44 @@ Reply BenchDaemon::launch(const LoadedPlan& loaded, const json& id) {
   return okReply(id, toJson(StartReply{run_->id, summary, std::nullopt}));
 }
 
+// The newest wall time the run's stored events vouch for as no later than its last stored
+// sample (+ the writer's unflushed tail): the run's start, every event but the "interrupted"
+// one a restarted daemon adds at start-up. Unknown events: the run's start alone.
+double BenchDaemon::timeSinceLastStoredSample(const RunInfo& run) {
+  double last_wall = run.started_unix_s;
+  const EventListResult events = store_->events(run.id);
+  if (events.status.ok) {
+    for (const RunEvent& e : events.value) {
+      if (e.kind != "interrupted") last_wall = std::max(last_wall, e.wall_unix_s);
+    }
+  } else {
+    log_.warning("run " + std::to_string(run.id) + ": " + events.status.message);
+  }
+  // A kill -9 loses the rows still buffered: the last stored sample may precede the newest
+  // event by up to the writer's unflushed span (of sample time; the IMU's clock runs no
+  // slower than the receive clock).
+  return unixNow() - last_wall + store_->options().max_unflushed_s;
+}
+
+std::string BenchDaemon::continueImuTimeAxis(const RunInfo& run, const ResumePoint& point) {
+  if (!imu_last_t_) return "the IMU is silent; resume when it streams";
+  if (!point.last_imu_t || *imu_last_t_ > *point.last_imu_t) return "";
+  const drivers::ImuDecoder& decoder = imu_->decoder();
+  const double elapsed = timeSinceLastStoredSample(run);
+  const drivers::TimeWrapResolution wraps = drivers::resolveTimeWraps(
+      *imu_last_t_, *point.last_imu_t, decoder.timeWrapPeriod(), elapsed, decoder.options());
+  if (!wraps.wraps) {
+    return wraps.why + "; start a new run";
+  }
+  const double shift = static_cast<double>(*wraps.wraps) * *decoder.timeWrapPeriod();
+  imu_->shiftTimeWraps(*wraps.wraps);
+  imu_last_t_ = *imu_last_t_ + shift;
+  log_.info("run " + std::to_string(run.id) + ": the IMU time stamp wrapped " +
+            std::to_string(*wraps.wraps) + " time(s) since the run's last sample; its time " +
+            "axis goes on " + std::to_string(shift) + " s later");
+  return "";
+}
+
 // Crash resume: run `run_id` (interrupted by a crash, a power loss or a stop, or aborted or
 // faulted) goes on from the step after its last finished one (the start of its temperature
 // point in a thermal plan: plan_runner.h resumeStep), on the same bench and IMU and one time axis;
@@ -1133,14 +1179,8 @@ Reply BenchDaemon::resumeInterrupted(const Request& request, std::int64_t run_id
   ResumePoint point = store_->resumePoint(run_id);
   if (!point.status.ok) return errorReply(id, ErrorCode::kInternal, point.status.message);
   // One time axis: the IMU must still count on from where the run's samples end.
-  if (!imu_last_t_ || (point.last_imu_t && !(*imu_last_t_ > *point.last_imu_t))) {
-    return errorReply(
-        id, ErrorCode::kBadState,
-        which + ": the IMU " +
-            (imu_last_t_ ? "time restarted since the run was interrupted (" +
-                               std::to_string(*imu_last_t_) + " s, the run ends at " +
-                               std::to_string(*point.last_imu_t) + " s); start a new run"
-                         : std::string("is silent; resume when it streams")));
+  if (const std::string axis = continueImuTimeAxis(run, point); !axis.empty()) {
+    return errorReply(id, ErrorCode::kBadState, which + ": " + axis);
   }
   why.clear();
   std::optional<OnlineSetup> calibration = calibrationSetup(*loaded, &why);
@@ -1615,10 +1655,11 @@ Reply BenchDaemon::queueChange(const Request& request) {
   Status st;
   if (move) {
     const int position = std::get<QueueMoveArgs>(request.args).position;
-    if (static_cast<std::size_t>(position) > list.value.size())
+    if (static_cast<std::size_t>(position) > list.value.size()) {
       return errorReply(request.id, ErrorCode::kBadArgument,
                         "position: " + std::to_string(position) + " is beyond the queue's " +
                             std::to_string(list.value.size()) + " entries");
+    }
     st = store_->queueMove(entry, position);
   } else {
     st = store_->queueRemove(entry);
@@ -1738,7 +1779,8 @@ Reply BenchDaemon::status() const {
 // The plan library's directory is read off the loop too (it may sit on a network share).
 std::optional<Reply> BenchDaemon::listPlans(const Request& request, ClientId client) {
   auto done = [this, client, id = request.id](std::vector<std::string> files) {
-    server_->sendReply(client, okReply(id, toJson(PlanListReply{bench_.plan_dir, files})));
+    server_->sendReply(client,
+                       okReply(id, toJson(PlanListReply{bench_.plan_dir, std::move(files)})));
   };
   std::string why;
   if (!plans_->list(done, &why)) return errorReply(request.id, ErrorCode::kBusy, why);

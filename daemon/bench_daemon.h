@@ -103,6 +103,13 @@ class BenchDaemon {
   Reply launch(const LoadedPlan& loaded, const nlohmann::json& id);
   // `resume RUN`: an interrupted run goes on from its last finished step (crash resume).
   Reply resumeInterrupted(const Request& request, std::int64_t run_id);
+  // One time axis for a resumed run: the IMU's time must count on from the run's last stored
+  // sample, directly or after whole wraps of its time stamp (the decoder and imu_last_t_ are
+  // then shifted by them: drivers::resolveTimeWraps). The refusal in words; "" when it does.
+  std::string continueImuTimeAxis(const RunInfo& run, const ResumePoint& point);
+  // An upper bound of the receive time since run's last stored sample, s (from the wall time
+  // of its newest event stored before the interruption, or its start).
+  double timeSinceLastStoredSample(const RunInfo& run);
   // The online engine's setup for a plan naming a calibration (nullopt: none); a pipeline
   // whose direct run cannot be found is refused (*why).
   std::optional<OnlineSetup> calibrationSetup(const LoadedPlan& loaded, std::string* why);

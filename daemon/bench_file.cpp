@@ -179,9 +179,11 @@ void parseImu(const toml::table& root, const std::string& base_dir, BenchConfig&
               Diagnostics& diag) {
   const toml::table* t = subTable(root, "imu", diag, true);
   if (t == nullptr) return;
-  checkKeys(*t, {"layout", "interface", "serial"}, "[imu]", diag);
+  checkKeys(*t, {"layout", "interface", "serial", "max_clock_ratio"}, "[imu]", diag);
   b.imu.interface = strField(*t, "interface", diag, true).value_or("");
   b.imu.serial = strField(*t, "serial", diag, false).value_or("");
+  if (auto ratio = io::intField(*t, "max_clock_ratio", diag, false, 1, kMaxClockRatio))
+    b.imu.max_clock_ratio = static_cast<double>(*ratio);
   const auto layout = strField(*t, "layout", diag, true);
   if (!layout) return;
   b.imu.layout_file = resolve(base_dir, *layout);
@@ -209,7 +211,7 @@ void parseSafety(const toml::table& root, BenchConfig& b, Diagnostics& diag) {
 }
 
 // getgrnam_r's buffer when sysconf has no hint.
-constexpr long kDefaultGrBuffer = 64 * 1024;
+constexpr long kDefaultGrBuffer = 64L * 1024L;
 
 // A group named by key, resolved now (the group database as the daemon starts).
 std::optional<NamedGroup> groupField(const toml::table& t, std::string_view key,
@@ -242,15 +244,17 @@ void parseControl(const toml::table& root, const std::string& base_dir, BenchCon
     b.control.max_connections_per_uid = static_cast<std::size_t>(*n);
   if (auto stop = strField(*t, "stop_socket", diag, false)) {
     b.control.stop_socket = resolve(base_dir, *stop);
-    if (stop->empty() || b.control.stop_socket == b.control_socket)
+    if (stop->empty() || b.control.stop_socket == b.control_socket) {
       diag.error(t->get("stop_socket")->source(),
                  "stop_socket must be a path other than [bench] control_socket");
+    }
   }
   b.control.command_group = groupField(*t, "command_group", diag);
   b.control.read_group = groupField(*t, "read_group", diag);
-  if (b.control.read_group && !b.control.command_group && t->get("command_group") == nullptr)
+  if (b.control.read_group && !b.control.command_group && t->get("command_group") == nullptr) {
     diag.error(t->get("read_group")->source(),
                "read_group needs command_group (who may command the bench)");
+  }
   if (auto v = quantityField(*t, "idle_timeout", Dimension::kTime, diag, false)) {
     if (*v >= 0.0 && *v <= kMaxIdleTimeoutS) {
       b.control.idle_timeout_s = *v;

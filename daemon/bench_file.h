@@ -38,6 +38,9 @@
 //   layout = "devices/imus/navgrade_fd.toml"     # required: the CAN frame layout
 //   interface = "can0"                           # required: the SocketCAN interface
 //   serial = "SN-0001"                           # optional; results are stored per serial
+//   max_clock_ratio = 2   # optional, integer 1..1000: how many times faster than the receive
+//                         #   clock the IMU's clock may run (restart and wrap judgement, also
+//                         #   of a crash resume); the virtual bench at --time-scale S: >= S
 //
 //   [safety]
 //   comm_timeout = "1 s"      # table or chamber silent longer -> stop motion, pause, alarm
@@ -104,6 +107,7 @@
 
 #include "daemon/control_rights.h"
 #include "drivers/device_file.h"
+#include "drivers/imu_decoder.h"
 #include "drivers/imu_layout.h"
 #include "io/toml_diagnostics.h"
 #include "nav/earth.h"
@@ -131,6 +135,8 @@ struct BenchChamber {
 
 // Ten days: any longer is "never", which "0 s" says.
 inline constexpr double kMaxIdleTimeoutS = 864000.0;
+// [imu] max_clock_ratio at most (the virtual bench's time scales are far below).
+inline constexpr std::int64_t kMaxClockRatio = 1000;
 // [control] max_connections_per_uid at most (0: no limit).
 inline constexpr std::int64_t kMaxConnectionsPerUid = 1024;
 
@@ -153,6 +159,11 @@ struct BenchImu {
   std::string layout_file;
   std::string interface;  // SocketCAN interface, e.g. "can0" or "vcan0"
   std::string serial;     // empty: unknown
+  // How many times faster than the receive clock the IMU's clock may run
+  // (drivers::ImuDecoderOptions::max_clock_ratio, default 2: a real IMU). The virtual bench
+  // at --time-scale S runs its IMU S times faster: S or more, or every silence of its IMU and
+  // every crash resume across a wrap of its time stamp is taken for a restart.
+  double max_clock_ratio = drivers::ImuDecoderOptions{}.max_clock_ratio;
 };
 
 // One acceptance limit ([acceptance]): every flat parameter name equal to `parameter` or

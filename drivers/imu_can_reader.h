@@ -3,6 +3,7 @@
 // never stop the reader.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,9 @@ class ImuCanReader {
   // Frames received so far (including bad ones).
   std::uint64_t framesReceived() const { return decoder_.counters().frames; }
   const ImuDecoder& decoder() const { return decoder_; }
+  // The decoder's ImuDecoder::shiftTimeWraps (a daemon resuming a run the IMU's time axis
+  // wrapped in).
+  void shiftTimeWraps(std::uint64_t wraps) { decoder_.shiftTimeWraps(wraps); }
   const CanSocket& socket() const { return socket_; }
 
  private:

@@ -52,6 +52,58 @@ bool ImuDecoderOptions::IsValid(std::string* why) const {
   return true;
 }
 
+TimeWrapResolution resolveTimeWraps(double t_now_s, double t_end_s,
+                                    std::optional<double> wrap_period_s, double elapsed_s,
+                                    const ImuDecoderOptions& options) {
+  TimeWrapResolution r;
+  if (t_now_s > t_end_s) {
+    r.wraps = 0;
+    return r;
+  }
+  const double elapsed = std::max(elapsed_s, 0.0);
+  const double limit = options.max_clock_ratio * elapsed + options.max_jitter_s;
+  char buf[320];
+  // snprintf returns the length it would have written: clamped to what the buffer holds.
+  const int wanted = std::snprintf(
+      buf, sizeof buf, "the IMU time is %.3f s, the run ends at %.3f s", t_now_s, t_end_s);
+  const std::size_t head = std::min(static_cast<std::size_t>(std::max(wanted, 0)), sizeof buf - 1);
+  const auto tail = [&](const char* fmt, auto... args) {
+    std::snprintf(buf + head, sizeof buf - head, fmt, args...);
+    r.why = buf;
+    return r;
+  };
+  if (!wrap_period_s || !(*wrap_period_s > 0.0)) {
+    return tail("; its time stamp does not wrap: the IMU restarted");
+  }
+  if (!std::isfinite(elapsed_s)) {
+    return tail("; the time since the run's last sample is unknown, and so is the wrap count");
+  }
+  const double w = *wrap_period_s;
+  // Beyond 2^53 wraps a count is no longer whole in a double (and no IMU gets there).
+  constexpr double kMaxWraps = 9007199254740992.0;
+  if (!std::isfinite(t_now_s) || !std::isfinite(t_end_s) || (t_end_s - t_now_s) / w > kMaxWraps) {
+    return tail("; no wrap count can join them");
+  }
+  // Smallest k >= 1 with a forward step, largest with a step the elapsed time explains.
+  const double behind = t_end_s - t_now_s;  // >= 0
+  const double k_lo = std::floor(behind / w) + 1.0;
+  const double k_hi = std::floor((limit + behind) / w);
+  if (k_hi < k_lo) {
+    return tail(
+        "; no whole number of %.3f s wraps fits the %.1f s since the run's last sample (at "
+        "most %.1f s of IMU time at clock ratio %.3g): the IMU restarted",
+        w, elapsed, limit, options.max_clock_ratio);
+  }
+  if (k_hi > k_lo) {
+    return tail(
+        "; %.0f to %.0f wraps of %.3f s all fit the %.1f s since the run's last sample (at "
+        "most %.1f s of IMU time at clock ratio %.3g): the wrap count is ambiguous",
+        k_lo, k_hi, w, elapsed, limit, options.max_clock_ratio);
+  }
+  r.wraps = static_cast<std::uint64_t>(k_lo);
+  return r;
+}
+
 ImuDecoder::ImuDecoder(ImuLayout layout, ImuDecoderOptions options)
     : layout_(std::move(layout)), options_(options) {
   [[maybe_unused]] std::string why;
@@ -97,6 +149,29 @@ void ImuDecoder::Unwrapper::restart(std::uint64_t raw) {
   have = true;
   last = raw;
   epoch = 0;
+}
+
+std::optional<double> ImuDecoder::timeWrapPeriod() const {
+  if (has_time_) {
+    if (!time_is_integer_ || time_unwrap_.bits >= 64) return std::nullopt;
+    return std::ldexp(std::abs(time_coding_.factor), time_unwrap_.bits);
+  }
+  if (seq_quantity_ != q(ImuQuantity::kCounter) || counter_unwrap_.bits >= 64) return std::nullopt;
+  return std::ldexp(layout_.sample_period_s, counter_unwrap_.bits);
+}
+
+void ImuDecoder::shiftTimeWraps(std::uint64_t wraps) {
+  const std::optional<double> period = timeWrapPeriod();
+  assert(period);
+  if (!period || wraps == 0) return;
+  time_base_ += static_cast<double>(wraps) * *period;
+  // The sequence counts the wrapping quantity itself (a time stamp without a counter, or the
+  // counter that is the time axis): it continues by the same wraps.
+  const Unwrapper& wrapping = has_time_ ? time_unwrap_ : counter_unwrap_;
+  const int wrapping_q = has_time_ ? q(ImuQuantity::kTime) : q(ImuQuantity::kCounter);
+  if (seq_quantity_ == wrapping_q) {
+    seq_base_ += static_cast<std::int64_t>(wraps << static_cast<unsigned>(wrapping.bits));
+  }
 }
 
 void ImuDecoder::problem(std::string what) {
@@ -260,11 +335,15 @@ FrameVerdict ImuDecoder::finish(double rx_time, std::vector<DecodedImuSample>* o
   }
   d.sample.t = has_time_ || seq_quantity_ >= 0 ? next.t + time_base_ : rx_time;
   const double dt = layout_.sample_period_s;
+  // The x, y, z quantities of a kind follow one another in ImuQuantity.
+  const auto axisOf = [this](ImuQuantity x_quantity, int axis) {
+    return pending_[static_cast<std::size_t>(q(x_quantity)) + static_cast<std::size_t>(axis)];
+  };
   for (int axis = 0; axis < 3; ++axis) {
-    const double th = pending_[static_cast<std::size_t>(q(ImuQuantity::kDthetaX) + axis)];
-    const double rate = pending_[static_cast<std::size_t>(q(ImuQuantity::kRateX) + axis)];
-    const double dv = pending_[static_cast<std::size_t>(q(ImuQuantity::kDvelX) + axis)];
-    const double acc = pending_[static_cast<std::size_t>(q(ImuQuantity::kAccelX) + axis)];
+    const double th = axisOf(ImuQuantity::kDthetaX, axis);
+    const double rate = axisOf(ImuQuantity::kRateX, axis);
+    const double dv = axisOf(ImuQuantity::kDvelX, axis);
+    const double acc = axisOf(ImuQuantity::kAccelX, axis);
     d.sample.dtheta[axis] = std::isnan(th) ? rate * dt : th;
     d.sample.dvel[axis] = std::isnan(dv) ? acc * dt : dv;
   }

@@ -67,6 +67,25 @@ struct ImuDecoderOptions {
   bool IsValid(std::string* why) const;
 };
 
+// How many whole wraps of the IMU's time axis lie between a run's last stored sample (IMU
+// time t_end_s) and the IMU's current sample (t_now_s, from a decoder that started after the
+// run was interrupted, its own unwrapping from epoch 0). `wraps` is set when exactly one
+// count k fits the decoder's own rule for a step (ImuDecoder: a forward step the receive
+// clock explains): 0 < t_now_s + k W - t_end_s <= max_clock_ratio x elapsed_s + max_jitter_s,
+// with k = 0 when the current time is already past the run's end (no wrap to account for).
+// Otherwise `why` says why the time axis cannot be continued: no wrap period (the time does
+// not wrap), no count fits (the IMU restarted, e.g. a power cycle) or several fit (the time
+// since the run's last sample is too long for the clock ratio to pin the count).
+struct TimeWrapResolution {
+  std::optional<std::uint64_t> wraps;  // set when resolved
+  std::string why;                     // the refusal in words; empty when resolved
+};
+// wrap_period_s: ImuDecoder::timeWrapPeriod() (nullopt: the time stamp does not wrap);
+// elapsed_s: an upper bound of the receive time from the run's last stored sample to now.
+TimeWrapResolution resolveTimeWraps(double t_now_s, double t_end_s,
+                                    std::optional<double> wrap_period_s, double elapsed_s,
+                                    const ImuDecoderOptions& options);
+
 class ImuDecoder {
  public:
   // layout must satisfy layout.IsValid() (checked by the loaders) and options
@@ -87,10 +106,21 @@ class ImuDecoder {
   // the time axis continues); empty while there has been none.
   const std::string& lastRestart() const { return last_restart_; }
   const ImuLayout& layout() const { return layout_; }
+  const ImuDecoderOptions& options() const { return options_; }
+
+  // The period after which the time axis the IMU sends wraps, s: 2^bits x factor of an
+  // integer time stamp, else (no time stamp) 2^bits x sample period of the counter; nullopt
+  // when it does not wrap (a float time stamp, a 64-bit count, neither).
+  std::optional<double> timeWrapPeriod() const;
+  // Re-bases the time axis by `wraps` whole wrap periods (timeWrapPeriod(), which must be
+  // set): every later sample's time is wraps x the period later, its sequence (when the
+  // wrapping count is the sequence) wraps counts later. For a decoder started after the
+  // stream it continues already wrapped (a daemon restarted mid-run: resolveTimeWraps).
+  void shiftTimeWraps(std::uint64_t wraps);
 
  private:
   struct Slot {
-    int quantity;
+    int quantity = 0;
     SignalCoding coding;
   };
   struct Message {

@@ -332,7 +332,8 @@ TEST(ImuDecoder, WrapConsistentWithTheReceiveClockStaysAWrap) {
   std::vector<CanFrame> frames;
   appendStream(layout, samples, 0xFFFFFFFFULL - 2999, kRx0, 0.0, &frames);
   for (std::size_t i = 0; i < frames.size(); ++i) {
-    frames[i].rx_time_s = kRx0 + 0.005 * static_cast<double>(i / 25);
+    const std::size_t batch = i / 25;  // 25 samples' frames per receive time
+    frames[i].rx_time_s = kRx0 + 0.005 * static_cast<double>(batch);
   }
   ImuDecoder dec(layout);
   std::vector<DecodedImuSample> out = decodeAll(dec, frames);
@@ -343,6 +344,140 @@ TEST(ImuDecoder, WrapConsistentWithTheReceiveClockStaysAWrap) {
     ASSERT_NEAR(out[k].sample.t - out[k - 1].sample.t, p, 1.5e-6) << k;
   }
   EXPECT_EQ(out[3000].sequence, 0x100000000ULL);
+}
+
+// Crash resume across wraps (resolveTimeWraps): a daemon restarted after the IMU's time
+// stamp wrapped sees a time below the run's end; a whole number of wraps the elapsed receive
+// time explains continues the axis, anything else is refused with the reason.
+constexpr double kWrap32us = 4294.967296;  // 2^32 x 1 us
+
+TEST(ResolveTimeWraps, NoWrapWhenTheTimeIsPastTheRunsEnd) {
+  const TimeWrapResolution r = resolveTimeWraps(120.0, 100.0, kWrap32us, 1e6, {});
+  ASSERT_TRUE(r.wraps);
+  EXPECT_EQ(*r.wraps, 0U);
+  EXPECT_TRUE(r.why.empty());
+}
+
+TEST(ResolveTimeWraps, OneWrapWhileTheDaemonWasDown) {
+  // The run ended 10 s before the wrap; 22 s later the IMU is 12 s past it.
+  const TimeWrapResolution r = resolveTimeWraps(12.0, kWrap32us - 10.0, kWrap32us, 22.0, {});
+  ASSERT_TRUE(r.wraps) << r.why;
+  EXPECT_EQ(*r.wraps, 1U);
+  // Exactly at the wrap (the step is the elapsed time at the limit of the clock ratio).
+  const TimeWrapResolution edge = resolveTimeWraps(0.0, kWrap32us - 4.5, kWrap32us, 2.0, {});
+  ASSERT_TRUE(edge.wraps) << edge.why;
+  EXPECT_EQ(*edge.wraps, 1U);
+}
+
+TEST(ResolveTimeWraps, TwoWrapsOfAFastClock) {
+  // A 16-bit ms time stamp (65.536 s). The old daemon's axis had wrapped once (the run ends at
+  // 125.536 s, 5.536 s before its second wrap); the IMU's clock runs 3x the receive clock
+  // (ratio 4 allowed) and the daemon was down 12 s: 36 s of IMU time, across that second
+  // wrap. The new decoder counts from epoch 0 (30.464 s): two wraps continue the axis.
+  ImuDecoderOptions o;
+  o.max_clock_ratio = 4.0;
+  const double w = 65.536;
+  const double t_end = w + 60.0;
+  const double t_now = t_end + 36.0 - 2 * w;
+  const TimeWrapResolution r = resolveTimeWraps(t_now, t_end, w, 12.0, o);
+  ASSERT_TRUE(r.wraps) << r.why;
+  EXPECT_EQ(*r.wraps, 2U);
+  // Two wraps within the down time are never resolved: a step longer than one period leaves
+  // the step one period shorter inside the limit too.
+  const double t_far = t_end + 90.0 - 3 * w;  // 30 s at 3x: 90 s, across two wraps
+  const TimeWrapResolution far = resolveTimeWraps(t_far, t_end, w, 30.0, o);
+  EXPECT_FALSE(far.wraps);
+  EXPECT_NE(far.why.find("2 to 3 wraps"), std::string::npos) << far.why;
+}
+
+TEST(ResolveTimeWraps, ImuPowerCycleRefused) {
+  // The run ended at 4000.1 s; after 22 s down the IMU counts from 0 again (12.3 s): one
+  // wrap would be a step of 607 s, not within 2 x 22 + 0.5 s of IMU time.
+  const TimeWrapResolution r = resolveTimeWraps(12.3, 4000.1, kWrap32us, 22.0, {});
+  EXPECT_FALSE(r.wraps);
+  EXPECT_NE(r.why.find("the IMU time is 12.300 s, the run ends at 4000.100 s"), std::string::npos)
+      << r.why;
+  EXPECT_NE(r.why.find("no whole number of 4294.967 s wraps fits the 22.0 s"), std::string::npos)
+      << r.why;
+  // Behind the run's end without a wrapping time stamp (a float time): refused too.
+  const TimeWrapResolution f = resolveTimeWraps(12.3, 4300.1, std::nullopt, 22.0, {});
+  EXPECT_FALSE(f.wraps);
+  EXPECT_NE(f.why.find("does not wrap"), std::string::npos) << f.why;
+  // Equal times are no step forward.
+  EXPECT_FALSE(resolveTimeWraps(100.0, 100.0, std::nullopt, 1.0, {}).wraps);
+  // The same IMU time after a run that ended at 4300.1 s (the old daemon's axis had wrapped
+  // once): the IMU simply counted on, 7.2 s in 22 s, one wrap of the axis continues it.
+  const TimeWrapResolution on = resolveTimeWraps(12.3, 4300.1, kWrap32us, 22.0, {});
+  ASSERT_TRUE(on.wraps) << on.why;
+  EXPECT_EQ(*on.wraps, 1U);
+}
+
+TEST(ResolveTimeWraps, AmbiguousCountRefused) {
+  // Down 1 h at clock ratio 2: up to 7200.5 s of IMU time, one or two 4295 s wraps fit.
+  const TimeWrapResolution r = resolveTimeWraps(100.0, 4000.0, kWrap32us, 3600.0, {});
+  EXPECT_FALSE(r.wraps);
+  EXPECT_NE(r.why.find("1 to 2 wraps"), std::string::npos) << r.why;
+  EXPECT_NE(r.why.find("ambiguous"), std::string::npos) << r.why;
+  // The same wrap with the virtual bench's clock ratio 25 after 10 s: 250.5 s, one fits; a
+  // ratio of 1000 after 10 s is again ambiguous.
+  ImuDecoderOptions fast;
+  fast.max_clock_ratio = 25.0;
+  const TimeWrapResolution one = resolveTimeWraps(100.0, 4200.0, kWrap32us, 10.0, fast);
+  ASSERT_TRUE(one.wraps) << one.why;
+  EXPECT_EQ(*one.wraps, 1U);
+  fast.max_clock_ratio = 1000.0;
+  EXPECT_FALSE(resolveTimeWraps(100.0, 4200.0, kWrap32us, 10.0, fast).wraps);
+  EXPECT_FALSE(resolveTimeWraps(100.0, 4200.0, kWrap32us, std::nan(""), {}).wraps);
+  EXPECT_FALSE(resolveTimeWraps(std::nan(""), 4200.0, kWrap32us, 10.0, {}).wraps);
+  EXPECT_FALSE(resolveTimeWraps(100.0, 1e300, kWrap32us, 1e300, {}).wraps);
+}
+
+// The decoder's time axis shifted by whole wraps continues the old one: a stream that began
+// (for this decoder) after its 2^32 us time stamp wrapped once is re-based by one wrap period,
+// its sequence (the 32-bit counter) is left alone, and later wraps unwrap as before.
+TEST(ImuDecoder, ShiftTimeWrapsContinuesTheAxis) {
+  const ImuLayout layout = loadShipped("navgrade_fd.toml");
+  const double p = layout.sample_period_s;
+  ImuDecoder dec(layout);
+  ASSERT_TRUE(dec.timeWrapPeriod());
+  EXPECT_NEAR(*dec.timeWrapPeriod(), kWrap32us, 1e-9);
+  std::vector<CanFrame> frames;
+  appendStream(layout, makeSamples(10, p, 7, 1.0), 500, kRx0, p, &frames);
+  std::vector<DecodedImuSample> out = decodeAll(dec, frames);
+  ASSERT_EQ(out.size(), 10U);
+  const double t_before = out.back().sample.t;
+  const std::uint64_t seq_before = out.back().sequence;
+  dec.shiftTimeWraps(1);
+  frames.clear();
+  appendStream(layout, makeSamples(10, p, 7, 1.0 + 10 * p), 510, kRx0 + 10 * p, p, &frames);
+  out = decodeAll(dec, frames);
+  ASSERT_EQ(out.size(), 10U);
+  EXPECT_NEAR(out[0].sample.t - t_before, kWrap32us + p, 1.5e-6);
+  EXPECT_EQ(out[0].sequence, seq_before + 1);
+  EXPECT_EQ(dec.counters().restarts, 0U);
+  for (std::size_t k = 1; k < out.size(); ++k)
+    EXPECT_NEAR(out[k].sample.t - out[k - 1].sample.t, p, 1.5e-6);
+}
+
+// Without a counter the integer time stamp is the sequence: it moves on by 2^bits counts.
+TEST(ImuDecoder, ShiftTimeWrapsMovesATimeStampSequence) {
+  const ImuLayout layout = loadShipped("sbg_ecan.toml");
+  const double p = layout.sample_period_s;
+  ImuDecoder dec(layout);
+  const std::optional<double> w = dec.timeWrapPeriod();
+  ASSERT_TRUE(w);
+  std::vector<CanFrame> frames;
+  appendStream(layout, makeSamples(5, p, 7, 100.0), 0, kRx0, p, &frames);
+  std::vector<DecodedImuSample> before = decodeAll(dec, frames);
+  ASSERT_EQ(before.size(), 5U);
+  dec.shiftTimeWraps(2);
+  frames.clear();
+  appendStream(layout, makeSamples(5, p, 7, 100.0 + 5 * p), 5, kRx0 + 5 * p, p, &frames);
+  std::vector<DecodedImuSample> after = decodeAll(dec, frames);
+  ASSERT_EQ(after.size(), 5U);
+  EXPECT_NEAR(after[0].sample.t - before.back().sample.t, 2 * *w + p, 1e-5);
+  const double periods = (2 * *w + p) / p;
+  EXPECT_NEAR(static_cast<double>(after[0].sequence - before.back().sequence), periods, 1.0);
 }
 
 // Long silence with the counter running on (a cable pulled for 10 s): lost samples, no

@@ -14,7 +14,8 @@ namespace imubench::drivers::testing {
 // path: identical user-mode-linux boots hand out the same pids and share the host's /tmp.
 inline const std::string& scratchDir() {
   static const std::string dir = [] {
-    const char* base = std::getenv("TMPDIR");
+    // Read once, by the static's initialiser at the first call (before any test thread).
+    const char* base = std::getenv("TMPDIR");  // NOLINT(concurrency-mt-unsafe)
     std::string templ = std::string(base != nullptr ? base : "/tmp") + "/imubench-test-XXXXXX";
     if (mkdtemp(templ.data()) == nullptr) {
       ADD_FAILURE() << "mkdtemp " << templ << " failed";

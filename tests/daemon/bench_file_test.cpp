@@ -195,6 +195,26 @@ TEST(BenchFile, TableReadingGap) {
   EXPECT_NE(bad.str().find("reading_gap must be in (0, 60] s"), std::string::npos) << bad.str();
 }
 
+// [imu] max_clock_ratio: the decoder's (and the crash resume's) clock ratio; default 2.
+TEST(BenchFile, ImuMaxClockRatio) {
+  io::Diagnostics diag("bench.toml");
+  auto b = parse(kGood, diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_DOUBLE_EQ(b->imu.max_clock_ratio, 2.0);
+  const auto with = [](const std::string& line) {
+    return replaced("interface = \"can1\"", "interface = \"can1\"\n" + line);
+  };
+  b = parse(with("max_clock_ratio = 25"), diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_DOUBLE_EQ(b->imu.max_clock_ratio, 25.0);
+  for (const char* bad :
+       {"max_clock_ratio = 0", "max_clock_ratio = 2.5", "max_clock_ratio = 5000"}) {
+    io::Diagnostics d("bench.toml");
+    EXPECT_FALSE(parse(with(bad), d).has_value()) << bad;
+    EXPECT_NE(d.str().find("max_clock_ratio"), std::string::npos) << d.str();
+  }
+}
+
 // Issue 28: connections per uid and the stop socket.
 TEST(BenchFile, ControlConnectionsPerUidAndStopSocket) {
   io::Diagnostics diag("bench.toml");

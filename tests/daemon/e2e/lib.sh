@@ -8,6 +8,8 @@
 #   e2e_bench_file [EXTRA_TOML]        # writes $W/bench.toml (2-axis TCP table, chamber, IMU);
 #                                      #   $E2E_CHAMBER_EXTRA: more lines for [chamber]
 #                                      #   $E2E_BENCH_EXTRA: more lines for [bench]
+#   e2e_clock_ratio SCALE              # prints [imu] max_clock_ratio for a virtual bench at
+#                                      #   --time-scale SCALE (its IMU's clock runs SCALE x)
 #   e2e_start_vb [ARGS...]             # virtual bench with the same devices; waits for "ready"
 #   e2e_start_daemon                   # imubenchd on $W/bench.toml; waits for the socket
 #   e2e_start SCALE [VB_ARGS...]       # e2e_start_vb --time-scale SCALE VB_ARGS, e2e_start_daemon
@@ -99,6 +101,12 @@ interface = "vcan0"
 serial = "E2E-1"
 ${1:-}
 TOML
+}
+
+# The bench file's [imu] max_clock_ratio for a virtual bench at --time-scale SCALE: its IMU's
+# clock runs SCALE times the receive clock; a quarter more for the sender's batching.
+e2e_clock_ratio() {
+  awk -v s="$1" 'BEGIN { r = int(s * 1.25 + 0.999); print (r < 2 ? 2 : r) }'
 }
 
 e2e_start_vb() {

@@ -32,9 +32,17 @@ CRASH=${5:-}
 SCALE=${E2E_ONLINE_TIME_SCALE:-20}
 e2e_navgrade_bench
 
-# The demo's silence alarm timeouts and acceptance limits.
-e2e_bench_file "$(cat "$SRC/tools/demo_bench_limits.toml")"
-e2e_start_vb --time-scale "$SCALE" --truth "$TRUTH" --noise nav-grade --seed 3
+# The demo's silence alarm timeouts and acceptance limits; the virtual IMU's clock runs SCALE
+# times the receive clock (the IMU's 2^32 us time stamp wraps every 215 s of wall time at 20x:
+# the crash resume continues the run's time axis across it, judged with this ratio).
+e2e_bench_file "max_clock_ratio = $(e2e_clock_ratio "$SCALE")
+$(cat "$SRC/tools/demo_bench_limits.toml")"
+# Crash: the IMU's counter and time stamp wrap 600 s (simulated) in, inside the direct plan,
+# so the daemon killed in the 12-run plan had unwrapped them once and the one started after
+# the kill counts from epoch 0: the resume must continue the run's time axis by one wrap.
+WRAP=()
+[[ $CRASH == crash ]] && WRAP=(--imu-wrap-at 600)
+e2e_start_vb --time-scale "$SCALE" --truth "$TRUTH" --noise nav-grade --seed 3 "${WRAP[@]}"
 e2e_start_daemon
 
 PYTHONPATH="$SRC/tools/python" e2e_py "$CLI" "$DPID" "$CRASH" <<'PY' || fail "online calibration"
@@ -140,6 +148,9 @@ print(subprocess.run([cli, "results", "2", "--db", work + "/imubench.db"], captu
 check(e["ok"] and e["calibrated"], "resumed run 2: results stored: %s" % e)
 check(e["pass"] is True, "resumed run 2: verdict PASS: %s" % e)
 PY
+  # The restarted daemon's decoder counted from epoch 0: the resume continued by one wrap.
+  grep -q "the IMU time stamp wrapped 1 time(s) since the run's last sample" "$W/d.out" ||
+    fail "resume across the IMU's time stamp wrap (imubenchd log)"
 fi
 
 # The stored pipeline coefficients against the truth, and the history by serial.
