@@ -52,6 +52,10 @@ bool ImuDecoderOptions::IsValid(std::string* why) const {
   return true;
 }
 
+double ImuDecoderOptions::maxStep(double elapsed_s) const {
+  return max_clock_ratio * std::max(elapsed_s, 0.0) + max_jitter_s;
+}
+
 TimeWrapResolution resolveTimeWraps(double t_now_s, double t_end_s,
                                     std::optional<double> wrap_period_s, double elapsed_s,
                                     const ImuDecoderOptions& options) {
@@ -61,7 +65,7 @@ TimeWrapResolution resolveTimeWraps(double t_now_s, double t_end_s,
     return r;
   }
   const double elapsed = std::max(elapsed_s, 0.0);
-  const double limit = options.max_clock_ratio * elapsed + options.max_jitter_s;
+  const double limit = options.maxStep(elapsed);
   char buf[320];
   // snprintf returns the length it would have written: clamped to what the buffer holds.
   const int wanted = std::snprintf(
@@ -260,8 +264,7 @@ ImuDecoder::DeviceStamp ImuDecoder::peekStamp() const {
 // (rx_elapsed: nullopt when the frames carry no receive time: then any step is taken).
 bool ImuDecoder::plausibleStep(const DeviceStamp& next, std::optional<double> rx_elapsed) const {
   if (!rx_elapsed || (seq_quantity_ < 0 && !has_time_)) return true;
-  const double limit =
-      options_.max_clock_ratio * std::max(*rx_elapsed, 0.0) + options_.max_jitter_s;
+  const double limit = options_.maxStep(*rx_elapsed);
   if (seq_quantity_ >= 0) {
     if (next.seq <= last_.seq) return false;
     const double step_s =

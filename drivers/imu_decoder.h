@@ -65,6 +65,9 @@ struct ImuDecoderOptions {
   // Receive-time slack on top: a sender's batching and scheduling, kernel time stamp jitter.
   double max_jitter_s = 0.5;
   bool IsValid(std::string* why) const;
+  // The longest forward step of the IMU's time that `elapsed_s` of receive time explains
+  // (negative elapsed counts as 0): max_clock_ratio x elapsed + max_jitter_s.
+  double maxStep(double elapsed_s) const;
 };
 
 // How many whole wraps of the IMU's time axis lie between a run's last stored sample (IMU
