@@ -148,8 +148,10 @@ print(subprocess.run([cli, "results", "2", "--db", work + "/imubench.db"], captu
 check(e["ok"] and e["calibrated"], "resumed run 2: results stored: %s" % e)
 check(e["pass"] is True, "resumed run 2: verdict PASS: %s" % e)
 PY
-  # The restarted daemon's decoder counted from epoch 0: the resume continued by one wrap.
-  grep -q "the IMU time stamp wrapped 1 time(s) since the run's last sample" "$W/d.out" ||
+  # The restarted daemon's decoder counted from epoch 0: the resume continued by the whole
+  # wraps the killed daemon had unwrapped (one or more: how far the run got before the kill
+  # depends on the machine's load; run 2's PASS above checks the axis it went on).
+  grep -qE "the IMU time stamp wrapped [1-9][0-9]* time\(s\) since the run's last sample" "$W/d.out" ||
     fail "resume across the IMU's time stamp wrap (imubenchd log)"
 fi
 
