@@ -692,9 +692,18 @@ DirectCalibrationResult calibrateDirect(const RecordingView& in,
            &res.report.values.sensors.gyro, &res.report, &res.notes, &res.gyro_residual_rms,
            o.gyro_residual_floor, &gyr_ss, &noise_only);
   res.report.values.table_kind = in.geometry.kind;
+  // The table the rows were formed with: nominal, or the known errors (held, not estimated),
+  // so the coefficients say which table they belong to.
+  res.report.values.table = o.known_table_errors;
+  const auto kb = axesBlock(o.known_table_errors);
+  const auto kd = deviceBlock(o.known_table_errors);
+  const bool known = std::any_of(kb.begin(), kb.end(), [](double v) { return v != 0.0; }) ||
+                     std::any_of(kd.begin(), kd.end(), [](double v) { return v != 0.0; });
   res.notes.push_back(
-      "table errors are not estimated by direct calibration: they leak into the coefficients "
-      "(mounting into both triads' misalignments, base tilt into the accelerometers')");
+      known ? "table errors are taken as known (given), not estimated by direct calibration"
+            : "table errors are not estimated by direct calibration: they leak into the "
+              "coefficients (mounting into both triads' misalignments, base tilt into the "
+              "accelerometers')");
   judgeDirect(rows, acc_ss, gyr_ss, noise_only, o, &res);
   return res;
 }

@@ -1317,6 +1317,7 @@ std::optional<OnlineSetup> BenchDaemon::calibrationSetup(const LoadedPlan& loade
   setup.method = plan.calibration;
   setup.db_path = db_path_;
   setup.acceptance = bench_.acceptance;
+  setup.known_table_errors = bench_.table_errors;
   if (bench_.explain.follow_up != FollowUpPolicy::kOff) {
     calib::ProposeOptions propose;  // the search's defaults within this bench's table limits
     propose.limits.max_rate_rad_s = bench_.table.limits.max_rate;
@@ -1382,7 +1383,7 @@ void BenchDaemon::startFinalCalibration(const OnlineSetup& setup) {
 }
 
 void BenchDaemon::startPointCalibrations(std::int64_t run_id) {
-  auto job = [this, run_id, db = db_path_]() -> std::function<void()> {
+  auto job = [this, run_id, db = db_path_, known = bench_.table_errors]() -> std::function<void()> {
     std::string error, serial;
     std::vector<PointCalibration> points;
     auto opened = Store::open(db, StoreOptions{});
@@ -1390,7 +1391,7 @@ void BenchDaemon::startPointCalibrations(std::int64_t run_id) {
       const auto rec = opened.value->loadRecording(run_id);
       if (rec.status.ok) {
         serial = rec.value.imu_serial;
-        points = calibrateTemperaturePoints(rec.value);
+        points = calibrateTemperaturePoints(rec.value, known);
       } else {
         error = rec.status.message;
       }
@@ -1451,7 +1452,9 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
     log_.warning(who + ": " + f.explain_error);
   }
   const json pass = f.verdict.value("pass", json());
-  const std::string verdict = pass.is_boolean() ? (pass.get<bool>() ? "PASS" : "FAIL") : "none";
+  const std::string verdict = pass.is_boolean() ? (pass.get<bool>() ? "PASS" : "FAIL")
+                              : !f.verdict.value("usable", true) ? "none (the fit is unusable)"
+                                                                 : "none";
   log_.info(who + ": calibration " + (f.calibrated ? "done" : "FAILED") + ", verdict " + verdict +
             " (IMU " + f.imu_serial + ")");
   server_->broadcast(Topic::kRun, "results",
@@ -1544,8 +1547,8 @@ Reply BenchDaemon::enqueueFollowUp(const json& id, std::int64_t run_id) {
 }
 
 void BenchDaemon::startFollowUpJudgement(std::int64_t run_id) {
-  auto job = [this, run_id, db = db_path_]() -> std::function<void()> {
-    std::optional<FollowUpJudged> j = judgeFollowUp(db, run_id);
+  auto job = [this, run_id, db = db_path_, known = bench_.table_errors]() -> std::function<void()> {
+    std::optional<FollowUpJudged> j = judgeFollowUp(db, run_id, known);
     return [this, run_id, j = std::move(j)] {
       if (!j) return;  // not a follow-up
       const auto r = store_->storeResult(run_id, j->imu_serial, j->temperature_c,

@@ -12,6 +12,7 @@
 
 #include "calib/bench_truth.h"
 #include "calib/truth_comparison.h"
+#include "io/truth_file.h"
 #include "lab/lab_connection.h"
 #include "nav/rotation.h"
 
@@ -105,11 +106,35 @@ void tightenLimit(const toml::table& t, std::string_view key, Dimension dim,
   }
 }
 
+const char* tableKindText(calib::TableKind kind) {
+  return kind == calib::TableKind::kTwoAxis ? "two-axis" : "three-axis";
+}
+
+// [table] errors: a coefficient file's "table" section, of the device's table kind.
+void parseTableErrors(const toml::table& t, const std::string& base_dir, BenchConfig& b,
+                      Diagnostics& diag) {
+  const auto file = strField(t, "errors", diag, false);
+  if (!file) return;
+  const std::string path = resolve(base_dir, *file);
+  const io::TruthFileResult r = io::readTruthFile(path);
+  if (!r.status.ok) {
+    diag.error(t.get("errors")->source(), "errors: " + r.status.message);
+  } else if (r.value.table_kind != b.table.kind) {
+    diag.error(t.get("errors")->source(),
+               "errors: " + path + " holds " + tableKindText(r.value.table_kind) +
+                   " table errors, the table device is " + tableKindText(b.table.kind));
+  } else {
+    b.table_errors = r.value.table;
+    b.table_errors_file = path;
+  }
+}
+
 void parseTable(const toml::table& root, const std::string& base_dir, BenchConfig& b,
                 Diagnostics& diag) {
   const toml::table* t = subTable(root, "table", diag, true);
   if (t == nullptr) return;
-  checkKeys(*t, {"device", "host", "port", "path", "max_rate", "max_accel", "reading_gap"},
+  checkKeys(*t,
+            {"device", "host", "port", "path", "max_rate", "max_accel", "reading_gap", "errors"},
             "[table]", diag);
   if (auto v = quantityField(*t, "reading_gap", Dimension::kTime, diag, false)) {
     if (*v > 0.0 && *v <= 60.0) {
@@ -128,6 +153,7 @@ void parseTable(const toml::table& root, const std::string& base_dir, BenchConfi
   tightenLimit(*t, "max_rate", Dimension::kRate, "deg/s", b.table.limits.max_rate, diag);
   tightenLimit(*t, "max_accel", Dimension::kAngularAccel, "deg/s^2", b.table.limits.max_accel,
                diag);
+  parseTableErrors(*t, base_dir, b, diag);
 }
 
 void parseChamber(const toml::table& root, const std::string& base_dir, BenchConfig& b,

@@ -25,6 +25,12 @@
 //   path = "/dev/ttyUSB0"                        #   ... or its serial device (RTU, serial)
 //   max_rate = "30 deg/s"                        # optional bench limits: tighter than the
 //   max_accel = "10 deg/s^2"                     #   device's, never looser
+//   errors = "certification/table.json"          # optional: the table's certified errors (a
+//                                                #   coefficient file's "table" section,
+//                                                #   interchange.md) that every calibration of
+//                                                #   this bench takes as known; without them a
+//                                                #   direct plan on a table with errors gives an
+//                                                #   unusable fit and no verdict
 //
 //   [chamber]                                    # optional: a bench without a chamber
 //   device = "devices/chambers/watlow-f4-style.toml"
@@ -105,6 +111,7 @@
 #include <string_view>
 #include <vector>
 
+#include "calib/table_model.h"
 #include "daemon/control_rights.h"
 #include "drivers/device_file.h"
 #include "drivers/imu_decoder.h"
@@ -224,6 +231,14 @@ struct BenchConfig {
   // IMU time apart. (A test machine that stalls for a second at a time needs more: the e2e
   // harness sets 3 s for tests about other things.)
   double table_reading_gap_s = 0.2;
+  // [table] errors: the table's certified errors (base tilt, nonorthogonality, mounting, encoder
+  // zeros of this table's kind), known to every calibration of the bench's runs
+  // (calib::CalibrationRequest::known_table_errors). The direct method takes the table as
+  // nominal: on a table with errors of tens of arcseconds its fit does not reach the noise and
+  // the run gets no verdict, unless the errors are given here. Unset: unknown (the
+  // navigation-based calibration estimates them itself).
+  std::optional<calib::TableErrors> table_errors;
+  std::string table_errors_file;  // as resolved, for reports
   std::optional<BenchChamber> chamber;
   BenchImu imu;
   BenchSafety safety;

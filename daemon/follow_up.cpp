@@ -133,7 +133,8 @@ std::optional<json> proposalOf(Store& store, const RunInfo& run) {
 
 // The origin's recording (complete segments) and its calibration as its results were made.
 json judgeWith(Store& store, const json& proposal, const io::Recording& follow_up,
-               std::int64_t run_id, const calib::ExplainOptions& options) {
+               std::int64_t run_id, const std::optional<calib::TableErrors>& known_table_errors,
+               const calib::ExplainOptions& options) {
   const std::int64_t origin = proposal.value("run", std::int64_t{0});
   const auto method = methodNamed(proposal.value("method", ""));
   const std::string who = "origin run " + std::to_string(origin);
@@ -151,7 +152,8 @@ json judgeWith(Store& store, const json& proposal, const io::Recording& follow_u
     }
     direct = completeSegmentsOnly(std::move(dr.value), nullptr);
   }
-  const RunCalibration c = calibrateRun(*method, origin_rec, direct ? &*direct : nullptr);
+  const RunCalibration c =
+      calibrateRun(*method, origin_rec, direct ? &*direct : nullptr, known_table_errors);
   if (!c.status.ok)
     return jointFailure(origin, run_id, who + ": its calibration failed: " + c.status.message);
   const io::CalibrationView origin_view(origin_rec), follow_view(follow_up);
@@ -166,8 +168,10 @@ json judgeWith(Store& store, const json& proposal, const io::Recording& follow_u
 
 }  // namespace
 
-std::optional<FollowUpJudged> judgeFollowUp(const std::string& db_path, std::int64_t run_id,
-                                            const calib::ExplainOptions& options) {
+std::optional<FollowUpJudged> judgeFollowUp(
+    const std::string& db_path, std::int64_t run_id,
+    const std::optional<calib::TableErrors>& known_table_errors,
+    const calib::ExplainOptions& options) {
   auto opened = Store::open(db_path, StoreOptions{});
   if (!opened.status.ok) return std::nullopt;
   Store& store = *opened.value;
@@ -184,7 +188,7 @@ std::optional<FollowUpJudged> judgeFollowUp(const std::string& db_path, std::int
   }
   const io::Recording follow_up = completeSegmentsOnly(std::move(rec.value), nullptr);
   if (const auto t = runTemperature(follow_up)) out.temperature_c = *t;
-  out.joint = judgeWith(store, *proposal, follow_up, run_id, options);
+  out.joint = judgeWith(store, *proposal, follow_up, run_id, known_table_errors, options);
   return out;
 }
 

@@ -79,7 +79,10 @@ struct FollowUpJudged {
   double temperature_c = 0.0;
   nlohmann::json joint;
 };
-std::optional<FollowUpJudged> judgeFollowUp(const std::string& db_path, std::int64_t run_id,
-                                            const calib::ExplainOptions& options = {});
+// known_table_errors: the bench file's [table] errors (calibrateRun).
+std::optional<FollowUpJudged> judgeFollowUp(
+    const std::string& db_path, std::int64_t run_id,
+    const std::optional<calib::TableErrors>& known_table_errors,
+    const calib::ExplainOptions& options = {});
 
 }  // namespace imubench::daemon

@@ -198,7 +198,8 @@ void OnlineEngine::startEstimate() {
   const std::string label = last_label_;
   auto job = [chunks = sealed_, meta = setup_.meta, method = setup_.method,
               direct_run = setup_.direct_run, db = setup_.db_path, reference = reference_,
-              alive = alive_, step, label, this]() -> std::function<void()> {
+              known = setup_.known_table_errors, alive = alive_, step, label,
+              this]() -> std::function<void()> {
     const io::Recording rec = recordingOf(meta, chunks.imu, chunks.table, chunks.segments);
     if (method == plans::CalibrationMethod::kPipeline && !reference->tried && direct_run) {
       reference->tried = true;
@@ -212,7 +213,7 @@ void OnlineEngine::startEstimate() {
       }
     }
     RunCalibration c =
-        calibrateRun(method, rec, reference->recording ? &*reference->recording : nullptr);
+        calibrateRun(method, rec, reference->recording ? &*reference->recording : nullptr, known);
     if (!c.status.ok && !reference->error.empty())
       c.status.message += " (direct run: " + reference->error + ")";
     return [this, alive, c = std::move(c), step, label] {
@@ -292,7 +293,8 @@ FinalCalibration finalCalibration(const OnlineSetup& setup) {
   out.status = Status::Ok();
   out.imu_serial = run.value.imu_serial;
   out.temperature_c = *temperature;
-  const RunCalibration c = calibrateRun(setup.method, run.value, direct ? &*direct : nullptr);
+  const RunCalibration c =
+      calibrateRun(setup.method, run.value, direct ? &*direct : nullptr, setup.known_table_errors);
   out.calibrated = c.status.ok;
   if (c.status.ok) out.coefficients = calib::toJson(c.coefficients);
   out.report = c.report;

@@ -64,6 +64,8 @@ struct OnlineSetup {
   std::string db_path;                     // the store (its own connection, off the loop)
   io::Recording meta;                      // the run's meta data (site, table, serial)
   std::vector<AcceptanceLimit> acceptance;
+  // The bench file's [table] errors: known to every calibration of the run (calibrateRun).
+  std::optional<calib::TableErrors> known_table_errors;
   // The end-of-plan missing-physics analysis (daemon/run_explain.h): calib's defaults, which
   // its concealed-effect suite tunes; a field so a bench (or a test) can change them.
   calib::ExplainOptions explain;

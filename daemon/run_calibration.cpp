@@ -70,10 +70,36 @@ json outcomeReport(const char* method, const calib::CalibrationOutcome& c) {
   return report;
 }
 
+// One acceptance row: parameter `name` (under lim.parameter) against its limit.
+json limitRow(const RunCalibration& c, const AcceptanceLimit& lim, const std::string& name) {
+  const calib::DisplayUnit d = calib::displayUnit(name);
+  json row = {{"parameter", name},
+              {"limit", lim.limit / d.si_per_unit},
+              {"unit", d.label},
+              {"limit_text", lim.text}};
+  const auto u = c.coefficients.uncertainty.find(name);
+  const bool determined =
+      c.status.ok && u != c.coefficients.uncertainty.end() && u->second.observable;
+  if (!determined) {
+    row["pass"] = false;
+    row["why"] = "not determined by this calibration";
+    return row;
+  }
+  double v = calib::flatValue(c.coefficients.values, name).value_or(0.0);
+  if (name.find(".scale.") != std::string::npos) v -= 1.0;
+  const bool ok = std::abs(v) <= lim.limit;
+  row["value"] = v / d.si_per_unit;
+  if (u->second.sigma) row["sigma"] = *u->second.sigma / d.si_per_unit;
+  row["pass"] = ok;
+  if (!ok) row["why"] = "outside the limit";
+  return row;
+}
+
 }  // namespace
 
 RunCalibration calibrateRun(plans::CalibrationMethod method, const io::Recording& rec,
-                            const io::Recording* direct) {
+                            const io::Recording* direct,
+                            const std::optional<calib::TableErrors>& known_table_errors) {
   RunCalibration out;
   const char* name = plans::calibrationMethodName(method);
   if (method == plans::CalibrationMethod::kNone) {
@@ -87,6 +113,7 @@ RunCalibration calibrateRun(plans::CalibrationMethod method, const io::Recording
     calib::CalibrationRequest rq;
     rq.recording = view.view();
     rq.method = serviceMethod(method);
+    rq.known_table_errors = known_table_errors;
     if (method == plans::CalibrationMethod::kPipeline) {
       direct_view.emplace(*direct);
       rq.direct = direct_view->view();
@@ -133,39 +160,14 @@ json estimateJson(const RunCalibration& c) {
 json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimit>& limits) {
   json rows = json::array();
   if (limits.empty()) return {{"pass", nullptr}, {"rows", rows}, {"why", "no acceptance limits"}};
-  // The verdict judges the values against the limits; whether the fit itself is usable
-  // (residuals at the noise) is reported beside it, with the findings. A direct plan on a table
-  // with errors is unusable by that gate (the seed's leak of the table errors: the printed
-  // sigmas are too small) while its values may be well inside coarse production limits.
   const bool usable = c.status.ok && c.fit.IsSolutionUsable();
   bool pass = c.status.ok;
   for (const AcceptanceLimit& lim : limits) {
     for (const std::string& name : calib::flatNames(calib::BenchTruth{})) {
       if (name != lim.parameter && name.rfind(lim.parameter + ".", 0) != 0) continue;
-      const calib::DisplayUnit d = calib::displayUnit(name);
-      json row = {{"parameter", name},
-                  {"limit", lim.limit / d.si_per_unit},
-                  {"unit", d.label},
-                  {"limit_text", lim.text}};
-      const auto u = c.coefficients.uncertainty.find(name);
-      const bool determined =
-          c.status.ok && u != c.coefficients.uncertainty.end() && u->second.observable;
-      if (!determined) {
-        row["pass"] = false;
-        row["why"] = "not determined by this calibration";
-        pass = false;
-        rows.push_back(row);
-        continue;
-      }
-      double v = calib::flatValue(c.coefficients.values, name).value_or(0.0);
-      if (name.find(".scale.") != std::string::npos) v -= 1.0;
-      const bool ok = std::abs(v) <= lim.limit;
-      row["value"] = v / d.si_per_unit;
-      if (u->second.sigma) row["sigma"] = *u->second.sigma / d.si_per_unit;
-      row["pass"] = ok;
-      if (!ok) row["why"] = "outside the limit";
-      pass = pass && ok;
-      rows.push_back(row);
+      json row = limitRow(c, lim, name);
+      pass = pass && row["pass"].get<bool>();
+      rows.push_back(std::move(row));
     }
   }
   json out = {{"pass", pass}, {"rows", rows}};
@@ -173,8 +175,16 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
   if (!c.status.ok) {
     out["why"] = "calibration failed: " + c.status.message;
   } else if (!usable) {
-    out["why"] = std::string(pass ? "the values are within the limits, but " : "") +
-                 "the fit is unusable (" + c.fit.message + "): its sigmas understate the error";
+    // No verdict on an unusable fit (a direct plan on a table with errors it takes as nominal,
+    // a model that misses the physics): the values carry what the model left out and their
+    // sigmas understate the error, so neither PASS nor FAIL would be a measurement.
+    out["pass"] = nullptr;
+    out["why"] = std::string("the fit is unusable (") + c.fit.message +
+                 "): its values carry what the model left out and its sigmas understate the "
+                 "error (the values " +
+                 (pass ? "are within" : "exceed") +
+                 " the limits; `imubench explain` names the missing physics; a table with "
+                 "errors: give them in the bench file's [table] errors)";
     out["findings"] = c.fit.reasons;
   }
   return out;

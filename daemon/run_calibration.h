@@ -8,6 +8,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,9 +40,11 @@ struct RunCalibration {
 };
 
 // Calibrates rec with `method` (not kNone). direct: the pipeline's direct-plan recording
-// (required for kPipeline, ignored otherwise).
+// (required for kPipeline, ignored otherwise). known_table_errors: the bench file's [table]
+// errors (certification data), taken as known by every method; nullopt: unknown.
 RunCalibration calibrateRun(plans::CalibrationMethod method, const io::Recording& rec,
-                            const io::Recording* direct);
+                            const io::Recording* direct,
+                            const std::optional<calib::TableErrors>& known_table_errors);
 
 // The estimate as JSON for the `estimate` event and the report: per estimated parameter its
 // value and sigma in display units (ppm for scale - 1, ug, deg/h, arcsec), and the list of
@@ -52,7 +55,10 @@ nlohmann::json estimateJson(const RunCalibration& c);
 // value, sigma, limit, unit, pass, why}]}. A limited parameter the calibration did not
 // determine fails ("not determined"): the verdict never passes what was not measured.
 // "usable" says whether the fit itself passed the calibration service's gate (residuals at the
-// noise), with its "findings" when not. No limits: "pass": null (no verdict).
+// noise), with its "findings" when not. An unusable fit gets no verdict ("pass": null, "why"
+// says so; the rows still show each value against its limit): its values carry what the model
+// left out and its sigmas understate the error, the reason `imubench calibrate` refuses the same
+// fit. No limits: "pass": null (no verdict).
 nlohmann::json acceptanceVerdict(const RunCalibration& c,
                                  const std::vector<AcceptanceLimit>& limits);
 

@@ -35,6 +35,7 @@ std::vector<Row> cropped(const std::vector<Row>& rows, double t0, double t1) {
 }
 
 void calibratePoint(const io::Recording& rec, const std::vector<calib::Segment>& body,
+                    const std::optional<calib::TableErrors>& known_table_errors,
                     PointCalibration* p) {
   p->segments = static_cast<int>(body.size());
   p->t0 = body.front().t0;
@@ -51,7 +52,8 @@ void calibratePoint(const io::Recording& rec, const std::vector<calib::Segment>&
   sub.table = cropped(rec.table, p->t0, p->t1);
   sub.chamber = cropped(rec.chamber, p->t0, p->t1);
   sub.segments = body;
-  const RunCalibration c = calibrateRun(plans::CalibrationMethod::kDirect, sub, nullptr);
+  const RunCalibration c =
+      calibrateRun(plans::CalibrationMethod::kDirect, sub, nullptr, known_table_errors);
   p->status = c.status;
   if (c.status.ok) p->coefficients = calib::toJson(c.coefficients);
 }
@@ -65,13 +67,14 @@ bool hasTemperaturePoints(const std::vector<RunStep>& steps) {
   return false;
 }
 
-std::vector<PointCalibration> calibrateTemperaturePoints(const io::Recording& rec) {
+std::vector<PointCalibration> calibrateTemperaturePoints(
+    const io::Recording& rec, const std::optional<calib::TableErrors>& known_table_errors) {
   std::vector<PointCalibration> out;
   std::optional<PointCalibration> open;
   std::vector<calib::Segment> body;
   auto close = [&]() {
     if (open && !body.empty()) {
-      calibratePoint(rec, body, &*open);
+      calibratePoint(rec, body, known_table_errors, &*open);
       out.push_back(std::move(*open));
     }
     open.reset();

@@ -8,10 +8,12 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "base/status.h"
+#include "calib/table_model.h"
 #include "daemon/plan_runner.h"
 #include "io/recording.h"
 
@@ -34,8 +36,10 @@ struct PointCalibration {
 bool hasTemperaturePoints(const std::vector<RunStep>& steps);
 
 // The temperature points of a recording in time order (a body without segments is left out);
-// empty when the recording has no kSoak segment (not a thermal run).
-std::vector<PointCalibration> calibrateTemperaturePoints(const io::Recording& rec);
+// empty when the recording has no kSoak segment (not a thermal run). known_table_errors: the
+// bench file's [table] errors (daemon/run_calibration.h calibrateRun).
+std::vector<PointCalibration> calibrateTemperaturePoints(
+    const io::Recording& rec, const std::optional<calib::TableErrors>& known_table_errors);
 
 // What the store keeps per point (kind "point_coefficients"): label, setpoint, temperature and
 // its source, span, and the coefficients (absent when the point failed, with its error).

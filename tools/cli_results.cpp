@@ -93,13 +93,21 @@ std::string verdictText(const json& verdict) {
   return pass.get<bool>() ? "PASS" : "FAIL";
 }
 
+// The history's one-word verdict: PASS, FAIL, or why there is none in a few words.
+std::string verdictShort(const json& verdict) {
+  const json pass = verdict.value("pass", json());
+  if (pass.is_boolean()) return pass.get<bool>() ? "PASS" : "FAIL";
+  if (!verdict.value("usable", true)) return "no verdict (fit unusable)";
+  return "no verdict";
+}
+
 void printVerdict(const json& verdict) {
   std::cout << "verdict: " << verdictText(verdict) << "\n";
   if (verdict.value("pass", json()).is_boolean() && verdict.contains("why")) {
     std::cout << "  why: " << verdict.value("why", std::string()) << "\n";
-    for (const json& f : verdict.value("findings", json::array())) {
-      if (f.is_string()) std::cout << "  finding: " << f.get<std::string>() << "\n";
-    }
+  }
+  for (const json& f : verdict.value("findings", json::array())) {
+    if (f.is_string()) std::cout << "  finding: " << f.get<std::string>() << "\n";
   }
   const json rows = verdict.contains("rows") ? verdict["rows"] : json(json::value_t::array);
   for (const json& row : rows) {
@@ -464,7 +472,7 @@ void runHistory(const ResultsOptions& o) {
     if (lab) std::printf("%-16s  ", key.first.c_str());
     std::printf("%6lld  %10.1f  %-9s  %s\n", static_cast<long long>(key.second),
                 rs.back().temperature_c, method.c_str(),
-                k.count("verdict") ? verdictText(k["verdict"]).c_str() : "(no verdict)");
+                k.count("verdict") ? verdictShort(k["verdict"]).c_str() : "(no verdict)");
   }
   for (const auto& [key, rs] : points) {
     for (const StoredResultRow& r : rs) {

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "nav/rotation.h"
 
@@ -193,6 +195,30 @@ TEST(BenchFile, TableReadingGap) {
           .has_value());
   EXPECT_NE(bad.str().find("bench.toml:"), std::string::npos) << bad.str();
   EXPECT_NE(bad.str().find("reading_gap must be in (0, 60] s"), std::string::npos) << bad.str();
+}
+
+// [table] errors: the table's certified errors (a coefficient file's "table"), of the table
+// device's kind; unset by default.
+TEST(BenchFile, TableErrorsFromACertificationFile) {
+  io::Diagnostics diag("bench.toml");
+  auto b = parse(kGood, diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  EXPECT_FALSE(b->table_errors.has_value());
+  const std::string with = "max_rate = \"30 deg/s\"\nerrors = \"../../tests/tools/data/";
+  b = parse(replaced("max_rate = \"30 deg/s\"", with + "truth_nav_grade.json\""), diag);
+  ASSERT_TRUE(b.has_value()) << diag.str();
+  ASSERT_TRUE(b->table_errors.has_value());
+  EXPECT_DOUBLE_EQ(b->table_errors->base_tilt.x(), 5e-5);
+  EXPECT_DOUBLE_EQ(b->table_errors->nonorthogonality.inner_y, 7e-5);
+  EXPECT_NE(b->table_errors_file.find("truth_nav_grade.json"), std::string::npos);
+  for (const auto& [file, why] : std::vector<std::pair<std::string, std::string>>{
+           {"truth_three_axis.json", "holds three-axis table errors, the table device is two-axis"},
+           {"no_such_file.json", "no_such_file.json"}}) {
+    io::Diagnostics bad("bench.toml");
+    EXPECT_FALSE(parse(replaced("max_rate = \"30 deg/s\"", with + file + "\""), bad).has_value());
+    EXPECT_NE(bad.str().find("bench.toml:"), std::string::npos) << bad.str();
+    EXPECT_NE(bad.str().find(why), std::string::npos) << bad.str();
+  }
 }
 
 // [imu] max_clock_ratio: the decoder's (and the crash resume's) clock ratio; default 2.

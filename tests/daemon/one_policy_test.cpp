@@ -7,6 +7,7 @@
 // unobservable flags.
 #include <gtest/gtest.h>
 #include <stdio.h>
+#include <sys/wait.h>
 
 #include <array>
 #include <cmath>
@@ -20,6 +21,7 @@
 #include "daemon/run_calibration.h"
 #include "io/recording.h"
 #include "io/sim_recording.h"
+#include "io/truth_file.h"
 #include "nav/rotation.h"
 #include "plans/expand.h"
 #include "plans/plan.h"
@@ -79,9 +81,11 @@ std::string commandOutput(const std::string& cmd, int* rc) {
   return out;
 }
 
-nlohmann::json cliCoefficients(const std::string& dir, const std::string& direct, int* rc) {
+nlohmann::json cliCoefficients(const std::string& dir, const std::string& direct, int* rc,
+                               const std::string& extra = "") {
   const std::string cmd = std::string(IMUBENCH_CLI) + " calibrate " + dir +
-                          (direct.empty() ? "" : " --direct " + direct) + " --json 2>/dev/null";
+                          (direct.empty() ? "" : " --direct " + direct) + extra +
+                          " --json 2>/dev/null";
   nlohmann::json j = nlohmann::json::parse(commandOutput(cmd, rc), nullptr, false);
   if (j.is_object()) j.erase("calibration");  // the method's report beside the coefficients
   return j;
@@ -124,7 +128,8 @@ TEST(OnePolicy, DirectPlanGivesIdenticalCoefficientsInCliDaemonAndExplainBaselin
   std::string why;
   ASSERT_TRUE(calib::fromJson(j, &cli, &why)) << why;
 
-  const RunCalibration daemon = calibrateRun(plans::CalibrationMethod::kDirect, rec, nullptr);
+  const RunCalibration daemon =
+      calibrateRun(plans::CalibrationMethod::kDirect, rec, nullptr, std::nullopt);
   ASSERT_TRUE(daemon.status.ok) << daemon.status.message;
   EXPECT_TRUE(daemon.fit.IsSolutionUsable()) << daemon.fit.message;
 
@@ -161,7 +166,8 @@ TEST(OnePolicy, PipelineGivesIdenticalCoefficientsInCliDaemonAndExplainBaseline)
   std::string why;
   ASSERT_TRUE(calib::fromJson(j, &cli, &why)) << why;
 
-  const RunCalibration daemon = calibrateRun(plans::CalibrationMethod::kPipeline, nav, &direct);
+  const RunCalibration daemon =
+      calibrateRun(plans::CalibrationMethod::kPipeline, nav, &direct, std::nullopt);
   ASSERT_TRUE(daemon.status.ok) << daemon.status.message;
   EXPECT_TRUE(daemon.fit.IsSolutionUsable()) << daemon.fit.message;
 
@@ -176,6 +182,49 @@ TEST(OnePolicy, PipelineGivesIdenticalCoefficientsInCliDaemonAndExplainBaseline)
   EXPECT_NEAR(cli.values.table.base_tilt.x(), table.base_tilt.x(), 3.0 * kArcsecToRad);
   EXPECT_NEAR(cli.values.table.nonorthogonality.inner_y, table.nonorthogonality.inner_y,
               3.0 * kArcsecToRad);
+}
+
+// The bundled direct plan on a table with 30" errors: the direct method takes the table as
+// nominal, so its fit is unusable and the run gets no verdict (the CLI refuses the same fit,
+// exit 3). With the table's certified errors given (the bench file's [table] errors, the
+// CLI's --table-errors) the fit reaches the noise, the two front ends agree and the verdict
+// is a verdict.
+TEST(OnePolicy, DirectPlanOnATableWithErrorsNeedsTheTablesCertificationForAVerdict) {
+  ScratchDir dir("policy");
+  const calib::TableErrors table = tableWithErrors(30.0);
+  const io::Recording rec = writtenRecording("direct_two_axis", table, dir.file("direct"));
+  ASSERT_FALSE(rec.imu.empty());
+  const std::vector<AcceptanceLimit> limits = {{"accel.scale", 1e-3, "1000 ppm"},
+                                               {"gyro.bias", 1.0 * kDegToRad / 3600.0, "1 deg/h"}};
+
+  const RunCalibration unknown =
+      calibrateRun(plans::CalibrationMethod::kDirect, rec, nullptr, std::nullopt);
+  ASSERT_TRUE(unknown.status.ok) << unknown.status.message;
+  EXPECT_FALSE(unknown.fit.IsSolutionUsable());
+  const nlohmann::json none = acceptanceVerdict(unknown, limits);
+  EXPECT_TRUE(none["pass"].is_null()) << none.dump(2);
+  EXPECT_EQ(none["usable"], false);
+  EXPECT_NE(none["why"].get<std::string>().find("[table] errors"), std::string::npos);
+  int rc = 0;
+  (void)cliCoefficients(dir.file("direct"), "", &rc, " --method direct");
+  EXPECT_EQ(WEXITSTATUS(rc), 3) << "imubench calibrate refuses the same fit";
+
+  calib::BenchTruth certification;
+  certification.table = table;
+  ASSERT_TRUE(io::writeTruthFile(dir.file("table.json"), certification).ok);
+  const RunCalibration known = calibrateRun(plans::CalibrationMethod::kDirect, rec, nullptr, table);
+  ASSERT_TRUE(known.status.ok) << known.status.message;
+  EXPECT_TRUE(known.fit.IsSolutionUsable()) << known.fit.message;
+  const nlohmann::json verdict = acceptanceVerdict(known, limits);
+  EXPECT_EQ(verdict["pass"], true) << verdict.dump(2);
+  const nlohmann::json j = cliCoefficients(
+      dir.file("direct"), "", &rc, " --method direct --table-errors " + dir.file("table.json"));
+  ASSERT_EQ(rc, 0) << "imubench calibrate --table-errors exit status";
+  calib::CoefficientReport cli;
+  std::string why;
+  ASSERT_TRUE(calib::fromJson(j, &cli, &why)) << why;
+  expectSame(cli, known.coefficients, "CLI --table-errors vs daemon [table] errors");
+  EXPECT_NEAR(known.coefficients.values.sensors.accel.scale.x(), 1.0003, 5e-6);
 }
 
 }  // namespace

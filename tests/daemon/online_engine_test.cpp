@@ -55,6 +55,7 @@ TEST(StepStats, RunTurnedAngle) {
 RunCalibration calibrated(double gyro_bias_z, bool gyro_bias_z_observable) {
   RunCalibration c;
   c.status = Status::Ok();
+  c.fit = calib::FitStatus{};  // usable
   c.coefficients.values.sensors.gyro.bias = {1e-8, -1e-8, gyro_bias_z};
   c.coefficients.values.sensors.accel.scale = {1.0002, 1.0, 0.9999};
   for (const char* n : {"gyro.bias.x", "gyro.bias.y", "gyro.bias.z", "accel.scale.x",
@@ -138,6 +139,28 @@ TEST(AcceptanceVerdict, FailOutsideAndWhenNotDetermined) {
   failed.status = Status::Error("too little data");
   EXPECT_EQ(acceptanceVerdict(failed, limits())["pass"], false);
   EXPECT_TRUE(acceptanceVerdict(calibrated(0.0, true), {})["pass"].is_null());
+}
+
+// An unusable fit (residuals above the noise) gets no verdict, whether its values are within
+// the limits or outside them: the rows still show each value against its limit.
+TEST(AcceptanceVerdict, NoVerdictOnAnUnusableFit) {
+  for (const double bias : {2e-8, 0.05 * kDegToRad / 3600.0}) {
+    RunCalibration c = calibrated(bias, true);
+    c.fit.code = calib::FitStatusCode::kUnusable;
+    c.fit.ok = false;
+    c.fit.message = "normalised residual RMS 14.5 (limit 3)";
+    c.fit.reasons = {c.fit.message};
+    const nlohmann::json v = acceptanceVerdict(c, limits());
+    EXPECT_TRUE(v["pass"].is_null()) << v.dump(2);
+    EXPECT_EQ(v["usable"], false);
+    EXPECT_EQ(v["rows"].size(), 6u);
+    const std::string why = v["why"].get<std::string>();
+    EXPECT_NE(why.find("the fit is unusable (normalised residual RMS 14.5"), std::string::npos)
+        << why;
+    EXPECT_NE(why.find(bias < 1e-7 ? "are within the limits" : "exceed the limits"),
+              std::string::npos)
+        << why;
+  }
 }
 
 std::optional<plans::Plan> parsePlanText(const std::string& plan_keys, io::Diagnostics& diag) {

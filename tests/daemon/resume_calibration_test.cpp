@@ -156,7 +156,8 @@ const Simulated& direct() {
 
 TEST(ResumeCalibration, DirectPlanKilledInARateRunOrTheHoldAfterIt) {
   const io::Recording whole = direct().rec;
-  const RunCalibration want = calibrateRun(plans::CalibrationMethod::kDirect, whole, nullptr);
+  const RunCalibration want =
+      calibrateRun(plans::CalibrationMethod::kDirect, whole, nullptr, std::nullopt);
   ASSERT_TRUE(want.status.ok) << want.status.message;
   for (const auto& [label, into] :
        {std::pair{"rate_z_up_pos", 2.0}, std::pair{"rate_z_up_pos_after", 3.5}}) {
@@ -171,7 +172,8 @@ TEST(ResumeCalibration, DirectPlanKilledInARateRunOrTheHoldAfterIt) {
   // The old rule (resume at the killed rotation, nothing re-run before it) is refused by calib.
   const int killed = stepOf(direct().steps, "rate_z_up_pos");
   const io::Recording old = crashResumed(direct(), killed, 2.0, killed, killed);
-  const RunCalibration refused = calibrateRun(plans::CalibrationMethod::kDirect, old, nullptr);
+  const RunCalibration refused =
+      calibrateRun(plans::CalibrationMethod::kDirect, old, nullptr, std::nullopt);
   EXPECT_FALSE(refused.status.ok);
   EXPECT_NE(refused.status.message.find("next to a rotation"), std::string::npos)
       << refused.status.message;
@@ -180,7 +182,7 @@ TEST(ResumeCalibration, DirectPlanKilledInARateRunOrTheHoldAfterIt) {
 TEST(ResumeCalibration, PipelineRunKilledInAReversal) {
   const Simulated nav = simulatePlan("two_axis_12run.toml", 8);
   const RunCalibration want =
-      calibrateRun(plans::CalibrationMethod::kPipeline, nav.rec, &direct().rec);
+      calibrateRun(plans::CalibrationMethod::kPipeline, nav.rec, &direct().rec, std::nullopt);
   ASSERT_TRUE(want.status.ok) << want.status.message;
   ScratchDir dir("resume-calibration");
   const io::Recording direct_resumed = resumedByTheRule(direct(), "rate_z_up_pos", 2.0);

@@ -142,7 +142,8 @@ TEST(RunExplain, NoAnalysisWithoutACalibrationToStartFrom) {
 TEST(RunExplain, BaselineIsWhatTheCalibrationServiceEstimated) {
   // The direct calibration holds every table error at zero: the analysis' baseline is
   // "direct" with no table parameter, so each table error stays a candidate effect.
-  const RunCalibration d = calibrateRun(plans::CalibrationMethod::kDirect, recording(), nullptr);
+  const RunCalibration d =
+      calibrateRun(plans::CalibrationMethod::kDirect, recording(), nullptr, std::nullopt);
   ASSERT_TRUE(d.status.ok) << d.status.message;
   EXPECT_EQ(d.baseline_method, "direct");
   EXPECT_TRUE(d.table_params.empty());

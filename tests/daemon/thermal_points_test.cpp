@@ -72,7 +72,7 @@ io::Recording twoPointRecording() {
 
 TEST(ThermalPoints, EachPointIsCalibratedAtItsOwnTemperature) {
   const io::Recording rec = twoPointRecording();
-  const std::vector<PointCalibration> points = calibrateTemperaturePoints(rec);
+  const std::vector<PointCalibration> points = calibrateTemperaturePoints(rec, std::nullopt);
   ASSERT_EQ(points.size(), 2u);
   EXPECT_EQ(points[0].label, "T-10C/soak");
   EXPECT_EQ(points[1].label, "T30C/soak");
@@ -100,7 +100,7 @@ TEST(ThermalPoints, ARunWithoutSoaksHasNoPoints) {
   for (calib::Segment& s : rec.segments) {
     if (s.kind == calib::SegmentKind::kSoak) s.kind = calib::SegmentKind::kStatic;
   }
-  EXPECT_TRUE(calibrateTemperaturePoints(rec).empty());
+  EXPECT_TRUE(calibrateTemperaturePoints(rec, std::nullopt).empty());
 }
 
 }  // namespace

@@ -23,6 +23,7 @@
 #   $E2E_WATCHDOG_TIMEOUT              # the virtual table's host-watchdog timeout, s (default
 #                                      #   2: a stalled machine must not open the interlock in a
 #                                      #   test about something else; host_watchdog.sh: 0.5)
+#   $E2E_TABLE_EXTRA                   # lines for the bench file's [table] (e.g. errors = FILE)
 #   $E2E_TABLE_READING_GAP             # the bench file's [table] reading_gap (default 3 s: a
 #                                      #   loaded user-mode Linux holds the loop up for a second
 #                                      #   and more; table_gap.sh and table_latency.sh: 0.2 s,
@@ -89,6 +90,7 @@ port = 1502
 max_rate = "30 deg/s"
 max_accel = "10 deg/s^2"
 reading_gap = "${E2E_TABLE_READING_GAP:-3 s}"
+${E2E_TABLE_EXTRA:-}
 [chamber]
 device = "$E2E_CHAMBER_DEVICE"
 port = 1503
