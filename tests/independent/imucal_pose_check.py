@@ -9,7 +9,8 @@ program and its JSON report read):
     rest), 0.5 s trimmed off each end, at least 1.5 s left; t = n_samples / 102.4 Hz;
   - a hold's own noise (sigma of its mean, per channel): the accelerometer drifts inside a
     hold, so the larger of the pooled half-hold scatter ((first half's mean - second half's)
-    / 2 over all holds: a level that does not average down) and its white part / sqrt(s);
+    / 2 over all holds: a level that does not average down) and that scatter read as white
+    noise (falling as 1 / sqrt(duration), which is also each mean's weight in the fits);
   - the standard static model f = C (a - b), C diagonal (scale and bias), |f| = g = 9.81 m/s^2
     (imucal's value; another g is a common scale and leaves the misfits in readings as they
     are), fitted over the holds' means by Levenberg-Marquardt on |f| - g, each mean weighted
@@ -101,7 +102,7 @@ def hold_stats(t, acc, holds):
                      for i, j in holds])
     flat = np.sqrt((half ** 2).mean(axis=0))
     white = np.sqrt((half ** 2 * dur[:, None]).mean(axis=0))
-    weight = white[None, :] / np.sqrt(dur[:, None])  # the means' white part: samples weigh
+    weight = white[None, :] / np.sqrt(dur[:, None])  # read as white: the samples weigh
     sigma = np.maximum(flat[None, :], weight)
     return means, mids, dur, sigma, weight
 
