@@ -1462,6 +1462,7 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
                       {"ok", true},
                       {"calibrated", f.calibrated},
                       {"pass", pass},
+                      {"usable", f.verdict.value("usable", true)},
                       {"imu_serial", f.imu_serial},
                       {"temperature_c", f.temperature_c},
                       {"explain", f.explain ? f.explain_summary : f.explain_error},

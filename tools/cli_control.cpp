@@ -220,10 +220,11 @@ void applyEvent(WatchState& s, const json& event, std::vector<std::string>* note
     const bool has_run = event.contains("run") && event["run"].is_number_integer();
     std::string line =
         "results of run " + (has_run ? std::to_string(event["run"].get<std::int64_t>()) : "?");
-    const bool pass =
-        event.contains("pass") && event["pass"].is_boolean() && event["pass"].get<bool>();
-    line += event.value("calibrated", false) ? (pass ? ": calibrated, PASS" : ": calibrated, FAIL")
-                                             : ": calibration failed";
+    const json pass = event.value("pass", json());
+    const std::string verdict = pass.is_boolean()              ? (pass.get<bool>() ? "PASS" : "FAIL")
+                                : !event.value("usable", true) ? "no verdict (the fit is unusable)"
+                                                               : "no verdict";
+    line += event.value("calibrated", false) ? ": calibrated, " + verdict : ": calibration failed";
     notes->push_back(line + " (imubench results RUN)");
     // The end-of-plan missing-physics analysis (daemon/run_explain.h): its one-line summary,
     // or why it did not run.

@@ -68,7 +68,7 @@ Events ({"event": name, "topic": topic, ...fields}):
                    estimate       {"run", "step", "label", "method", "ok", "parameters":
                                    {name: {"value", "sigma", "unit"}}, "unobservable": [names],
                                    "summary"}
-                   results        {"run", "calibrated", "pass"}
+                   results        {"run", "calibrated", "pass", "usable"}
                    resumed        {"run", "from_step"}
                    follow_up      {"run", "status": "proposed"|"refused", "summary", ["plan"],
                                    ["duration_s"], "groups": [{"effects", "resolved", "why"}]}
@@ -82,7 +82,8 @@ Calibration (plans with calibration = "direct" | "indirect" | "pipeline"): the d
 an "estimate" event (topic "run") after each step that allows one -- {"run", "step", "label",
 "method", "ok", "parameters": {name: {"value", "sigma", "unit"}}, "unobservable": [names],
 "summary"} -- and a "results" event when the end-of-plan calibration is stored ({"run",
-"calibrated", "pass", "explain": one-line summary of the missing-physics analysis, or why it
+"calibrated", "pass": true/false, or null for no verdict (no acceptance limits, or
+"usable": false: the fit is unusable), "explain": one-line summary of the missing-physics analysis, or why it
 did not run}); calibration(run) returns the stored results by kind ("coefficients",
 "report", "verdict", "explain": the imubench-explain/1 report).
 """
