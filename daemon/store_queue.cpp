@@ -66,9 +66,10 @@ Status Store::queueMove(std::int64_t entry_id, int position) {
     if (auto st = impl_->queueIds(&ids); !st.ok) return st;
     const auto it = std::find(ids.begin(), ids.end(), entry_id);
     if (it == ids.end()) return impl_->error(what + " not found");
-    if (position < 1 || static_cast<std::size_t>(position) > ids.size())
+    if (position < 1 || static_cast<std::size_t>(position) > ids.size()) {
       return impl_->error("position " + std::to_string(position) + " is outside 1.." +
                           std::to_string(ids.size()));
+    }
     ids.erase(it);
     ids.insert(ids.begin() + (position - 1), entry_id);
     Status st;
