@@ -1,9 +1,70 @@
 #include "nav/alignment_uncertainty.h"
 
+#include <array>
 #include <cmath>
 #include <limits>
 
 namespace imubench::nav {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// The three processes' covariances over the blocks for unit intensity: white (per s), bounded
+// velocity (per (m/s)^2 of boundary value), random walk (per unit^2/s).
+std::array<MatrixXd, 3> structures(std::span<const BlockInterval> b) {
+  const auto K = static_cast<Eigen::Index>(b.size());
+  std::array<MatrixXd, 3> m{MatrixXd::Zero(K, K), MatrixXd::Zero(K, K), MatrixXd::Zero(K, K)};
+  for (Eigen::Index k = 0; k < K; ++k) {
+    const BlockInterval& x = b[static_cast<std::size_t>(k)];
+    // white: the mean of white noise over the block
+    m[0](k, k) = 1.0 / x.duration_s;
+    // bounded velocity: (v_{k+1} - v_k) / T_k with independent unit boundary values
+    m[1](k, k) = 2.0 / (x.duration_s * x.duration_s);
+    if (k + 1 < K) {
+      const double c = -1.0 / (x.duration_s * b[static_cast<std::size_t>(k) + 1].duration_s);
+      m[1](k, k + 1) = m[1](k + 1, k) = c;
+    }
+    // random walk from 0 at the span's start: block means of a unit Wiener process; the earlier
+    // block's mean time for two blocks, start + T/3 for one block with itself.
+    m[2](k, k) = x.start_s + x.duration_s / 3.0;
+    for (Eigen::Index l = k + 1; l < K; ++l)
+      m[2](k, l) = m[2](l, k) = x.start_s + 0.5 * x.duration_s;
+  }
+  return m;
+}
+
+// Restricted log-likelihood of r for the covariance V with the fixed part X; -inf where V is not
+// positive definite.
+double reml(const MatrixXd& V, const MatrixXd& X, const VectorXd& r) {
+  const Eigen::LLT<MatrixXd> llt(V);
+  if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+  const MatrixXd ViX = llt.solve(X);
+  const VectorXd Vir = llt.solve(r);
+  const Eigen::LLT<MatrixXd> llt_x(X.transpose() * ViX);
+  if (llt_x.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+  const VectorXd Xt_Vir = X.transpose() * Vir;
+  const double quad = r.dot(Vir) - Xt_Vir.dot(llt_x.solve(Xt_Vir));
+  const double logdet_v = 2.0 * llt.matrixLLT().diagonal().array().log().sum();
+  const double logdet_x = 2.0 * llt_x.matrixLLT().diagonal().array().log().sum();
+  return -0.5 * (quad + logdet_v + logdet_x);
+}
+
+// Fourth differences' mean square / 70 (their variance for white increments), per unit time.
+double whiteIntensity(std::span<const ImuSample> s, Vec3 ImuSample::*field) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t k = 4; k < s.size(); ++k) {
+    const Vec3 d4 = s[k].*field - 4.0 * (s[k - 1].*field) + 6.0 * (s[k - 2].*field) -
+                    4.0 * (s[k - 3].*field) + s[k - 4].*field;
+    sum += d4.squaredNorm() / 3.0;
+    ++n;
+  }
+  const double dt = (s.back().t - s.front().t) / static_cast<double>(s.size() - 1);
+  return n > 0 && dt > 0.0 ? sum / static_cast<double>(n) / 70.0 / dt : 0.0;
+}
+
+}  // namespace
 
 AlignmentUncertainty alignmentUncertainty(std::span<const ImuSample> samples, const Site& site,
                                           const AlignmentResult& a) {
@@ -49,6 +110,79 @@ AlignmentUncertainty alignmentUncertainty(std::span<const ImuSample> samples, co
   u.gyro_bias_up_radps = w_up - kEarthRate * std::sin(site.latitude_rad);
   u.accel_bias_up_mps2 = g - siteGravity(site);
   return u;
+}
+
+
+SensorWhiteNoise sensorWhiteNoise(std::span<const ImuSample> samples) {
+  SensorWhiteNoise out;
+  if (samples.size() < 5) return out;
+  out.gyro_rad2_per_s = whiteIntensity(samples, &ImuSample::dtheta);
+  out.accel_m2_per_s3 = whiteIntensity(samples, &ImuSample::dvel);
+  return out;
+}
+
+BlockResidualCovariance blockResidualCovariance(std::span<const BlockInterval> blocks,
+                                                const VectorXd& residual, double white_intensity,
+                                                double walk_intensity) {
+  BlockResidualCovariance out;
+  const auto K = static_cast<Eigen::Index>(blocks.size());
+  if (K < 4 || residual.size() != K) return out;
+  for (const BlockInterval& b : blocks)
+    if (!(b.duration_s > 0.0) || !(b.start_s >= 0.0)) return out;
+  std::array<MatrixXd, 3> m = structures(blocks);
+  const double floor_white = white_intensity * m[0].trace(), floor_walk = walk_intensity * m[2].trace();
+  const MatrixXd floor = white_intensity * m[0] + walk_intensity * m[2];
+  for (MatrixXd& x : m) x *= static_cast<double>(K) / x.trace();  // mean diagonal 1
+  MatrixXd X(K, 2);
+  const double span = blocks.back().start_s + blocks.back().duration_s;
+  for (Eigen::Index k = 0; k < K; ++k) {
+    const BlockInterval& b = blocks[static_cast<std::size_t>(k)];
+    X(k, 0) = 1.0;
+    X(k, 1) = (b.start_s + 0.5 * b.duration_s) / span;
+  }
+  // Floor plus each process' variance x_i from {0} and a grid of powers of 10 of the residuals'
+  // mean square, then a finer grid about the best.
+  const double ms = residual.squaredNorm() / static_cast<double>(K);
+  const MatrixXd jitter =
+      (1e-9 * (ms + floor.trace() / static_cast<double>(K)) + 1e-300) * MatrixXd::Identity(K, K);
+  std::array<double, 3> best_e{-99.0, -99.0, -99.0};  // log10(x_i / ms); -99: none
+  double best = -std::numeric_limits<double>::infinity();
+  auto covariance = [&](const std::array<double, 3>& e) {
+    MatrixXd V = floor + jitter;
+    for (std::size_t i = 0; i < 3; ++i)
+      if (e[i] > -98.0) V += ms * std::pow(10.0, e[i]) * m[i];
+    return V;
+  };
+  auto search = [&](const std::array<double, 3>& centre, double half, double step) {
+    std::array<std::vector<double>, 3> grid;
+    for (std::size_t i = 0; i < 3; ++i) {
+      grid[i].push_back(-99.0);
+      if (centre[i] < -98.0 && half < 1.0) continue;  // refining a process that is absent
+      const double c = centre[i] < -98.0 ? 0.0 : centre[i];
+      for (double e = c - half; e <= c + half + 1e-9; e += step) grid[i].push_back(e);
+    }
+    for (double e0 : grid[0])
+      for (double e1 : grid[1])
+        for (double e2 : grid[2]) {
+          const double l = reml(covariance({e0, e1, e2}), X, residual);
+          if (l > best) best = l, best_e = {e0, e1, e2};
+        }
+  };
+  search({-2.0, -2.0, -2.0}, 3.0, 1.0);
+  search(best_e, 0.5, 0.125);
+  if (!std::isfinite(best)) return out;
+  out.covariance = covariance(best_e);
+  std::array<double, 3> trace{floor_white, 0.0, floor_walk};
+  for (std::size_t i = 0; i < 3; ++i)
+    if (best_e[i] > -98.0) trace[i] += ms * std::pow(10.0, best_e[i]) * static_cast<double>(K);
+  const double total = trace[0] + trace[1] + trace[2];
+  if (total > 0.0) {
+    out.white_share = trace[0] / total;
+    out.bounded_share = trace[1] / total;
+    out.walk_share = trace[2] / total;
+  }
+  out.ok = true;
+  return out;
 }
 
 }  // namespace imubench::nav

@@ -11,6 +11,7 @@
 // accelerometer bias b_h adds b_h / g of tilt: both are stated, not hidden in the sigma.
 #pragma once
 
+#include <Eigen/Dense>
 #include <span>
 
 #include "nav/alignment.h"
@@ -32,5 +33,50 @@ struct AlignmentUncertainty {
 // The alignment's own uncertainty for the span it used (a.ok() required).
 AlignmentUncertainty alignmentUncertainty(std::span<const ImuSample> samples, const Site& site,
                                           const AlignmentResult& a);
+
+// The sway-tolerant alignment (nav/inertial_alignment.h) fits block means of the specific force
+// in the inertial body frame b0. What they keep besides gravity is not white noise; along one
+// axis of n0 it is the sum of three processes, each with its own covariance over the blocks:
+//  - white: what averages like noise (accelerometer noise): variance / block duration;
+//  - bounded velocity: a sway's surge or heave leaves (v(end) - v(start)) / T in a block, the
+//    change of a velocity that stays bounded: neighbouring blocks share a boundary value
+//    (correlation -1/2) and the sum over the span telescopes to one velocity change, so a slope
+//    fitted through them is far better known than their scatter says;
+//  - random walk: the gyros' angle random walk tilts gravity in b0 by an angle that walks from
+//    zero at the span's start: the block means correlate over the whole span, and a slope fitted
+//    through them is worse known than their scatter says.
+// The sensors' white noise is measured from the samples themselves (sensorWhiteNoise): it sets
+// a floor of white and random walk that the residuals cannot talk down; on top of it the sizes
+// of all three come from the residuals (restricted maximum likelihood, the residuals' own fixed
+// part a constant and a slope in time).
+struct BlockInterval {
+  double start_s = 0.0;     // since the span's start
+  double duration_s = 0.0;  // > 0
+};
+
+// White noise intensities of the increments, from their fourth differences (a smooth motion's
+// fourth difference over a 100 Hz step is (w dt)^4 of it: a 1 Hz sway leaves 2e-6 of its
+// amplitude; vibration faster than that counts as noise, which only makes the sigma cautious).
+struct SensorWhiteNoise {
+  double gyro_rad2_per_s = 0.0;     // angle random walk^2, per axis (mean of the three)
+  double accel_m2_per_s3 = 0.0;     // velocity random walk^2, per axis (mean of the three)
+};
+
+SensorWhiteNoise sensorWhiteNoise(std::span<const ImuSample> samples);
+
+struct BlockResidualCovariance {
+  Eigen::MatrixXd covariance;  // K x K, in the residual's units squared
+  // Each process' share of the mean diagonal (they sum to 1), floor included.
+  double white_share = 0.0;
+  double bounded_share = 0.0;
+  double walk_share = 0.0;
+  bool ok = false;  // false: fewer than 4 blocks or a singular structure
+};
+
+// Floor: white_intensity (residual units^2 x s: the white noise' intensity) and walk_intensity
+// (residual units^2 / s: the random walk's) along this axis.
+BlockResidualCovariance blockResidualCovariance(std::span<const BlockInterval> blocks,
+                                                const Eigen::VectorXd& residual,
+                                                double white_intensity, double walk_intensity);
 
 }  // namespace imubench::nav

@@ -2,9 +2,12 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <vector>
+
+#include "nav/alignment_uncertainty.h"
 
 namespace imubench::nav {
 namespace {
@@ -19,10 +22,12 @@ InertialAlignmentResult fail(AlignmentStatus status, const std::string& message)
   return r;
 }
 
-// One block: the mean specific force in b0 and its mid-time since the span's start.
+// One block: the mean specific force in b0, its mid-time and its interval since the span's
+// start.
 struct Block {
   Vec3 u_b0 = Vec3::Zero();
   double t_s = 0.0;
+  BlockInterval interval;
 };
 
 // Where gravity's reaction (0, 0, g) of the L frame at time t points in n0: turned with the
@@ -43,7 +48,8 @@ Tracked track(std::span<const ImuSample> s, double t0, int n_blocks) {
   Tracked out;
   const double span = s.back().t - t0;
   std::vector<Vec3> dv_sum(static_cast<std::size_t>(n_blocks), Vec3::Zero());
-  std::vector<double> dt_sum(dv_sum.size(), 0.0), t_sum(dv_sum.size(), 0.0);
+  std::vector<double> dt_sum(dv_sum.size(), 0.0), t_sum(dv_sum.size(), 0.0),
+      start(dv_sum.size(), span);
   Quat q = Quat::Identity();
   double t_prev = t0;
   for (const ImuSample& x : s) {
@@ -57,10 +63,13 @@ Tracked track(std::span<const ImuSample> s, double t0, int n_blocks) {
     dv_sum[k] += q_mid * x.dvel;
     dt_sum[k] += dt;
     t_sum[k] += dt * (x.t - 0.5 * dt - t0);
+    start[k] = std::min(start[k], t_prev - t0);
     t_prev = x.t;
   }
   for (std::size_t k = 0; k < dv_sum.size(); ++k) {
-    if (dt_sum[k] > 0.0) out.blocks.push_back({dv_sum[k] / dt_sum[k], t_sum[k] / dt_sum[k]});
+    if (dt_sum[k] > 0.0)
+      out.blocks.push_back(
+          {dv_sum[k] / dt_sum[k], t_sum[k] / dt_sum[k], BlockInterval{start[k], dt_sum[k]}});
   }
   out.q_b_to_b0 = q;
   return out;
@@ -75,37 +84,46 @@ Mat3 wahba(const std::vector<Block>& blocks, double latitude_rad, double g) {
   return svd.matrixU() * Eigen::DiagonalMatrix<double, 3>(1.0, 1.0, d) * svd.matrixV().transpose();
 }
 
-// Weighted Gauss-Newton on (rotation in n0, latitude): C = C_hat exp([phi x]); free_latitude
-// false holds the latitude (3 parameters). The residuals are weighted per axis of n0 (East,
-// North, Up: a ship's heave disturbs Up far more than the horizontal axes, which carry the
-// heading) by weight_n0 (inverse variances; then the covariance (J^T W J)^-1 is the estimate's).
-// ss_n0: the residual sums of squares per n0 axis.
+// Generalised least squares by Gauss-Newton on (rotation in n0, latitude): C = C_hat
+// exp([phi x]); free_latitude false holds the latitude (3 parameters). The residuals along each
+// axis of n0 (East, North, Up) are weighted by the inverse of their covariance over the blocks,
+// info_n0[i] (identity: ordinary least squares); then (J^T info J)^-1 is the estimate's
+// covariance. residual_n0: the residuals, one column per n0 axis.
 struct Fit {
   Mat3 C_b0_n0 = Mat3::Identity();
   double latitude_rad = 0.0;
   Mat4 covariance = Mat4::Zero();
-  Vec3 ss_n0 = Vec3::Zero();
+  Eigen::MatrixXd residual_n0;
   bool determined = false;
 };
 
+using AxisInfo = std::array<Eigen::MatrixXd, 3>;
+
 Fit gaussNewton(const std::vector<Block>& blocks, Fit fit, double g, bool free_latitude,
-                int iterations, const Vec3& weight_n0) {
+                int iterations, const AxisInfo& info_n0) {
   const int n = free_latitude ? 4 : 3;
+  const auto K = static_cast<Eigen::Index>(blocks.size());
   for (int it = 0; it <= iterations; ++it) {
+    std::array<Eigen::MatrixXd, 3> J;
+    J.fill(Eigen::MatrixXd::Zero(K, 4));
+    fit.residual_n0.setZero(K, 3);
+    const Mat3 C_n0_b0 = fit.C_b0_n0.transpose();
+    for (Eigen::Index k = 0; k < K; ++k) {
+      const Block& b = blocks[static_cast<std::size_t>(k)];
+      const Vec3 a = gravityInN0(b.t_s, fit.latitude_rad, g);
+      fit.residual_n0.row(k) = (C_n0_b0 * (b.u_b0 - fit.C_b0_n0 * a)).transpose();
+      Eigen::Matrix<double, 3, 4> Jk;
+      Jk.leftCols<3>() = -skew(a);  // d(C exp([phi x]) a)/dphi = -C [a x], resolved in n0
+      constexpr double kH = 1e-6;
+      Jk.col(3) = (gravityInN0(b.t_s, fit.latitude_rad + kH, g) - a) / kH;
+      for (int i = 0; i < 3; ++i) J[static_cast<std::size_t>(i)].row(k) = Jk.row(i);
+    }
     Mat4 JtJ = Mat4::Zero();
     Vec4 Jtr = Vec4::Zero();
-    fit.ss_n0 = Vec3::Zero();
-    const Mat3 C_n0_b0 = fit.C_b0_n0.transpose();
-    for (const Block& b : blocks) {
-      const Vec3 a = gravityInN0(b.t_s, fit.latitude_rad, g);
-      const Vec3 r = C_n0_b0 * (b.u_b0 - fit.C_b0_n0 * a);  // residual resolved in n0
-      Eigen::Matrix<double, 3, 4> J = Eigen::Matrix<double, 3, 4>::Zero();
-      J.leftCols<3>() = -skew(a);  // d(C exp([phi x]) a)/dphi = -C [a x], resolved in n0
-      constexpr double kH = 1e-6;
-      J.col(3) = (gravityInN0(b.t_s, fit.latitude_rad + kH, g) - a) / kH;
-      JtJ += J.transpose() * weight_n0.asDiagonal() * J;
-      Jtr += J.transpose() * weight_n0.asDiagonal() * r;
-      fit.ss_n0 += r.cwiseProduct(r);
+    for (std::size_t i = 0; i < 3; ++i) {
+      const Eigen::MatrixXd JtI = J[i].transpose() * info_n0[i];
+      JtJ += JtI * J[i];
+      Jtr += JtI * fit.residual_n0.col(static_cast<Eigen::Index>(i));
     }
     const Eigen::MatrixXd N = JtJ.topLeftCorner(n, n);
     Eigen::FullPivLU<Eigen::MatrixXd> lu(N);
@@ -121,17 +139,46 @@ Fit gaussNewton(const std::vector<Block>& blocks, Fit fit, double g, bool free_l
   return fit;
 }
 
-// The fit, then refitted with the per-axis residual variances it leaves as weights (their
-// degrees of freedom: blocks less a third of the parameters per axis), so the covariance is
-// the estimate's own.
-Fit weightedFit(const std::vector<Block>& blocks, Fit start, double g, bool free_latitude,
-                int iterations) {
-  const Fit first = gaussNewton(blocks, start, g, free_latitude, iterations, Vec3::Ones());
-  if (!first.determined) return first;
-  const double dof = static_cast<double>(blocks.size()) - (free_latitude ? 4.0 : 3.0) / 3.0;
-  Vec3 w;
-  for (int i = 0; i < 3; ++i) w(i) = 1.0 / std::max(first.ss_n0(i) / dof, 1e-30);
-  return gaussNewton(blocks, first, g, free_latitude, iterations, w);
+// The inverse covariance of each n0 axis' residuals over the blocks (white, bounded velocity
+// and random walk on the floor the sensors' white noise sets: nav/alignment_uncertainty.h);
+// false when one cannot be formed. The accelerometers' noise is white on every axis; the gyros'
+// angle random walk tilts gravity, which moves the horizontal axes only.
+bool residualInformation(const std::vector<Block>& blocks, const Eigen::MatrixXd& residual_n0,
+                         const SensorWhiteNoise& noise, double g, AxisInfo* info_n0) {
+  std::vector<BlockInterval> intervals;
+  for (const Block& b : blocks) intervals.push_back(b.interval);
+  const auto K = static_cast<Eigen::Index>(blocks.size());
+  for (int i = 0; i < 3; ++i) {
+    const double walk = i < 2 ? g * g * noise.gyro_rad2_per_s : 0.0;
+    const BlockResidualCovariance c =
+        blockResidualCovariance(intervals, residual_n0.col(i), noise.accel_m2_per_s3, walk);
+    if (!c.ok) return false;
+    // A floor far below any sensor's noise keeps exact data's covariance invertible.
+    const Eigen::MatrixXd cov =
+        c.covariance + 1e-24 * Eigen::MatrixXd::Identity(K, K);
+    (*info_n0)[static_cast<std::size_t>(i)] =
+        cov.llt().solve(Eigen::MatrixXd::Identity(K, K));
+  }
+  return true;
+}
+
+// The fit by ordinary least squares, then twice: the residuals' covariance over the blocks
+// estimated from what the fit leaves, and the generalised least-squares fit with it, so the
+// estimate is the efficient one and its covariance its own.
+Fit weightedFit(const std::vector<Block>& blocks, const SensorWhiteNoise& noise, Fit start,
+                double g, bool free_latitude, int iterations) {
+  const auto K = static_cast<Eigen::Index>(blocks.size());
+  AxisInfo info;
+  info.fill(Eigen::MatrixXd::Identity(K, K));
+  Fit fit = gaussNewton(blocks, start, g, free_latitude, iterations, info);
+  for (int round = 0; round < 2 && fit.determined; ++round) {
+    if (!residualInformation(blocks, fit.residual_n0, noise, g, &info)) {
+      fit.determined = false;
+      break;
+    }
+    fit = gaussNewton(blocks, fit, g, free_latitude, iterations, info);
+  }
+  return fit;
 }
 
 }  // namespace
@@ -191,8 +238,10 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
   Fit fit;
   fit.latitude_rad = site.latitude_rad;
   fit.C_b0_n0 = wahba(tr.blocks, site.latitude_rad, g);
-  fit = weightedFit(tr.blocks, fit, g, false, o.iterations);
-  r.residual_rms_rad = std::sqrt(fit.ss_n0.sum() / static_cast<double>(tr.blocks.size())) / g;
+  const SensorWhiteNoise noise = sensorWhiteNoise(s);
+  fit = weightedFit(tr.blocks, noise, fit, g, false, o.iterations);
+  r.residual_rms_rad =
+      fit.residual_n0.norm() / std::sqrt(static_cast<double>(tr.blocks.size())) / g;
   const double earth_turn = kEarthRate * std::abs(std::cos(site.latitude_rad));
   if (!fit.determined || r.residual_rms_rad > o.max_residual_rad) {
     std::snprintf(
@@ -220,7 +269,7 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
           .toRotationMatrix();
   r.q_BtoL_end =
       Quat(C_n0_L_end.transpose() * C_LB_start * tr.q_b_to_b0.toRotationMatrix()).normalized();
-  const Fit lat_fit = weightedFit(tr.blocks, fit, g, true, o.iterations);
+  const Fit lat_fit = weightedFit(tr.blocks, noise, fit, g, true, o.iterations);
   r.implied_latitude_rad = lat_fit.determined ? lat_fit.latitude_rad : std::nan("");
   r.sigma_implied_latitude_rad =
       lat_fit.determined ? std::sqrt(lat_fit.covariance(3, 3)) : std::nan("");
