@@ -3,36 +3,13 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace imubench::nav {
 namespace {
 
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
-
-// The three processes' covariances over the blocks for unit intensity: white (per s), bounded
-// velocity (per (m/s)^2 of boundary value), random walk (per unit^2/s).
-std::array<MatrixXd, 3> structures(std::span<const BlockInterval> b) {
-  const auto K = static_cast<Eigen::Index>(b.size());
-  std::array<MatrixXd, 3> m{MatrixXd::Zero(K, K), MatrixXd::Zero(K, K), MatrixXd::Zero(K, K)};
-  for (Eigen::Index k = 0; k < K; ++k) {
-    const BlockInterval& x = b[static_cast<std::size_t>(k)];
-    // white: the mean of white noise over the block
-    m[0](k, k) = 1.0 / x.duration_s;
-    // bounded velocity: (v_{k+1} - v_k) / T_k with independent unit boundary values
-    m[1](k, k) = 2.0 / (x.duration_s * x.duration_s);
-    if (k + 1 < K) {
-      const double c = -1.0 / (x.duration_s * b[static_cast<std::size_t>(k) + 1].duration_s);
-      m[1](k, k + 1) = m[1](k + 1, k) = c;
-    }
-    // random walk from 0 at the span's start: block means of a unit Wiener process; the earlier
-    // block's mean time for two blocks, start + T/3 for one block with itself.
-    m[2](k, k) = x.start_s + x.duration_s / 3.0;
-    for (Eigen::Index l = k + 1; l < K; ++l)
-      m[2](k, l) = m[2](l, k) = x.start_s + 0.5 * x.duration_s;
-  }
-  return m;
-}
 
 // Restricted log-likelihood of r for the covariance V with the fixed part X; -inf where V is not
 // positive definite.
@@ -121,25 +98,80 @@ SensorWhiteNoise sensorWhiteNoise(std::span<const ImuSample> samples) {
   return out;
 }
 
-BlockResidualCovariance blockResidualCovariance(std::span<const BlockInterval> blocks,
+BlockStructures triangularBlockStructures(std::span<const BlockInterval> cells,
+                                          int cells_per_window) {
+  BlockStructures out;
+  const auto M = static_cast<Eigen::Index>(cells.size());
+  const Eigen::Index m = cells_per_window;
+  if (m < 1 || M % m != 0 || M / m < 5) return out;
+  for (const BlockInterval& c : cells)
+    if (!(c.duration_s > 0.0)) return out;
+  const Eigen::Index windows = M / m, K = windows - 1;
+  std::vector<double> w_start(static_cast<std::size_t>(windows)), w_len(w_start.size(), 0.0);
+  for (Eigen::Index j = 0; j < M; ++j) {
+    const auto w = static_cast<std::size_t>(j / m);
+    if (j % m == 0) w_start[w] = cells[static_cast<std::size_t>(j)].start_s;
+    w_len[w] += cells[static_cast<std::size_t>(j)].duration_s;
+  }
+  // Block k: (mean over window k+1 - mean over window k of the cumulative velocity) / spacing;
+  // a cell at time t in window k weighs (t - window start) / (len_k spacing), in window k+1
+  // (window end - t) / (len_{k+1} spacing), times its duration.
+  out.weights = MatrixXd::Zero(K, M);
+  out.t_s.resize(K);
+  VectorXd spacing(K);
+  for (Eigen::Index k = 0; k < K; ++k) {
+    const auto a = static_cast<std::size_t>(k), b = a + 1;
+    spacing(k) = 0.5 * (w_len[a] + w_len[b]);
+    for (Eigen::Index j = k * m; j < (k + 2) * m; ++j) {
+      const BlockInterval& c = cells[static_cast<std::size_t>(j)];
+      const double mid = c.start_s + 0.5 * c.duration_s;
+      const double ramp = j < (k + 1) * m ? (mid - w_start[a]) / w_len[a]
+                                          : (w_start[b] + w_len[b] - mid) / w_len[b];
+      out.weights(k, j) = ramp * c.duration_s / spacing(k);
+    }
+    out.weights.row(k) /= out.weights.row(k).sum();
+    out.t_s(k) = 0.0;  // the weighted mean time: exact for a linear signal
+    for (Eigen::Index j = k * m; j < (k + 2) * m; ++j) {
+      const BlockInterval& c = cells[static_cast<std::size_t>(j)];
+      out.t_s(k) += out.weights(k, j) * (c.start_s + 0.5 * c.duration_s);
+    }
+  }
+  // Cells: white noise' means (1 / duration), and a unit Wiener process' means from 0 at the
+  // span's start (the earlier cell's mid-time for two cells, start + duration / 3 for one).
+  VectorXd inv_len(M);
+  MatrixXd walk_cells(M, M);
+  for (Eigen::Index i = 0; i < M; ++i) {
+    const BlockInterval& c = cells[static_cast<std::size_t>(i)];
+    inv_len(i) = 1.0 / c.duration_s;
+    walk_cells(i, i) = c.start_s + c.duration_s / 3.0;
+    for (Eigen::Index j = i + 1; j < M; ++j)
+      walk_cells(i, j) = walk_cells(j, i) = c.start_s + 0.5 * c.duration_s;
+  }
+  out.white = out.weights * inv_len.asDiagonal() * out.weights.transpose();
+  out.walk = out.weights * walk_cells * out.weights.transpose();
+  // Independent unit window-mean velocities: block k = (v_{k+1} - v_k) / spacing_k.
+  out.bounded = MatrixXd::Zero(K, K);
+  for (Eigen::Index k = 0; k < K; ++k) {
+    out.bounded(k, k) = 2.0 / (spacing(k) * spacing(k));
+    if (k + 1 < K) out.bounded(k, k + 1) = out.bounded(k + 1, k) = -1.0 / (spacing(k) * spacing(k + 1));
+  }
+  out.ok = true;
+  return out;
+}
+
+BlockResidualCovariance blockResidualCovariance(const BlockStructures& st,
                                                 const VectorXd& residual, double white_intensity,
                                                 double walk_intensity) {
   BlockResidualCovariance out;
-  const auto K = static_cast<Eigen::Index>(blocks.size());
-  if (K < 4 || residual.size() != K) return out;
-  for (const BlockInterval& b : blocks)
-    if (!(b.duration_s > 0.0) || !(b.start_s >= 0.0)) return out;
-  std::array<MatrixXd, 3> m = structures(blocks);
+  const Eigen::Index K = st.t_s.size();
+  if (!st.ok || residual.size() != K) return out;
+  std::array<MatrixXd, 3> m{st.white, st.bounded, st.walk};
   const double floor_white = white_intensity * m[0].trace(), floor_walk = walk_intensity * m[2].trace();
   const MatrixXd floor = white_intensity * m[0] + walk_intensity * m[2];
   for (MatrixXd& x : m) x *= static_cast<double>(K) / x.trace();  // mean diagonal 1
   MatrixXd X(K, 2);
-  const double span = blocks.back().start_s + blocks.back().duration_s;
-  for (Eigen::Index k = 0; k < K; ++k) {
-    const BlockInterval& b = blocks[static_cast<std::size_t>(k)];
-    X(k, 0) = 1.0;
-    X(k, 1) = (b.start_s + 0.5 * b.duration_s) / span;
-  }
+  X.col(0).setOnes();
+  X.col(1) = st.t_s / st.t_s.maxCoeff();
   // Floor plus each process' variance x_i from {0} and a grid of powers of 10 of the residuals'
   // mean square, then a finer grid about the best.
   const double ms = residual.squaredNorm() / static_cast<double>(K);

@@ -22,13 +22,15 @@ InertialAlignmentResult fail(AlignmentStatus status, const std::string& message)
   return r;
 }
 
-// One block: the mean specific force in b0, its mid-time and its interval since the span's
-// start.
+// One block: the (weighted) mean specific force in b0 and its time since the span's start.
 struct Block {
   Vec3 u_b0 = Vec3::Zero();
   double t_s = 0.0;
-  BlockInterval interval;
 };
+
+// Cells per window (nav/alignment_uncertainty.h: a block weighs its two windows' cells by a
+// triangle): 8 make the triangle's steps an eighth of it.
+constexpr int kCellsPerWindow = 8;
 
 // Where gravity's reaction (0, 0, g) of the L frame at time t points in n0: turned with the
 // Earth about its axis e_L = (0, cos lat, sin lat) by W t.
@@ -37,19 +39,19 @@ Vec3 gravityInN0(double t_s, double latitude_rad, double g) {
   return Eigen::AngleAxisd(kEarthRate * t_s, e) * Vec3(0.0, 0.0, g);
 }
 
-// The gyro-tracked attitude against b0 and the block means of the specific force in b0.
+// The gyro-tracked attitude against b0 and the cell means of the specific force in b0.
 struct Tracked {
-  std::vector<Block> blocks;
+  std::vector<Vec3> cell_u_b0;
+  std::vector<BlockInterval> cells;
   Quat q_b_to_b0 = Quat::Identity();  // at the span's end
   double sway_peak_rad = 0.0;
 };
 
-Tracked track(std::span<const ImuSample> s, double t0, int n_blocks) {
+Tracked track(std::span<const ImuSample> s, double t0, int n_cells) {
   Tracked out;
   const double span = s.back().t - t0;
-  std::vector<Vec3> dv_sum(static_cast<std::size_t>(n_blocks), Vec3::Zero());
-  std::vector<double> dt_sum(dv_sum.size(), 0.0), t_sum(dv_sum.size(), 0.0),
-      start(dv_sum.size(), span);
+  std::vector<Vec3> dv_sum(static_cast<std::size_t>(n_cells), Vec3::Zero());
+  std::vector<double> dt_sum(dv_sum.size(), 0.0), start(dv_sum.size(), span);
   Quat q = Quat::Identity();
   double t_prev = t0;
   for (const ImuSample& x : s) {
@@ -59,17 +61,16 @@ Tracked track(std::span<const ImuSample> s, double t0, int n_blocks) {
     out.sway_peak_rad =
         std::max(out.sway_peak_rad, 2.0 * std::acos(std::min(1.0, std::abs(q.w()))));
     const auto k = static_cast<std::size_t>(
-        std::clamp(static_cast<int>((x.t - 0.5 * dt - t0) / span * n_blocks), 0, n_blocks - 1));
+        std::clamp(static_cast<int>((x.t - 0.5 * dt - t0) / span * n_cells), 0, n_cells - 1));
     dv_sum[k] += q_mid * x.dvel;
     dt_sum[k] += dt;
-    t_sum[k] += dt * (x.t - 0.5 * dt - t0);
     start[k] = std::min(start[k], t_prev - t0);
     t_prev = x.t;
   }
   for (std::size_t k = 0; k < dv_sum.size(); ++k) {
-    if (dt_sum[k] > 0.0)
-      out.blocks.push_back(
-          {dv_sum[k] / dt_sum[k], t_sum[k] / dt_sum[k], BlockInterval{start[k], dt_sum[k]}});
+    if (!(dt_sum[k] > 0.0)) continue;  // an empty cell: the caller refuses
+    out.cell_u_b0.push_back(dv_sum[k] / dt_sum[k]);
+    out.cells.push_back(BlockInterval{start[k], dt_sum[k]});
   }
   out.q_b_to_b0 = q;
   return out;
@@ -94,6 +95,9 @@ struct Fit {
   double latitude_rad = 0.0;
   Mat4 covariance = Mat4::Zero();
   Eigen::MatrixXd residual_n0;
+  // The ordinary least-squares fit's residuals: the misfit the refusal judges, whatever the
+  // weighting (a generalised fit may leave more where the covariance says the noise is).
+  Eigen::MatrixXd ols_residual_n0;
   bool determined = false;
 };
 
@@ -143,21 +147,17 @@ Fit gaussNewton(const std::vector<Block>& blocks, Fit fit, double g, bool free_l
 // and random walk on the floor the sensors' white noise sets: nav/alignment_uncertainty.h);
 // false when one cannot be formed. The accelerometers' noise is white on every axis; the gyros'
 // angle random walk tilts gravity, which moves the horizontal axes only.
-bool residualInformation(const std::vector<Block>& blocks, const Eigen::MatrixXd& residual_n0,
+bool residualInformation(const BlockStructures& st, const Eigen::MatrixXd& residual_n0,
                          const SensorWhiteNoise& noise, double g, AxisInfo* info_n0) {
-  std::vector<BlockInterval> intervals;
-  for (const Block& b : blocks) intervals.push_back(b.interval);
-  const auto K = static_cast<Eigen::Index>(blocks.size());
+  const Eigen::Index K = st.t_s.size();
   for (int i = 0; i < 3; ++i) {
     const double walk = i < 2 ? g * g * noise.gyro_rad2_per_s : 0.0;
     const BlockResidualCovariance c =
-        blockResidualCovariance(intervals, residual_n0.col(i), noise.accel_m2_per_s3, walk);
+        blockResidualCovariance(st, residual_n0.col(i), noise.accel_m2_per_s3, walk);
     if (!c.ok) return false;
     // A floor far below any sensor's noise keeps exact data's covariance invertible.
-    const Eigen::MatrixXd cov =
-        c.covariance + 1e-24 * Eigen::MatrixXd::Identity(K, K);
-    (*info_n0)[static_cast<std::size_t>(i)] =
-        cov.llt().solve(Eigen::MatrixXd::Identity(K, K));
+    const Eigen::MatrixXd cov = c.covariance + 1e-24 * Eigen::MatrixXd::Identity(K, K);
+    (*info_n0)[static_cast<std::size_t>(i)] = cov.llt().solve(Eigen::MatrixXd::Identity(K, K));
   }
   return true;
 }
@@ -165,20 +165,45 @@ bool residualInformation(const std::vector<Block>& blocks, const Eigen::MatrixXd
 // The fit by ordinary least squares, then twice: the residuals' covariance over the blocks
 // estimated from what the fit leaves, and the generalised least-squares fit with it, so the
 // estimate is the efficient one and its covariance its own.
-Fit weightedFit(const std::vector<Block>& blocks, const SensorWhiteNoise& noise, Fit start,
-                double g, bool free_latitude, int iterations) {
+Fit weightedFit(const std::vector<Block>& blocks, const BlockStructures& st,
+                const SensorWhiteNoise& noise, Fit start, double g, bool free_latitude,
+                int iterations) {
   const auto K = static_cast<Eigen::Index>(blocks.size());
   AxisInfo info;
   info.fill(Eigen::MatrixXd::Identity(K, K));
   Fit fit = gaussNewton(blocks, start, g, free_latitude, iterations, info);
+  const Eigen::MatrixXd ols_residual_n0 = fit.residual_n0;
   for (int round = 0; round < 2 && fit.determined; ++round) {
-    if (!residualInformation(blocks, fit.residual_n0, noise, g, &info)) {
+    if (!residualInformation(st, fit.residual_n0, noise, g, &info)) {
       fit.determined = false;
       break;
     }
     fit = gaussNewton(blocks, fit, g, free_latitude, iterations, info);
   }
+  fit.ols_residual_n0 = ols_residual_n0;
   return fit;
+}
+
+// The blocks (nav/alignment_uncertainty.h: triangular weightings of two windows' cells) and
+// their noise structures; structures.ok false when a cell is empty.
+struct Blocks {
+  std::vector<Block> blocks;
+  BlockStructures structures;
+};
+
+Blocks blocksOf(const Tracked& tr, int n_cells) {
+  Blocks out;
+  if (static_cast<int>(tr.cells.size()) != n_cells) return out;
+  out.structures = triangularBlockStructures(tr.cells, kCellsPerWindow);
+  if (!out.structures.ok) return out;
+  for (Eigen::Index k = 0; k < out.structures.t_s.size(); ++k) {
+    Block b;
+    for (Eigen::Index j = 0; j < out.structures.weights.cols(); ++j)
+      b.u_b0 += out.structures.weights(k, j) * tr.cell_u_b0[static_cast<std::size_t>(j)];
+    b.t_s = out.structures.t_s(k);
+    out.blocks.push_back(b);
+  }
+  return out;
 }
 
 }  // namespace
@@ -201,8 +226,9 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
                                       const InertialAlignmentOptions& o) {
   std::string why;
   if (!o.IsValid(&why)) return fail(AlignmentStatus::kInvalidOptions, why);
-  if (s.size() < static_cast<std::size_t>(2 * o.blocks))
-    return fail(AlignmentStatus::kTooShort, "fewer than two samples per block");
+  const int n_cells = (o.blocks + 1) * kCellsPerWindow;
+  if (s.size() < static_cast<std::size_t>(2 * n_cells))
+    return fail(AlignmentStatus::kTooShort, "fewer than two samples per block's cell");
   for (std::size_t i = 1; i < s.size(); ++i)
     if (!(s[i].t > s[i - 1].t))
       return fail(AlignmentStatus::kBadTimestamps, "time stamps not increasing");
@@ -220,28 +246,30 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
     return fail(AlignmentStatus::kHeadingUnobservable,
                 "near the pole gravity turns about itself: no heading");
   const double g = siteGravity(site);
-  const Tracked tr = track(s, t0, o.blocks);
-  if (tr.blocks.size() < 4) return fail(AlignmentStatus::kTooShort, "fewer than 4 blocks");
+  const Tracked tr = track(s, t0, n_cells);
+  const Blocks bl = blocksOf(tr, n_cells);
+  if (!bl.structures.ok)
+    return fail(AlignmentStatus::kBadTimestamps, "a gap in the time stamps leaves a block empty");
   InertialAlignmentResult r;
   r.duration_s = duration;
   r.samples = static_cast<int>(s.size());
-  r.blocks = static_cast<int>(tr.blocks.size());
+  r.blocks = static_cast<int>(bl.blocks.size());
   r.sway_peak_rad = tr.sway_peak_rad;
-  const Block &first = tr.blocks.front(), &last = tr.blocks.back();
+  const Block &first = bl.blocks.front(), &last = bl.blocks.back();
   const double cos_turn =
       std::clamp(first.u_b0.normalized().dot(last.u_b0.normalized()), -1.0, 1.0);
   r.gravity_turn_rate_radps = std::acos(cos_turn) / (last.t_s - first.t_s);
   double norm_sum = 0.0;
-  for (const Block& b : tr.blocks) norm_sum += b.u_b0.norm();
-  r.accel_bias_up_mps2 = norm_sum / static_cast<double>(tr.blocks.size()) - g;
+  for (const Block& b : bl.blocks) norm_sum += b.u_b0.norm();
+  r.accel_bias_up_mps2 = norm_sum / static_cast<double>(bl.blocks.size()) - g;
 
   Fit fit;
   fit.latitude_rad = site.latitude_rad;
-  fit.C_b0_n0 = wahba(tr.blocks, site.latitude_rad, g);
+  fit.C_b0_n0 = wahba(bl.blocks, site.latitude_rad, g);
   const SensorWhiteNoise noise = sensorWhiteNoise(s);
-  fit = weightedFit(tr.blocks, noise, fit, g, false, o.iterations);
+  fit = weightedFit(bl.blocks, bl.structures, noise, fit, g, false, o.iterations);
   r.residual_rms_rad =
-      fit.residual_n0.norm() / std::sqrt(static_cast<double>(tr.blocks.size())) / g;
+      fit.ols_residual_n0.norm() / std::sqrt(static_cast<double>(bl.blocks.size())) / g;
   const double earth_turn = kEarthRate * std::abs(std::cos(site.latitude_rad));
   if (!fit.determined || r.residual_rms_rad > o.max_residual_rad) {
     std::snprintf(
@@ -269,7 +297,7 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
           .toRotationMatrix();
   r.q_BtoL_end =
       Quat(C_n0_L_end.transpose() * C_LB_start * tr.q_b_to_b0.toRotationMatrix()).normalized();
-  const Fit lat_fit = weightedFit(tr.blocks, noise, fit, g, true, o.iterations);
+  const Fit lat_fit = weightedFit(bl.blocks, bl.structures, noise, fit, g, true, o.iterations);
   r.implied_latitude_rad = lat_fit.determined ? lat_fit.latitude_rad : std::nan("");
   r.sigma_implied_latitude_rad =
       lat_fit.determined ? std::sqrt(lat_fit.covariance(3, 3)) : std::nan("");

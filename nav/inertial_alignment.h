@@ -64,7 +64,7 @@ struct InertialAlignmentResult {
   Quat q_BtoL_end = Quat::Identity();  // attitude at the span's last sample
   double duration_s = 0.0;
   int samples = 0;
-  int blocks = 0;
+  int blocks = 20;
   // 1-sigma about the start frame's axes (from the fit's residual scatter).
   double sigma_tilt_rad = 0.0;             // the larger of East and North
   double sigma_heading_rad = 0.0;          // about Up
