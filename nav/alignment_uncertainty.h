@@ -51,8 +51,10 @@ AlignmentUncertainty alignmentUncertainty(std::span<const ImuSample> samples, co
 //    through them is worse known than their scatter says.
 // The sensors' white noise is measured from the samples themselves (sensorWhiteNoise): it sets
 // a floor of white and random walk that the residuals cannot talk down; on top of it the sizes
-// of all three come from the residuals (restricted maximum likelihood, the residuals' own fixed
-// part a constant and a slope in time).
+// of the white and bounded processes come from the residuals (restricted maximum likelihood,
+// the residuals' own fixed part a constant and a slope in time). The random walk is the gyros'
+// alone: a gyro whose noise is not white (flicker, a bias that wanders over the span) is not in
+// it; a constant East gyro bias is stated apart (heading_rad_per_gyro_bias).
 struct BlockInterval {
   double start_s = 0.0;     // since the span's start
   double duration_s = 0.0;  // > 0

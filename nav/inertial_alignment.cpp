@@ -85,26 +85,22 @@ Mat3 wahba(const std::vector<Block>& blocks, double latitude_rad, double g) {
   return svd.matrixU() * Eigen::DiagonalMatrix<double, 3>(1.0, 1.0, d) * svd.matrixV().transpose();
 }
 
-// Generalised least squares by Gauss-Newton on (rotation in n0, latitude): C = C_hat
-// exp([phi x]); free_latitude false holds the latitude (3 parameters). The residuals along each
-// axis of n0 (East, North, Up) are weighted by the inverse of their covariance over the blocks,
-// info_n0[i] (identity: ordinary least squares); then (J^T info J)^-1 is the estimate's
-// covariance. residual_n0: the residuals, one column per n0 axis.
+// Least squares by Gauss-Newton on (rotation in n0, latitude): C = C_hat exp([phi x]);
+// free_latitude false holds the latitude (3 parameters). residual_n0: the residuals, one column
+// per n0 axis (East, North, Up), J_n0 their derivatives; the covariance is set by the caller.
 struct Fit {
   Mat3 C_b0_n0 = Mat3::Identity();
   double latitude_rad = 0.0;
   Mat4 covariance = Mat4::Zero();
   Eigen::MatrixXd residual_n0;
-  // The ordinary least-squares fit's residuals: the misfit the refusal judges, whatever the
-  // weighting (a generalised fit may leave more where the covariance says the noise is).
-  Eigen::MatrixXd ols_residual_n0;
+  std::array<Eigen::MatrixXd, 3> J_n0;  // d residual / d parameters, per n0 axis (K x 4)
   bool determined = false;
 };
 
-using AxisInfo = std::array<Eigen::MatrixXd, 3>;
+using AxisMatrices = std::array<Eigen::MatrixXd, 3>;
 
 Fit gaussNewton(const std::vector<Block>& blocks, Fit fit, double g, bool free_latitude,
-                int iterations, const AxisInfo& info_n0) {
+                int iterations) {
   const int n = free_latitude ? 4 : 3;
   const auto K = static_cast<Eigen::Index>(blocks.size());
   for (int it = 0; it <= iterations; ++it) {
@@ -122,20 +118,17 @@ Fit gaussNewton(const std::vector<Block>& blocks, Fit fit, double g, bool free_l
       Jk.col(3) = (gravityInN0(b.t_s, fit.latitude_rad + kH, g) - a) / kH;
       for (int i = 0; i < 3; ++i) J[static_cast<std::size_t>(i)].row(k) = Jk.row(i);
     }
+    fit.J_n0 = J;
     Mat4 JtJ = Mat4::Zero();
     Vec4 Jtr = Vec4::Zero();
     for (std::size_t i = 0; i < 3; ++i) {
-      const Eigen::MatrixXd JtI = J[i].transpose() * info_n0[i];
-      JtJ += JtI * J[i];
-      Jtr += JtI * fit.residual_n0.col(static_cast<Eigen::Index>(i));
+      JtJ += J[i].transpose() * J[i];
+      Jtr += J[i].transpose() * fit.residual_n0.col(static_cast<Eigen::Index>(i));
     }
     const Eigen::MatrixXd N = JtJ.topLeftCorner(n, n);
     Eigen::FullPivLU<Eigen::MatrixXd> lu(N);
     fit.determined = lu.rank() == n;
-    if (!fit.determined) return fit;
-    fit.covariance = Mat4::Zero();
-    fit.covariance.topLeftCorner(n, n) = lu.inverse();
-    if (it == iterations) break;
+    if (!fit.determined || it == iterations) return fit;
     const Eigen::VectorXd dx = lu.solve(Jtr.head(n));
     fit.C_b0_n0 = fit.C_b0_n0 * quatFromRotationVector(dx.head<3>()).toRotationMatrix();
     if (free_latitude) fit.latitude_rad += dx(3);
@@ -147,8 +140,8 @@ Fit gaussNewton(const std::vector<Block>& blocks, Fit fit, double g, bool free_l
 // and random walk on the floor the sensors' white noise sets: nav/alignment_uncertainty.h);
 // false when one cannot be formed. The accelerometers' noise is white on every axis; the gyros'
 // angle random walk tilts gravity, which moves the horizontal axes only.
-bool residualInformation(const BlockStructures& st, const Eigen::MatrixXd& residual_n0,
-                         const SensorWhiteNoise& noise, double g, AxisInfo* info_n0) {
+bool residualCovariances(const BlockStructures& st, const Eigen::MatrixXd& residual_n0,
+                         const SensorWhiteNoise& noise, double g, AxisMatrices* cov_n0) {
   const Eigen::Index K = st.t_s.size();
   for (int i = 0; i < 3; ++i) {
     const double walk = i < 2 ? g * g * noise.gyro_rad2_per_s : 0.0;
@@ -156,31 +149,34 @@ bool residualInformation(const BlockStructures& st, const Eigen::MatrixXd& resid
         blockResidualCovariance(st, residual_n0.col(i), noise.accel_m2_per_s3, walk);
     if (!c.ok) return false;
     // A floor far below any sensor's noise keeps exact data's covariance invertible.
-    const Eigen::MatrixXd cov = c.covariance + 1e-24 * Eigen::MatrixXd::Identity(K, K);
-    (*info_n0)[static_cast<std::size_t>(i)] = cov.llt().solve(Eigen::MatrixXd::Identity(K, K));
+    (*cov_n0)[static_cast<std::size_t>(i)] =
+        c.covariance + 1e-24 * Eigen::MatrixXd::Identity(K, K);
   }
   return true;
 }
 
-// The fit by ordinary least squares, then twice: the residuals' covariance over the blocks
-// estimated from what the fit leaves, and the generalised least-squares fit with it, so the
-// estimate is the efficient one and its covariance its own.
-Fit weightedFit(const std::vector<Block>& blocks, const BlockStructures& st,
-                const SensorWhiteNoise& noise, Fit start, double g, bool free_latitude,
-                int iterations) {
-  const auto K = static_cast<Eigen::Index>(blocks.size());
-  AxisInfo info;
-  info.fill(Eigen::MatrixXd::Identity(K, K));
-  Fit fit = gaussNewton(blocks, start, g, free_latitude, iterations, info);
-  const Eigen::MatrixXd ols_residual_n0 = fit.residual_n0;
-  for (int round = 0; round < 2 && fit.determined; ++round) {
-    if (!residualInformation(st, fit.residual_n0, noise, g, &info)) {
-      fit.determined = false;
-      break;
-    }
-    fit = gaussNewton(blocks, fit, g, free_latitude, iterations, info);
+// The fit by ordinary least squares (robust: it leans on no assumed correlation), its
+// covariance the sandwich N^-1 (sum J_i^T S_i J_i) N^-1 with the residuals' covariance S_i over
+// the blocks per n0 axis estimated from what the fit leaves.
+Fit fitWithCovariance(const std::vector<Block>& blocks, const BlockStructures& st,
+                      const SensorWhiteNoise& noise, Fit start, double g, bool free_latitude,
+                      int iterations) {
+  Fit fit = gaussNewton(blocks, start, g, free_latitude, iterations);
+  AxisMatrices cov;
+  if (!fit.determined || !residualCovariances(st, fit.residual_n0, noise, g, &cov)) {
+    fit.determined = false;
+    return fit;
   }
-  fit.ols_residual_n0 = ols_residual_n0;
+  const int n = free_latitude ? 4 : 3;
+  Eigen::MatrixXd N = Eigen::MatrixXd::Zero(n, n), M = Eigen::MatrixXd::Zero(n, n);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const Eigen::MatrixXd J = fit.J_n0[i].leftCols(n);
+    N += J.transpose() * J;
+    M += J.transpose() * cov[i] * J;
+  }
+  const Eigen::MatrixXd N_inv = N.inverse();
+  fit.covariance = Mat4::Zero();
+  fit.covariance.topLeftCorner(n, n) = N_inv * M * N_inv;
   return fit;
 }
 
@@ -267,9 +263,9 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
   fit.latitude_rad = site.latitude_rad;
   fit.C_b0_n0 = wahba(bl.blocks, site.latitude_rad, g);
   const SensorWhiteNoise noise = sensorWhiteNoise(s);
-  fit = weightedFit(bl.blocks, bl.structures, noise, fit, g, false, o.iterations);
+  fit = fitWithCovariance(bl.blocks, bl.structures, noise, fit, g, false, o.iterations);
   r.residual_rms_rad =
-      fit.ols_residual_n0.norm() / std::sqrt(static_cast<double>(bl.blocks.size())) / g;
+      fit.residual_n0.norm() / std::sqrt(static_cast<double>(bl.blocks.size())) / g;
   const double earth_turn = kEarthRate * std::abs(std::cos(site.latitude_rad));
   if (!fit.determined || r.residual_rms_rad > o.max_residual_rad) {
     std::snprintf(
@@ -297,7 +293,7 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
           .toRotationMatrix();
   r.q_BtoL_end =
       Quat(C_n0_L_end.transpose() * C_LB_start * tr.q_b_to_b0.toRotationMatrix()).normalized();
-  const Fit lat_fit = weightedFit(bl.blocks, bl.structures, noise, fit, g, true, o.iterations);
+  const Fit lat_fit = fitWithCovariance(bl.blocks, bl.structures, noise, fit, g, true, o.iterations);
   r.implied_latitude_rad = lat_fit.determined ? lat_fit.latitude_rad : std::nan("");
   r.sigma_implied_latitude_rad =
       lat_fit.determined ? std::sqrt(lat_fit.covariance(3, 3)) : std::nan("");
