@@ -89,7 +89,6 @@ AlignmentUncertainty alignmentUncertainty(std::span<const ImuSample> samples, co
   return u;
 }
 
-
 SensorWhiteNoise sensorWhiteNoise(std::span<const ImuSample> samples) {
   SensorWhiteNoise out;
   if (samples.size() < 5) return out;
@@ -153,20 +152,21 @@ BlockStructures triangularBlockStructures(std::span<const BlockInterval> cells,
   out.bounded = MatrixXd::Zero(K, K);
   for (Eigen::Index k = 0; k < K; ++k) {
     out.bounded(k, k) = 2.0 / (spacing(k) * spacing(k));
-    if (k + 1 < K) out.bounded(k, k + 1) = out.bounded(k + 1, k) = -1.0 / (spacing(k) * spacing(k + 1));
+    if (k + 1 < K)
+      out.bounded(k, k + 1) = out.bounded(k + 1, k) = -1.0 / (spacing(k) * spacing(k + 1));
   }
   out.ok = true;
   return out;
 }
 
-BlockResidualCovariance blockResidualCovariance(const BlockStructures& st,
-                                                const VectorXd& residual, double white_intensity,
-                                                double walk_intensity) {
+BlockResidualCovariance blockResidualCovariance(const BlockStructures& st, const VectorXd& residual,
+                                                double white_intensity, double walk_intensity) {
   BlockResidualCovariance out;
   const Eigen::Index K = st.t_s.size();
   if (!st.ok || residual.size() != K) return out;
   std::array<MatrixXd, 3> m{st.white, st.bounded, st.walk};
-  const double floor_white = white_intensity * m[0].trace(), floor_walk = walk_intensity * m[2].trace();
+  const double floor_white = white_intensity * m[0].trace(),
+               floor_walk = walk_intensity * m[2].trace();
   const MatrixXd floor = white_intensity * m[0] + walk_intensity * m[2];
   for (MatrixXd& x : m) x *= static_cast<double>(K) / x.trace();  // mean diagonal 1
   MatrixXd X(K, 2);

@@ -149,8 +149,7 @@ bool residualCovariances(const BlockStructures& st, const Eigen::MatrixXd& resid
         blockResidualCovariance(st, residual_n0.col(i), noise.accel_m2_per_s3, walk);
     if (!c.ok) return false;
     // A floor far below any sensor's noise keeps exact data's covariance invertible.
-    (*cov_n0)[static_cast<std::size_t>(i)] =
-        c.covariance + 1e-24 * Eigen::MatrixXd::Identity(K, K);
+    (*cov_n0)[static_cast<std::size_t>(i)] = c.covariance + 1e-24 * Eigen::MatrixXd::Identity(K, K);
   }
   return true;
 }
@@ -293,7 +292,8 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
           .toRotationMatrix();
   r.q_BtoL_end =
       Quat(C_n0_L_end.transpose() * C_LB_start * tr.q_b_to_b0.toRotationMatrix()).normalized();
-  const Fit lat_fit = fitWithCovariance(bl.blocks, bl.structures, noise, fit, g, true, o.iterations);
+  const Fit lat_fit =
+      fitWithCovariance(bl.blocks, bl.structures, noise, fit, g, true, o.iterations);
   r.implied_latitude_rad = lat_fit.determined ? lat_fit.latitude_rad : std::nan("");
   r.sigma_implied_latitude_rad =
       lat_fit.determined ? std::sqrt(lat_fit.covariance(3, 3)) : std::nan("");

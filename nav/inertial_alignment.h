@@ -28,9 +28,9 @@
 // gravity in b0 by a walking angle; the sensors' noise measured from the samples, the sway's
 // size from the residuals). A gyro bias turns b0 against inertial space like the Earth does: its
 // East component b_E adds b_E / (W cos lat) rad of heading that no span can see (stated, as for
-// the static alignment). Refused with the reason: too short, the residuals too large for a point at rest on average (the IMU
-// translates, or its gyro bias turns gravity far faster than the Earth: a consumer MEMS gyro cannot
-// gyrocompass), the heading unobservable (polar site).
+// the static alignment). Refused with the reason: too short, the residuals too large for a point at
+// rest on average (the IMU translates, or its gyro bias turns gravity far faster than the Earth: a
+// consumer MEMS gyro cannot gyrocompass), the heading unobservable (polar site).
 #pragma once
 
 #include <span>

@@ -152,9 +152,21 @@ ImuSamples swaySamples(const SwayTruth& truth, std::mt19937& rng) {
 TEST(InertialAlign, StatedHeadingSigmaMatchesTheScatterOverSeeds) {
   const std::array<SwayCase, 3> cases{{
       {"static", 40.0, 63.0, 200.0, {0, 0, 0}, {1, 1, 1}, {0, 0, 0}, {1, 1, 1}},
-      {"ship", 55.0, 301.0, 240.0, {5.0, 2.0, 1.0}, {10.7, 7.9, 13.3}, {0.1, 0.25, 0.6},
+      {"ship",
+       55.0,
+       301.0,
+       240.0,
+       {5.0, 2.0, 1.0},
+       {10.7, 7.9, 13.3},
+       {0.1, 0.25, 0.6},
        {11.1, 9.7, 7.3}},
-      {"vehicle", -20.0, 160.0, 150.0, {1.2, 0.8, 0.4}, {1.1, 1.7, 2.9}, {0.1, 0.1, 1.2},
+      {"vehicle",
+       -20.0,
+       160.0,
+       150.0,
+       {1.2, 0.8, 0.4},
+       {1.1, 1.7, 2.9},
+       {0.1, 0.1, 1.2},
        {3.1, 2.3, 0.7}},
   }};
   for (const SwayCase& c : cases) {
