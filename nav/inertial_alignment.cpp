@@ -201,6 +201,18 @@ Blocks blocksOf(const Tracked& tr, int n_cells) {
   return out;
 }
 
+// The rate at which gravity turned in b0 between the first and last block, and the mean |u_k|
+// less site gravity.
+void blockStatistics(const std::vector<Block>& blocks, double g, InertialAlignmentResult* r) {
+  const Block &first = blocks.front(), &last = blocks.back();
+  const double cos_turn =
+      std::clamp(first.u_b0.normalized().dot(last.u_b0.normalized()), -1.0, 1.0);
+  r->gravity_turn_rate_radps = std::acos(cos_turn) / (last.t_s - first.t_s);
+  double norm_sum = 0.0;
+  for (const Block& b : blocks) norm_sum += b.u_b0.norm();
+  r->accel_bias_up_mps2 = norm_sum / static_cast<double>(blocks.size()) - g;
+}
+
 }  // namespace
 
 bool InertialAlignmentOptions::IsValid(std::string* why) const {
@@ -250,13 +262,7 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
   r.samples = static_cast<int>(s.size());
   r.blocks = static_cast<int>(bl.blocks.size());
   r.sway_peak_rad = tr.sway_peak_rad;
-  const Block &first = bl.blocks.front(), &last = bl.blocks.back();
-  const double cos_turn =
-      std::clamp(first.u_b0.normalized().dot(last.u_b0.normalized()), -1.0, 1.0);
-  r.gravity_turn_rate_radps = std::acos(cos_turn) / (last.t_s - first.t_s);
-  double norm_sum = 0.0;
-  for (const Block& b : bl.blocks) norm_sum += b.u_b0.norm();
-  r.accel_bias_up_mps2 = norm_sum / static_cast<double>(bl.blocks.size()) - g;
+  blockStatistics(bl.blocks, g, &r);
 
   Fit fit;
   fit.latitude_rad = site.latitude_rad;
