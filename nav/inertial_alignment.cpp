@@ -2,9 +2,12 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <vector>
+
+#include "nav/alignment_uncertainty.h"
 
 namespace imubench::nav {
 namespace {
@@ -19,11 +22,15 @@ InertialAlignmentResult fail(AlignmentStatus status, const std::string& message)
   return r;
 }
 
-// One block: the mean specific force in b0 and its mid-time since the span's start.
+// One block: the (weighted) mean specific force in b0 and its time since the span's start.
 struct Block {
   Vec3 u_b0 = Vec3::Zero();
   double t_s = 0.0;
 };
+
+// Cells per window (nav/alignment_uncertainty.h: a block weighs its two windows' cells by a
+// triangle): 8 make the triangle's steps an eighth of it.
+constexpr int kCellsPerWindow = 8;
 
 // Where gravity's reaction (0, 0, g) of the L frame at time t points in n0: turned with the
 // Earth about its axis e_L = (0, cos lat, sin lat) by W t.
@@ -32,18 +39,19 @@ Vec3 gravityInN0(double t_s, double latitude_rad, double g) {
   return Eigen::AngleAxisd(kEarthRate * t_s, e) * Vec3(0.0, 0.0, g);
 }
 
-// The gyro-tracked attitude against b0 and the block means of the specific force in b0.
+// The gyro-tracked attitude against b0 and the cell means of the specific force in b0.
 struct Tracked {
-  std::vector<Block> blocks;
+  std::vector<Vec3> cell_u_b0;
+  std::vector<BlockInterval> cells;
   Quat q_b_to_b0 = Quat::Identity();  // at the span's end
   double sway_peak_rad = 0.0;
 };
 
-Tracked track(std::span<const ImuSample> s, double t0, int n_blocks) {
+Tracked track(std::span<const ImuSample> s, double t0, int n_cells) {
   Tracked out;
   const double span = s.back().t - t0;
-  std::vector<Vec3> dv_sum(static_cast<std::size_t>(n_blocks), Vec3::Zero());
-  std::vector<double> dt_sum(dv_sum.size(), 0.0), t_sum(dv_sum.size(), 0.0);
+  std::vector<Vec3> dv_sum(static_cast<std::size_t>(n_cells), Vec3::Zero());
+  std::vector<double> dt_sum(dv_sum.size(), 0.0), start(dv_sum.size(), span);
   Quat q = Quat::Identity();
   double t_prev = t0;
   for (const ImuSample& x : s) {
@@ -53,14 +61,16 @@ Tracked track(std::span<const ImuSample> s, double t0, int n_blocks) {
     out.sway_peak_rad =
         std::max(out.sway_peak_rad, 2.0 * std::acos(std::min(1.0, std::abs(q.w()))));
     const auto k = static_cast<std::size_t>(
-        std::clamp(static_cast<int>((x.t - 0.5 * dt - t0) / span * n_blocks), 0, n_blocks - 1));
+        std::clamp(static_cast<int>((x.t - 0.5 * dt - t0) / span * n_cells), 0, n_cells - 1));
     dv_sum[k] += q_mid * x.dvel;
     dt_sum[k] += dt;
-    t_sum[k] += dt * (x.t - 0.5 * dt - t0);
+    start[k] = std::min(start[k], t_prev - t0);
     t_prev = x.t;
   }
   for (std::size_t k = 0; k < dv_sum.size(); ++k) {
-    if (dt_sum[k] > 0.0) out.blocks.push_back({dv_sum[k] / dt_sum[k], t_sum[k] / dt_sum[k]});
+    if (!(dt_sum[k] > 0.0)) continue;  // an empty cell: the caller refuses
+    out.cell_u_b0.push_back(dv_sum[k] / dt_sum[k]);
+    out.cells.push_back(BlockInterval{start[k], dt_sum[k]});
   }
   out.q_b_to_b0 = q;
   return out;
@@ -75,45 +85,50 @@ Mat3 wahba(const std::vector<Block>& blocks, double latitude_rad, double g) {
   return svd.matrixU() * Eigen::DiagonalMatrix<double, 3>(1.0, 1.0, d) * svd.matrixV().transpose();
 }
 
-// Weighted Gauss-Newton on (rotation in n0, latitude): C = C_hat exp([phi x]); free_latitude
-// false holds the latitude (3 parameters). The residuals are weighted per axis of n0 (East,
-// North, Up: a ship's heave disturbs Up far more than the horizontal axes, which carry the
-// heading) by weight_n0 (inverse variances; then the covariance (J^T W J)^-1 is the estimate's).
-// ss_n0: the residual sums of squares per n0 axis.
+// Least squares by Gauss-Newton on (rotation in n0, latitude): C = C_hat exp([phi x]);
+// free_latitude false holds the latitude (3 parameters). residual_n0: the residuals, one column
+// per n0 axis (East, North, Up), J_n0 their derivatives; the covariance is set by the caller.
 struct Fit {
   Mat3 C_b0_n0 = Mat3::Identity();
   double latitude_rad = 0.0;
   Mat4 covariance = Mat4::Zero();
-  Vec3 ss_n0 = Vec3::Zero();
+  Eigen::MatrixXd residual_n0;
+  std::array<Eigen::MatrixXd, 3> J_n0;  // d residual / d parameters, per n0 axis (K x 4)
   bool determined = false;
 };
 
+using AxisMatrices = std::array<Eigen::MatrixXd, 3>;
+
 Fit gaussNewton(const std::vector<Block>& blocks, Fit fit, double g, bool free_latitude,
-                int iterations, const Vec3& weight_n0) {
+                int iterations) {
   const int n = free_latitude ? 4 : 3;
+  const auto K = static_cast<Eigen::Index>(blocks.size());
   for (int it = 0; it <= iterations; ++it) {
+    std::array<Eigen::MatrixXd, 3> J;
+    J.fill(Eigen::MatrixXd::Zero(K, 4));
+    fit.residual_n0.setZero(K, 3);
+    const Mat3 C_n0_b0 = fit.C_b0_n0.transpose();
+    for (Eigen::Index k = 0; k < K; ++k) {
+      const Block& b = blocks[static_cast<std::size_t>(k)];
+      const Vec3 a = gravityInN0(b.t_s, fit.latitude_rad, g);
+      fit.residual_n0.row(k) = (C_n0_b0 * (b.u_b0 - fit.C_b0_n0 * a)).transpose();
+      Eigen::Matrix<double, 3, 4> Jk;
+      Jk.leftCols<3>() = -skew(a);  // d(C exp([phi x]) a)/dphi = -C [a x], resolved in n0
+      constexpr double kH = 1e-6;
+      Jk.col(3) = (gravityInN0(b.t_s, fit.latitude_rad + kH, g) - a) / kH;
+      for (int i = 0; i < 3; ++i) J[static_cast<std::size_t>(i)].row(k) = Jk.row(i);
+    }
+    fit.J_n0 = J;
     Mat4 JtJ = Mat4::Zero();
     Vec4 Jtr = Vec4::Zero();
-    fit.ss_n0 = Vec3::Zero();
-    const Mat3 C_n0_b0 = fit.C_b0_n0.transpose();
-    for (const Block& b : blocks) {
-      const Vec3 a = gravityInN0(b.t_s, fit.latitude_rad, g);
-      const Vec3 r = C_n0_b0 * (b.u_b0 - fit.C_b0_n0 * a);  // residual resolved in n0
-      Eigen::Matrix<double, 3, 4> J = Eigen::Matrix<double, 3, 4>::Zero();
-      J.leftCols<3>() = -skew(a);  // d(C exp([phi x]) a)/dphi = -C [a x], resolved in n0
-      constexpr double kH = 1e-6;
-      J.col(3) = (gravityInN0(b.t_s, fit.latitude_rad + kH, g) - a) / kH;
-      JtJ += J.transpose() * weight_n0.asDiagonal() * J;
-      Jtr += J.transpose() * weight_n0.asDiagonal() * r;
-      fit.ss_n0 += r.cwiseProduct(r);
+    for (std::size_t i = 0; i < 3; ++i) {
+      JtJ += J[i].transpose() * J[i];
+      Jtr += J[i].transpose() * fit.residual_n0.col(static_cast<Eigen::Index>(i));
     }
     const Eigen::MatrixXd N = JtJ.topLeftCorner(n, n);
     Eigen::FullPivLU<Eigen::MatrixXd> lu(N);
     fit.determined = lu.rank() == n;
-    if (!fit.determined) return fit;
-    fit.covariance = Mat4::Zero();
-    fit.covariance.topLeftCorner(n, n) = lu.inverse();
-    if (it == iterations) break;
+    if (!fit.determined || it == iterations) return fit;
     const Eigen::VectorXd dx = lu.solve(Jtr.head(n));
     fit.C_b0_n0 = fit.C_b0_n0 * quatFromRotationVector(dx.head<3>()).toRotationMatrix();
     if (free_latitude) fit.latitude_rad += dx(3);
@@ -121,17 +136,81 @@ Fit gaussNewton(const std::vector<Block>& blocks, Fit fit, double g, bool free_l
   return fit;
 }
 
-// The fit, then refitted with the per-axis residual variances it leaves as weights (their
-// degrees of freedom: blocks less a third of the parameters per axis), so the covariance is
-// the estimate's own.
-Fit weightedFit(const std::vector<Block>& blocks, Fit start, double g, bool free_latitude,
-                int iterations) {
-  const Fit first = gaussNewton(blocks, start, g, free_latitude, iterations, Vec3::Ones());
-  if (!first.determined) return first;
-  const double dof = static_cast<double>(blocks.size()) - (free_latitude ? 4.0 : 3.0) / 3.0;
-  Vec3 w;
-  for (int i = 0; i < 3; ++i) w(i) = 1.0 / std::max(first.ss_n0(i) / dof, 1e-30);
-  return gaussNewton(blocks, first, g, free_latitude, iterations, w);
+// The inverse covariance of each n0 axis' residuals over the blocks (white, bounded velocity
+// and random walk on the floor the sensors' white noise sets: nav/alignment_uncertainty.h);
+// false when one cannot be formed. The accelerometers' noise is white on every axis; the gyros'
+// angle random walk tilts gravity, which moves the horizontal axes only.
+bool residualCovariances(const BlockStructures& st, const Eigen::MatrixXd& residual_n0,
+                         const SensorWhiteNoise& noise, double g, AxisMatrices* cov_n0) {
+  const Eigen::Index K = st.t_s.size();
+  for (int i = 0; i < 3; ++i) {
+    const double walk = i < 2 ? g * g * noise.gyro_rad2_per_s : 0.0;
+    const BlockResidualCovariance c =
+        blockResidualCovariance(st, residual_n0.col(i), noise.accel_m2_per_s3, walk);
+    if (!c.ok) return false;
+    // A floor far below any sensor's noise keeps exact data's covariance invertible.
+    (*cov_n0)[static_cast<std::size_t>(i)] = c.covariance + 1e-24 * Eigen::MatrixXd::Identity(K, K);
+  }
+  return true;
+}
+
+// The fit by ordinary least squares (robust: it leans on no assumed correlation), its
+// covariance the sandwich N^-1 (sum J_i^T S_i J_i) N^-1 with the residuals' covariance S_i over
+// the blocks per n0 axis estimated from what the fit leaves.
+Fit fitWithCovariance(const std::vector<Block>& blocks, const BlockStructures& st,
+                      const SensorWhiteNoise& noise, Fit start, double g, bool free_latitude,
+                      int iterations) {
+  Fit fit = gaussNewton(blocks, start, g, free_latitude, iterations);
+  AxisMatrices cov;
+  if (!fit.determined || !residualCovariances(st, fit.residual_n0, noise, g, &cov)) {
+    fit.determined = false;
+    return fit;
+  }
+  const int n = free_latitude ? 4 : 3;
+  Eigen::MatrixXd N = Eigen::MatrixXd::Zero(n, n), M = Eigen::MatrixXd::Zero(n, n);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const Eigen::MatrixXd J = fit.J_n0[i].leftCols(n);
+    N += J.transpose() * J;
+    M += J.transpose() * cov[i] * J;
+  }
+  const Eigen::MatrixXd N_inv = N.inverse();
+  fit.covariance = Mat4::Zero();
+  fit.covariance.topLeftCorner(n, n) = N_inv * M * N_inv;
+  return fit;
+}
+
+// The blocks (nav/alignment_uncertainty.h: triangular weightings of two windows' cells) and
+// their noise structures; structures.ok false when a cell is empty.
+struct Blocks {
+  std::vector<Block> blocks;
+  BlockStructures structures;
+};
+
+Blocks blocksOf(const Tracked& tr, int n_cells) {
+  Blocks out;
+  if (static_cast<int>(tr.cells.size()) != n_cells) return out;
+  out.structures = triangularBlockStructures(tr.cells, kCellsPerWindow);
+  if (!out.structures.ok) return out;
+  for (Eigen::Index k = 0; k < out.structures.t_s.size(); ++k) {
+    Block b;
+    for (Eigen::Index j = 0; j < out.structures.weights.cols(); ++j)
+      b.u_b0 += out.structures.weights(k, j) * tr.cell_u_b0[static_cast<std::size_t>(j)];
+    b.t_s = out.structures.t_s(k);
+    out.blocks.push_back(b);
+  }
+  return out;
+}
+
+// The rate at which gravity turned in b0 between the first and last block, and the mean |u_k|
+// less site gravity.
+void blockStatistics(const std::vector<Block>& blocks, double g, InertialAlignmentResult* r) {
+  const Block &first = blocks.front(), &last = blocks.back();
+  const double cos_turn =
+      std::clamp(first.u_b0.normalized().dot(last.u_b0.normalized()), -1.0, 1.0);
+  r->gravity_turn_rate_radps = std::acos(cos_turn) / (last.t_s - first.t_s);
+  double norm_sum = 0.0;
+  for (const Block& b : blocks) norm_sum += b.u_b0.norm();
+  r->accel_bias_up_mps2 = norm_sum / static_cast<double>(blocks.size()) - g;
 }
 
 }  // namespace
@@ -154,8 +233,9 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
                                       const InertialAlignmentOptions& o) {
   std::string why;
   if (!o.IsValid(&why)) return fail(AlignmentStatus::kInvalidOptions, why);
-  if (s.size() < static_cast<std::size_t>(2 * o.blocks))
-    return fail(AlignmentStatus::kTooShort, "fewer than two samples per block");
+  const int n_cells = (o.blocks + 1) * kCellsPerWindow;
+  if (s.size() < static_cast<std::size_t>(2 * n_cells))
+    return fail(AlignmentStatus::kTooShort, "fewer than two samples per block's cell");
   for (std::size_t i = 1; i < s.size(); ++i)
     if (!(s[i].t > s[i - 1].t))
       return fail(AlignmentStatus::kBadTimestamps, "time stamps not increasing");
@@ -173,26 +253,24 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
     return fail(AlignmentStatus::kHeadingUnobservable,
                 "near the pole gravity turns about itself: no heading");
   const double g = siteGravity(site);
-  const Tracked tr = track(s, t0, o.blocks);
-  if (tr.blocks.size() < 4) return fail(AlignmentStatus::kTooShort, "fewer than 4 blocks");
+  const Tracked tr = track(s, t0, n_cells);
+  const Blocks bl = blocksOf(tr, n_cells);
+  if (!bl.structures.ok)
+    return fail(AlignmentStatus::kBadTimestamps, "a gap in the time stamps leaves a block empty");
   InertialAlignmentResult r;
   r.duration_s = duration;
   r.samples = static_cast<int>(s.size());
-  r.blocks = static_cast<int>(tr.blocks.size());
+  r.blocks = static_cast<int>(bl.blocks.size());
   r.sway_peak_rad = tr.sway_peak_rad;
-  const Block &first = tr.blocks.front(), &last = tr.blocks.back();
-  const double cos_turn =
-      std::clamp(first.u_b0.normalized().dot(last.u_b0.normalized()), -1.0, 1.0);
-  r.gravity_turn_rate_radps = std::acos(cos_turn) / (last.t_s - first.t_s);
-  double norm_sum = 0.0;
-  for (const Block& b : tr.blocks) norm_sum += b.u_b0.norm();
-  r.accel_bias_up_mps2 = norm_sum / static_cast<double>(tr.blocks.size()) - g;
+  blockStatistics(bl.blocks, g, &r);
 
   Fit fit;
   fit.latitude_rad = site.latitude_rad;
-  fit.C_b0_n0 = wahba(tr.blocks, site.latitude_rad, g);
-  fit = weightedFit(tr.blocks, fit, g, false, o.iterations);
-  r.residual_rms_rad = std::sqrt(fit.ss_n0.sum() / static_cast<double>(tr.blocks.size())) / g;
+  fit.C_b0_n0 = wahba(bl.blocks, site.latitude_rad, g);
+  const SensorWhiteNoise noise = sensorWhiteNoise(s);
+  fit = fitWithCovariance(bl.blocks, bl.structures, noise, fit, g, false, o.iterations);
+  r.residual_rms_rad =
+      fit.residual_n0.norm() / std::sqrt(static_cast<double>(bl.blocks.size())) / g;
   const double earth_turn = kEarthRate * std::abs(std::cos(site.latitude_rad));
   if (!fit.determined || r.residual_rms_rad > o.max_residual_rad) {
     std::snprintf(
@@ -220,7 +298,8 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
           .toRotationMatrix();
   r.q_BtoL_end =
       Quat(C_n0_L_end.transpose() * C_LB_start * tr.q_b_to_b0.toRotationMatrix()).normalized();
-  const Fit lat_fit = weightedFit(tr.blocks, fit, g, true, o.iterations);
+  const Fit lat_fit =
+      fitWithCovariance(bl.blocks, bl.structures, noise, fit, g, true, o.iterations);
   r.implied_latitude_rad = lat_fit.determined ? lat_fit.latitude_rad : std::nan("");
   r.sigma_implied_latitude_rad =
       lat_fit.determined ? std::sqrt(lat_fit.covariance(3, 3)) : std::nan("");

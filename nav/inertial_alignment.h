@@ -16,14 +16,21 @@
 // Gauss-Newton; its heading comes from the direction in which gravity turns (W cos lat), as a
 // static gyrocompass' heading comes from the horizontal Earth rate.
 //
-// Uncertainty: the 4x4 covariance of (rotation in n0, latitude), (J^T W J)^-1, the fit weighted
-// per axis of n0 by the residual variance it leaves there (heave disturbs Up, not the
-// horizontal axes that carry the heading; what the averaging leaves of the sway is in it). A gyro
-// bias turns b0 against inertial space like the Earth does: its East component b_E adds b_E / (W
-// cos lat) rad of heading that no span can see (stated, as for the static alignment). Refused with
-// the reason: too short, the residuals too large for a point at rest on average (the IMU
-// translates, or its gyro bias turns gravity far faster than the Earth: a consumer MEMS gyro cannot
-// gyrocompass), the heading unobservable (polar site).
+// Blocks: the span is cut into windows; a block is the mean over the next window less the mean
+// over this one of the cumulative velocity in b0, over their spacing (a triangular weighting of
+// the specific force): a sway's surge and heave leave only the change of a window-mean velocity,
+// and a sway much faster than a window is averaged out instead of aliased in.
+//
+// Uncertainty: the fit is ordinary least squares, its 4x4 covariance of (rotation in n0,
+// latitude) the sandwich N^-1 (J^T S J) N^-1 with S the covariance of the blocks' residuals over
+// the blocks per n0 axis (nav/alignment_uncertainty.h: white noise, the bounded velocity a sway
+// leaves, whose changes telescope over the span, and the gyros' angle random walk, which tilts
+// gravity in b0 by a walking angle; the sensors' noise measured from the samples, the sway's
+// size from the residuals). A gyro bias turns b0 against inertial space like the Earth does: its
+// East component b_E adds b_E / (W cos lat) rad of heading that no span can see (stated, as for
+// the static alignment). Refused with the reason: too short, the residuals too large for a point at
+// rest on average (the IMU translates, or its gyro bias turns gravity far faster than the Earth: a
+// consumer MEMS gyro cannot gyrocompass), the heading unobservable (polar site).
 #pragma once
 
 #include <span>
@@ -37,9 +44,9 @@
 namespace imubench::nav {
 
 struct InertialAlignmentOptions {
-  // Blocks the span is cut into: each averages the sway's remaining lever-arm accelerations
-  // (a sway period of 10 s leaves less than a period's velocity change per block) and gives
-  // one gravity vector in b0; 20 leaves 16 degrees of freedom for the residual scatter.
+  // Blocks (one per boundary of blocks + 1 windows): each gives one gravity vector in b0; 20
+  // leave 18 degrees of freedom for the residuals' covariance and windows of 3 to 15 s over
+  // 60 to 300 s, long against a vehicle's sway, a few periods of a ship's.
   int blocks = 20;
   // Shortest span: a block must hold a few sway periods (ships sway at 5..20 s).
   double min_duration_s = 60.0;
@@ -64,8 +71,8 @@ struct InertialAlignmentResult {
   Quat q_BtoL_end = Quat::Identity();  // attitude at the span's last sample
   double duration_s = 0.0;
   int samples = 0;
-  int blocks = 0;
-  // 1-sigma about the start frame's axes (from the fit's residual scatter).
+  int blocks = 20;
+  // 1-sigma about the start frame's axes (sensor noise and the sway the residuals show).
   double sigma_tilt_rad = 0.0;             // the larger of East and North
   double sigma_heading_rad = 0.0;          // about Up
   double heading_rad_per_gyro_bias = 0.0;  // 1 / (W cos lat)

@@ -165,9 +165,9 @@ def main():
             continue
         err = (float(m.group(1)) - heading_of(C_of_t(0.0)) / DEG + 180) % 360 - 180
         sigma = float(s.group(2))
-        # The stated sigma treats each block's left-over sway velocity change as independent
-        # (conservative: a periodic disturbance's changes cancel over the span): a heading,
-        # not a guess, is what is asked of it (sigma under 15 deg).
+        # The stated sigma models the sway's left-over velocity changes as telescoping over the
+        # span (and the gyros' random walk as correlated): honest here, a heading and not a guess
+        # (sigma under 15 deg); its calibration over many seeds is the nav unit test's.
         check("%s: heading error %.4f deg within 3 sigma %.4f (sigma < 15 deg)"
               % (name, err, 3 * sigma), abs(err) <= 3 * sigma and 0 < sigma < 15.0, out)
         lat_m = re.search(r"latitude the Earth rate implies: (-?[\d.]+) \+- ([\d.]+) deg", out)
