@@ -71,12 +71,13 @@ Vec3 axisInBody(const TableModel& nominal, const TableAngles& a, int axis) {
   st.middle.angle = a.middle;
   st.inner.angle = a.inner;
   const TableKind kind = nominal.geometry().kind;
-  if (axis == 0)
+  if (axis == 0) {
     st.outer.rate = 1.0;
-  else if (kind == TableKind::kThreeAxis && axis == 1)
+  } else if (kind == TableKind::kThreeAxis && axis == 1) {
     st.middle.rate = 1.0;
-  else
+  } else {
     st.inner.rate = 1.0;
+  }
   return nominal.kinematics(st).w_LB_B;
 }
 
@@ -267,9 +268,11 @@ Eigen::Matrix4d jointCovariance(const Eigen::MatrixXd& X, const Eigen::VectorXd&
   const double dof = std::max<double>(1.0, static_cast<double>(X.rows() - svd.rank()));
   Eigen::Matrix4d cov = Eigen::Matrix4d::Zero();
   const Eigen::VectorXd sv = svd.singularValues();
-  for (Eigen::Index k = 0; k < sv.size(); ++k)
-    if (sv(k) > 1e-10 * sv(0))
+  for (Eigen::Index k = 0; k < sv.size(); ++k) {
+    if (sv(k) > 1e-10 * sv(0)) {
       cov += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (sv(k) * sv(k));
+    }
+  }
   return cov * (r.squaredNorm() / dof);
 }
 
@@ -280,9 +283,11 @@ const model::MisalignmentEntry& misEntry(int row, int col) {
 }
 std::vector<std::string> axisNames(const std::string& triad, int i) {
   std::vector<std::string> names;
-  for (int c = 0; c < 3; ++c)
+  names.reserve(4);
+  for (int c = 0; c < 3; ++c) {
     names.push_back(c == i ? triad + ".scale." + kAxis[static_cast<std::size_t>(i)]
                            : triad + ".misalignment." + misEntry(i, c).name);
+  }
   names.push_back(triad + ".bias." + kAxis[static_cast<std::size_t>(i)]);
   return names;
 }
@@ -314,10 +319,11 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
     if (pairwise && axisPairs(rows, i, &d.up, &d.down)) {
       f = fitAxisPairs(d, kind);
     } else {
-      if (pairwise)
+      if (pairwise) {
         notes->push_back(triad + " axis " + kAxis[static_cast<std::size_t>(i)] +
                          ": no axis-up/axis-down pair of positions, joint least squares "
                          "(table errors may leak into its scale and bias)");
+      }
       Eigen::JacobiSVD<Eigen::MatrixXd> svd0(X, Eigen::ComputeThinU | Eigen::ComputeThinV);
       svd0.setThreshold(1e-10);
       f.beta = svd0.solve(y);
@@ -345,9 +351,10 @@ void fitTriad(const Rows& rows, TriadKind kind, bool pairwise, const std::string
       }
     }
     report->setSigma(names[kOffsetCol], std::sqrt(cov(kOffsetCol, kOffsetCol)) / std::abs(s));
-    for (const NullDirection& nd : ia.null_directions)
+    for (const NullDirection& nd : ia.null_directions) {
       notes->push_back(triad + " axis " + kAxis[static_cast<std::size_t>(i)] +
                        ": the positions cannot separate " + nd.description);
+    }
     for (std::size_t k = 0; k < names.size(); ++k)
       if (!ia.observable[k]) report->setUnobservable(names[k]);
   }

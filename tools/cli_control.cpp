@@ -221,7 +221,7 @@ void applyEvent(WatchState& s, const json& event, std::vector<std::string>* note
     std::string line =
         "results of run " + (has_run ? std::to_string(event["run"].get<std::int64_t>()) : "?");
     const json pass = event.value("pass", json());
-    const std::string verdict = pass.is_boolean()              ? (pass.get<bool>() ? "PASS" : "FAIL")
+    const std::string verdict = pass.is_boolean() ? (pass.get<bool>() ? "PASS" : "FAIL")
                                 : !event.value("usable", true) ? "no verdict (the fit is unusable)"
                                                                : "no verdict";
     line += event.value("calibrated", false) ? ": calibrated, " + verdict : ": calibration failed";
@@ -462,7 +462,7 @@ void subscribeForWatch(ControlClient& c, const ControlOptions& o) {
 
 // ---- start ----
 // The daemon's default max_line_bytes (daemon/control_server.h): a longer request is refused.
-constexpr std::size_t kMaxRequestBytes = 64 * 1024;
+constexpr std::size_t kMaxRequestBytes = std::size_t{64} * 1024;
 
 // The plan file's text, read with the operator's rights: regular files only (a FIFO or device
 // would hang the command), bounded by what one request can carry.
