@@ -84,9 +84,10 @@ bool readString(const json& obj, std::string_view key, std::string_view where, b
     if (required) return fail(err, ErrorCode::kBadArgument, joinPath(where, key) + ": missing");
     return true;
   }
-  if (!it->is_string())
+  if (!it->is_string()) {
     return fail(err, ErrorCode::kBadArgument,
                 joinPath(where, key) + ": must be a string, got " + it->type_name());
+  }
   *out = it->get<std::string>();
   // A NUL (\u0000) would silently cut the string short in every C API it reaches.
   if (out->find('\0') != std::string::npos)
@@ -106,9 +107,10 @@ bool readAbsolutePath(const json& obj, std::string_view key, std::string_view wh
                       std::string* out, ProtocolError* err) {
   if (!readNonEmptyString(obj, key, where, required, out, err)) return false;
   // The daemon's working directory is not the client's: a relative path would mislead.
-  if (obj.contains(key) && out->front() != '/')
+  if (obj.contains(key) && out->front() != '/') {
     return fail(err, ErrorCode::kBadArgument,
                 joinPath(where, key) + ": must be an absolute path, got " + quote(*out));
+  }
   return true;
 }
 
@@ -116,9 +118,10 @@ bool readBool(const json& obj, std::string_view key, std::string_view where, boo
               ProtocolError* err) {
   const auto it = obj.find(key);
   if (it == obj.end()) return true;
-  if (!it->is_boolean())
+  if (!it->is_boolean()) {
     return fail(err, ErrorCode::kBadArgument,
                 joinPath(where, key) + ": must be true or false, got " + it->type_name());
+  }
   *out = it->get<bool>();
   return true;
 }
@@ -133,9 +136,10 @@ bool readPositive(const json& obj, std::string_view key, bool required, std::str
     return true;
   }
   const std::string where(key);
-  if (!it->is_number_integer())
+  if (!it->is_number_integer()) {
     return fail(err, ErrorCode::kBadArgument,
                 where + ": must be an integer " + std::string(noun) + ", got " + shown(*it));
+  }
   if (it->is_number_unsigned() &&
       it->get<std::uint64_t>() > std::uint64_t{std::numeric_limits<std::int64_t>::max()})
     return fail(err, ErrorCode::kBadArgument, where + ": out of range");
@@ -153,25 +157,28 @@ bool readRunId(const json& obj, std::string_view key, bool required,
 bool readPlan(const json& obj, PlanSource* out, ProtocolError* err) {
   const auto it = obj.find("plan");
   if (it == obj.end()) return fail(err, ErrorCode::kBadArgument, "plan: missing");
-  if (!it->is_object())
+  if (!it->is_object()) {
     return fail(err, ErrorCode::kBadArgument,
                 std::string("plan: must be an object {\"path\":...} or {\"toml\":...}, got ") +
                     it->type_name());
+  }
   if (!refuseUnknownFields(*it, {"path", "toml", "name"}, "plan", "plan", err)) return false;
   const bool has_path = it->contains("path");
   if (has_path == it->contains("toml"))
     return fail(err, ErrorCode::kBadArgument, "plan: needs exactly one of \"path\" or \"toml\"");
   out->kind = has_path ? PlanSource::Kind::kPath : PlanSource::Kind::kInline;
   if (has_path) {
-    if (it->contains("name"))
+    if (it->contains("name")) {
       return fail(err, ErrorCode::kBadArgument,
                   "plan.name: only with \"toml\" (a path names the plan itself)");
+    }
     return readAbsolutePath(*it, "path", "plan", true, &out->text, err);
   }
   if (!readNonEmptyString(*it, "name", "plan", false, &out->name, err)) return false;
-  if (out->name.size() > kMaxPlanNameBytes)
+  if (out->name.size() > kMaxPlanNameBytes) {
     return fail(err, ErrorCode::kBadArgument,
                 "plan.name: longer than " + std::to_string(kMaxPlanNameBytes) + " bytes");
+  }
   return readNonEmptyString(*it, "toml", "plan", true, &out->text, err);
 }
 
@@ -199,21 +206,24 @@ bool readExportName(const json& obj, std::string* out, ProtocolError* err) {
 bool readStartOptions(const json& obj, StartOptions* out, ProtocolError* err) {
   const auto it = obj.find("options");
   if (it == obj.end()) return true;
-  if (!it->is_object())
+  if (!it->is_object()) {
     return fail(err, ErrorCode::kBadArgument,
                 std::string("options: must be an object, got ") + it->type_name());
+  }
   if (!refuseUnknownFields(*it, {"dry_run", "label", "out_dir", "queue"}, "options", "options",
                            err))
     return false;
   if (!readBool(*it, "dry_run", "options", &out->dry_run, err)) return false;
   if (!readBool(*it, "queue", "options", &out->queue, err)) return false;
-  if (out->queue && out->dry_run)
+  if (out->queue && out->dry_run) {
     return fail(err, ErrorCode::kBadArgument,
                 "options.queue: not with dry_run (a dry run only validates; use validate_plan)");
+  }
   if (!readString(*it, "label", "options", false, &out->label, err)) return false;
-  if (out->label.size() > kMaxLabelBytes)
+  if (out->label.size() > kMaxLabelBytes) {
     return fail(err, ErrorCode::kBadArgument,
                 "options.label: longer than " + std::to_string(kMaxLabelBytes) + " bytes");
+  }
   return readAbsolutePath(*it, "out_dir", "options", false, &out->out_dir, err);
 }
 
@@ -223,22 +233,25 @@ bool readTopics(const json& obj, bool required, std::vector<Topic>* out, Protoco
     if (required) return fail(err, ErrorCode::kBadArgument, "topics: missing");
     return true;
   }
-  if (!it->is_array() || it->empty())
+  if (!it->is_array() || it->empty()) {
     return fail(err, ErrorCode::kBadArgument,
                 "topics: must be a non-empty array of topic names (" + topicList() + ")");
+  }
   for (std::size_t i = 0; i < it->size(); ++i) {
     const std::string where = "topics[" + std::to_string(i) + "]";
     const json& v = (*it)[i];
     if (!v.is_string())
       return fail(err, ErrorCode::kBadArgument, where + ": must be a string, got " + v.type_name());
     const auto topic = topicFromName(v.get<std::string>());
-    if (!topic)
+    if (!topic) {
       return fail(err, ErrorCode::kBadArgument,
                   where + ": unknown topic " + quote(v.get<std::string>()) +
                       " (known: " + topicList() + ")");
-    if (std::find(out->begin(), out->end(), *topic) != out->end())
+    }
+    if (std::find(out->begin(), out->end(), *topic) != out->end()) {
       return fail(err, ErrorCode::kBadArgument,
                   where + ": duplicate topic " + quote(topicName(*topic)));
+    }
     out->push_back(*topic);
   }
   return true;
@@ -252,9 +265,10 @@ namespace control_protocol_internal {
 bool readId(const json& obj, json* id, ProtocolError* err) {
   const auto it = obj.find("id");
   if (it == obj.end()) return true;
-  if (!it->is_string() && !it->is_number_integer())
+  if (!it->is_string() && !it->is_number_integer()) {
     return fail(err, ErrorCode::kBadArgument,
                 std::string("id: must be a string or an integer, got ") + it->type_name());
+  }
   *id = *it;
   return true;
 }
@@ -262,9 +276,10 @@ bool readId(const json& obj, json* id, ProtocolError* err) {
 bool readCommandName(const json& obj, Command* out, ProtocolError* err) {
   const auto it = obj.find("cmd");
   if (it == obj.end()) return fail(err, ErrorCode::kBadArgument, "cmd: missing");
-  if (!it->is_string())
+  if (!it->is_string()) {
     return fail(err, ErrorCode::kBadArgument,
                 std::string("cmd: must be a string, got ") + it->type_name());
+  }
   const std::string name = it->get<std::string>();
   if (const auto c = io::valueOf(kCommands, name)) {
     *out = *c;
@@ -319,10 +334,11 @@ bool readArgs(const json& obj, Command c, RequestArgs* out, ProtocolError* err) 
       if (!refuseUnknownFields(obj, {"id", "cmd", "topics"}, "", owner, err)) return false;
       std::vector<Topic> topics;
       if (!readTopics(obj, c == Command::kSubscribe, &topics, err)) return false;
-      if (c == Command::kSubscribe)
+      if (c == Command::kSubscribe) {
         *out = SubscribeArgs{std::move(topics)};
-      else
+      } else {
         *out = UnsubscribeArgs{std::move(topics)};
+      }
       return true;
     }
     case Command::kValidatePlan: {

@@ -25,8 +25,8 @@ namespace {
 
 // Per wake-up, a client's bytes are read in slices of kReadChunk up to kReadPerTurn: a flooding
 // client is served again next turn (level-triggered) after the others had theirs.
-constexpr std::size_t kReadChunk = 16 * 1024;
-constexpr std::size_t kReadPerTurn = 256 * 1024;
+constexpr std::size_t kReadChunk = std::size_t{16} * 1024;
+constexpr std::size_t kReadPerTurn = std::size_t{256} * 1024;
 
 // What a client in a reserved slot may send: enough to stop the bench and see that it stopped.
 bool reservedCommand(Command c) {
@@ -61,6 +61,7 @@ void ControlServer::serveClient(ClientId id, std::uint32_t events) {
 }
 
 void ControlServer::readFrom(ClientId id) {
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): read() fills what it uses
   std::array<char, kReadChunk> buf;
   for (std::size_t total = 0; total < kReadPerTurn;) {
     auto it = clients_.find(id);
@@ -88,10 +89,11 @@ void ControlServer::readFrom(ClientId id) {
     }
     it = clients_.find(id);
     if (it == clients_.end()) return;
-    if (finished(*it->second))
+    if (finished(*it->second)) {
       closeClient(id, "disconnected");
-    else
+    } else {
       updateInterest(*it->second);
+    }
     return;
   }
 }
@@ -142,18 +144,20 @@ void ControlServer::handleLine(ClientId id, std::string_view line) {
 }
 
 std::optional<Reply> ControlServer::answer(Client& c, const Request& request) {
-  if (c.stop_only && request.command != Command::kStop)
+  if (c.stop_only && request.command != Command::kStop) {
     return errorReply(request.id, ErrorCode::kBadArgument,
                       "the stop socket takes only {\"cmd\":\"stop\"} (everything else: the "
                       "control socket " +
                           options_.socket_path + ")");
+  }
   if (c.stop_only)
     log(LogLevel::kNotice, "emergency stop through the stop socket" + peerText(c.peer));
-  if (c.reserved && !reservedCommand(request.command))
+  if (c.reserved && !reservedCommand(request.command)) {
     return errorReply(request.id, ErrorCode::kBusy,
                       "all " + std::to_string(options_.max_clients) +
                           " client slots are taken; this connection is in a reserved slot and "
                           "takes only stop, status and ping");
+  }
   if (policy_) {
     if (auto refused = policy_(request.command, c.peer)) {
       ++stats_.forbidden;
@@ -172,9 +176,10 @@ std::optional<Reply> ControlServer::answer(Client& c, const Request& request) {
       if (!on && topics.empty()) c.topics.reset();
       for (const Topic t : topics) c.topics.set(static_cast<std::size_t>(t), on);
       TopicsReply now;
-      for (int t = 0; t < kTopicCount; ++t)
+      for (int t = 0; t < kTopicCount; ++t) {
         if (c.topics.test(static_cast<std::size_t>(t)))
           now.topics.emplace_back(topicName(Topic(t)));
+      }
       return okReply(request.id, toJson(now));
     }
     default:
@@ -217,9 +222,10 @@ bool ControlServer::send(ClientId client, std::string_view line) {
 void ControlServer::broadcast(Topic topic, std::string_view name, const nlohmann::json& fields) {
   const std::string line = serializeEvent(topic, name, fields);
   std::vector<ClientId> overflowed;
-  for (auto& [id, c] : clients_)
+  for (auto& [id, c] : clients_) {
     if (c->topics.test(static_cast<std::size_t>(topic)) && !enqueue(*c, line))
       overflowed.push_back(id);
+  }
   for (const ClientId id : overflowed) {
     ++stats_.overflow_disconnects;
     closeClient(id, "output queue overflow (client does not read)");
