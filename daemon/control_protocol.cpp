@@ -140,12 +140,13 @@ int nestingDepth(std::string_view line, int limit) {
   bool escaped = false;
   for (const char ch : line) {
     if (in_string) {
-      if (escaped)
+      if (escaped) {
         escaped = false;
-      else if (ch == '\\')
+      } else if (ch == '\\') {
         escaped = true;
-      else if (ch == '"')
+      } else if (ch == '"') {
         in_string = false;
+      }
       continue;
     }
     if (ch == '"') {
@@ -249,10 +250,11 @@ std::string dumpLine(const json& j) {
 
 std::string serializeReply(const Reply& reply) {
   json j = {{"id", reply.id}, {"ok", reply.ok}};
-  if (reply.ok)
+  if (reply.ok) {
     j["result"] = reply.result;
-  else
+  } else {
     j["error"] = {{"code", errorCodeName(reply.error.code)}, {"message", reply.error.message}};
+  }
   return dumpLine(j);
 }
 
