@@ -21,8 +21,12 @@ namespace imubench::daemon {
 
 namespace control_server_internal {
 
+// strerror_r (GNU: returns the text), not strerror: the daemon's off-loop threads may share
+// strerror's buffer.
 std::string errnoText(const std::string& what) {
-  return what + ": " + std::strerror(errno);
+  const int err = errno;
+  char buf[256];
+  return what + ": " + ::strerror_r(err, buf, sizeof buf);
 }
 
 std::string peerText(const PeerCredentials& peer) {
@@ -130,10 +134,9 @@ ControlServer::~ControlServer() {
 Status ControlServer::start() {
   std::string why;
   if (!options_.IsValid(&why)) return Status::Error("control server options: " + why);
-  const Status s =
-      options_.listen_fd >= 0
-          ? adoptListenFd()
-          : listenOnPath(options_.socket_path, options_.socket_mode, &listen_fd_, &bound_inode_);
+  Status s = options_.listen_fd >= 0 ? adoptListenFd()
+                                     : listenOnPath(options_.socket_path, options_.socket_mode,
+                                                    &listen_fd_, &bound_inode_);
   if (!s.ok) return s;
   bound_path_ = options_.listen_fd < 0;
   if (Status stop = startStopSocket(); !stop.ok) return stop;
@@ -141,7 +144,7 @@ Status ControlServer::start() {
     const double period =
         std::clamp(options_.idle_timeout_s / kIdleChecksPerTimeout, kMinIdleCheckS, kMaxIdleCheckS);
     const auto ns = std::chrono::nanoseconds(static_cast<std::int64_t>(period * 1e9));
-    const Status t = loop_->addTimer(
+    Status t = loop_->addTimer(
         ns, ns, [this] { closeIdleClients(); }, &idle_timer_);
     if (!t.ok) return t;
   }
@@ -212,10 +215,11 @@ void ControlServer::onListenReadable(int listen_fd, bool stop) {
   for (int i = 0; i < kAcceptsPerTurn; ++i) {
     const int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd >= 0) {
-      if (stop)
+      if (stop) {
         acceptStop(fd);
-      else
+      } else {
         acceptOne(fd);
+      }
       continue;
     }
     if (errno == EAGAIN || errno == EWOULDBLOCK) return;
@@ -308,9 +312,10 @@ void ControlServer::acceptOne(int fd) {
   const bool reserved = regular >= options_.max_clients;
   const bool privileged = peer_class.reserved_slots;
   if (reserved && (!privileged || reserved_held >= options_.reserved_clients)) {
-    if (!privileged)
+    if (!privileged) {
       log(LogLevel::kNotice, "control socket full; a connection" + peerText(peer) +
                                  " refused (reserved slots: root and the command group only)");
+    }
     refuseBusy(fd);
     return;
   }

@@ -192,10 +192,7 @@ bool RunnerOptions::IsValid(std::string* why) const {
 }
 
 PlanRunner::PlanRunner(std::vector<RunStep> steps, RunnerOptions options, BenchPort& port)
-    : steps_(std::move(steps)),
-      plan_limits_(planLimits(steps_)),
-      options_(std::move(options)),
-      port_(port) {}
+    : steps_(std::move(steps)), plan_limits_(planLimits(steps_)), options_(options), port_(port) {}
 
 drivers::MotionLimits PlanRunner::returnLimits(int axis) const {
   const auto a = static_cast<std::size_t>(axis);
