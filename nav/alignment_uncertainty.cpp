@@ -52,7 +52,7 @@ AlignmentUncertainty alignmentUncertainty(std::span<const ImuSample> samples, co
   // white noise the same sigma as the per-sample deviation / sqrt(N); for sway whose period is
   // short against a block it is what is left after averaging, not the sway's amplitude.
   constexpr int kBlocks = 10;
-  const int blocks = n >= 20 * kBlocks ? kBlocks : 2;
+  const int blocks = n >= std::size_t{20} * kBlocks ? kBlocks : 2;
   Vec3 sf = Vec3::Zero(), sw = Vec3::Zero();
   for (int b = 0; b < blocks; ++b) {
     const std::size_t k0 = n * static_cast<std::size_t>(b) / static_cast<std::size_t>(blocks);
@@ -194,14 +194,20 @@ BlockResidualCovariance blockResidualCovariance(const BlockStructures& st, const
       if (i == 2) continue;  // the random walk is the gyros' (measured), not the residuals'
       if (centre[i] < -98.0 && half < 1.0) continue;  // refining a process that is absent
       const double c = centre[i] < -98.0 ? 0.0 : centre[i];
-      for (double e = c - half; e <= c + half + 1e-9; e += step) grid[i].push_back(e);
+      const int steps = static_cast<int>(std::floor(2.0 * half / step + 1e-9));
+      for (int k = 0; k <= steps; ++k) grid[i].push_back(c - half + k * step);
     }
-    for (double e0 : grid[0])
-      for (double e1 : grid[1])
+    for (double e0 : grid[0]) {
+      for (double e1 : grid[1]) {
         for (double e2 : grid[2]) {
           const double l = reml(covariance({e0, e1, e2}), X, residual);
-          if (l > best) best = l, best_e = {e0, e1, e2};
+          if (l > best) {
+            best = l;
+            best_e = {e0, e1, e2};
+          }
         }
+      }
+    }
   };
   search({-2.0, -2.0, -2.0}, 3.0, 1.0);
   search(best_e, 0.5, 0.125);

@@ -158,7 +158,7 @@ bool residualCovariances(const BlockStructures& st, const Eigen::MatrixXd& resid
 // covariance the sandwich N^-1 (sum J_i^T S_i J_i) N^-1 with the residuals' covariance S_i over
 // the blocks per n0 axis estimated from what the fit leaves.
 Fit fitWithCovariance(const std::vector<Block>& blocks, const BlockStructures& st,
-                      const SensorWhiteNoise& noise, Fit start, double g, bool free_latitude,
+                      const SensorWhiteNoise& noise, const Fit& start, double g, bool free_latitude,
                       int iterations) {
   Fit fit = gaussNewton(blocks, start, g, free_latitude, iterations);
   AxisMatrices cov;
@@ -234,11 +234,14 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
   std::string why;
   if (!o.IsValid(&why)) return fail(AlignmentStatus::kInvalidOptions, why);
   const int n_cells = (o.blocks + 1) * kCellsPerWindow;
-  if (s.size() < static_cast<std::size_t>(2 * n_cells))
+  if (s.size() < 2 * static_cast<std::size_t>(n_cells)) {
     return fail(AlignmentStatus::kTooShort, "fewer than two samples per block's cell");
-  for (std::size_t i = 1; i < s.size(); ++i)
-    if (!(s[i].t > s[i - 1].t))
+  }
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    if (!(s[i].t > s[i - 1].t)) {
       return fail(AlignmentStatus::kBadTimestamps, "time stamps not increasing");
+    }
+  }
   const double t0 = s[0].t - (s[1].t - s[0].t);
   const double duration = s.back().t - t0;
   char buf[400];
@@ -249,9 +252,10 @@ InertialAlignmentResult inertialAlign(std::span<const ImuSample> s, const Site& 
                   duration, o.min_duration_s);
     return fail(AlignmentStatus::kTooShort, buf);
   }
-  if (std::abs(std::cos(site.latitude_rad)) < o.min_cos_latitude)
+  if (std::abs(std::cos(site.latitude_rad)) < o.min_cos_latitude) {
     return fail(AlignmentStatus::kHeadingUnobservable,
                 "near the pole gravity turns about itself: no heading");
+  }
   const double g = siteGravity(site);
   const Tracked tr = track(s, t0, n_cells);
   const Blocks bl = blocksOf(tr, n_cells);
