@@ -12,6 +12,7 @@
 #include "daemon/bench_daemon_internal.h"
 #include "daemon/follow_up.h"
 #include "daemon/thermal_points.h"
+#include "io/verdict.h"
 #include "plans/plan.h"
 
 namespace imubench::daemon {
@@ -175,11 +176,8 @@ void BenchDaemon::storeFinalCalibration(const OnlineSetup& setup, const FinalCal
     log_.warning(who + ": " + f.explain_error);
   }
   const json pass = f.verdict.value("pass", json());
-  const std::string verdict = pass.is_boolean() ? (pass.get<bool>() ? "PASS" : "FAIL")
-                              : !f.verdict.value("usable", true) ? "none (the fit is unusable)"
-                                                                 : "none";
-  log_.info(who + ": calibration " + (f.calibrated ? "done" : "FAILED") + ", verdict " + verdict +
-            " (IMU " + f.imu_serial + ")");
+  log_.info(who + ": calibration " + (f.calibrated ? "done" : "FAILED") + ", verdict " +
+            io::verdictWord(f.verdict) + " (IMU " + f.imu_serial + ")");
   server_->broadcast(Topic::kRun, "results",
                      {{"run", setup.run_id},
                       {"ok", true},

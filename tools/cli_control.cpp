@@ -48,6 +48,7 @@
 
 #include "daemon/control_protocol.h"
 #include "io/file_io.h"
+#include "io/verdict.h"
 #include "tools/cli_common.h"
 #include "tools/control_client.h"
 
@@ -220,11 +221,8 @@ void applyEvent(WatchState& s, const json& event, std::vector<std::string>* note
     const bool has_run = event.contains("run") && event["run"].is_number_integer();
     std::string line =
         "results of run " + (has_run ? std::to_string(event["run"].get<std::int64_t>()) : "?");
-    const json pass = event.value("pass", json());
-    const std::string verdict = pass.is_boolean() ? (pass.get<bool>() ? "PASS" : "FAIL")
-                                : !event.value("usable", true) ? "no verdict (the fit is unusable)"
-                                                               : "no verdict";
-    line += event.value("calibrated", false) ? ": calibrated, " + verdict : ": calibration failed";
+    line += event.value("calibrated", false) ? ": calibrated, " + io::verdictWord(event)
+                                             : ": calibration failed";
     notes->push_back(line + " (imubench results RUN)");
     // The end-of-plan missing-physics analysis (daemon/run_explain.h): its one-line summary,
     // or why it did not run.

@@ -36,6 +36,7 @@
 #include "calib/indirect/indirect_calibration.h"
 #include "calib/truth_comparison.h"
 #include "io/truth_file.h"
+#include "io/verdict.h"
 #include "nav/rotation.h"
 #include "tools/cli_common.h"
 #include "tools/cli_store.h"
@@ -91,14 +92,6 @@ std::string verdictText(const json& verdict) {
   const json pass = verdict.value("pass", json());
   if (!pass.is_boolean()) return "no verdict (" + verdict.value("why", std::string("-")) + ")";
   return pass.get<bool>() ? "PASS" : "FAIL";
-}
-
-// The history's one-word verdict: PASS, FAIL, or why there is none in a few words.
-std::string verdictShort(const json& verdict) {
-  const json pass = verdict.value("pass", json());
-  if (pass.is_boolean()) return pass.get<bool>() ? "PASS" : "FAIL";
-  if (!verdict.value("usable", true)) return "no verdict (fit unusable)";
-  return "no verdict";
 }
 
 void printVerdict(const json& verdict) {
@@ -472,7 +465,7 @@ void runHistory(const ResultsOptions& o) {
     if (lab) std::printf("%-16s  ", key.first.c_str());
     std::printf("%6lld  %10.1f  %-9s  %s\n", static_cast<long long>(key.second),
                 rs.back().temperature_c, method.c_str(),
-                k.count("verdict") ? verdictShort(k["verdict"]).c_str() : "(no verdict)");
+                k.count("verdict") ? io::verdictWord(k["verdict"]).c_str() : "(no verdict)");
   }
   for (const auto& [key, rs] : points) {
     for (const StoredResultRow& r : rs) {

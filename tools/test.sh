@@ -6,6 +6,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ./tools/install-deps.sh
 BUILD=${BUILD_DIR:-build}
+# The disk this run builds on (a full disk once failed a CI link: say how much there was).
+df -h . | awk 'NR == 2 {print "tools/test.sh: " $4 " free on " $6 " before the build"}'
 cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DIMUBENCH_WERROR=ON \
   -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_EXPORT_COMPILE_COMMANDS=ON
 cmake --build "$BUILD" -j "$(nproc)"

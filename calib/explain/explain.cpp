@@ -9,6 +9,7 @@
 #include <set>
 
 #include "calib/explain/explain_fit.h"
+#include "calib/explain/explain_revisit.h"
 #include "calib/indirect/indirect_calibration.h"
 #include "calib/recording_checks.h"
 
@@ -961,6 +962,8 @@ void finish(const ExplainProblem& p, const ExplainOptions& o, const Linearised& 
   res->located = locateWindows(*p.bins, before, p.model_sigma, p.noise, o, p.segments);
   res->unexplained = locateWindows(*p.bins, after, p.model_sigma, p.noise, o, p.segments);
   for (ExplainWindow& w : res->unexplained) w.reason += ": no effect of the library explains it";
+  nameRevisits(*p.bins, after, p.model_sigma, p.noise, o.unexplained_sigma, RevisitOptions{},
+               &res->unexplained);
   res->coefficients.values = fit.state.model;
   for (std::size_t j = 0; j < names.size(); ++j) {
     if (names[j].rfind("nuisance.", 0) == 0) continue;

@@ -31,8 +31,10 @@ Checked:
   3. imubench's report: its unexplained windows are all on accel.x and overlap only holds of
      the outlier's x-up level, one covers the outlier, its mean there is the independent
      misfit within 1 mm/s^2 (about one sigma of a 3.4 s hold's mean here) and lies between
-     zero and the level difference (where any weighted fit puts it), and every accepted effect
-     is a static term tested in 2 or one that does not act on the accelerometer.
+     zero and the level difference (where any weighted fit puts it), every accepted effect
+     is a static term tested in 2 or one that does not act on the accelerometer, and that
+     window's reason names a change with time at one attitude against a span that overlaps a
+     hold of the other x-up level (what 2 found: the same face reads differently later).
 Which level a fit calls off is its weighting's choice: weighted by each hold's own noise
 instead of its samples the early level is the larger misfit (printed as a note; the checks
 use the samples' weighting, which imubench's fit of equal-length bins has too).
@@ -44,6 +46,7 @@ Exit 0 when all hold, printing "imucal pose check: as the independent analysis".
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -276,6 +279,22 @@ STATIC_TESTED = {"accel_k2", "nonorthogonality", "mounting", "base_tilt", "gravi
 GYRO_ONLY = {"gyro_g_sensitivity", "scale_asymmetry", "latitude_error"}
 
 
+def time_change_named(window, other_level):
+    """The window's reason names a change with time at one attitude, compared with a span
+    that overlaps a hold of the other level; [] or the disagreement."""
+    reason = window.get("reason", "")
+    m = re.search(r"held at ([0-9.]+)-([0-9.]+) s reads .* changes with time at one attitude",
+                  reason)
+    if not m:
+        return ["window %.1f-%.1f s names no change with time at one attitude: %s" %
+                (window["t0"], window["t1"], reason)]
+    span = {"t0": float(m.group(1)), "t1": float(m.group(2))}
+    if not any(overlaps(span, h) for h in other_level):
+        return ["window %.1f-%.1f s compares with %.1f-%.1f s, no hold of the other level" %
+                (window["t0"], window["t1"], span["t0"], span["t1"])]
+    return []
+
+
 def compare(fd, report):
     """imubench's report against the finding: a list of disagreements (empty: agreement)."""
     k, holds = fd["outlier"], fd["holds"]
@@ -303,6 +322,7 @@ def compare(fd, report):
     if not 0.0 < mean / fd["delta"] < 1.0:
         bad.append("mean %.2f mm/s^2 not between 0 and the level difference %.2f" %
                    (1e3 * mean, 1e3 * fd["delta"]))
+    bad += time_change_named(cover[0], [holds[i] for i in np.flatnonzero(fd["other"])])
     for e in report.get("accepted", []):
         if e["effect"] not in STATIC_TESTED | GYRO_ONLY:
             bad.append("accepted %s: not a term the independent analysis tested" % e["effect"])
