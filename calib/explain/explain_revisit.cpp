@@ -105,22 +105,35 @@ std::string revisitFinding(const std::vector<ExplainBin>& bins, const std::vecto
                            const std::vector<double>& model_sigma, const NoiseFloor& nf,
                            double significance, const RevisitOptions& o,
                            const std::vector<Visit>& visits, const ExplainWindow& w) {
-  // The window's static bins (its time span); a moving bin inside leaves it unjudged.
-  std::size_t first = bins.size(), last = 0;
-  Eigen::Vector3d f_sum = Eigen::Vector3d::Zero();
-  for (std::size_t b = 0; b < bins.size(); ++b) {
-    if (bins[b].t1 <= w.t0 || bins[b].t0 >= w.t1) continue;
-    if (bins[b].moving) return "";
-    first = std::min(first, b);
-    last = b;
-    f_sum += accelOf(bins[b]) * bins[b].duration();
+  // The window's part in the visit it overlaps most (a window can start or end on a bin where
+  // the table already turns, or span several segments once merged); none: unjudged.
+  const Visit* own = nullptr;
+  std::size_t first = 0, last = 0;
+  double best = 0.0;
+  for (const Visit& v : visits) {
+    std::size_t a = v.last + 1, e = v.first;
+    for (std::size_t b = v.first; b <= v.last; ++b) {
+      if (bins[b].t1 <= w.t0 || bins[b].t0 >= w.t1) continue;
+      a = std::min(a, b);
+      e = b;
+    }
+    if (a > e) continue;
+    const double T = bins[e].t1 - bins[a].t0;
+    if (T > best) {
+      best = T;
+      own = &v;
+      first = a;
+      last = e;
+    }
   }
-  if (first > last) return "";
+  if (!own || best < o.min_visit_s) return "";
+  Eigen::Vector3d f_sum = Eigen::Vector3d::Zero();
+  for (std::size_t b = first; b <= last; ++b) f_sum += accelOf(bins[b]) * bins[b].duration();
   const Mean mw = meanOver(bins, r, model_sigma, nf, first, last, w.channel);
   double best_time_z = 0.0, best_same_z = std::numeric_limits<double>::infinity();
   std::string time_text, same_text;
   for (const Visit& v : visits) {
-    if (v.last >= first && v.first <= last) continue;  // the window's own visit
+    if (&v == own) continue;
     if (v.duration < o.min_visit_s) continue;
     const double angle = angleBetween(v.f_sum, f_sum);
     if (angle > o.same_attitude_rad) continue;
