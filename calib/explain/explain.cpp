@@ -897,7 +897,7 @@ std::size_t leastConstant(const Linearised& L, const std::vector<ExplainBin>& bi
       for (std::size_t k = 0; k < act.size(); ++k) {
         Eigen::VectorXd c = L.C.col(act[k]);
         for (std::size_t b = 0; b < bins.size(); ++b) {
-          if (part[b] != q) c.segment(static_cast<int>(b) * 6, 6).setZero();
+          if (part[b] != q) c.segment(static_cast<Eigen::Index>(b) * 6, 6).setZero();
         }
         S.col((q - 1) * static_cast<int>(act.size()) + static_cast<int>(k)) = c;
       }
@@ -1372,7 +1372,7 @@ ExplainPart prepareExplainPart(const ExplainInput& in, const ExplainOptions& o) 
 std::pair<int, double> explainRecordingTime(const ExplainResult& r, double t) {
   int k = 0;
   while (k + 1 < static_cast<int>(r.recording_offsets_s.size()) &&
-         t >= r.recording_offsets_s[static_cast<std::size_t>(k + 1)]) {
+         t >= r.recording_offsets_s[static_cast<std::size_t>(k) + 1]) {
     ++k;
   }
   return {k, r.recording_offsets_s.empty()
