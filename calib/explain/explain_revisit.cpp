@@ -17,7 +17,6 @@ struct Visit {
   std::size_t first = 0, last = 0;                  // bins [first, last]
   Eigen::Vector3d f_sum = Eigen::Vector3d::Zero();  // duration-weighted accelerometer readings
   double duration = 0.0;
-  Eigen::Vector3d up() const { return f_sum.normalized(); }
 };
 
 // The mean residual of bins [first, last] on a channel and its sigma (as locateWindows: the

@@ -35,8 +35,9 @@ struct RevisitOptions {
   double same_sigma = 3.0;
 };
 
-// Appends to each window of `windows` (static ones on any channel; a window with a moving bin
-// is left as it is) what its attitude's other visits say. r and model_sigma: per bin and
+// Appends to each window of `windows` (any channel) what its attitude's other visits say,
+// judged on the window's part in the static visit it overlaps most (a window with less than
+// RevisitOptions::min_visit_s of one is left as it is). r and model_sigma: per bin and
 // channel (bin * 6 + channel), as ExplainProblem holds them; significance: the windows'
 // threshold in sigmas (ExplainOptions::unexplained_sigma).
 void nameRevisits(const std::vector<ExplainBin>& bins, const std::vector<double>& r,
