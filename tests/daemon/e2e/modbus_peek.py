@@ -65,13 +65,20 @@ class TablePeek:
 
     def read(self):
         """The controller's state: angles (deg, as the controller reports them), per-axis
-        moving bits, interlock and emergency-stop bits of the global status word."""
+        moving bits, interlock and emergency-stop bits of the global status word.
+
+        One read is several requests, so not one instant: each axis's status word is read
+        before its position. An axis read as at rest then reports the angle it rests at; read
+        the other way round, the angle could come from before the stop, while it still moved
+        (braking at the reference table's 100 deg/s^2, 5 ms before rest is 1.25e-3 deg short of
+        it: host_watchdog.sh's 'at rest from ... at' check failed once on a loaded machine,
+        most likely so)."""
         st = self._field(self.regs["status"])
         out = {"angles_deg": [], "moving": [],
                "interlock_closed": bool((st >> self.bits["interlock_closed"]) & 1),
                "interlock_tripped": bool((st >> self.bits["interlock_tripped"]) & 1),
                "estop": bool((st >> self.bits["estop"]) & 1)}
         for ax in self.regs["axis"]:
-            out["angles_deg"].append(self._field(ax["position"]))
             out["moving"].append(bool((self._field(ax["status"]) >> self.bits["axis_moving"]) & 1))
+            out["angles_deg"].append(self._field(ax["position"]))
         return out
