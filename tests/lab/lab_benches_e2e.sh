@@ -62,6 +62,9 @@ grep -q '^sample_period = "5 ms"' "$W/imu.toml" || fail "IMU layout copy"
 sed 's/^name = "direct_two_axis"/&\ncalibration = "direct"/' \
   "$SRC/plans/library/direct_two_axis.toml" >"$W/direct.toml"
 "$SRC/tests/daemon/e2e/shorten_direct_plan.sh" "$W/direct.toml" || fail "short plan"
+# The virtual tables' host watchdog at 60 s: user-mode Linux has frozen for 41 s with three
+# benches in it; a 10 s watchdog then opened an interlock and paused a run nobody here re-arms
+# (host_watchdog.sh tests the watchdog itself).
 VBPIDS=()
 for i in 1 2 3; do
   mkdir -p "$W/b$i"
@@ -72,7 +75,7 @@ for i in 1 2 3; do
     --chamber "$DEV/chambers/watlow-f4-style.toml" --imu "$W/imu.toml" \
     --can "$can" --table-port "15${i}2" --chamber-port "15${i}3" --time-scale 10 \
     --truth "$SRC/tests/tools/data/truth_nav_grade.json" --noise nav-grade \
-    --host-watchdog-timeout 10 --seed "$i" >"$W/b$i/vb.out" 2>&1 &
+    --host-watchdog-timeout 60 --seed "$i" >"$W/b$i/vb.out" 2>&1 &
   PIDS+=($!)
   VBPIDS+=($!)
   cat >"$W/b$i/bench.toml" <<TOML
