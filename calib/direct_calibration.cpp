@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <ranges>
 #include <span>
 #include <sstream>
 #include <utility>
@@ -388,6 +389,11 @@ struct RowContext {
   Vec3 w_ie_L;       // Earth rate in L (zero when not used)
   double dt0;        // first sample's interval
   double startOf(std::size_t i) const { return i == 0 ? in.imu[0].t - dt0 : in.imu[i - 1].t; }
+  // The first sample whose interval starts at or after t (times increase: checkInput).
+  std::size_t firstStartingFrom(double t) const {
+    return *std::ranges::partition_point(std::views::iota(std::size_t{0}, in.imu.size()),
+                                         [&](std::size_t i) { return startOf(i) < t; });
+  }
 };
 
 // All rows of both triads plus what the gyro rows' weights need.
@@ -408,8 +414,7 @@ bool addStaticRow(const RowContext& c, const Segment& seg, DirectRows* rows,
   Vec3 dv = Vec3::Zero(), dth = Vec3::Zero();
   double T = 0.0;
   std::size_t i0 = c.in.imu.size(), i1 = 0;
-  for (std::size_t i = 0; i < c.in.imu.size(); ++i) {
-    if (c.startOf(i) < a || c.in.imu[i].t > b) continue;
+  for (std::size_t i = c.firstStartingFrom(a); i < c.in.imu.size() && c.in.imu[i].t <= b; ++i) {
     dv += c.in.imu[i].dvel;
     dth += c.in.imu[i].dtheta;
     T += c.in.imu[i].t - c.startOf(i);
@@ -493,11 +498,13 @@ bool addRotationRow(const RowContext& c, const Segment& seg, DirectRows* rows,
     return false;
   }
   std::size_t first = c.in.imu.size(), last = 0;
-  for (std::size_t i = 0; i < c.in.imu.size(); ++i) {
-    if (c.in.imu[i].t > seg.t0 && c.startOf(i) < seg.t1) {
-      first = std::min(first, i);
-      last = i;
-    }
+  // Samples ending after t0 and starting before t1: from the one before the first starting at
+  // t0 or later (the previous one ends where it starts).
+  const std::size_t from = c.firstStartingFrom(seg.t0);
+  for (std::size_t i = from > 0 ? from - 1 : 0; i < c.in.imu.size() && c.startOf(i) < seg.t1; ++i) {
+    if (c.in.imu[i].t <= seg.t0) continue;
+    first = std::min(first, i);
+    last = i;
   }
   if (first >= c.in.imu.size()) {
     notes->push_back("rotation '" + seg.label + "' has no IMU samples: skipped");

@@ -1,8 +1,12 @@
 #include "calib/recording_checks.h"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <utility>
 
 #include "calib/table_model.h"
 #include "nav/earth.h"
@@ -10,6 +14,44 @@
 
 namespace imubench::calib {
 namespace {
+
+// Radix keys of doubles: unsigned integers in the doubles' order (negative values' bits
+// inverted, the sign bit set on the others), so -0.0 sorts before +0.0 (their difference is 0).
+std::uint64_t orderedKey(double d) {
+  const auto u = std::bit_cast<std::uint64_t>(d);
+  return (u >> 63) != 0 ? ~u : u | (std::uint64_t{1} << 63);
+}
+
+double fromOrderedKey(std::uint64_t k) {
+  return std::bit_cast<double>((k >> 63) != 0 ? k & ~(std::uint64_t{1} << 63) : ~k);
+}
+
+// Sorts finite doubles ascending: an LSD radix sort over the keys' bytes, skipping the bytes
+// every key shares (the sign and exponent of one channel's readings). countDistinct runs over
+// every static hold of every channel of a recording (about 12 M values at 2 kHz), where
+// std::sort took about a second.
+void sortDoubles(std::vector<double>* values) {
+  constexpr std::size_t kBytes = 8;
+  constexpr std::size_t kBuckets = 256;
+  const std::size_t n = values->size();
+  if (n < 2) return;
+  std::vector<std::uint64_t> keys(n), scratch(n);
+  std::vector<std::array<std::size_t, kBuckets>> counts(kBytes);
+  for (auto& c : counts) c.fill(0);
+  for (std::size_t i = 0; i < n; ++i) {
+    keys[i] = orderedKey((*values)[i]);
+    for (std::size_t b = 0; b < kBytes; ++b) ++counts[b][(keys[i] >> (8 * b)) & 0xff];
+  }
+  for (std::size_t b = 0; b < kBytes; ++b) {
+    auto& c = counts[b];
+    if (std::find(c.begin(), c.end(), n) != c.end()) continue;  // every key shares this byte
+    std::size_t offset = 0;
+    for (std::size_t& x : c) offset += std::exchange(x, offset);
+    for (const std::uint64_t k : keys) scratch[c[(k >> (8 * b)) & 0xff]++] = k;
+    keys.swap(scratch);
+  }
+  for (std::size_t i = 0; i < n; ++i) (*values)[i] = fromOrderedKey(keys[i]);
+}
 
 // Accumulates attitudes and rotation increments into a MotionSupport.
 class SupportBuilder {
@@ -288,7 +330,7 @@ RateConsistency checkRateConsistency(const TriadModel& gyro, double nominal,
 }
 
 int countDistinct(std::vector<double> v, double tolerance) {
-  std::sort(v.begin(), v.end());
+  sortDoubles(&v);
   int n = v.empty() ? 0 : 1;
   for (std::size_t i = 1; i < v.size(); ++i) {
     if (v[i] - v[i - 1] > tolerance) ++n;

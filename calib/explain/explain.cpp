@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <future>
 #include <limits>
 #include <map>
 #include <set>
@@ -78,6 +79,7 @@ struct Candidate {
 };
 
 // Static holds of the recording as readings (rates), trimmed.
+// The readings of every static hold, trimmed. The samples' times must increase (checked).
 std::vector<HoldReadings> staticHolds(const ExplainInput& in, const ExplainOptions& o) {
   std::vector<HoldReadings> holds;
   for (const Segment& s : in.segments) {
@@ -85,16 +87,15 @@ std::vector<HoldReadings> staticHolds(const ExplainInput& in, const ExplainOptio
     const double a = s.t0 + o.static_trim_s, b = s.t1 - o.static_trim_s;
     if (b - a < o.min_static_s) continue;
     HoldReadings h;
-    double t_prev = std::numeric_limits<double>::quiet_NaN();
     double dt_sum = 0.0;
-    for (const nav::ImuSample& x : in.imu) {
-      if (x.t > a && x.t <= b && std::isfinite(t_prev)) {
-        const double dt = x.t - t_prev;
-        h.accel.push_back(x.dvel / dt);
-        h.gyro.push_back(x.dtheta / dt);
-        dt_sum += dt;
-      }
-      t_prev = x.t;
+    // Samples in (a, b] after the first (whose interval is unknown).
+    const auto first = std::partition_point(in.imu.begin() + 1, in.imu.end(),
+                                            [a](const nav::ImuSample& x) { return x.t <= a; });
+    for (auto x = first; x != in.imu.end() && x->t <= b; ++x) {
+      const double dt = x->t - std::prev(x)->t;
+      h.accel.push_back(x->dvel / dt);
+      h.gyro.push_back(x->dtheta / dt);
+      dt_sum += dt;
     }
     if (h.accel.size() < 8) continue;
     h.dt = dt_sum / static_cast<double>(h.accel.size());
@@ -457,15 +458,19 @@ std::array<double, 6> channelRms(const std::vector<double>& r) {
   return out;
 }
 
-// Refusals before any work: bad samples, no table, no static holds for the noise floor.
-std::string checkInput(const ExplainInput& in, const ExplainOptions& o,
-                       const std::vector<HoldReadings>& holds) {
+// Refusals before any work: bad samples, no table.
+std::string checkInput(const ExplainInput& in, const ExplainOptions& o) {
   std::string why;
   if (!o.IsValid(&why)) return "options: " + why;
   // Gaps between segments (a daemon restart during a run) are allowed, as for calibration.
   const RecordingCheck c = checkIncrements(in.imu, o.checks, "recording", in.segments);
   if (!c.ok) return c.message;
   if (in.table.size() < 2) return "the recording has no table angles (imu.csv needs table.csv)";
+  return "";
+}
+
+// No static hold for the noise floor: nothing can be judged.
+std::string checkHolds(const ExplainOptions& o, const std::vector<HoldReadings>& holds) {
   if (holds.empty()) {
     return "the recording has no static hold of at least " +
            std::to_string(o.min_static_s + 2 * o.static_trim_s) +
@@ -697,12 +702,12 @@ bool ExplainOptions::IsValid(std::string* why) const {
     return false;
   }
   if (!(baseline_collinear > 0.0 && baseline_collinear < 1.0 && unseparable_cos > 0.0 &&
-        unseparable_cos < 1.0 && unexplained_sigma > 0.0 && fd_step > 0.0 && passes >= 1 &&
-        consistency_parts >= 1 && consistency_p > 0.0 && consistency_p < 1.0 &&
+        unseparable_cos < 1.0 && unexplained_sigma > 0.0 && fd_step > 0.0 && threads >= 1 &&
+        passes >= 1 && consistency_parts >= 1 && consistency_p > 0.0 && consistency_p < 1.0 &&
         correlation_window_s >= 0.0 && correlation_sigmas >= 0.0)) {
     *why =
         "baseline_collinear and unseparable_cos in (0, 1), unexplained_sigma, fd_step > 0, "
-        "passes >= 1, consistency_parts >= 1, consistency_p in (0, 1), "
+        "threads >= 1, passes >= 1, consistency_parts >= 1, consistency_p in (0, 1), "
         "correlation_window_s >= 0, correlation_sigmas >= 0 required";
     return false;
   }
@@ -1155,7 +1160,7 @@ ExplainResult analyseProblem(const ExplainProblem& problem, const ExplainOptions
   res.baseline_method = p.baseline_method;
   res.segments = p.segments;
   res.noise = p.noise;
-  ExplainEvaluator eval(p.bins, p.forward, p.sigma, o.fd_step);
+  ExplainEvaluator eval(p.bins, p.forward, p.sigma, o.fd_step, o.threads);
   const double log_n = std::log(static_cast<double>(eval.rows()));
   std::vector<std::string> held_given;
   if (p.baseline_method == "given") held_given = undeterminedGiven(p, o, &eval);
@@ -1341,8 +1346,12 @@ std::string explainMotionRefusal(const RecordingView& recording) {
 
 ExplainPart prepareExplainPart(const ExplainInput& in, const ExplainOptions& o) {
   ExplainPart part;
+  if (std::string why = checkInput(in, o); !why.empty()) {
+    part.status = Status::Error(std::move(why));
+    return part;
+  }
   const std::vector<HoldReadings> holds = staticHolds(in, o);
-  if (std::string why = checkInput(in, o, holds); !why.empty()) {
+  if (std::string why = checkHolds(o, holds); !why.empty()) {
     part.status = Status::Error(std::move(why));
     return part;
   }
@@ -1355,12 +1364,15 @@ ExplainPart prepareExplainPart(const ExplainInput& in, const ExplainOptions& o) 
       return part;
     }
   }
-  part.noise = noiseFloor(holds, o.noise);
+  // The noise floor and the bins are independent: side by side when there is a second thread.
+  auto noise = std::async(o.threads > 1 ? std::launch::async : std::launch::deferred,
+                          [&holds, &o] { return noiseFloor(holds, o.noise); });
+  part.data = prepareExplainData(in.geometry, in.site, in.imu, in.table, in.segments, o.model);
+  part.noise = noise.get();
   if (!part.noise.status.ok) {
     part.status = part.noise.status;
     return part;
   }
-  part.data = prepareExplainData(in.geometry, in.site, in.imu, in.table, in.segments, o.model);
   if (part.data.bins.empty()) {
     part.status = Status::Error("no IMU sample lies within the span of the encoder samples");
     return part;

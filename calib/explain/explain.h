@@ -128,6 +128,11 @@ struct ExplainOptions {
   // Central-difference step of every regressor (SI units of the parameter): small against any
   // realistic parameter, large against the rounding of readings of order 10.
   double fd_step = 1e-6;
+  // Threads that compute the regressors' columns (each with its own copy of the forward
+  // model's cached table physics): the columns are most of the analysis' time and independent
+  // of each other, and the bench PCs and CI have 2 cores. The results do not depend on it
+  // (each column is computed the same way on whichever thread takes it). 1: no extra thread.
+  int threads = 2;
   // Refusals: gaps, non-finite values, samples at the IMU's range.
   IncrementCheckOptions checks;
   // Given coefficients (baseline_method "given") that the recording moves by more than these

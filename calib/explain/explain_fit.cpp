@@ -1,8 +1,11 @@
 #include "calib/explain/explain_fit.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
+#include <thread>
 
 namespace imubench::calib {
 namespace {
@@ -22,8 +25,12 @@ ExplainState withValue(const ExplainState& state, const std::string& name, doubl
 }  // namespace
 
 ExplainEvaluator::ExplainEvaluator(const std::vector<ExplainBin>* bins, ExplainForward* forward,
-                                   std::vector<double> sigma, double fd_step)
-    : bins_(bins), forward_(forward), sigma_(std::move(sigma)), h_(fd_step) {}
+                                   std::vector<double> sigma, double fd_step, int threads)
+    : bins_(bins),
+      forward_(forward),
+      sigma_(std::move(sigma)),
+      h_(fd_step),
+      threads_(std::max(1, threads)) {}
 
 std::vector<double> ExplainEvaluator::rawResidual(const ExplainState& state) {
   forward_->predict(state, &pred_);
@@ -41,21 +48,66 @@ Eigen::VectorXd ExplainEvaluator::residual(const ExplainState& state) {
   return w;
 }
 
+void ExplainEvaluator::column(ExplainForward* f, const ExplainState& state, const std::string& name,
+                              int j, Eigen::MatrixXd* J, double* raw_max) const {
+  std::vector<double> plus, minus;
+  const double v = stateValue(state, name);
+  f->predict(withValue(state, name, v + h_), &plus);
+  f->predict(withValue(state, name, v - h_), &minus);
+  *raw_max = 0.0;
+  for (int i = 0; i < rows(); ++i) {
+    const double d = (plus[i] - minus[i]) / (2.0 * h_);
+    (*J)(i, j) = d / sigma_[i];
+    *raw_max = std::max(*raw_max, std::abs(d));
+  }
+}
+
+std::vector<ExplainForward*> ExplainEvaluator::helpers(std::size_t columns) {
+  if (!copies_made_ && threads_ > 1 && columns > 1) {
+    copies_made_ = true;
+    for (int k = 1; k < threads_; ++k) {
+      std::unique_ptr<ExplainForward> c = forward_->clone();
+      if (!c) break;
+      copies_.push_back(std::move(c));
+    }
+  }
+  std::vector<ExplainForward*> out;
+  for (const auto& c : copies_) {
+    if (out.size() + 1 < columns) out.push_back(c.get());
+  }
+  return out;
+}
+
 Eigen::MatrixXd ExplainEvaluator::jacobian(const ExplainState& state,
                                            const std::vector<std::string>& names,
                                            std::vector<double>* raw_max) {
   Eigen::MatrixXd J(rows(), static_cast<int>(names.size()));
-  if (raw_max) raw_max->assign(names.size(), 0.0);
-  for (std::size_t j = 0; j < names.size(); ++j) {
-    const double v = stateValue(state, names[j]);
-    forward_->predict(withValue(state, names[j], v + h_), &pred_);
-    forward_->predict(withValue(state, names[j], v - h_), &pred2_);
-    for (int i = 0; i < rows(); ++i) {
-      const double d = (pred_[i] - pred2_[i]) / (2.0 * h_);
-      J(i, static_cast<int>(j)) = d / sigma_[i];
-      if (raw_max) (*raw_max)[j] = std::max((*raw_max)[j], std::abs(d));
+  std::vector<double> raw(names.size(), 0.0);
+  // Columns go to whichever thread is free next; each is computed the same way on any.
+  std::atomic<std::size_t> next{0};
+  auto work = [&](ExplainForward* f) {
+    for (std::size_t j = next++; j < names.size(); j = next++) {
+      column(f, state, names[j], static_cast<int>(j), &J, &raw[j]);
     }
+  };
+  const std::vector<ExplainForward*> extra = helpers(names.size());
+  std::vector<std::exception_ptr> failed(extra.size());
+  std::vector<std::thread> pool;
+  for (std::size_t k = 0; k < extra.size(); ++k) {
+    pool.emplace_back([&, k] {
+      try {
+        work(extra[k]);
+      } catch (...) {
+        failed[k] = std::current_exception();
+      }
+    });
   }
+  work(forward_);
+  for (std::thread& t : pool) t.join();
+  for (const std::exception_ptr& e : failed) {
+    if (e) std::rethrow_exception(e);
+  }
+  if (raw_max) *raw_max = std::move(raw);
   return J;
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,8 +18,10 @@ namespace imubench::calib {
 class ExplainEvaluator {
  public:
   // sigma: one per row (bin-major, 6 per bin).
+  // threads: how many compute the Jacobian's columns (ExplainOptions::threads); the extra
+  // ones use copies of `forward` (ExplainForward::clone; none: every column on the caller's).
   ExplainEvaluator(const std::vector<ExplainBin>* bins, ExplainForward* forward,
-                   std::vector<double> sigma, double fd_step);
+                   std::vector<double> sigma, double fd_step, int threads = 1);
 
   int rows() const { return static_cast<int>(sigma_.size()); }
   // Whitened residual (measured - predicted) / sigma of a model.
@@ -32,11 +35,20 @@ class ExplainEvaluator {
   const std::vector<double>& sigma() const { return sigma_; }
 
  private:
+  // Column j of the Jacobian (and its largest unwhitened magnitude) with the forward model f.
+  void column(ExplainForward* f, const ExplainState& state, const std::string& name, int j,
+              Eigen::MatrixXd* J, double* raw_max) const;
+  // The forward models of the extra threads for a Jacobian of `columns` columns (made once).
+  std::vector<ExplainForward*> helpers(std::size_t columns);
+
   const std::vector<ExplainBin>* bins_;
   ExplainForward* forward_;
   std::vector<double> sigma_;
   double h_;
-  std::vector<double> pred_, pred2_;
+  int threads_;
+  std::vector<std::unique_ptr<ExplainForward>> copies_;
+  bool copies_made_ = false;
+  std::vector<double> pred_;
 };
 
 // Orthonormal basis of the column space of A (columns normalised first; singular values

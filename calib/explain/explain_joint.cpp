@@ -28,6 +28,11 @@ class JointPredictor : public ExplainForward {
       out->insert(out->end(), one_.begin(), one_.end());
     }
   }
+  std::unique_ptr<ExplainForward> clone() const override {
+    std::vector<std::unique_ptr<ExplainPredictor>> copies;
+    for (const auto& p : parts_) copies.push_back(std::make_unique<ExplainPredictor>(*p));
+    return std::make_unique<JointPredictor>(std::move(copies));
+  }
 
  private:
   std::vector<std::unique_ptr<ExplainPredictor>> parts_;

@@ -20,6 +20,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -122,6 +123,9 @@ class ExplainForward {
  public:
   virtual ~ExplainForward() = default;
   virtual void predict(const ExplainState& state, std::vector<double>* out) = 0;
+  // An independent copy for another thread (its own caches; what it reads of the recording
+  // shared), or nullptr: then the Jacobian's columns are computed on one thread.
+  virtual std::unique_ptr<ExplainForward> clone() const { return nullptr; }
 };
 
 // The table recording's forward model: the library's chain, physics and sensor equation
@@ -131,6 +135,9 @@ class ExplainPredictor : public ExplainForward {
  public:
   explicit ExplainPredictor(const ExplainData* data) : data_(data) {}
   void predict(const ExplainState& state, std::vector<double>* out) override;
+  std::unique_ptr<ExplainForward> clone() const override {
+    return std::make_unique<ExplainPredictor>(*this);
+  }
 
  private:
   struct PhysicsKey {

@@ -23,12 +23,15 @@ AllanPoint clusterPoint(std::span<const HoldReadings> holds, std::size_t m, doub
     if (clusters < 2) continue;
     std::array<double, kExplainChannels> prev{};
     for (std::size_t k = 0; k < clusters; ++k) {
-      std::array<double, kExplainChannels> mean{};
+      // Summed as triads (the same additions in the same order as channel by channel).
+      Vec3 sum_a = Vec3::Zero(), sum_g = Vec3::Zero();
       for (std::size_t i = k * m; i < (k + 1) * m; ++i) {
-        for (int c = 0; c < kExplainChannels; ++c) mean[c] += channelValue(h, i, c);
+        sum_a += h.accel[i];
+        sum_g += h.gyro[i];
       }
+      std::array<double, kExplainChannels> mean{};
       for (int c = 0; c < kExplainChannels; ++c) {
-        mean[c] /= static_cast<double>(m);
+        mean[c] = (c < 3 ? sum_a(c) : sum_g(c - 3)) / static_cast<double>(m);
         if (k > 0) sum[c] += (mean[c] - prev[c]) * (mean[c] - prev[c]);
       }
       prev = mean;

@@ -301,7 +301,8 @@ Eigen::MatrixXd rowsOf(Model* m, const TableGeometry& geometry, std::span<const 
       prepareExplainData(geometry, m->input->site, imu, table, segments, m->eo->model);
   if (data.bins.empty()) return Eigen::MatrixXd(0, static_cast<int>(m->names.size()));
   ExplainPredictor predictor(&data);
-  ExplainEvaluator eval(&data.bins, &predictor, explainRowSigmas(data, *m->noise), m->eo->fd_step);
+  ExplainEvaluator eval(&data.bins, &predictor, explainRowSigmas(data, *m->noise), m->eo->fd_step,
+                        m->eo->threads);
   return eval.jacobian(m->state, m->names);
 }
 

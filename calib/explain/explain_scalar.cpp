@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <memory>
 #include <string>
 
 #include "calib/model/sensor_equation.h"
@@ -113,6 +114,9 @@ class ScalarPredictor : public ExplainForward {
         (*out)[b * 6 + 3 + static_cast<std::size_t>(c)] = r.gyro(c);
       }
     }
+  }
+  std::unique_ptr<ExplainForward> clone() const override {
+    return std::make_unique<ScalarPredictor>(*this);
   }
 
  private:

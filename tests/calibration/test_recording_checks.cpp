@@ -5,8 +5,10 @@
 // counted, and a truth file's extra effects are compared.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
+#include "calib/noise.h"
 #include "calib/recording_checks.h"
 #include "calib/scalar/scalar_calibration.h"
 #include "calib/scalar/scalar_consistency.h"
@@ -114,6 +116,31 @@ TEST(RecordingChecks, CountDistinct) {
   EXPECT_EQ(calib::countDistinct({1.0, 1.0, 1.0 + 1e-12, 1.0}, 1e-9), 1);
   EXPECT_EQ(calib::countDistinct({0.0, 0.061, 0.0, -0.061}, 1e-9), 3);
   EXPECT_EQ(calib::countDistinct({}, 1e-9), 0);
+}
+
+// The counting sorts with a radix sort of the doubles' bits: the same count as sorting with
+// std::sort, on readings of both signs around zero (sign and exponent vary), around g (they do
+// not), quantised ones, -0.0 beside +0.0, and the tolerance's edge.
+TEST(RecordingChecks, CountDistinctMatchesComparisonSort) {
+  auto reference = [](std::vector<double> v, double tol) {
+    std::sort(v.begin(), v.end());
+    int n = v.empty() ? 0 : 1;
+    for (std::size_t i = 1; i < v.size(); ++i) n += v[i] - v[i - 1] > tol ? 1 : 0;
+    return n;
+  };
+  calib::GaussianSource g(5);
+  std::vector<std::vector<double>> sets(4);
+  for (int i = 0; i < 20000; ++i) {
+    sets[0].push_back(1e-5 * g.next());                     // gyro noise about zero
+    sets[1].push_back(9.81 + 2e-4 * g.next());              // accelerometer along g
+    sets[2].push_back(0.061 * std::round(3.0 * g.next()));  // quantised, both signs
+    sets[3].push_back(i % 3 == 0 ? -0.0 : (i % 3 == 1 ? 0.0 : 1e-9 * (i % 7)));
+  }
+  for (const auto& v : sets) {
+    for (double tol : {0.0, 1e-12, 1e-9, 1e-6}) {
+      EXPECT_EQ(calib::countDistinct(v, tol), reference(v, tol)) << "tolerance " << tol;
+    }
+  }
 }
 
 // A truth with a lever arm: compared even though the estimate does not model it (shown, not

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -127,6 +128,35 @@ TEST(ExplainRefit, GaussNewtonReachesCeresOptimumAndSigmas) {
     EXPECT_NEAR(stateValue(gn.state, kNames[j]), stateValue(f.truth, kNames[j]), 4 * gn.sigma[j]);
   }
   EXPECT_NEAR(gn.chi2, 2.0 * sum.final_cost, 1e-6 * gn.chi2);
+}
+
+// A copy for another thread: the evaluator then computes the Jacobian's columns on two.
+class CloneableForward : public NonlinearForward {
+ public:
+  using NonlinearForward::NonlinearForward;
+  std::unique_ptr<ExplainForward> clone() const override {
+    return std::make_unique<CloneableForward>(*this);
+  }
+};
+
+// The columns computed on several threads are the ones computed on one, bit for bit, and so
+// is the refit built on them.
+TEST(ExplainRefit, ThreadsChangeNoColumn) {
+  Fixture f;
+  CloneableForward cloneable{Fixture::kBins};
+  ExplainEvaluator one(&f.bins, &f.forward, f.sigma, 1e-7, 1);
+  std::vector<double> raw1, raw3;
+  const Eigen::MatrixXd J1 = one.jacobian(f.start, kNames, &raw1);
+  for (int threads : {2, 3, 8}) {
+    ExplainEvaluator many(&f.bins, &cloneable, f.sigma, 1e-7, threads);
+    const Eigen::MatrixXd J = many.jacobian(f.start, kNames, &raw3);
+    ASSERT_EQ(J.cols(), J1.cols());
+    EXPECT_TRUE((J.array() == J1.array()).all()) << threads << " threads";
+    EXPECT_EQ(raw3, raw1) << threads << " threads";
+    const RefitResult a = refitJointly(&one, f.start, kNames, RefitOptions{});
+    const RefitResult b = refitJointly(&many, f.start, kNames, RefitOptions{});
+    for (const std::string& n : kNames) EXPECT_EQ(stateValue(a.state, n), stateValue(b.state, n));
+  }
 }
 
 TEST(ExplainRefit, StoppedAtTheIterationLimitIsReported) {
