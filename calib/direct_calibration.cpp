@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <ranges>
 #include <span>
 #include <sstream>
 #include <utility>
@@ -391,8 +390,16 @@ struct RowContext {
   double startOf(std::size_t i) const { return i == 0 ? in.imu[0].t - dt0 : in.imu[i - 1].t; }
   // The first sample whose interval starts at or after t (times increase: checkInput).
   std::size_t firstStartingFrom(double t) const {
-    return *std::ranges::partition_point(std::views::iota(std::size_t{0}, in.imu.size()),
-                                         [&](std::size_t i) { return startOf(i) < t; });
+    std::size_t lo = 0, hi = in.imu.size();
+    while (lo < hi) {
+      const std::size_t mid = lo + (hi - lo) / 2;
+      if (startOf(mid) < t) {
+        lo = mid + 1;
+      } else {
+        hi = mid;
+      }
+    }
+    return lo;
   }
 };
 

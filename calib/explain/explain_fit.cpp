@@ -1,5 +1,7 @@
 #include "calib/explain/explain_fit.h"
 
+#include <math.h>  // lgamma_r (glibc)
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -225,7 +227,8 @@ double chiSquareSurvival(double x, int k) {
   double q = j == 2 ? std::exp(-0.5 * x) : std::erfc(std::sqrt(0.5 * x));
   for (; j < k; j += 2) {
     const double a = 0.5 * j;
-    q += std::exp(a * std::log(0.5 * x) - 0.5 * x - std::lgamma(a + 1.0));
+    int sign = 0;  // lgamma_r: lgamma's value without its global sign (thread-safe)
+    q += std::exp(a * std::log(0.5 * x) - 0.5 * x - ::lgamma_r(a + 1.0, &sign));
   }
   return std::min(1.0, q);
 }

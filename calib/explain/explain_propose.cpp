@@ -110,7 +110,7 @@ const char* axisName(TableKind kind, int axis) {
   return kind == TableKind::kTwoAxis || axis == 2 ? "inner" : "middle";
 }
 
-ProposedStep moveTo(std::vector<double> angles_deg) {
+ProposedStep moveTo(const std::vector<double>& angles_deg) {
   ProposedStep s;
   s.kind = ProposedStep::Kind::kMove;
   for (double a : angles_deg) s.angles_rad.push_back(a * kDeg);
@@ -398,6 +398,7 @@ struct Layout {
 std::vector<double> groupSigmas(const Eigen::MatrixXd& J, int nb, const Group& g,
                                 const Layout& lay) {
   std::vector<int> cols;
+  cols.reserve(static_cast<std::size_t>(nb));
   for (int j = 0; j < nb; ++j) cols.push_back(j);
   for (std::size_t e : g.effects) {
     for (int j : lay.active[e]) cols.push_back(nb + j);

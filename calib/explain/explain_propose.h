@@ -143,10 +143,10 @@ struct ProposeResult {
 // recording), after (the plan alone) and joint (both analysed together); null = held.
 nlohmann::json toJson(const ProposedGroup& group, const ProposeResult& proposal);
 
-// The groups and the plan. `input` is the recording explain analysed, `result` its analysis
-// (status ok), `explain_options` the ones it ran with.
-ProposeResult proposePlan(const ExplainInput& input, const ExplainResult& result,
-                          const ExplainOptions& explain_options, const ProposeOptions& options,
+// The groups and the plan. `in` is the recording explain analysed, `res` its analysis (status
+// ok), `eo` the options it ran with.
+ProposeResult proposePlan(const ExplainInput& in, const ExplainResult& res,
+                          const ExplainOptions& eo, const ProposeOptions& po,
                           const ProposalExpander& expand);
 
 }  // namespace imubench::calib

@@ -34,7 +34,7 @@ ExplainBin binOf(const RawImuData& d, std::size_t i0, std::size_t i1, double dt,
   const double n = static_cast<double>(i1 - i0);
   for (int c = 0; c < 3; ++c) {
     b.measured[static_cast<std::size_t>(c)] = a(c) / n;
-    b.measured[static_cast<std::size_t>(c + 3)] = w(c) / n;
+    b.measured[static_cast<std::size_t>(c) + 3] = w(c) / n;
   }
   return b;
 }

@@ -28,7 +28,7 @@ class NonlinearForward : public ExplainForward {
     out->assign(static_cast<std::size_t>(bins_) * 6, 0.0);
     for (int i = 0; i < bins_; ++i) {
       const double t = 0.05 * i;
-      double* o = out->data() + 6 * i;
+      double* o = out->data() + static_cast<std::ptrdiff_t>(6) * i;
       o[0] = a * std::exp(-b * t) + std::cos(c * t);
       o[1] = a * b * t;
       o[2] = std::sin(c * t) * b;
@@ -73,7 +73,7 @@ struct Fixture {
 
 // The same whitened residual as a Ceres cost over the three parameters.
 struct WhitenedResidual {
-  ExplainEvaluator* eval;
+  ExplainEvaluator* eval = nullptr;
   ExplainState base;
   bool operator()(double const* const* p, double* r) const {
     ExplainState s = base;
