@@ -130,9 +130,8 @@ struct IncrementCheckOptions {
 // refused only where it harms: inside a segment, or next to a rotation (whose integration it
 // would cut); a gap between holds, placements or unused stretches is harmless (a run resumed
 // after a crash has one where the daemon was down). Without segments every gap is refused.
-RecordingCheck checkIncrements(std::span<const nav::ImuSample> samples,
-                               const IncrementCheckOptions& options, const std::string& what,
-                               std::span<const Segment> segments = {});
+RecordingCheck checkIncrements(std::span<const nav::ImuSample> imu, const IncrementCheckOptions& o,
+                               const std::string& what, std::span<const Segment> segments = {});
 
 // The median interval between consecutive samples (0 for fewer than two): the recording's
 // nominal step, against which checkIncrements and the explain analysis judge a gap.
