@@ -59,7 +59,7 @@ void BM_Explain12Run2kHz(benchmark::State& state) {
   double baseline_s = 0.0, bins_s = 0.0, analysis_s = 0.0, json_s = 0.0;
   double cpu_s = 0.0;  // baseline + analysis + json, process CPU time
   std::size_t accepted = 0;
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     double c0 = processCpuSeconds();
     auto t0 = Clock::now();
     const BaselineCalibration base = calibrateBaseline(b);
@@ -127,7 +127,7 @@ void BM_ForwardReadingsPerNode(benchmark::State& state) {
   p.w_LB_B = Vec3(0.0, 0.0, 0.17);
   constexpr int kCalls = 200000;
   Vec3 sum = Vec3::Zero();
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     auto t0 = Clock::now();
     for (int i = 0; i < kCalls; ++i) sum += forwardReadings(sensors, effects, p).gyro;
     const double built = secondsSince(t0);

@@ -51,8 +51,13 @@ e = c.wait_event(lambda e: e.get("run") == run and e["event"] == "results", "res
 gaps = [g["message"] for g in c.events if g["event"] == "recording_gap"]
 print("recording gaps:", gaps, flush=True)
 check(e["ok"] and e["calibrated"], "results stored: %s" % e)
-check(e["pass"] is True, "verdict PASS against the acceptance limits: %s" % e)
 stored = {r["kind"]: r["json"] for r in c.reply({"cmd": "results", "run": run})["result"]["results"]}
+if e["pass"] is not True:
+    # What the verdict and the direct fit say, so a failure names its cause.
+    v, rep = stored.get("verdict", {}), stored.get("report", {})
+    print("verdict why:", v.get("why"), "findings:", json.dumps(v.get("findings")), flush=True)
+    print("direct fit:", json.dumps(rep.get("direct")), flush=True)
+check(e["pass"] is True, "verdict PASS against the acceptance limits: %s" % e)
 x = stored.get("explain", {})
 check(x.get("format") == "imubench-explain/1", "explain stored as imubench-explain/1")
 accepted = [a["effect"] for a in x.get("accepted", [])]
