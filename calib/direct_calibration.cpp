@@ -630,6 +630,7 @@ void judgeDirect(const DirectRows& rows, const std::vector<double>& acc_ss,
                   res->normalised_residual_rms, o.quality.max_normalised_rms);
     reasons.push_back(buf);
   }
+  const bool misfit = res->normalised_residual_rms > o.quality.max_normalised_rms;
   if (res->rotations_used == 0) {
     reasons.push_back(
         "no usable rate run: the gyro scales and misalignments rest on the Earth "
@@ -644,6 +645,7 @@ void judgeDirect(const DirectRows& rows, const std::vector<double>& acc_ss,
   std::vector<std::string> largest;
   for (std::size_t k = 0; k < worst.size() && k < 3; ++k) largest.push_back(worst[k].second);
   res->status = fitStatusFrom(std::move(reasons), std::move(largest));
+  res->status.misfit = misfit;
 }
 
 // Checks of the options and the recording; "" when usable.

@@ -27,6 +27,11 @@ struct FitStatus : Status {
   FitStatusCode code = FitStatusCode::kUsable;
   std::vector<std::string> reasons;            // every finding, plain language
   std::vector<std::string> largest_residuals;  // "hold 'h3' (12.0-40.0 s) accel: 35 sigma"
+  // The residuals exceed the noise (a finding says by how much): the model lacks something the
+  // readings show, which `imubench explain` can name. False when the findings are only
+  // coefficients the recording's motion does not determine or implausible values: there no
+  // richer model helps, a recording that turns and points each axis (or the right columns) does.
+  bool misfit = false;
   bool IsSolutionUsable() const { return code == FitStatusCode::kUsable; }
   // The calibrator ran and filled its payload (usable or not): every code but kFailed.
   bool HasResult() const { return code != FitStatusCode::kFailed; }

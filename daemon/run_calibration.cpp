@@ -176,15 +176,24 @@ json acceptanceVerdict(const RunCalibration& c, const std::vector<AcceptanceLimi
     out["why"] = "calibration failed: " + c.status.message;
   } else if (!usable) {
     // No verdict on an unusable fit (a direct plan on a table with errors it takes as nominal,
-    // a model that misses the physics): the values carry what the model left out and their
-    // sigmas understate the error, so neither PASS nor FAIL would be a measurement.
+    // a model that misses the physics, a plan that does not determine a coefficient): neither
+    // PASS nor FAIL would be a measurement.
     out["pass"] = nullptr;
-    out["why"] = std::string("the fit is unusable (") + c.fit.message +
-                 "): its values carry what the model left out and its sigmas understate the "
-                 "error (the values " +
-                 (pass ? "are within" : "exceed") +
-                 " the limits; `imubench explain` names the missing physics; a table with "
-                 "errors: give them in the bench file's [table] errors)";
+    const std::string values =
+        std::string("the values ") + (pass ? "are within" : "exceed") + " the limits";
+    if (c.fit.misfit) {
+      out["why"] = "the fit is unusable (" + c.fit.message +
+                   "): its values carry what the model left out and its sigmas understate the "
+                   "error (" +
+                   values +
+                   "; `imubench explain` names the missing physics; a table with errors: give "
+                   "them in the bench file's [table] errors)";
+    } else {
+      out["why"] = "the fit is unusable (" + c.fit.message +
+                   "): the plan's motion does not determine every coefficient, or a value is "
+                   "implausible (" +
+                   values + "; the findings say which)";
+    }
     out["findings"] = c.fit.reasons;
   }
   return out;

@@ -205,8 +205,17 @@ void refuseIfUnusable(const calib::FitStatus& status, const std::string& what,
   std::string m = what + ": " + status.message;
   for (const std::string& r : status.reasons) m += "\n  finding: " + r;
   for (const std::string& r : status.largest_residuals) m += "\n  large residual: " + r;
-  m += "\n  nothing written; `imubench explain " + explain_target +
-       "` names the effect the model lacks (result unusable, exit 3)";
+  if (status.misfit) {
+    m += "\n  nothing written; `imubench explain " + explain_target +
+         "` names the effect the model lacks (result unusable, exit 3)";
+  } else {
+    // Residuals within the limit: no richer model helps; the findings name what the
+    // recording's motion leaves undetermined (or which values are implausible).
+    m += "\n  nothing written; the residuals are within the noise limit, so no missing effect "
+         "explains this: the findings name what the recording does not determine (`imubench "
+         "plan observe PLAN` shows what a plan determines) or which values are implausible "
+         "(result unusable, exit 3)";
+  }
   throw CommandFailed(m, kExitResultUnusable);
 }
 

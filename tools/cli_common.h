@@ -150,7 +150,9 @@ void refuseInconsistentRate(const RealRecordingOptions& o, const RealRecording& 
 void refuseInconsistentTime(const std::string& label, const calib::RecordingView& view);
 // A fit the gate refuses (calib/fit_quality.h kUnusable): throws
 // CommandFailed(kExitResultUnusable) with what, the findings, the largest residuals, that
-// nothing was written and the `imubench explain EXPLAIN_TARGET` hint. Otherwise nothing.
+// nothing was written and what to do next: the `imubench explain EXPLAIN_TARGET` hint when the
+// residuals exceed the noise (status.misfit), else that the findings are the recording's
+// (undetermined or implausible coefficients). Otherwise nothing.
 void refuseIfUnusable(const calib::FitStatus& status, const std::string& what,
                       const std::string& explain_target);
 

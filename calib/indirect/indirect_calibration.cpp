@@ -249,6 +249,11 @@ bool IndirectOptions::IsValid(std::string* why) const {
 
 namespace {
 
+// A block's offset plus an index within it, as a container index (both small and >= 0).
+std::size_t indexAt(int offset, int i) {
+  return static_cast<std::size_t>(offset) + static_cast<std::size_t>(i);
+}
+
 // Appends a printf-formatted warning (a skipped hold or run).
 __attribute__((format(printf, 2, 3))) void warn(std::vector<std::string>* warnings,
                                                 const char* format, ...) {
@@ -345,6 +350,7 @@ std::vector<Hold> collectHolds(const std::vector<IndirectLeg>& legs, const Indir
 // The median per-sample gyro noise of the holds (weights of the runs).
 double medianGyroNoise(const std::vector<Hold>& holds) {
   std::vector<double> noises;
+  noises.reserve(holds.size());
   for (const Hold& h : holds) noises.push_back(h.gyro_noise);
   std::nth_element(noises.begin(), noises.begin() + static_cast<long>(noises.size() / 2),
                    noises.end());
@@ -450,7 +456,7 @@ Parameters initialParameters(const IndirectInput& in, const IndirectOptions& opt
   if (in.geometry.kind == TableKind::kTwoAxis) {
     for (int i : {kNonorthMiddleX, kNonorthMiddleY}) {
       p.hold(kTableOffset + i);
-      p.in_model[static_cast<std::size_t>(kTableOffset + i)] = false;
+      p.in_model[indexAt(kTableOffset, i)] = false;
       p.table[i] = 0.0;
     }
   }
@@ -565,7 +571,7 @@ void addResiduals(const IndirectInput& in, const IndirectOptions& opt, const Obs
 void fixNonFree(const Parameters& p, double* block, int offset, int size, ceres::Problem* problem) {
   std::vector<int> fixed;
   for (int i = 0; i < size; ++i) {
-    if (!p.free[static_cast<std::size_t>(offset + i)]) fixed.push_back(i);
+    if (!p.free[indexAt(offset, i)]) fixed.push_back(i);
   }
   if (static_cast<int>(fixed.size()) == size) {
     problem->SetParameterBlockConstant(block);
@@ -620,14 +626,11 @@ bool parameterSigmas(ceres::Problem* problem, Parameters* p, std::vector<double>
   cov.GetCovarianceBlock(p->gyro, p->gyro, cg);
   cov.GetCovarianceBlock(p->table, p->table, ct);
   for (int i = 0; i < kTriadSize; ++i) {
-    (*sigma)[static_cast<std::size_t>(kAccelOffset + i)] =
-        std::sqrt(std::max(ca[i * kTriadSize + i], 0.0));
-    (*sigma)[static_cast<std::size_t>(kGyroOffset + i)] =
-        std::sqrt(std::max(cg[i * kTriadSize + i], 0.0));
+    (*sigma)[indexAt(kAccelOffset, i)] = std::sqrt(std::max(ca[i * kTriadSize + i], 0.0));
+    (*sigma)[indexAt(kGyroOffset, i)] = std::sqrt(std::max(cg[i * kTriadSize + i], 0.0));
   }
   for (int i = 0; i < kTableSize; ++i) {
-    (*sigma)[static_cast<std::size_t>(kTableOffset + i)] =
-        std::sqrt(std::max(ct[i * kTableSize + i], 0.0));
+    (*sigma)[indexAt(kTableOffset, i)] = std::sqrt(std::max(ct[i * kTableSize + i], 0.0));
   }
   return true;
 }
@@ -774,6 +777,7 @@ void judgeIndirect(const Observations& obs, const IndirectOptions& opt,
   }
   judgeCoefficients(result->coefficients, opt.quality, &reasons);
   result->status = fitStatusFrom(std::move(reasons), std::move(largest));
+  result->status.misfit = result->rms_normalised_residual > opt.quality.max_normalised_rms;
 }
 
 // Outer iterations: re-navigate the runs at the current parameters and re-solve until no
@@ -824,7 +828,7 @@ bool holdBetterStartGyroScales(const IndirectInput& in, Parameters* p,
         !it->second.sigma || !(kStartMuchBetter * *it->second.sigma < sigma[gi])) {
       continue;
     }
-    p->gyro[kScale + i] = start[static_cast<std::size_t>(kScale + i)];
+    p->gyro[kScale + i] = start[indexAt(kScale, i)];
     p->hold(g);
     warn(warnings,
          "%s: the runs determine it to %.3g, the start values (direct rate runs) to "

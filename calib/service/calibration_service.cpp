@@ -56,9 +56,8 @@ std::vector<TableParamDecision> tableDecisions(TableKind kind, ServiceMethod met
       d.reason =
           "held at zero: the direct calibration takes the table as nominal (the error "
           "leaks into the coefficients; `imubench explain` names it)";
-    } else if (inGroup(n, "base_tilt") && io.estimate_base_tilt) {
-      d.estimated = true;
-    } else if (inGroup(n, "nonorthogonality") && io.estimate_nonorthogonality) {
+    } else if ((inGroup(n, "base_tilt") && io.estimate_base_tilt) ||
+               (inGroup(n, "nonorthogonality") && io.estimate_nonorthogonality)) {
       d.estimated = true;
     } else if (inGroup(n, "mounting") || inGroup(n, "encoder_zero")) {
       d.reason =
@@ -291,6 +290,7 @@ CalibrationOutcome automatic(const CalibrationRequest& rq, const ServiceOptions&
   out.status.reasons.push_back("the navigation-based calibration was tried as well: " +
                                nav.message);
   for (const std::string& r : nav.reasons) out.status.reasons.push_back("navigation: " + r);
+  out.status.misfit = out.status.misfit || nav.misfit;
   return out;
 }
 

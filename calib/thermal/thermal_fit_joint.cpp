@@ -293,7 +293,7 @@ model::ThermalTriad idealTriad() {
 void observabilityDesign(const JointData& d, const ThermalJointFitOptions& o, double scale,
                          Eigen::MatrixXd* C, Eigen::MatrixXd* T) {
   const Eigen::Index m = static_cast<Eigen::Index>(3 * (d.accel.size() + d.gyro.size()));
-  C->setZero(m, 4 * model::kTriadSize);
+  C->setZero(m, Eigen::Index{4} * model::kTriadSize);
   T->setZero(m, static_cast<Eigen::Index>(d.params.size()));
   const model::ThermalTriad ideal = idealTriad();
   Eigen::Index e = 0;
@@ -303,7 +303,7 @@ void observabilityDesign(const JointData& d, const ThermalJointFitOptions& o, do
         const double w = 1.0 / std::max(r.se[a], floorOf(o, tri == 0));
         for (int j = 0; j < model::kTriadSize; ++j) {
           const double g = entryGain(ideal, r, j)[a];
-          const Eigen::Index col = 2 * (tri * model::kTriadSize + j);
+          const Eigen::Index col = Eigen::Index{2} * (tri * model::kTriadSize + j);
           (*C)(e, col) = w * g;
           (*C)(e, col + 1) = w * g * r.dT / scale;
         }
@@ -395,10 +395,12 @@ std::vector<std::size_t> observableTable(const Eigen::MatrixXd& C, const Eigen::
 // Keeps only the table errors `keep` (indices into d->params) in d.
 void keepParams(const std::vector<std::size_t>& keep, JointData* d) {
   std::vector<std::string> names;
+  names.reserve(keep.size());
   for (const std::size_t p : keep) names.push_back(d->params[p]);
   for (auto* rows : {&d->accel, &d->gyro}) {
     for (JointRow& r : *rows) {
       std::vector<Vec3> di;
+      di.reserve(keep.size());
       for (const std::size_t p : keep) di.push_back(r.dinput[p]);
       r.dinput = std::move(di);
     }
@@ -580,8 +582,10 @@ std::string tableTaken(const JointData& d, const ThermalJointFitOptions& o) {
 FitStatus judgeJoint(const JointData& d, const JointStep& st, const model::ThermalCoefficients& c,
                      bool converged, const ThermalJointFitOptions& o) {
   std::vector<std::string> reasons;
+  bool misfit = false;
   for (const std::size_t tri : {0u, 1u}) {
     if (st.nrms[tri] <= o.direct.quality.max_normalised_rms) continue;
+    misfit = true;
     char buf[160];
     std::snprintf(buf, sizeof(buf), "%s rows: normalised residual RMS %.3g (limit %.3g)",
                   tri == 0 ? "accel" : "gyro", st.nrms[tri], o.direct.quality.max_normalised_rms);
@@ -609,7 +613,9 @@ FitStatus judgeJoint(const JointData& d, const JointStep& st, const model::Therm
     std::snprintf(buf, sizeof(buf), ": %.1f sigma", worst[k].first);
     largest.push_back(worst[k].second + buf);
   }
-  return fitStatusFrom(std::move(reasons), std::move(largest));
+  FitStatus s = fitStatusFrom(std::move(reasons), std::move(largest));
+  s.misfit = misfit;
+  return s;
 }
 
 // The table report: values, sigmas of the estimated errors, every other one unobservable.
