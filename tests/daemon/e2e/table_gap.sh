@@ -53,7 +53,9 @@ alarm = c.wait_event(lambda e: e["event"] == "alarm" and "run again" in e["messa
 # in when the gap is judged (r1, or h1 when a loaded host delivered the readings late).
 check(alarm["label"] in ("r1", "h1") and "table data gap" in alarm["message"]
       and "from 'h1' run again" in alarm["message"],
-      "an alarm for the turn's table gap, the steps from h1 run again: %s" % alarm["message"])
+      "an alarm for the turn's table gap, the steps from h1 run again: label %r, %s; steps "
+      "started so far %s" % (alarm.get("label"), alarm["message"],
+                             [e["label"] for e in c.events if e["event"] == "step_started"]))
 fin = c.wait_event(lambda e: e["event"] == "run_finished" and e["run"] == run, "run end", 120)
 check(fin["state"] == "finished" and fin["exit"] == "completed", "the run completed: %s" % fin)
 starts = [e["label"] for e in c.events if e["event"] == "step_started"]
